@@ -1,0 +1,1 @@
+"""The flight-controller process: estimation, control, mixing, modes, MAVLink."""

@@ -1,0 +1,89 @@
+"""``autopilot``: start the flight-controller process.  ``autopilot --help`` lists the options.
+
+The loop: receive the simulator's messages; on each HIL_SENSOR run one
+iteration of the flight controller and answer with HIL_ACTUATOR_CONTROLS; then
+let the ground-station link receive, stream telemetry and send events.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from params.vehicle import VehicleFileError, load_vehicle
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="autopilot", description="Multirotor flight controller (PX4-compatible MAVLink)")
+    p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
+    p.add_argument("--instance", "-i", type=int, default=0, help="offsets every port, like PX4's -i")
+    p.add_argument("--sim-host", default="127.0.0.1")
+    p.add_argument("--sim-port", type=int, default=4560, help="simulator TCP port (+instance)")
+    p.add_argument("--gcs-port", type=int, default=14550, help="UDP port of ground stations (+instance)")
+    p.add_argument("--api-port", type=int, default=14540, help="UDP port of APIs such as MAVSDK (+instance)")
+    p.add_argument("--sysid", type=int, default=1, help="MAVLink system id")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if not 1 <= args.sysid <= 255:
+        print("autopilot: --sysid must be 1..255", file=sys.stderr)
+        return 2
+    try:
+        spec = load_vehicle(args.vehicle)
+    except VehicleFileError as exc:
+        print(f"autopilot: {exc}", file=sys.stderr)
+        return 2
+    from autopilot.flight_controller import FlightController
+    from autopilot.gcs_link import GcsLink
+    from autopilot.parameters import ParameterStore
+    from autopilot.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
+
+    params = ParameterStore()
+    fc = FlightController(spec, params)
+    try:
+        link = GcsLink(fc.commander, instance=args.instance, sysid=args.sysid, compid=1,
+                       gcs_port=args.gcs_port, api_port=args.api_port)
+    except OSError as exc:
+        print(f"autopilot: cannot open the ground-station UDP ports: {exc}", file=sys.stderr)
+        return 2
+    sim = SimLink(args.sim_host, args.sim_port + args.instance, args.sysid)
+    print(f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
+          f"{args.gcs_port + args.instance} and {args.api_port + args.instance}", flush=True)
+    now_us = 0
+    try:
+        sim.connect(on_wait=lambda: link.update(now_us))
+        print("[autopilot] connected to the simulator", flush=True)
+        gps = None
+        while True:
+            msgs = sim.receive(timeout_s=0.5)
+            if msgs is None:
+                print("[autopilot] simulator closed the link; reconnecting", flush=True)
+                sim.connect(on_wait=lambda: link.update(now_us))
+                continue
+            if not msgs:
+                link.update(now_us)  # keep answering ground stations while the simulator is paused
+                continue
+            for m in msgs:
+                t = m.get_type()
+                if t == "HIL_SENSOR":
+                    imu = imu_from_msg(m)
+                    commands = fc.step(imu, gps)
+                    gps = None
+                    now_us = imu.timestamp_us
+                    sim.send_actuators(now_us, commands, fc.commander.armed)
+                    link.update(now_us)
+                elif t == "HIL_GPS":
+                    gps = gps_from_msg(m)
+                elif t == "BATTERY_STATUS":
+                    fc.commander.battery = battery_from_msg(m)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        link.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Pure controllers: no I/O, no clocks; ``dt`` is an input."""

@@ -1,0 +1,1 @@
+"""State estimation: attitude and position filters behind one interface."""

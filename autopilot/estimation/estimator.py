@@ -1,0 +1,121 @@
+"""The estimator the controllers fly on: attitude filter + position filter.
+
+Input: IMU samples (HIL_SENSOR) and GPS fixes (HIL_GPS).  Output:
+:class:`autopilot.topics.VehicleEstimate` in NED/FRD.  The local origin is set at
+the first good GPS fix (latitude, longitude, GPS altitude); the barometer gives
+height relative to its reading at that moment.
+
+A later, fuller filter (the EKF of the estimation issue) replaces this class by
+implementing the same three methods: ``update_imu``, ``update_gps`` and
+``estimate``; nothing in the controllers changes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from autopilot import quat
+from autopilot.estimation.mahony import MahonyFilter
+from autopilot.estimation.position_kf import PositionVelocityFilter
+from autopilot.topics import GpsSample, ImuSample, VehicleEstimate
+from autopilot.geodesy import geodetic_to_ned
+
+GRAVITY_M_S2 = 9.80665
+ALIGN_TIME_S = 3.0  # attitude must have run this long before it is trusted
+POSITION_SETTLE_S = 3.0  # GPS must have been fused this long before position is trusted
+MAX_H_STD_M = 0.5
+MAX_V_STD_M = 0.5
+GPS_MIN_SATS = 6
+GPS_TIMEOUT_US = 500_000
+
+
+def pressure_to_altitude_m(pressure_hpa: float) -> float:
+    """ISA barometric altitude (m) from static pressure (hPa)."""
+    return (1.0 - (pressure_hpa / 1013.25) ** (1.0 / 5.25588)) / 2.25577e-5
+
+
+class Estimator:
+    def __init__(self) -> None:
+        self.attitude = MahonyFilter()
+        self.position = PositionVelocityFilter()
+        self.rate_frd = np.zeros(3)
+        self.accel_ned = np.zeros(3)
+        self.last_imu_us: int | None = None
+        self.last_gps_us: int | None = None
+        self.first_gps_us: int | None = None
+        self.origin: tuple[float, float, float] | None = None
+        self.baro_offset_m = 0.0
+        self.last_baro_alt_m: float | None = None
+        self.gps_fix_type = 0
+
+    # -- inputs ---------------------------------------------------------------------
+    def update_imu(self, s: ImuSample) -> None:
+        dt = 0.004 if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
+        self.last_imu_us = s.timestamp_us
+        if not 0.0 < dt < 0.1 or not (np.all(np.isfinite(s.accel_frd_m_s2)) and np.all(np.isfinite(s.gyro_frd_rad_s))):
+            return
+        mag = s.mag_frd_gauss if np.all(np.isfinite(s.mag_frd_gauss)) else None
+        self.rate_frd = self.attitude.update(s.gyro_frd_rad_s, s.accel_frd_m_s2, mag, dt, self.accel_ned)
+        r = quat.to_matrix(self.attitude.q)
+        accel_ned = r @ s.accel_frd_m_s2 + np.array([0.0, 0.0, GRAVITY_M_S2])
+        self.position.predict(accel_ned, dt)
+        self.accel_ned = accel_ned - self.position.accel_bias_ned
+        if math.isfinite(s.pressure_hpa) and s.pressure_hpa > 0:
+            self.last_baro_alt_m = pressure_to_altitude_m(s.pressure_hpa)
+            if self.origin is not None:
+                self.position.fuse_height(-(self.last_baro_alt_m - self.baro_offset_m))
+
+    def update_gps(self, g: GpsSample) -> None:
+        self.gps_fix_type = g.fix_type
+        if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
+            return
+        self.last_gps_us = g.timestamp_us
+        if self.origin is None:
+            if self.last_baro_alt_m is None:
+                return
+            self.origin = (g.lat_deg, g.lon_deg, g.alt_amsl_m)
+            self.baro_offset_m = self.last_baro_alt_m
+            self.first_gps_us = g.timestamp_us
+            self.position.reset(np.zeros(3), g.vel_ned_m_s)
+            self._set_declination(g.lat_deg, g.lon_deg, g.alt_amsl_m)
+            return
+        pos = geodetic_to_ned(g.lat_deg, g.lon_deg, g.alt_amsl_m, *self.origin)
+        self.position.fuse_gps(pos, g.vel_ned_m_s)
+
+    def _set_declination(self, lat: float, lon: float, alt: float) -> None:
+        """Magnetic declination at the origin, from the World Magnetic Model."""
+        from pygeomag import GeoMag
+
+        d = GeoMag().calculate(glat=lat, glon=lon, alt=alt / 1000.0, time=2026.9).d
+        self.attitude.declination_rad = math.radians(d)
+        # Re-align the heading now that declination is known.
+        roll, pitch, yaw = quat.to_euler(self.attitude.q)
+        self.attitude.q = quat.from_euler(roll, pitch, yaw + math.radians(d))
+
+    # -- output ---------------------------------------------------------------------
+    def gps_ok(self, now_us: int) -> bool:
+        return self.last_gps_us is not None and now_us - self.last_gps_us < GPS_TIMEOUT_US
+
+    def estimate(self) -> VehicleEstimate:
+        now = self.last_imu_us if self.last_imu_us is not None else 0
+        q = self.attitude.q
+        roll, pitch, yaw = quat.to_euler(q)
+        att_ok = self.attitude.initialised and self.attitude.time_aligned_s >= ALIGN_TIME_S
+        pos_ok = (
+            self.origin is not None
+            and self.gps_ok(now)
+            and self.first_gps_us is not None
+            and now - self.first_gps_us >= POSITION_SETTLE_S * 1e6
+            and self.position.horizontal_std_m() < MAX_H_STD_M
+            and self.position.vertical_std_m() < MAX_V_STD_M
+        )
+        o = self.origin or (math.nan, math.nan, math.nan)
+        return VehicleEstimate(
+            timestamp_us=now, q_wxyz=q.copy(), rate_frd_rad_s=self.rate_frd.copy(),
+            accel_ned_m_s2=self.accel_ned.copy(), pos_ned_m=self.position.pos_ned_m,
+            vel_ned_m_s=self.position.vel_ned_m_s, attitude_valid=att_ok, position_valid=pos_ok,
+            origin_lat_deg=o[0], origin_lon_deg=o[1], origin_alt_amsl_m=o[2],
+            roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw,
+        )

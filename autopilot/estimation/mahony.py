@@ -1,0 +1,79 @@
+"""Mahony complementary filter for attitude (seed 001's attitude estimator).
+
+Gyro integration corrected by the accelerometer's gravity direction (roll,
+pitch) and by the magnetometer's heading (yaw only, so a disturbed magnetometer
+cannot tilt the estimate), with an integral term that learns the gyro bias.
+Frames: body FRD, world NED; q rotates FRD into NED; gyro rad/s, accel m/s^2,
+mag in any unit (only its direction is used).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from autopilot import quat
+from autopilot.parameters import declare
+
+P_KP = declare("ATT_MAHONY_KP", 1.0, 0.0, 20.0, "rad/s", "Mahony filter proportional gain (accelerometer and heading)")
+P_KI = declare("ATT_MAHONY_KI", 0.05, 0.0, 5.0, "rad/s^2", "Mahony filter integral gain (gyro bias learning)")
+P_KMAG = declare("ATT_MAHONY_KMAG", 0.5, 0.0, 20.0, "rad/s", "Mahony filter heading gain from the magnetometer")
+
+GRAVITY_M_S2 = 9.80665
+
+
+class MahonyFilter:
+    def __init__(self, kp: float = P_KP.default, ki: float = P_KI.default, k_mag: float = P_KMAG.default) -> None:
+        self.kp, self.ki, self.k_mag = kp, ki, k_mag
+        self.q = np.array([1.0, 0.0, 0.0, 0.0])
+        self.gyro_bias = np.zeros(3)
+        self.declination_rad = 0.0
+        self.initialised = False
+        self.time_aligned_s = 0.0  # time since initialisation
+
+    def _heading_from_mag(self, roll: float, pitch: float, mag: np.ndarray) -> float:
+        """True heading (rad) from the magnetometer, tilt-compensated."""
+        cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+        mx = mag[0] * cp + mag[1] * sr * sp + mag[2] * cr * sp
+        my = mag[1] * cr - mag[2] * sr
+        return math.atan2(-my, mx) + self.declination_rad
+
+    def initialise(self, accel_frd: np.ndarray, mag_frd: np.ndarray) -> None:
+        """Level from gravity and heading from the magnetometer, at rest."""
+        ax, ay, az = -accel_frd  # gravity direction in body
+        roll = math.atan2(ay, az)
+        pitch = math.atan2(-ax, math.hypot(ay, az))
+        yaw = self._heading_from_mag(roll, pitch, mag_frd)
+        self.q = quat.from_euler(roll, pitch, yaw)
+        self.initialised = True
+        self.time_aligned_s = 0.0
+
+    def update(self, gyro_frd: np.ndarray, accel_frd: np.ndarray, mag_frd: np.ndarray | None, dt_s: float,
+               accel_ned_kinematic: np.ndarray | None = None) -> np.ndarray:
+        """One step; returns the bias-corrected body rate (rad/s)."""
+        if not self.initialised:
+            if abs(np.linalg.norm(accel_frd) - GRAVITY_M_S2) > 0.1 * GRAVITY_M_S2:
+                return gyro_frd - self.gyro_bias  # not at rest: wait for a sample that shows gravity
+            self.initialise(accel_frd, mag_frd if mag_frd is not None else np.array([1.0, 0.0, 0.0]))
+        r = quat.to_matrix(self.q)
+        err = np.zeros(3)
+        # Gravity: measured specific force f = R^T (a - g); expected direction from the estimate.
+        a_kin = accel_ned_kinematic if accel_ned_kinematic is not None else np.zeros(3)
+        expected = r.T @ (a_kin - np.array([0.0, 0.0, GRAVITY_M_S2]))
+        n_meas = np.linalg.norm(accel_frd)
+        n_exp = np.linalg.norm(expected)
+        if n_meas > 1e-3 and n_exp > 1e-3 and abs(n_meas - n_exp) < 0.25 * GRAVITY_M_S2:
+            err += np.cross(accel_frd / n_meas, expected / n_exp)
+        gyro_corr_err = err * self.kp
+        if mag_frd is not None and np.linalg.norm(mag_frd) > 1e-6 and self.k_mag > 0:
+            roll, pitch, yaw = quat.to_euler(self.q)
+            yaw_err = quat.wrap_pi(self._heading_from_mag(roll, pitch, mag_frd) - yaw)
+            gyro_corr_err = gyro_corr_err + r.T @ np.array([0.0, 0.0, yaw_err]) * self.k_mag
+        if self.ki > 0:
+            self.gyro_bias -= self.ki * err * dt_s
+            np.clip(self.gyro_bias, -0.1, 0.1, out=self.gyro_bias)
+        rate = gyro_frd - self.gyro_bias
+        self.q = quat.integrate(self.q, rate + gyro_corr_err, dt_s)
+        self.time_aligned_s += dt_s
+        return rate

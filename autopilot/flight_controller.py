@@ -1,0 +1,89 @@
+"""One control iteration per IMU sample: estimate -> commander -> cascade -> mixer.
+
+Pure: no sockets, no clock.  :meth:`FlightController.step` takes the sensor
+samples of one lockstep period and returns motor commands 0..1; the process
+loop (``autopilot.__main__``) does the I/O.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from autopilot import quat
+from autopilot.commander import Commander
+from autopilot.control.attitude_control import AttitudeControl
+from autopilot.control.position_control import GRAVITY_M_S2, PositionControl, attitude_from_thrust
+from autopilot.control.rate_control import RateControl
+from autopilot.estimation.estimator import Estimator
+from autopilot.mixer import Mixer
+from autopilot.parameters import ParameterStore, declare
+from autopilot.topics import GpsSample, ImuSample
+from params.vehicle import VehicleSpec
+
+declare("MPC_IDLE_CMD", 0.15, 0.0, 0.4, "norm", "Motor command while armed on the ground (idle spin)")
+
+
+class FlightController:
+    def __init__(self, spec: VehicleSpec, params: ParameterStore) -> None:
+        self.spec = spec
+        self.params = params
+        self.estimator = Estimator()
+        self.commander = Commander(params, spec.mav_type)
+        self.inertia = spec.inertia_kg_m2
+        self.weight_n = spec.mass_kg * GRAVITY_M_S2
+        self.mixer = Mixer(spec)
+        self.position_control = PositionControl(params, spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n)
+        self.attitude_control = AttitudeControl(params)
+        self.rate_control = RateControl(params)
+        self.sat_pos = np.zeros(3, dtype=bool)
+        self.sat_neg = np.zeros(3, dtype=bool)
+        self.last_us: int | None = None
+        self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
+        self.rate_sp = np.zeros(3)
+        self.thrust_n = 0.0
+
+    def _reset_controllers(self) -> None:
+        self.position_control.reset()
+        self.rate_control.reset()
+        self.sat_pos[:] = False
+        self.sat_neg[:] = False
+
+    def step(self, imu: ImuSample, gps: GpsSample | None) -> np.ndarray:
+        """Run one iteration; return motor commands (0..1, one per rotor)."""
+        now = imu.timestamp_us
+        dt = 0.004 if self.last_us is None else (now - self.last_us) * 1e-6
+        self.last_us = now
+        self.estimator.update_imu(imu)
+        if gps is not None:
+            self.estimator.update_gps(gps)
+        est = self.estimator.estimate()
+        cmd = self.commander
+        sp = cmd.update(now, est, gps, self.estimator.gps_ok(now))
+        n = len(self.spec.rotors)
+        if not cmd.armed:
+            self._reset_controllers()
+            self._publish(np.zeros(n), 0.0)
+            return np.zeros(n)
+        if sp is None or not est.attitude_valid:
+            self._reset_controllers()
+            idle = np.full(n, self.params.get("MPC_IDLE_CMD"))
+            self._publish(idle, 0.0)
+            return idle
+        thrust_vec = self.position_control.update(est.pos_ned_m, est.vel_ned_m_s, sp, dt)
+        self.q_sp = quat.from_matrix(attitude_from_thrust(thrust_vec, sp.yaw_rad))
+        # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
+        body_up = -quat.to_matrix(est.q_wxyz)[:, 2]
+        thrust_n = max(float(thrust_vec @ body_up), 0.0)
+        self.rate_sp = self.attitude_control.update(est.q_wxyz, self.q_sp)
+        alpha = self.rate_control.update(est.rate_frd_rad_s, self.rate_sp, dt, self.sat_pos, self.sat_neg,
+                                         integrate=not cmd.land.ground_contact)
+        out = self.mixer.mix(self.inertia * alpha, thrust_n)
+        self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
+        self._publish(out.commands, float(out.thrusts_n.sum()))
+        return out.commands
+
+    def _publish(self, commands: np.ndarray, thrust_n: float) -> None:
+        self.thrust_n = thrust_n
+        self.commander.thrust_frac_of_hover = thrust_n / self.weight_n
+        self.commander.throttle_frac = thrust_n / (len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n)
+        self.commander.motor_outputs = tuple(float(c) for c in commands)

@@ -1,0 +1,120 @@
+"""Typed messages between the parts of the flight controller (PX4's uORB topics).
+
+Small frozen dataclasses with a timestamp (simulated microseconds since the
+simulator started), validity flags and units in field names.  Frames: NED world,
+FRD body; quaternions are (w, x, y, z) and rotate FRD vectors into NED.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class ImuSample:
+    """One HIL_SENSOR message, converted to SI."""
+
+    timestamp_us: int
+    accel_frd_m_s2: np.ndarray  # specific force
+    gyro_frd_rad_s: np.ndarray
+    mag_frd_gauss: np.ndarray
+    pressure_hpa: float
+    temperature_c: float
+    fields_updated: int
+
+
+@dataclass(frozen=True, slots=True)
+class GpsSample:
+    """One HIL_GPS message, converted to SI."""
+
+    timestamp_us: int
+    fix_type: int  # GPS_FIX_TYPE: 3 = 3D fix
+    lat_deg: float
+    lon_deg: float
+    alt_amsl_m: float
+    vel_ned_m_s: np.ndarray
+    eph_m: float
+    epv_m: float
+    satellites: int
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleEstimate:
+    """Estimator output: what the controllers and telemetry use.
+
+    ``pos_ned_m`` is relative to the estimator origin (``origin_*``), the place
+    of the first good GPS fix.  ``alt_amsl_m`` = origin_alt_amsl_m - pos_ned_m[2].
+    """
+
+    timestamp_us: int
+    q_wxyz: np.ndarray  # FRD -> NED
+    rate_frd_rad_s: np.ndarray  # bias-corrected
+    accel_ned_m_s2: np.ndarray  # kinematic acceleration, gravity removed
+    pos_ned_m: np.ndarray
+    vel_ned_m_s: np.ndarray
+    attitude_valid: bool
+    position_valid: bool  # horizontal and vertical position and velocity usable
+    origin_lat_deg: float
+    origin_lon_deg: float
+    origin_alt_amsl_m: float
+    roll_rad: float = 0.0
+    pitch_rad: float = 0.0
+    yaw_rad: float = 0.0
+
+    @property
+    def alt_amsl_m(self) -> float:
+        return self.origin_alt_amsl_m - float(self.pos_ned_m[2])
+
+
+class LandedState(IntEnum):
+    """MAV_LANDED_STATE values."""
+
+    UNDEFINED = 0
+    ON_GROUND = 1
+    IN_AIR = 2
+    TAKEOFF = 3
+    LANDING = 4
+
+
+@dataclass(frozen=True, slots=True)
+class HomePosition:
+    lat_deg: float
+    lon_deg: float
+    alt_amsl_m: float
+    pos_ned_m: np.ndarray  # relative to the estimator origin
+    yaw_rad: float
+
+
+@dataclass(frozen=True, slots=True)
+class BatteryState:
+    voltage_v: float
+    current_a: float  # -1 unknown
+    remaining_frac: float  # 0..1, -1 unknown
+    cell_count: int = 4
+
+
+@dataclass(frozen=True, slots=True)
+class TelemetrySnapshot:
+    """Everything the ground-station link reports, gathered once per iteration."""
+
+    timestamp_us: int
+    mav_type: int  # MAV_TYPE
+    armed: bool
+    base_mode: int  # MAV_MODE_FLAG bits, as PX4 sets them
+    custom_mode: int  # PX4: main_mode << 16 | sub_mode << 24
+    system_status: int  # MAV_STATE
+    landed_state: LandedState
+    estimate: VehicleEstimate | None
+    gps: GpsSample | None
+    home: HomePosition | None
+    battery: BatteryState
+    throttle_frac: float  # collective thrust command 0..1
+    sensors_present: int  # MAV_SYS_STATUS_SENSOR bits
+    sensors_enabled: int
+    sensors_health: int
+    prearm_ok: bool
+    position_setpoint_ned_m: np.ndarray | None = None
+    motor_outputs: tuple[float, ...] = field(default=())

@@ -1,0 +1,28 @@
+"""The bundled ground station: a MAVLink client library, the ``gcs`` CLI and the flight demo.
+
+- :mod:`gcs.client`: :class:`VehicleClient` (commands, modes, parameters, waiting).
+- :mod:`gcs.modes`: PX4 mode names <-> HEARTBEAT custom_mode.
+- :mod:`gcs.geo`: flat-earth NED <-> latitude/longitude/altitude.
+- :mod:`gcs.param_codec`: PX4's byte-wise parameter encoding.
+- :mod:`gcs.stack`: :class:`Stack`, starting and stopping ``sitl`` + ``autopilot``.
+- ``python -m gcs`` / ``gcs``: the CLI; ``flight-demo`` (:mod:`gcs.demo`): the scripted flight.
+"""
+
+from .client import (
+    CommandRefused,
+    CommandResult,
+    GcsError,
+    GcsTimeout,
+    Home,
+    ParamRefused,
+    StatusText,
+    VehicleClient,
+)
+from .modes import UnknownModeError, custom_mode_to_name, lookup_mode, name_to_custom_mode
+from .stack import Stack, StackError
+
+__all__ = [
+    "CommandRefused", "CommandResult", "GcsError", "GcsTimeout", "Home", "ParamRefused", "StatusText",
+    "VehicleClient", "UnknownModeError", "custom_mode_to_name", "lookup_mode", "name_to_custom_mode",
+    "Stack", "StackError",
+]

@@ -1,0 +1,298 @@
+"""``gcs``: command a PX4-like vehicle from the shell.
+
+Examples::
+
+    gcs status                 # live status line once a second (Ctrl-C to stop)
+    gcs arm && gcs takeoff 5   # arm, climb to 5 m above home
+    gcs mode HOLD              # any PX4 mode name: POSCTL, AUTO.LOITER, RTL ...
+    gcs land                   # land here and wait for the automatic disarm
+    gcs --instance 2 rtl       # the vehicle of instance 2 (UDP 14552)
+    gcs param get MPC_XY_P
+
+Each command waits for the COMMAND_ACK and then for its effect.  Exit codes:
+0 success, 1 refused by the vehicle (its result and reason are printed), 2 timed
+out (what it was waiting for is printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from . import modes
+from .client import (
+    GPS_FIX_NAMES,
+    CommandRefused,
+    GcsError,
+    GcsTimeout,
+    ParamRefused,
+    VehicleClient,
+)
+
+DEFAULT_GCS_PORT = 14550
+CONNECT_TIMEOUT_S = 10.0
+ACK_TIMEOUT_S = 5.0
+EXIT_OK, EXIT_REFUSED, EXIT_TIMEOUT = 0, 1, 2
+
+# Default wall-clock waits for each command's effect, when --timeout is not given.
+EFFECT_TIMEOUT_S = {"arm": 10.0, "disarm": 10.0, "mode": 10.0, "takeoff": 90.0, "land": 180.0, "rtl": 600.0}
+
+
+def _altitude(text: str) -> float:
+    value = float(text)  # accepts "nan"
+    if math.isinf(value):
+        raise argparse.ArgumentTypeError("altitude must be finite (or nan)")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError("must be > 0")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of the ``gcs`` command."""
+    parser = argparse.ArgumentParser(
+        prog="gcs", description="Command a PX4-like vehicle over MAVLink.",
+        epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.")
+    parser.add_argument("--url", default=None,
+                        help=f"pymavlink connection string (default udpin:0.0.0.0:{DEFAULT_GCS_PORT} + instance)")
+    parser.add_argument("--instance", type=int, default=0, metavar="N",
+                        help="vehicle instance: adds N to the default port (ignored with --url)")
+    parser.add_argument("--timeout", type=_positive, default=None, metavar="S",
+                        help="wall seconds to wait at each step (heartbeat, acknowledgement, effect); "
+                             "default: per step")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("status", help="print mode, arming, position, speed, battery and GPS once a second")
+    p.add_argument("--once", action="store_true", help="print one line and exit")
+
+    sub.add_parser("arm", help="arm the motors")
+    p = sub.add_parser("disarm", help="disarm the motors")
+    p.add_argument("--force", action="store_true", help="force (param2 = 21196): disarms even in flight")
+
+    p = sub.add_parser("takeoff", help="take off to ALT metres above home and wait until there")
+    p.add_argument("alt", nargs="?", type=_altitude, default=math.nan, metavar="ALT",
+                   help="metres above home (default / nan: the vehicle's MIS_TAKEOFF_ALT)")
+    p.add_argument("--arm", action="store_true", help="arm first if disarmed")
+
+    sub.add_parser("land", help="land where the vehicle is and wait until landed and disarmed")
+    sub.add_parser("rtl", help="return to launch and wait until landed and disarmed")
+
+    p = sub.add_parser("mode", help="switch flight mode and wait until the heartbeat shows it")
+    p.add_argument("name", metavar="NAME", help="one of " + ", ".join(modes.mode_names())
+                   + " (PX4 spellings such as AUTO.LOITER and HOLD accepted; case-insensitive)")
+
+    p = sub.add_parser("param", help="read or write a parameter")
+    psub = p.add_subparsers(dest="param_command", required=True, metavar="get|set")
+    g = psub.add_parser("get", help="print a parameter")
+    g.add_argument("name")
+    s = psub.add_parser("set", help="set a parameter (its type is read from the vehicle first)")
+    s.add_argument("name")
+    s.add_argument("value", type=float)
+    return parser
+
+
+def resolve_url(args: argparse.Namespace) -> str:
+    """The connection string: --url, else the default ground-station port plus --instance."""
+    if args.url:
+        return args.url
+    return f"udpin:0.0.0.0:{DEFAULT_GCS_PORT + args.instance}"
+
+
+class _Cli:
+    """The sub-command implementations (one client, one set of timeouts)."""
+
+    def __init__(self, client: VehicleClient, args: argparse.Namespace) -> None:
+        self.client = client
+        self.args = args
+
+    def effect_timeout(self, command: str) -> float:
+        return self.args.timeout if self.args.timeout is not None else EFFECT_TIMEOUT_S[command]
+
+    # ------------------------------------------------------------- status
+
+    def status(self) -> int:
+        c = self.client
+        if self.args.once:
+            # give the periodic streams a moment to arrive so the line is complete
+            try:
+                c.wait_until(lambda: c.latest("GLOBAL_POSITION_INT") and c.latest("SYS_STATUS"),
+                             min(self.args.timeout or 3.0, 3.0), "telemetry")
+            except GcsTimeout:
+                pass
+            print(status_line(c), flush=True)
+            return EXIT_OK
+        try:
+            next_print = time.monotonic()
+            while True:
+                now = time.monotonic()
+                if now >= next_print:
+                    print(status_line(c), flush=True)
+                    next_print += 1.0
+                    if next_print < now:
+                        next_print = now + 1.0
+                c.pump(min(0.1, max(next_print - time.monotonic(), 0.0)))
+        except KeyboardInterrupt:
+            return EXIT_OK
+
+    # ------------------------------------------------------------- arming
+
+    def arm(self) -> int:
+        c = self.client
+        c.arm().check()
+        c.wait_armed(True, self.effect_timeout("arm"))
+        print(f"armed (mode {c.mode_name()})")
+        return EXIT_OK
+
+    def disarm(self) -> int:
+        c = self.client
+        c.disarm(force=self.args.force).check()
+        c.wait_armed(False, self.effect_timeout("disarm"))
+        print("disarmed")
+        return EXIT_OK
+
+    # ------------------------------------------------------------- flight
+
+    def takeoff(self) -> int:
+        c = self.client
+        timeout = self.effect_timeout("takeoff")
+        home = c.wait_home(timeout)
+        if self.args.arm and not c.armed():
+            c.arm().check()
+            c.wait_armed(True, self.effect_timeout("arm"))
+            print("armed")
+        if math.isnan(self.args.alt):
+            alt_amsl = math.nan
+            try:
+                target = float(c.param_get("MIS_TAKEOFF_ALT", timeout_s=3.0))
+            except GcsError:
+                target = None
+        else:
+            target = self.args.alt
+            alt_amsl = home.alt_amsl_m + target
+        if not c.armed():
+            print("note: the vehicle is disarmed; it will not climb until armed (use --arm)", file=sys.stderr)
+        c.takeoff(alt_amsl).check()
+        what = f"takeoff to {target:g} m above home" if target is not None else "takeoff (climb to stop)"
+        print(f"taking off: target {target:g} m above home" if target is not None else
+              "taking off to the vehicle's MIS_TAKEOFF_ALT", flush=True)
+        c.wait_until(lambda: c.takeoff_done(target), timeout, what)
+        print(f"at {c.relative_alt_m():.2f} m above home (mode {c.mode_name()})")
+        return EXIT_OK
+
+    def land(self) -> int:
+        c = self.client
+        c.land().check()
+        print("landing", flush=True)
+        return self._wait_landed_disarmed(self.effect_timeout("land"))
+
+    def rtl(self) -> int:
+        c = self.client
+        c.return_to_launch().check()
+        print("returning to launch", flush=True)
+        return self._wait_landed_disarmed(self.effect_timeout("rtl"))
+
+    def _wait_landed_disarmed(self, timeout: float) -> int:
+        c = self.client
+        c.wait_until(c.landed_and_disarmed, timeout, "the vehicle to land and disarm")
+        pos = c.position_ned()
+        where = f" at N {pos[0]:.2f} m E {pos[1]:.2f} m ({math.hypot(pos[0], pos[1]):.2f} m from home)" if pos else ""
+        print(f"landed and disarmed{where}")
+        return EXIT_OK
+
+    def mode(self) -> int:
+        c = self.client
+        target = modes.lookup_mode(self.args.name)
+        c.set_mode(target.name).check()
+        c.wait_mode(target.name, self.effect_timeout("mode"))
+        print(f"mode {target.name} ({target.px4_name})")
+        return EXIT_OK
+
+    def param(self) -> int:
+        c = self.client
+        if self.args.param_command == "get":
+            print(f"{self.args.name} = {c.param_get(self.args.name)}")
+        else:
+            value = self.args.value
+            if value == int(value):
+                value = int(value)
+            print(f"{self.args.name} = {c.param_set(self.args.name, value)}")
+        return EXIT_OK
+
+
+def status_line(client: VehicleClient) -> str:
+    """One human-readable line of vehicle state (what ``gcs status`` prints)."""
+    c = client
+    t = c.sim_time_s()
+    fields = [f"t {t:8.2f} s" if t is not None else "t      ? s",
+              f"{c.mode_name() or '?':<10}",
+              "ARMED   " if c.armed() else "disarmed"]
+    pos = c.position_ned()
+    if pos is not None:
+        fields.append(f"N {pos[0]:7.2f} E {pos[1]:7.2f} alt {-pos[2]:6.2f} m")
+    elif c.relative_alt_m() is not None:
+        fields.append(f"N       ? E       ? alt {c.relative_alt_m():6.2f} m")
+    else:
+        fields.append("position ?")
+    gs = c.ground_speed_m_s()
+    fields.append(f"gs {gs:4.1f} m/s" if gs is not None else "gs ? m/s")
+    volts, pct = c.battery()
+    fields.append("batt " + (f"{volts:.1f} V" if volts is not None else "? V") + " "
+                  + (f"{pct}%" if pct is not None else "?%"))
+    gps = c.gps()
+    fields.append(f"GPS {GPS_FIX_NAMES.get(gps[0], gps[0])} {gps[1]} sats" if gps is not None else "GPS ?")
+    if not c.prearm_ok() and not c.armed() and c.latest("SYS_STATUS") is not None:
+        fields.append("not ready")
+    silent = c.age_s("HEARTBEAT")
+    if silent is not None and silent > 3.0:
+        fields.append(f"(no heartbeat for {silent:.0f} s)")
+    return "  ".join(fields)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the ``gcs`` CLI; returns the exit code (0 ok, 1 refused, 2 timed out)."""
+    args = build_parser().parse_args(argv)
+    if args.command == "mode":
+        try:
+            modes.lookup_mode(args.name)
+        except modes.UnknownModeError as exc:
+            print(f"gcs: error: {exc}", file=sys.stderr)
+            return EXIT_REFUSED
+    url = resolve_url(args)
+    client = None
+    try:
+        client = VehicleClient(url, timeout_s=args.timeout or CONNECT_TIMEOUT_S)
+        client.timeout_s = args.timeout or ACK_TIMEOUT_S
+        cli = _Cli(client, args)
+        handler = {"status": cli.status, "arm": cli.arm, "disarm": cli.disarm, "takeoff": cli.takeoff,
+                   "land": cli.land, "rtl": cli.rtl, "mode": cli.mode, "param": cli.param}[args.command]
+        return handler()
+    except CommandRefused as exc:
+        res = exc.result
+        reason = f": {res.reason}" if res.reason else " (the vehicle gave no reason)"
+        print(f"gcs: {args.command} refused: {res.result_name} ({res.command_name}){reason}", file=sys.stderr)
+        return EXIT_REFUSED
+    except ParamRefused as exc:
+        print(f"gcs: {args.command} refused: {exc}", file=sys.stderr)
+        return EXIT_REFUSED
+    except GcsTimeout as exc:
+        print(f"gcs: {args.command}: {exc}", file=sys.stderr)
+        return EXIT_TIMEOUT
+    except ValueError as exc:  # bad parameter value / name
+        print(f"gcs: error: {exc}", file=sys.stderr)
+        return EXIT_REFUSED
+    except KeyboardInterrupt:
+        print("gcs: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        if client is not None:
+            client.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,278 @@
+"""``flight-demo``: start the simulator and flight controller, fly a square, land, report.
+
+The scripted flight: wait until ready to arm, arm, take off to 5 m, hold 10 s,
+fly a 10 m square with four DO_REPOSITION legs (N 10, then E 10, then back to
+N 0, then E 0, relative to the hold point, waiting at each corner until within
+0.5 m and slower than 0.5 m/s), land and wait for the automatic disarm.
+Durations the vehicle must hold are simulated seconds (the vehicle's clock),
+so the flight is the same at any ``--speed``; timeouts are wall seconds.
+
+``--wait`` instead starts both processes (in real time by default) and prints
+how to connect QGroundControl, MAVProxy, MAVSDK or ``gcs``, until Ctrl-C.
+
+Exit codes: 0 success, 1 a step failed (refused, child died, check failed),
+2 a step timed out, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+from .client import CommandRefused, GcsError, GcsTimeout, StatusText, VehicleClient
+from .stack import Stack, StackError
+
+ARRIVAL_RADIUS_M = 0.5
+ARRIVAL_SPEED_M_S = 0.5
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="flight-demo", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--instance", type=int, default=0, help="instance number: offsets every port (default 0)")
+    parser.add_argument("--speed", default=None,
+                        help="simulation speed: 'max' or a real-time factor (default max; 1 with --wait)")
+    parser.add_argument("--vehicle", default="quad_x", help="vehicle file (default quad_x)")
+    parser.add_argument("--home", default=None, metavar="LAT,LON,ALT", help="home position for the simulator")
+    parser.add_argument("--seed", type=int, default=None, help="simulator random seed")
+    parser.add_argument("--alt", type=float, default=5.0, help="flight altitude above home, m (default 5)")
+    parser.add_argument("--side", type=float, default=10.0, help="square side, m (default 10)")
+    parser.add_argument("--hold", type=float, default=10.0, help="hover time after takeoff, simulated s (default 10)")
+    parser.add_argument("--ready-timeout", type=float, default=120.0,
+                        help="wall seconds to wait for the vehicle to be ready to arm (default 120)")
+    parser.add_argument("--step-timeout", type=float, default=120.0,
+                        help="wall seconds allowed for each flight step (default 120)")
+    parser.add_argument("--log-dir", default=None, help="where to write the child logs (default: a temp dir)")
+    parser.add_argument("--sitl-module", default="sitl", help="module run as the simulator (testing; default sitl)")
+    parser.add_argument("--autopilot-module", default="autopilot",
+                        help="module run as the flight controller (testing; default autopilot)")
+    parser.add_argument("--sitl-arg", action="append", default=[], metavar="ARG",
+                        help="extra argument for the simulator (repeatable)")
+    parser.add_argument("--autopilot-arg", action="append", default=[], metavar="ARG",
+                        help="extra argument for the flight controller (repeatable)")
+    parser.add_argument("--wait", action="store_true",
+                        help="only start the stack and print how to connect; run until Ctrl-C")
+    return parser
+
+
+@dataclass
+class FlightLog:
+    """What the demo measures while flying (fed every message by a client listener)."""
+
+    client: VehicleClient
+    max_alt_m: float = -math.inf
+    armed_at_s: float | None = None
+    disarmed_at_s: float | None = None
+    liftoff_at_s: float | None = None
+    touchdown_at_s: float | None = None
+    corners: list[tuple[str, float, float, float]] = field(default_factory=list)  # name, horiz err, alt err, t
+    hold_drift_m: float = 0.0
+    landing_error_m: float | None = None
+
+    def __call__(self, msg) -> None:
+        mtype = msg.get_type()
+        now = self.client.sim_time_s()
+        if mtype == "GLOBAL_POSITION_INT":
+            self.max_alt_m = max(self.max_alt_m, msg.relative_alt / 1000.0)
+        elif mtype == "EXTENDED_SYS_STATE":
+            if msg.landed_state in (2, 3) and self.liftoff_at_s is None:  # IN_AIR, TAKEOFF
+                self.liftoff_at_s = now
+            elif msg.landed_state == 1 and self.liftoff_at_s is not None and self.touchdown_at_s is None:
+                self.touchdown_at_s = now
+        elif mtype == "HEARTBEAT":
+            armed = bool(msg.base_mode & 128)
+            if armed and self.armed_at_s is None:
+                self.armed_at_s = now
+            elif not armed and self.armed_at_s is not None and self.disarmed_at_s is None:
+                self.disarmed_at_s = now
+
+    def flight_time_s(self) -> float | None:
+        """Liftoff to touchdown (landed state), else arm to disarm, simulated seconds."""
+        if self.liftoff_at_s is not None and self.touchdown_at_s is not None:
+            return self.touchdown_at_s - self.liftoff_at_s
+        if self.armed_at_s is not None and self.disarmed_at_s is not None:
+            return self.disarmed_at_s - self.armed_at_s
+        return None
+
+
+class Demo:
+    """The scripted flight against a connected client; each step prints a progress line."""
+
+    def __init__(self, client: VehicleClient, args: argparse.Namespace) -> None:
+        self.c = client
+        self.args = args
+        self.log = FlightLog(client)
+        client.add_listener(self.log)
+        self.step = "connect"
+
+    def say(self, text: str) -> None:
+        t = self.c.sim_time_s()
+        stamp = f"{t:8.2f}" if t is not None else "       ?"
+        print(f"[sim {stamp} s] {text}", flush=True)
+
+    def run(self) -> None:
+        c, a = self.c, self.args
+        timeout = a.step_timeout
+
+        self.step = "wait until ready to arm"
+        self.say("waiting for the pre-arm checks to pass")
+        c.wait_until(c.prearm_ok, a.ready_timeout, "the vehicle to be ready to arm (SYS_STATUS pre-arm check)")
+        c.wait_home(timeout)
+        self.say("ready to arm")
+
+        self.step = "arm"
+        c.arm(timeout_s=10).check()
+        c.wait_armed(True, timeout)
+        home = c.wait_home(timeout)
+        self.say(f"armed; home {home.lat_deg:.7f}, {home.lon_deg:.7f}, {home.alt_amsl_m:.2f} m AMSL")
+
+        self.step = "takeoff"
+        c.takeoff(home.alt_amsl_m + a.alt, timeout_s=10).check()
+        self.say(f"taking off to {a.alt:g} m")
+        c.wait_until(lambda: c.takeoff_done(a.alt), timeout, f"takeoff to {a.alt:g} m")
+        self.say(f"reached {c.relative_alt_m():.2f} m (mode {c.mode_name()})")
+
+        self.step = "hold"
+        hold_n, hold_e, _ = c.position_ned()
+
+        def drift(msg) -> None:
+            if msg.get_type() == "GLOBAL_POSITION_INT" and (p := c.position_ned()) is not None:
+                self.log.hold_drift_m = max(self.log.hold_drift_m, math.hypot(p[0] - hold_n, p[1] - hold_e))
+
+        c.add_listener(drift)
+        c.wait_sim_time(a.hold, timeout, f"{a.hold:g} s of hover")
+        c.remove_listener(drift)
+        self.say(f"held {a.hold:g} s at N {hold_n:.2f} E {hold_e:.2f}; max drift {self.log.hold_drift_m:.2f} m")
+
+        legs = (("corner 1 (N)", a.side, 0.0), ("corner 2 (NE)", a.side, a.side),
+                ("corner 3 (E)", 0.0, a.side), ("corner 4 (start)", 0.0, 0.0))
+        for name, dn, de in legs:
+            self.step = f"fly to {name}"
+            tn, te = hold_n + dn, hold_e + de
+            c.goto_ned(tn, te, -a.alt, timeout_s=10).check()
+            self.say(f"flying to {name}: N {tn:.2f} E {te:.2f} alt {a.alt:g}")
+            c.wait_until(lambda: c.arrived(tn, te, ARRIVAL_RADIUS_M, ARRIVAL_SPEED_M_S), timeout,
+                         f"arrival at {name} (N {tn:.2f} E {te:.2f})")
+            n, e, d = c.position_ned()
+            herr, verr = math.hypot(n - tn, e - te), -d - a.alt
+            self.log.corners.append((name, herr, verr, c.sim_time_s()))
+            self.say(f"at {name}: horizontal error {herr:.2f} m, altitude error {verr:+.2f} m")
+
+        self.step = "land"
+        c.land(timeout_s=10).check()
+        self.say("landing")
+        c.wait_until(lambda: not c.armed() or c.on_ground() is True, timeout, "touchdown")
+        n, e, _ = c.position_ned()
+        self.log.landing_error_m = math.hypot(n, e)
+        self.say(f"touched down at N {n:.2f} E {e:.2f} ({self.log.landing_error_m:.2f} m from home)")
+        self.step = "automatic disarm"
+        c.wait_until(c.landed_and_disarmed, timeout, "the automatic disarm after landing")
+        self.say("disarmed")
+
+    def summary(self, wall_total_s: float, wall_flight_s: float, sim_flight_s: float) -> str:
+        log = self.log
+        lines = ["", "=== flight summary ==="]
+        ft = log.flight_time_s()
+        lines.append(f"flight time        {ft:.2f} s (simulated)" if ft is not None else "flight time        ?")
+        lines.append(f"max altitude       {log.max_alt_m:.2f} m above home")
+        lines.append(f"hold drift (max)   {log.hold_drift_m:.2f} m")
+        for name, herr, verr, _t in log.corners:
+            lines.append(f"{name:<18} arrival error {herr:.2f} m horizontal, {verr:+.2f} m vertical")
+        if log.landing_error_m is not None:
+            lines.append(f"landing error      {log.landing_error_m:.2f} m from home")
+        rtf = sim_flight_s / wall_flight_s if wall_flight_s > 0 else math.nan
+        lines.append(f"wall time          {wall_total_s:.1f} s total, {wall_flight_s:.1f} s from first "
+                     f"telemetry to the end")
+        lines.append(f"real-time factor   {rtf:.2f} ({sim_flight_s:.1f} simulated s / {wall_flight_s:.1f} wall s)")
+        return "\n".join(lines)
+
+
+def show_statustext(st: StatusText) -> None:
+    """Print a vehicle STATUSTEXT stamped with vehicle time (the demo's on_statustext callback)."""
+    stamp = f"{st.sim_time_s:8.2f}" if st.sim_time_s is not None else "       ?"
+    print(f"[sim {stamp} s] vehicle {st.severity_name}: {st.text}", flush=True)
+
+
+def _print_tails(stack: Stack, lines: int = 20) -> None:
+    for name in stack.procs:
+        print(f"--- last lines of {stack.log_path(name)} ---", file=sys.stderr)
+        print(stack.tail(name, lines).rstrip(), file=sys.stderr)
+    print(f"(full logs in {stack.log_dir})", file=sys.stderr)
+
+
+def connection_help(stack: Stack) -> str:
+    """How to connect ground stations to a running stack."""
+    i, gcs, api = stack.instance, stack.gcs_port, stack.api_port
+    qgc = ("QGroundControl: start it; it auto-connects on UDP 14550" if gcs == 14550 else
+           f"QGroundControl: add a UDP comm link listening on port {gcs} (it auto-listens only on 14550)")
+    return "\n".join([
+        f"stack running (instance {i}, speed {stack.speed}); logs in {stack.log_dir}",
+        f"  {qgc}",
+        f"  MAVProxy:  mavproxy.py --master udpin:0.0.0.0:{gcs}",
+        f"  MAVSDK:    System.connect('udpin://0.0.0.0:{api}')",
+        f"  gcs:       python -m gcs --instance {i} status" if i else "  gcs:       python -m gcs status",
+        "Ctrl-C to stop.",
+    ])
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    speed = args.speed or ("1" if args.wait else "max")
+    wall_start = time.monotonic()
+    stack = Stack(args.instance, speed, args.vehicle, args.sitl_arg, args.autopilot_arg, home=args.home,
+                  seed=args.seed, log_dir=args.log_dir, sitl_module=args.sitl_module,
+                  autopilot_module=args.autopilot_module)
+    demo = None
+    client = None
+    try:
+        stack.start()
+        if args.wait:
+            print(connection_help(stack), flush=True)
+            stack.wait()
+            return 0
+        print(f"started sitl (speed {speed}) and autopilot, instance {args.instance}; logs in {stack.log_dir}",
+              flush=True)
+        client = VehicleClient(stack.api_url, timeout_s=args.ready_timeout, idle=stack.check_alive,
+                               on_statustext=show_statustext)
+        demo = Demo(client, args)
+        client.wait_until(lambda: client.sim_time_s() is not None, args.step_timeout, "vehicle time")
+        wall_flight_start, sim_flight_start = time.monotonic(), client.sim_time_s()
+        demo.say(f"connected to {client.url}")
+        demo.run()
+        wall_flight = time.monotonic() - wall_flight_start
+        sim_flight = client.sim_time_s() - sim_flight_start
+        print(demo.summary(time.monotonic() - wall_start, wall_flight, sim_flight))
+        print("flight demo: OK")
+        return 0
+    except KeyboardInterrupt:
+        print("\ninterrupted; stopping the stack", file=sys.stderr)
+        return 130
+    except StackError as exc:
+        print(f"flight demo FAILED ({_step(demo)}): {exc}", file=sys.stderr)
+        return 1
+    except CommandRefused as exc:
+        print(f"flight demo FAILED ({_step(demo)}): refused: {exc}", file=sys.stderr)
+        _print_tails(stack)
+        return 1
+    except GcsTimeout as exc:
+        print(f"flight demo FAILED ({_step(demo)}): {exc}", file=sys.stderr)
+        _print_tails(stack)
+        return 2
+    except GcsError as exc:
+        print(f"flight demo FAILED ({_step(demo)}): {exc}", file=sys.stderr)
+        _print_tails(stack)
+        return 1
+    finally:
+        if client is not None:
+            client.close()
+        stack.stop()
+
+
+def _step(demo: Demo | None) -> str:
+    return f"step: {demo.step}" if demo is not None else "step: start-up"
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,285 @@
+"""Start and stop the simulator + flight-controller pair ("the stack").
+
+Used by ``flight-demo``, the end-to-end tests and the benchmarks::
+
+    with Stack(instance=3, speed="max") as stack:
+        client = VehicleClient(stack.api_url, timeout_s=30, idle=stack.check_alive)
+        ...
+
+The simulator starts first; the flight controller is started once the
+simulator listens on its TCP port (4560 + instance), checked through
+``/proc/net/tcp`` so no probe connection steals the simulator's accept.  Each
+child's stdout and stderr go to ``<log_dir>/sitl.log`` and
+``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given).
+Children run in their own session so a Ctrl-C in the terminal reaches only
+us; :meth:`Stack.stop` ends them (SIGTERM, then SIGKILL), always.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections import deque
+from pathlib import Path
+from typing import Sequence
+
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
+
+SITL_BASE_PORT = 4560
+GCS_BASE_PORT = 14550
+API_BASE_PORT = 14540
+
+
+class StackError(RuntimeError):
+    """A child process failed to start or died; the message carries its log tail."""
+
+
+def _tcp_listening(port: int) -> bool | None:
+    """True if some socket listens on TCP ``port`` (Linux /proc); None if it cannot be told."""
+    found_table = False
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            with open(table) as f:
+                lines = f.readlines()[1:]
+        except OSError:
+            continue
+        found_table = True
+        for line in lines:
+            fields = line.split()
+            if len(fields) > 3 and fields[3] == "0A" and int(fields[1].rsplit(":", 1)[1], 16) == port:
+                return True
+    return False if found_table else None
+
+
+def tail(path: Path, lines: int = 30) -> str:
+    """The last ``lines`` lines of a text file ('' if it does not exist)."""
+    try:
+        with open(path, errors="replace") as f:
+            return "".join(deque(f, maxlen=lines))
+    except OSError:
+        return ""
+
+
+class Stack:
+    """The ``sitl`` and ``autopilot`` processes of one instance, as a context manager.
+
+    Parameters
+    ----------
+    instance: offsets every port (TCP 4560+I, UDP 14550+I, UDP 14540+I), as PX4's ``-i``.
+    speed: simulation speed, ``"max"`` or a real-time factor (1 = real time).
+    vehicle: vehicle file name (``quad_x``).
+    extra_sitl_args, extra_autopilot_args: appended to each command line.
+    home: ``"LAT,LON,ALT"`` for the simulator, or None for its default.
+    seed: simulator random seed, or None for its default.
+    log_dir: where the child logs go; a new temp dir if None (kept after stop).
+    start_timeout_s: wall seconds for the simulator to start listening.
+    python: the interpreter for the children.
+    sitl_module, autopilot_module: what ``python -m`` runs; may carry leading
+        arguments (``"gcs.fake_vehicle sitl"``), for testing with stand-ins.
+    """
+
+    def __init__(
+        self,
+        instance: int = 0,
+        speed: str | float = "max",
+        vehicle: str = "quad_x",
+        extra_sitl_args: Sequence[str] = (),
+        extra_autopilot_args: Sequence[str] = (),
+        *,
+        home: str | None = None,
+        seed: int | None = None,
+        log_dir: str | Path | None = None,
+        start_timeout_s: float = 60.0,
+        python: str = sys.executable,
+        sitl_module: str = "sitl",
+        autopilot_module: str = "autopilot",
+    ) -> None:
+        self.instance = int(instance)
+        self.speed = str(speed)
+        self.vehicle = vehicle
+        self.extra_sitl_args = list(extra_sitl_args)
+        self.extra_autopilot_args = list(extra_autopilot_args)
+        self.home = home
+        self.seed = seed
+        self.start_timeout_s = start_timeout_s
+        self.python = python
+        self.sitl_module = sitl_module.split()
+        self.autopilot_module = autopilot_module.split()
+        self._log_dir_arg = Path(log_dir) if log_dir is not None else None
+        self.log_dir: Path | None = None
+        self.procs: dict[str, subprocess.Popen] = {}
+        self._log_files: dict[str, object] = {}
+        self.started_wall_s: float | None = None
+
+    # ----------------------------------------------------------------- ports and urls
+
+    @property
+    def sitl_port(self) -> int:
+        """TCP port the simulator listens on for the flight controller."""
+        return SITL_BASE_PORT + self.instance
+
+    @property
+    def gcs_port(self) -> int:
+        """UDP port the flight controller sends ground-station telemetry to (QGroundControl)."""
+        return GCS_BASE_PORT + self.instance
+
+    @property
+    def api_port(self) -> int:
+        """UDP port the flight controller sends API telemetry to (MAVSDK, this package's demo)."""
+        return API_BASE_PORT + self.instance
+
+    @property
+    def gcs_url(self) -> str:
+        return f"udpin:0.0.0.0:{self.gcs_port}"
+
+    @property
+    def api_url(self) -> str:
+        return f"udpin:0.0.0.0:{self.api_port}"
+
+    def log_path(self, name: str) -> Path:
+        """Log file of a child (``"sitl"`` or ``"autopilot"``)."""
+        if self.log_dir is None:
+            raise StackError("stack not started")
+        return self.log_dir / f"{name}.log"
+
+    # ----------------------------------------------------------------- commands
+
+    def sitl_command(self) -> list[str]:
+        cmd = [self.python, "-m", *self.sitl_module, "--vehicle", self.vehicle, "--speed", self.speed,
+               "--instance", str(self.instance)]
+        if self.home is not None:
+            cmd += ["--home", self.home]
+        if self.seed is not None:
+            cmd += ["--seed", str(self.seed)]
+        return cmd + self.extra_sitl_args
+
+    def autopilot_command(self) -> list[str]:
+        return [self.python, "-m", *self.autopilot_module, "--vehicle", self.vehicle,
+                "--instance", str(self.instance)] + self.extra_autopilot_args
+
+    # ----------------------------------------------------------------- start / stop
+
+    def __enter__(self) -> "Stack":
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def start(self) -> "Stack":
+        """Start the simulator, wait for its TCP port, start the flight controller."""
+        if self.procs:
+            raise StackError("stack already started")
+        if _tcp_listening(self.sitl_port):
+            raise StackError(f"TCP port {self.sitl_port} is already in use: is another simulator running "
+                             f"as instance {self.instance}? Choose another --instance.")
+        if self._log_dir_arg is not None:
+            self._log_dir_arg.mkdir(parents=True, exist_ok=True)
+            self.log_dir = self._log_dir_arg
+        else:
+            self.log_dir = Path(tempfile.mkdtemp(prefix=f"flight-stack-{self.instance}-"))
+        self.started_wall_s = time.monotonic()
+        try:
+            self._spawn("sitl", self.sitl_command())
+            self._wait_sitl_listening()
+            self._spawn("autopilot", self.autopilot_command())
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _spawn(self, name: str, cmd: list[str]) -> None:
+        env = dict(os.environ)
+        env["PYTHONUNBUFFERED"] = "1"
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(PROJECT_ROOT), env.get("PYTHONPATH")) if p)
+        log = open(self.log_path(name), "w")
+        log.write("$ " + " ".join(cmd) + "\n")
+        log.flush()
+        self._log_files[name] = log
+        self.procs[name] = subprocess.Popen(cmd, cwd=PROJECT_ROOT, env=env, stdin=subprocess.DEVNULL,
+                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def _wait_sitl_listening(self) -> None:
+        proc = self.procs["sitl"]
+        deadline = time.monotonic() + self.start_timeout_s
+        while True:
+            self.check_alive()
+            listening = _tcp_listening(self.sitl_port)
+            if listening is None:  # no /proc: give the simulator a moment and hope the FC retries
+                time.sleep(1.0)
+                return
+            if listening:
+                return
+            if time.monotonic() > deadline:
+                raise StackError(f"the simulator did not listen on TCP {self.sitl_port} within "
+                                 f"{self.start_timeout_s:g} s\n{self._tail_block('sitl')}")
+            try:
+                proc.wait(timeout=0.05)
+            except subprocess.TimeoutExpired:
+                pass
+
+    def stop(self, timeout_s: float = 5.0) -> dict[str, int | None]:
+        """End both children (flight controller first); return their exit codes. Idempotent."""
+        codes: dict[str, int | None] = {}
+        for name in ("autopilot", "sitl"):
+            proc = self.procs.get(name)
+            if proc is None:
+                continue
+            if proc.poll() is None:
+                self._signal(proc, signal.SIGTERM)
+                try:
+                    proc.wait(timeout=timeout_s)
+                except subprocess.TimeoutExpired:
+                    self._signal(proc, signal.SIGKILL)
+                    proc.wait(timeout=timeout_s)
+            codes[name] = proc.returncode
+        for log in self._log_files.values():
+            log.close()
+        self._log_files.clear()
+        return codes
+
+    @staticmethod
+    def _signal(proc: subprocess.Popen, sig: int) -> None:
+        """Signal the child's own process group (it was started in a new session), else the child."""
+        try:
+            os.killpg(proc.pid, sig)
+        except (ProcessLookupError, PermissionError, OSError):
+            try:
+                proc.send_signal(sig)
+            except ProcessLookupError:
+                pass
+
+    # ----------------------------------------------------------------- health
+
+    def exited(self) -> dict[str, int]:
+        """Children that have exited, with their exit codes."""
+        return {name: p.returncode for name, p in self.procs.items() if p.poll() is not None}
+
+    def check_alive(self) -> None:
+        """Raise :class:`StackError` with the log tail if a child has exited (usable as a client idle hook)."""
+        dead = self.exited()
+        if dead:
+            name, code = next(iter(dead.items()))
+            raise StackError(f"{name} exited early with code {code}\n{self._tail_block(name)}")
+
+    def tail(self, name: str, lines: int = 30) -> str:
+        """The last lines of a child's log."""
+        return tail(self.log_path(name), lines)
+
+    def _tail_block(self, name: str, lines: int = 30) -> str:
+        path = self.log_path(name)
+        return f"--- last lines of {path} ---\n{tail(path, lines).rstrip()}\n--- end of {name} log ---"
+
+    def wait(self, poll_s: float = 0.5) -> None:
+        """Block until a child exits (then raise StackError), or until KeyboardInterrupt."""
+        while True:
+            self.check_alive()
+            for proc in self.procs.values():
+                try:
+                    proc.wait(timeout=poll_s / max(len(self.procs), 1))
+                except subprocess.TimeoutExpired:
+                    pass

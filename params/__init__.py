@@ -1,0 +1,1 @@
+"""Parameter and vehicle files, and the loader both processes read them with."""

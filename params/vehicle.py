@@ -1,0 +1,181 @@
+"""Vehicle description shared by the simulator and the flight controller.
+
+One TOML file in ``params/vehicles/`` describes an airframe: mass, inertia, rotor
+geometry, rotor constants, motor lag and legs.  The simulator builds its MuJoCo
+model from it and the flight controller builds its mixer and hover thrust from it,
+so the two can never disagree.
+
+Frames: positions are body FRD (x forward, y right, z down) relative to the
+centre of mass, metres.  Units are SI.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+VEHICLE_DIR = Path(__file__).resolve().parent / "vehicles"
+GRAVITY_M_S2 = 9.80665
+
+
+class VehicleFileError(ValueError):
+    """A vehicle file is missing, unreadable or inconsistent."""
+
+
+@dataclass(frozen=True)
+class Rotor:
+    """One rotor: position in FRD (m) and spin direction (+1 CCW seen from above)."""
+
+    position_frd_m: tuple[float, float, float]
+    spin_ccw: int  # +1 counter-clockwise seen from above, -1 clockwise
+
+
+@dataclass(frozen=True)
+class VehicleSpec:
+    name: str
+    mav_type: str
+    body_mass_kg: float
+    body_inertia_kg_m2: tuple[float, float, float]
+    body_size_m: tuple[float, float, float]
+    rotors: tuple[Rotor, ...]
+    rotor_mass_kg: float
+    rotor_radius_m: float
+    k_thrust: float
+    k_moment: float
+    max_speed_rad_s: float
+    time_constant_up_s: float
+    time_constant_down_s: float
+    leg_positions_frd_m: tuple[tuple[float, float, float], ...]
+    leg_size_m: tuple[float, float, float]
+
+    @property
+    def mass_kg(self) -> float:
+        """Total mass: body plus rotors (kg)."""
+        return self.body_mass_kg + len(self.rotors) * self.rotor_mass_kg
+
+    @property
+    def inertia_kg_m2(self) -> np.ndarray:
+        """Total diagonal inertia about the centre of mass (kg m^2), rotors as point masses."""
+        j = np.array(self.body_inertia_kg_m2, dtype=float)
+        for r in self.rotors:
+            x, y, z = r.position_frd_m
+            j += self.rotor_mass_kg * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
+        return j
+
+    @property
+    def max_thrust_per_rotor_n(self) -> float:
+        return self.k_thrust * self.max_speed_rad_s**2
+
+    @property
+    def hover_thrust_fraction(self) -> float:
+        """Collective thrust needed to hover as a fraction of the maximum (0..1)."""
+        return self.mass_kg * GRAVITY_M_S2 / (len(self.rotors) * self.max_thrust_per_rotor_n)
+
+    @property
+    def hover_speed_rad_s(self) -> float:
+        """Rotor speed at hover: sqrt(m g / (n k_T)) (seed 001 eq 4.8)."""
+        return math.sqrt(self.mass_kg * GRAVITY_M_S2 / (len(self.rotors) * self.k_thrust))
+
+    def effectiveness_matrix(self) -> np.ndarray:
+        """Map rotor thrusts (N, one column per rotor) to body wrench.
+
+        Rows: roll, pitch, yaw torque (N m, FRD) and collective thrust (N, along -z).
+        A rotor at (x, y) pushing T up (-z in FRD) gives torque r x F = (-y T, x T, 0);
+        its drag torque on the body is +k_M T about FRD z for a CCW rotor (seed 001 eq 4.9).
+        """
+        cols = []
+        for r in self.rotors:
+            x, y, _ = r.position_frd_m
+            cols.append([-y, x, r.spin_ccw * self.k_moment, 1.0])
+        return np.array(cols, dtype=float).T
+
+
+def _vec(table: dict, key: str, n: int, where: str) -> tuple[float, ...]:
+    try:
+        v = tuple(float(x) for x in table[key])
+    except KeyError as exc:
+        raise VehicleFileError(f"{where}: missing '{key}'") from exc
+    except (TypeError, ValueError) as exc:
+        raise VehicleFileError(f"{where}: '{key}' must be a list of numbers") from exc
+    if len(v) != n:
+        raise VehicleFileError(f"{where}: '{key}' must have {n} numbers, has {len(v)}")
+    return v
+
+
+def _num(table: dict, key: str, where: str, positive: bool = True) -> float:
+    try:
+        v = float(table[key])
+    except KeyError as exc:
+        raise VehicleFileError(f"{where}: missing '{key}'") from exc
+    except (TypeError, ValueError) as exc:
+        raise VehicleFileError(f"{where}: '{key}' must be a number") from exc
+    if positive and not v > 0:
+        raise VehicleFileError(f"{where}: '{key}' must be > 0, is {v}")
+    return v
+
+
+def vehicle_path(name_or_path: str) -> Path:
+    """Resolve a vehicle name (``quad_x``) or a path to a TOML file."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" and p.exists():
+        return p
+    cand = VEHICLE_DIR / f"{name_or_path}.toml"
+    if cand.exists():
+        return cand
+    known = ", ".join(sorted(x.stem for x in VEHICLE_DIR.glob("*.toml")))
+    raise VehicleFileError(f"unknown vehicle '{name_or_path}' (known: {known})")
+
+
+def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
+    """Load and check a vehicle file; raise VehicleFileError with a clear reason."""
+    path = vehicle_path(name_or_path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise VehicleFileError(f"{path}: {exc}") from exc
+    where = str(path)
+    try:
+        body, rot, legs = data["body"], data["rotors"], data["legs"]
+    except KeyError as exc:
+        raise VehicleFileError(f"{where}: missing section [{exc.args[0]}]") from exc
+    positions = rot.get("positions_frd_m")
+    spins = rot.get("spin")
+    if not isinstance(positions, list) or not isinstance(spins, list) or len(positions) != len(spins):
+        raise VehicleFileError(f"{where}: [rotors] needs positions_frd_m and spin lists of equal length")
+    if len(positions) < 4:
+        raise VehicleFileError(f"{where}: a multirotor needs at least 4 rotors, has {len(positions)}")
+    rotors = []
+    for i, (pos, spin) in enumerate(zip(positions, spins)):
+        if spin not in ("ccw", "cw"):
+            raise VehicleFileError(f"{where}: rotor {i + 1} spin must be 'ccw' or 'cw', is {spin!r}")
+        p = _vec({"p": pos}, "p", 3, f"{where} rotor {i + 1}")
+        rotors.append(Rotor(p, 1 if spin == "ccw" else -1))
+    leg_pos = tuple(_vec({"p": p}, "p", 3, f"{where} leg") for p in legs.get("positions_frd_m", []))
+    if len(leg_pos) < 3:
+        raise VehicleFileError(f"{where}: [legs] needs at least 3 positions_frd_m")
+    spec = VehicleSpec(
+        name=str(data.get("name", path.stem)),
+        mav_type=str(data.get("mav_type", "QUADROTOR")),
+        body_mass_kg=_num(body, "mass_kg", where),
+        body_inertia_kg_m2=_vec(body, "inertia_kg_m2", 3, where),
+        body_size_m=_vec(body, "size_m", 3, where),
+        rotors=tuple(rotors),
+        rotor_mass_kg=_num(rot, "mass_kg", where, positive=False),
+        rotor_radius_m=_num(rot, "radius_m", where),
+        k_thrust=_num(rot, "k_thrust", where),
+        k_moment=_num(rot, "k_moment", where),
+        max_speed_rad_s=_num(rot, "max_speed_rad_s", where),
+        time_constant_up_s=_num(rot, "time_constant_up_s", where),
+        time_constant_down_s=_num(rot, "time_constant_down_s", where),
+        leg_positions_frd_m=leg_pos,
+        leg_size_m=_vec(legs, "size_m", 3, where),
+    )
+    if spec.hover_thrust_fraction >= 0.9:
+        raise VehicleFileError(
+            f"{where}: cannot hover with margin: hover needs {spec.hover_thrust_fraction:.0%} of full thrust"
+        )
+    return spec

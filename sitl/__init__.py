@@ -1,0 +1,1 @@
+"""MuJoCo software-in-the-loop simulator speaking PX4's simulator MAVLink API."""

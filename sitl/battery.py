@@ -1,0 +1,44 @@
+"""Battery: a LiPo pack whose voltage sags with current and falls as it discharges.
+
+Open-circuit voltage per cell is a piecewise-linear function of state of charge
+(typical LiPo curve, 4.2 V full, 3.5 V empty); terminal voltage is that minus
+I R.  Current comes from the rotors' shaft power divided by an efficiency.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_SOC = np.array([0.0, 0.05, 0.1, 0.2, 0.5, 0.8, 0.95, 1.0])
+_OCV = np.array([3.3, 3.5, 3.6, 3.7, 3.8, 3.95, 4.1, 4.2])
+
+
+class Battery:
+    def __init__(self, cells: int = 4, capacity_mah: float = 5000.0, internal_resistance_ohm: float = 0.02,
+                 efficiency: float = 0.7, idle_current_a: float = 0.5) -> None:
+        self.cells = cells
+        self.capacity_as = capacity_mah * 3.6
+        self.r_ohm = internal_resistance_ohm
+        self.efficiency = efficiency
+        self.idle_current_a = idle_current_a
+        self.used_as = 0.0
+        self.current_a = idle_current_a
+        self.voltage_v = self.open_circuit_v()
+
+    @property
+    def remaining_frac(self) -> float:
+        return max(0.0, 1.0 - self.used_as / self.capacity_as)
+
+    @property
+    def consumed_mah(self) -> float:
+        return self.used_as / 3.6
+
+    def open_circuit_v(self) -> float:
+        return self.cells * float(np.interp(self.remaining_frac, _SOC, _OCV))
+
+    def step(self, shaft_power_w: float, dt_s: float) -> None:
+        """Draw the current the rotors need for dt_s seconds."""
+        ocv = self.open_circuit_v()
+        self.current_a = self.idle_current_a + shaft_power_w / self.efficiency / max(ocv, 1.0)
+        self.voltage_v = ocv - self.current_a * self.r_ohm
+        self.used_as += self.current_a * dt_s

@@ -1,0 +1,80 @@
+"""Build the MuJoCo model (MJCF) of a vehicle from its vehicle file.
+
+The vehicle file gives positions in body FRD; MuJoCo's body frame is FLU, so
+every position is converted with :func:`sitl.frames.frd_to_flu`.  Each rotor is a
+site with a ``general`` actuator whose gear is (0, 0, 1, 0, 0, -s k_M): the
+control value is the rotor thrust T in newtons, pushing along the site's +z (up)
+and giving the drag torque of seed 001 eq (4.9) about it (s = +1 for a rotor that
+turns counter-clockwise seen from above, whose reaction turns the body clockwise).
+"""
+
+from __future__ import annotations
+
+import mujoco
+
+from params.vehicle import GRAVITY_M_S2, VehicleSpec
+from sitl.frames import frd_to_flu
+
+PHYSICS_DT_S = 0.002
+
+
+def _v(x) -> str:
+    return " ".join(f"{float(a):.6g}" for a in x)
+
+
+def build_mjcf(spec: VehicleSpec) -> str:
+    """Return the MJCF XML text of the world: ground plane and the vehicle.
+
+    The vehicle starts on its legs facing North (body x along world +y, ENU).
+    """
+    j = spec.inertia_kg_m2
+    foot_depth_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
+    geoms = [
+        f'<geom name="frame" type="box" size="{_v(s / 2 for s in spec.body_size_m)}" '
+        f'contype="1" conaffinity="1" mass="0" rgba="0.3 0.3 0.35 1"/>'
+    ]
+    for i, leg in enumerate(spec.leg_positions_frd_m):
+        geoms.append(
+            f'<geom name="leg{i + 1}" type="box" pos="{_v(frd_to_flu(leg))}" '
+            f'size="{_v(s / 2 for s in spec.leg_size_m)}" mass="0" friction="0.8 0.01 0.001" rgba="0.2 0.2 0.2 1"/>'
+        )
+    sites = ['<site name="imu" pos="0 0 0" size="0.01"/>']
+    actuators = []
+    for i, r in enumerate(spec.rotors):
+        p = frd_to_flu(r.position_frd_m)
+        colour = "0.1 0.6 0.1 0.6" if r.spin_ccw > 0 else "0.1 0.1 0.7 0.6"
+        geoms.append(
+            f'<geom name="prop{i + 1}" type="cylinder" pos="{_v(p)}" size="{spec.rotor_radius_m:.4g} 0.005" '
+            f'contype="0" conaffinity="0" mass="0" rgba="{colour}"/>'
+        )
+        sites.append(f'<site name="rotor{i + 1}" pos="{_v(p)}" size="0.01"/>')
+        actuators.append(
+            f'<general name="rotor{i + 1}" site="rotor{i + 1}" ctrllimited="false" '
+            f'gear="0 0 1 0 0 {-r.spin_ccw * spec.k_moment:.6g}"/>'
+        )
+    return f"""<mujoco model="{spec.name}">
+  <option timestep="{PHYSICS_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
+  <visual><global offwidth="640" offheight="480"/></visual>
+  <worldbody>
+    <light pos="0 0 20" dir="0 0 -1" directional="true"/>
+    <geom name="ground" type="plane" size="500 500 0.1" friction="1 0.01 0.001" rgba="0.5 0.6 0.5 1"/>
+    <body name="vehicle" pos="0 0 {foot_depth_m + 0.001:.4f}" quat="0.70710678 0 0 0.70710678">
+      <freejoint name="root"/>
+      <inertial pos="0 0 0" mass="{spec.mass_kg:.6g}" diaginertia="{_v(j)}"/>
+      {chr(10).join('      ' + g for g in geoms)}
+      {chr(10).join('      ' + s for s in sites)}
+    </body>
+  </worldbody>
+  <actuator>
+{chr(10).join('    ' + a for a in actuators)}
+  </actuator>
+  <sensor>
+    <accelerometer name="accel" site="imu"/>
+    <gyro name="gyro" site="imu"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def build_model(spec: VehicleSpec) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(build_mjcf(spec))

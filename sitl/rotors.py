@@ -1,0 +1,50 @@
+"""Rotor model of seed 001: T_i = k_T w_i^2 (4.8), M_i = +-k_M T_i (4.9), motor lag.
+
+Motor commands u_i in 0..1 map linearly to the commanded rotor speed
+w_cmd = u_i * w_max (rad/s); the rotor speed follows with a first-order lag whose
+time constant differs when speeding up and slowing down (RotorS' motor model).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from params.vehicle import VehicleSpec
+
+
+class RotorModel:
+    """Rotor speeds (rad/s) and thrusts (N) of all rotors of one vehicle."""
+
+    def __init__(self, spec: VehicleSpec) -> None:
+        self.n = len(spec.rotors)
+        self.k_thrust = spec.k_thrust
+        self.k_moment = spec.k_moment
+        self.max_speed_rad_s = spec.max_speed_rad_s
+        self.tau_up_s = spec.time_constant_up_s
+        self.tau_down_s = spec.time_constant_down_s
+        self.speed_rad_s = np.zeros(self.n)
+        self.efficiency = np.ones(self.n)  # thrust scale per rotor (1 = healthy)
+
+    def commanded_speed(self, commands: np.ndarray) -> np.ndarray:
+        """Motor command 0..1 (clipped) -> commanded rotor speed, rad/s."""
+        return np.clip(commands, 0.0, 1.0) * self.max_speed_rad_s
+
+    def step(self, commands: np.ndarray, dt_s: float) -> np.ndarray:
+        """Advance the motor lag by dt_s toward the commands; return thrusts (N)."""
+        target = self.commanded_speed(commands)
+        tau = np.where(target > self.speed_rad_s, self.tau_up_s, self.tau_down_s)
+        alpha = 1.0 - np.exp(-dt_s / tau)
+        self.speed_rad_s += alpha * (target - self.speed_rad_s)
+        return self.thrust_n()
+
+    def thrust_n(self) -> np.ndarray:
+        """T_i = k_T w_i^2 (seed 001 eq 4.8), times each rotor's efficiency."""
+        return self.efficiency * self.k_thrust * self.speed_rad_s**2
+
+    def drag_torque_nm(self) -> np.ndarray:
+        """|M_i| = k_M T_i (seed 001 eq 4.9); the sign comes from the spin direction."""
+        return self.k_moment * self.thrust_n()
+
+    def shaft_power_w(self) -> float:
+        """Mechanical power the rotors absorb: sum of M_i w_i (W)."""
+        return float(np.dot(self.drag_torque_nm(), self.speed_rad_s))
