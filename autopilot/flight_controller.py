@@ -20,6 +20,8 @@ from autopilot.parameters import ParameterStore, declare
 from autopilot.topics import GpsSample, ImuSample
 from params.vehicle import VehicleSpec
 
+OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 Hz
+
 declare("MPC_IDLE_CMD", 0.15, 0.0, 0.4, "norm", "Motor command while armed on the ground (idle spin)")
 
 
@@ -41,6 +43,9 @@ class FlightController:
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
         self.rate_sp = np.zeros(3)
         self.thrust_n = 0.0
+        self.thrust_sp_n = 0.0
+        self.setpoint = None
+        self.last_outer_us: int | None = None
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -56,31 +61,44 @@ class FlightController:
         self.estimator.update_imu(imu)
         if gps is not None:
             self.estimator.update_gps(gps)
-        est = self.estimator.estimate()
         cmd = self.commander
-        sp = cmd.update(now, est, gps, self.estimator.gps_ok(now))
+        if self.last_outer_us is None or now - self.last_outer_us >= OUTER_PERIOD_US or gps is not None:
+            self._outer_loop(now, gps)
         n = len(self.spec.rotors)
         if not cmd.armed:
             self._reset_controllers()
             self._publish(np.zeros(n), 0.0)
             return np.zeros(n)
-        if sp is None or not est.attitude_valid:
+        if self.setpoint is None:
             self._reset_controllers()
             idle = np.full(n, self.params.get("MPC_IDLE_CMD"))
             self._publish(idle, 0.0)
             return idle
-        thrust_vec = self.position_control.update(est.pos_ned_m, est.vel_ned_m_s, sp, dt)
-        self.q_sp = quat.from_matrix(attitude_from_thrust(thrust_vec, sp.yaw_rad))
-        # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
-        body_up = -quat.to_matrix(est.q_wxyz)[:, 2]
-        thrust_n = max(float(thrust_vec @ body_up), 0.0)
-        self.rate_sp = self.attitude_control.update(est.q_wxyz, self.q_sp)
-        alpha = self.rate_control.update(est.rate_frd_rad_s, self.rate_sp, dt, self.sat_pos, self.sat_neg,
+        # Inner loops at the IMU rate, on the attitude filter's latest output.
+        q = self.estimator.attitude.q
+        self.rate_sp = self.attitude_control.update(q, self.q_sp)
+        alpha = self.rate_control.update(self.estimator.rate_frd, self.rate_sp, dt, self.sat_pos, self.sat_neg,
                                          integrate=not cmd.land.ground_contact)
+        # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
+        body_up = -quat.to_matrix(q)[:, 2]
+        thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
         out = self.mixer.mix(self.inertia * alpha, thrust_n)
         self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
         self._publish(out.commands, float(out.thrusts_n.sum()))
         return out.commands
+
+    def _outer_loop(self, now: int, gps: GpsSample | None) -> None:
+        """Commander, navigator and position control (50 Hz and on each GPS fix)."""
+        dt = 0.02 if self.last_outer_us is None else (now - self.last_outer_us) * 1e-6
+        self.last_outer_us = now
+        est = self.estimator.estimate()
+        sp = self.commander.update(now, est, gps, self.estimator.gps_ok(now))
+        if sp is None or not est.attitude_valid or not self.commander.armed:
+            self.setpoint = None
+            return
+        self.setpoint = sp
+        self.thrust_vec = self.position_control.update(est.pos_ned_m, est.vel_ned_m_s, sp, dt)
+        self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 
     def _publish(self, commands: np.ndarray, thrust_n: float) -> None:
         self.thrust_n = thrust_n

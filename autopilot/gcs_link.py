@@ -32,13 +32,14 @@ from typing import Callable, Sequence
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.geodesy import ned_to_geodetic
+from autopilot.quat import to_euler
 from autopilot.parameters import ParamError, ParamType
 from autopilot.topics import TelemetrySnapshot
 from autopilot.vehicle_interface import VehicleInterface
 
 log = logging.getLogger(__name__)
 
-EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius, flat-earth projection
 
 UINT16_MAX = 65535
 INT16_MAX = 32767
@@ -103,42 +104,6 @@ _MAV_PARAM_TYPE = {ParamType.INT32: mavlink.MAV_PARAM_TYPE_INT32, ParamType.REAL
 
 
 # --------------------------------------------------------------------------- pure helpers
-
-
-def ned_to_global(
-    origin_lat_deg: float, origin_lon_deg: float, origin_alt_m: float, pos_ned_m: Sequence[float]
-) -> tuple[float, float, float]:
-    """Flat-earth projection of a NED offset (m) from an origin to (lat deg, lon deg, alt m).
-
-    dlat = north / R, dlon = east / (R cos(lat0)) (radians), alt = alt0 - down.
-    Good to centimetres within a few kilometres of the origin.
-    """
-    north, east, down = (float(v) for v in pos_ned_m)
-    cos_lat0 = max(math.cos(math.radians(origin_lat_deg)), 1e-9)
-    lat = origin_lat_deg + math.degrees(north / EARTH_RADIUS_M)
-    lon = origin_lon_deg + math.degrees(east / (EARTH_RADIUS_M * cos_lat0))
-    lon = (lon + 180.0) % 360.0 - 180.0
-    return lat, lon, origin_alt_m - down
-
-
-def global_to_ned(
-    origin_lat_deg: float, origin_lon_deg: float, origin_alt_m: float, lat_deg: float, lon_deg: float, alt_m: float
-) -> np.ndarray:
-    """Inverse of :func:`ned_to_global`: (lat deg, lon deg, alt m) -> NED offset (m) from the origin."""
-    cos_lat0 = max(math.cos(math.radians(origin_lat_deg)), 1e-9)
-    dlon_deg = (lon_deg - origin_lon_deg + 180.0) % 360.0 - 180.0
-    north = math.radians(lat_deg - origin_lat_deg) * EARTH_RADIUS_M
-    east = math.radians(dlon_deg) * EARTH_RADIUS_M * cos_lat0
-    return np.array([north, east, origin_alt_m - alt_m])
-
-
-def euler_from_quaternion(q_wxyz: Sequence[float]) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) in rad, ZYX order, of a quaternion (w, x, y, z) rotating FRD into NED."""
-    w, x, y, z = (float(v) for v in q_wxyz)
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return roll, pitch, yaw
 
 
 def split_statustext(text: str) -> list[bytes]:
@@ -809,7 +774,7 @@ class GcsLink:
         e = s.estimate
         if e is None:
             return None
-        roll, pitch, yaw = euler_from_quaternion(e.q_wxyz)
+        roll, pitch, yaw = to_euler(e.q_wxyz)
         p, q, r = (float(v) for v in e.rate_frd_rad_s)
         return mavlink.MAVLink_attitude_message(_time_boot_ms(now_us), roll, pitch, yaw, p, q, r)
 
@@ -825,10 +790,10 @@ class GcsLink:
         e = s.estimate
         if e is None or not e.position_valid:
             return None
-        lat, lon, alt = ned_to_global(e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m, e.pos_ned_m)
+        lat, lon, alt = ned_to_geodetic(e.pos_ned_m, e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)
         rel_alt_m = float(s.home.pos_ned_m[2] - e.pos_ned_m[2]) if s.home is not None else 0.0
         vn, ve, vd = (_int(v * 100.0, -INT16_MAX - 1, INT16_MAX, 0) for v in e.vel_ned_m_s)
-        yaw = euler_from_quaternion(e.q_wxyz)[2]
+        yaw = to_euler(e.q_wxyz)[2]
         int32 = (-(2**31), INT32_MAX, 0)
         return mavlink.MAVLink_global_position_int_message(
             _time_boot_ms(now_us), _degE7(lat), _degE7(lon), _int(alt * 1000.0, *int32),
@@ -869,7 +834,7 @@ class GcsLink:
             return None
         vn, ve, vd = (float(v) for v in e.vel_ned_m_s)
         speed = math.hypot(vn, ve)
-        yaw = euler_from_quaternion(e.q_wxyz)[2]
+        yaw = to_euler(e.q_wxyz)[2]
         heading_deg = int(round(math.degrees(yaw) % 360.0)) % 360 if math.isfinite(yaw) else 0
         throttle = _int(s.throttle_frac * 100.0, 0, 100, 0)
         return mavlink.MAVLink_vfr_hud_message(speed, speed, heading_deg, throttle, e.alt_amsl_m, -vd)

@@ -62,5 +62,12 @@ def from_euler(roll: float, pitch: float, yaw: float) -> np.ndarray:
     ])
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """3-vector cross product (numpy's np.cross costs ~20x more on 3-vectors)."""
+    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
+    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def wrap_pi(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi

@@ -18,7 +18,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -211,7 +213,7 @@ def connection_help(stack: Stack) -> str:
         f"stack running (instance {i}, speed {stack.speed}); logs in {stack.log_dir}",
         f"  {qgc}",
         f"  MAVProxy:  mavproxy.py --master udpin:0.0.0.0:{gcs}",
-        f"  MAVSDK:    System.connect('udpin://0.0.0.0:{api}')",
+        f'  MAVSDK:    await drone.connect(system_address="udpin://0.0.0.0:{api}")',
         f"  gcs:       python -m gcs --instance {i} status" if i else "  gcs:       python -m gcs status",
         "Ctrl-C to stop.",
     ])
@@ -219,6 +221,9 @@ def connection_help(stack: Stack) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        # a plain `kill` should clean up like Ctrl-C: SystemExit runs the finally below
+        signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     speed = args.speed or ("1" if args.wait else "max")
     wall_start = time.monotonic()
     stack = Stack(args.instance, speed, args.vehicle, args.sitl_arg, args.autopilot_arg, home=args.home,

@@ -12,11 +12,14 @@ simulator listens on its TCP port (4560 + instance), checked through
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
 ``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given).
 Children run in their own session so a Ctrl-C in the terminal reaches only
-us; :meth:`Stack.stop` ends them (SIGTERM, then SIGKILL), always.
+us; :meth:`Stack.stop` ends them (SIGTERM, then SIGKILL), always: on leaving
+the ``with`` block, at interpreter exit, and (Linux) when this process dies.
 """
 
 from __future__ import annotations
 
+import atexit
+import ctypes
 import os
 import signal
 import subprocess
@@ -32,6 +35,18 @@ PROJECT_ROOT = Path(__file__).resolve().parent.parent
 SITL_BASE_PORT = 4560
 GCS_BASE_PORT = 14550
 API_BASE_PORT = 14540
+
+
+def _die_with_parent() -> None:
+    """Child pre-exec hook (Linux): get SIGTERM if the parent dies, so no simulator is orphaned.
+
+    Linux sends it when the *thread* that started the child exits, so start a
+    Stack from a thread that lives as long as the stack (normally the main one).
+    """
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
 
 
 class StackError(RuntimeError):
@@ -183,6 +198,7 @@ class Stack:
         else:
             self.log_dir = Path(tempfile.mkdtemp(prefix=f"flight-stack-{self.instance}-"))
         self.started_wall_s = time.monotonic()
+        atexit.register(self.stop)
         try:
             self._spawn("sitl", self.sitl_command())
             self._wait_sitl_listening()
@@ -201,7 +217,8 @@ class Stack:
         log.flush()
         self._log_files[name] = log
         self.procs[name] = subprocess.Popen(cmd, cwd=PROJECT_ROOT, env=env, stdin=subprocess.DEVNULL,
-                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+                                            preexec_fn=_die_with_parent if sys.platform == "linux" else None)
 
     def _wait_sitl_listening(self) -> None:
         proc = self.procs["sitl"]
@@ -240,6 +257,7 @@ class Stack:
         for log in self._log_files.values():
             log.close()
         self._log_files.clear()
+        atexit.unregister(self.stop)
         return codes
 
     @staticmethod

@@ -7,10 +7,18 @@ I R.  Current comes from the rotors' shaft power divided by an efficiency.
 
 from __future__ import annotations
 
-import numpy as np
+import bisect
 
-_SOC = np.array([0.0, 0.05, 0.1, 0.2, 0.5, 0.8, 0.95, 1.0])
-_OCV = np.array([3.3, 3.5, 3.6, 3.7, 3.8, 3.95, 4.1, 4.2])
+_SOC = (0.0, 0.05, 0.1, 0.2, 0.5, 0.8, 0.95, 1.0)
+_OCV = (3.3, 3.5, 3.6, 3.7, 3.8, 3.95, 4.1, 4.2)
+
+
+def cell_ocv_v(soc: float) -> float:
+    """Open-circuit voltage of one cell (V) at a state of charge 0..1 (linear between table points)."""
+    soc = min(max(soc, 0.0), 1.0)
+    i = min(max(bisect.bisect_right(_SOC, soc), 1), len(_SOC) - 1)
+    f = (soc - _SOC[i - 1]) / (_SOC[i] - _SOC[i - 1])
+    return _OCV[i - 1] + f * (_OCV[i] - _OCV[i - 1])
 
 
 class Battery:
@@ -34,7 +42,7 @@ class Battery:
         return self.used_as / 3.6
 
     def open_circuit_v(self) -> float:
-        return self.cells * float(np.interp(self.remaining_frac, _SOC, _OCV))
+        return self.cells * cell_ocv_v(self.remaining_frac)
 
     def step(self, shaft_power_w: float, dt_s: float) -> None:
         """Draw the current the rotors need for dt_s seconds."""

@@ -15,7 +15,9 @@ import mujoco
 from params.vehicle import GRAVITY_M_S2, VehicleSpec
 from sitl.frames import frd_to_flu
 
-PHYSICS_DT_S = 0.002
+# One physics step per lockstep period (250 Hz).  MuJoCo's default contact time constant
+# (0.02 s) needs a step of at most 0.01 s; rotor lag is integrated exactly (sitl.rotors).
+PHYSICS_DT_S = 0.004
 
 
 def _v(x) -> str:

@@ -24,16 +24,20 @@ class RotorModel:
         self.tau_down_s = spec.time_constant_down_s
         self.speed_rad_s = np.zeros(self.n)
         self.efficiency = np.ones(self.n)  # thrust scale per rotor (1 = healthy)
+        self._alpha_dt = None
 
     def commanded_speed(self, commands: np.ndarray) -> np.ndarray:
         """Motor command 0..1 (clipped) -> commanded rotor speed, rad/s."""
-        return np.clip(commands, 0.0, 1.0) * self.max_speed_rad_s
+        return np.minimum(np.maximum(commands, 0.0), 1.0) * self.max_speed_rad_s
 
     def step(self, commands: np.ndarray, dt_s: float) -> np.ndarray:
         """Advance the motor lag by dt_s toward the commands; return thrusts (N)."""
+        if self._alpha_dt != dt_s:
+            self._alpha_up = 1.0 - np.exp(-dt_s / self.tau_up_s)
+            self._alpha_down = 1.0 - np.exp(-dt_s / self.tau_down_s)
+            self._alpha_dt = dt_s
         target = self.commanded_speed(commands)
-        tau = np.where(target > self.speed_rad_s, self.tau_up_s, self.tau_down_s)
-        alpha = 1.0 - np.exp(-dt_s / tau)
+        alpha = np.where(target > self.speed_rad_s, self._alpha_up, self._alpha_down)
         self.speed_rad_s += alpha * (target - self.speed_rad_s)
         return self.thrust_n()
 

@@ -24,11 +24,10 @@ from autopilot.gcs_link import (  # noqa: E402
     GcsLink,
     decode_param_value,
     encode_param_value,
-    euler_from_quaternion,
-    global_to_ned,
-    ned_to_global,
     split_statustext,
 )
+from autopilot.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
+from autopilot.quat import to_euler  # noqa: E402
 from autopilot.parameters import ParamDef, ParameterStore, ParamType  # noqa: E402
 from autopilot.topics import (  # noqa: E402
     BatteryState,
@@ -212,26 +211,26 @@ def command_long(client, command: int, *params: float, target_system: int = 1, t
 def test_global_ned_round_trip():
     for origin in [ORIGIN, (-33.9, 151.2, 10.0), (0.0, 179.9999, 0.0), (64.1, -21.9, 50.0)]:
         for ned in ([0.0, 0.0, 0.0], [100.0, -250.0, -30.0], [-1234.5, 987.6, 12.0]):
-            lat, lon, alt = ned_to_global(*origin, ned)
-            back = global_to_ned(*origin, lat, lon, alt)
+            lat, lon, alt = ned_to_geodetic(ned, *origin)
+            back = geodetic_to_ned(lat, lon, alt, *origin)
             np.testing.assert_allclose(back, ned, atol=1e-6)
     # 1 km north is 1000 / R rad of latitude; east shrinks with cos(lat)
-    lat, lon, alt = ned_to_global(45.0, 0.0, 100.0, [1000.0, 1000.0, -20.0])
+    lat, lon, alt = ned_to_geodetic([1000.0, 1000.0, -20.0], 45.0, 0.0, 100.0)
     assert lat == pytest.approx(45.0 + math.degrees(1000.0 / 6378137.0))
     assert lon == pytest.approx(math.degrees(1000.0 / (6378137.0 * math.cos(math.radians(45.0)))))
     assert alt == pytest.approx(120.0)
     # across the antimeridian
-    lat, lon, _ = ned_to_global(0.0, 179.9999, 0.0, [0.0, 100.0, 0.0])
+    lat, lon, _ = ned_to_geodetic([0.0, 100.0, 0.0], 0.0, 179.9999, 0.0)
     assert -180.0 <= lon < -179.99
 
 
-def test_euler_from_quaternion():
+def test_to_euler():
     roll, pitch, yaw = 0.1, -0.2, 2.5
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
     q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
-    assert euler_from_quaternion(q) == pytest.approx((roll, pitch, yaw))
+    assert to_euler(q) == pytest.approx((roll, pitch, yaw))
 
 
 def test_split_statustext():
@@ -289,7 +288,7 @@ def test_streams_rates_in_simulated_time_and_content(make_harness):
     assert h.vehicle.snapshot_calls <= 0.15 * h.updates
 
     gpi = of_type(got, "GLOBAL_POSITION_INT")[-1]
-    lat, lon, alt = ned_to_global(*ORIGIN, [10.0, 20.0, -5.0])
+    lat, lon, alt = ned_to_geodetic([10.0, 20.0, -5.0], *ORIGIN)
     assert gpi.lat == round(lat * 1e7) and gpi.lon == round(lon * 1e7)
     assert gpi.alt == round(alt * 1000) and gpi.relative_alt == 5000
     assert (gpi.vx, gpi.vy, gpi.vz) == (100, 200, -50)

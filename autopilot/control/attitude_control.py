@@ -38,7 +38,7 @@ class AttitudeControl:
         qe = quat.mul(quat.conj(q), q_sp)
         sign = 1.0 if qe[0] >= 0 else -1.0
         rate_sp = 2.0 * sign * qe[1:4] * self.gain
-        return np.clip(rate_sp, -self.rate_max, self.rate_max)
+        return np.minimum(np.maximum(rate_sp, -self.rate_max), self.rate_max)
 
 
 def yaw_of(q: np.ndarray) -> float:

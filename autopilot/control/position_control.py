@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.parameters import ParameterStore, declare
+from autopilot.quat import cross
 
 GRAVITY_M_S2 = 9.80665
 
@@ -97,7 +98,7 @@ class PositionControl:
         vel_err = vel_sp - vel
         d_term = np.zeros(3) if self.prev_vel is None or dt <= 0 else -(vel - self.prev_vel) / dt
         self.prev_vel = vel.copy()
-        np.clip(d_term, -self.d_lim, self.d_lim, out=d_term)
+        d_term = np.minimum(np.maximum(d_term, -self.d_lim), self.d_lim)
         acc_sp = self.vel_p * vel_err + self.vel_int + self.vel_d * d_term
 
         # Thrust vector with hover feed-forward: T = m (a - g), NED.
@@ -124,7 +125,7 @@ class PositionControl:
         if sat[0]:
             grow[:2] = np.where(grow[:2] * acc_sp[:2] > 0, 0.0, grow[:2])
         self.vel_int += grow
-        np.clip(self.vel_int, -self.int_lim, self.int_lim, out=self.vel_int)
+        self.vel_int = np.minimum(np.maximum(self.vel_int, -self.int_lim), self.int_lim)
         self.acc_sp = acc_sp
         return thrust
 
@@ -134,8 +135,8 @@ def attitude_from_thrust(thrust_ned_n: np.ndarray, yaw_rad: float) -> np.ndarray
     n = np.linalg.norm(thrust_ned_n)
     z_b = -thrust_ned_n / n if n > 1e-6 else np.array([0.0, 0.0, 1.0])
     x_c = np.array([math.cos(yaw_rad), math.sin(yaw_rad), 0.0])
-    y_b = np.cross(z_b, x_c)
+    y_b = cross(z_b, x_c)
     ny = np.linalg.norm(y_b)
     y_b = y_b / ny if ny > 1e-6 else np.array([-math.sin(yaw_rad), math.cos(yaw_rad), 0.0])
-    x_b = np.cross(y_b, z_b)
+    x_b = cross(y_b, z_b)
     return np.column_stack((x_b, y_b, z_b))

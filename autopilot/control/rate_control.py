@@ -69,7 +69,7 @@ class RateControl:
             alpha = dt / (dt + 1.0 / (2 * np.pi * _D_CUTOFF_HZ))
             self.d_filtered += alpha * (raw - self.d_filtered)
         self.prev_rate = rate.copy()
-        d_term = np.clip(self.d * self.d_filtered, -self.d_lim, self.d_lim)
+        d_term = np.minimum(np.maximum(self.d * self.d_filtered, -self.d_lim), self.d_lim)
         out = self.p * err + self.integral + d_term
         if integrate and dt > 0:
             grow = self.i * err * dt
@@ -77,5 +77,5 @@ class RateControl:
                 grow = np.where(sat_pos & (grow > 0), 0.0, grow)
             if sat_neg is not None:
                 grow = np.where(sat_neg & (grow < 0), 0.0, grow)
-            self.integral = np.clip(self.integral + grow, -self.int_lim, self.int_lim)
+            self.integral = np.minimum(np.maximum(self.integral + grow, -self.int_lim), self.int_lim)
         return out

@@ -24,6 +24,7 @@ from autopilot.geodesy import geodetic_to_ned
 
 GRAVITY_M_S2 = 9.80665
 ALIGN_TIME_S = 3.0  # attitude must have run this long before it is trusted
+BARO_PERIOD_US = 20_000  # barometer fused at 50 Hz, the rate of a real one
 POSITION_SETTLE_S = 3.0  # GPS must have been fused this long before position is trusted
 MAX_H_STD_M = 0.5
 MAX_V_STD_M = 0.5
@@ -49,6 +50,8 @@ class Estimator:
         self.baro_offset_m = 0.0
         self.last_baro_alt_m: float | None = None
         self.gps_fix_type = 0
+        self._acc_sum = np.zeros(3)  # kinematic acceleration accumulated since the last prediction
+        self._acc_dt = 0.0
 
     # -- inputs ---------------------------------------------------------------------
     def update_imu(self, s: ImuSample) -> None:
@@ -59,15 +62,28 @@ class Estimator:
         mag = s.mag_frd_gauss if np.all(np.isfinite(s.mag_frd_gauss)) else None
         self.rate_frd = self.attitude.update(s.gyro_frd_rad_s, s.accel_frd_m_s2, mag, dt, self.accel_ned)
         r = quat.to_matrix(self.attitude.q)
-        accel_ned = r @ s.accel_frd_m_s2 + np.array([0.0, 0.0, GRAVITY_M_S2])
-        self.position.predict(accel_ned, dt)
-        self.accel_ned = accel_ned - self.position.accel_bias_ned
+        self._acc_sum += (r @ s.accel_frd_m_s2) * dt
+        self._acc_dt += dt
+        if s.timestamp_us % BARO_PERIOD_US >= 4000:
+            return
+        self._predict()
         if math.isfinite(s.pressure_hpa) and s.pressure_hpa > 0:
             self.last_baro_alt_m = pressure_to_altitude_m(s.pressure_hpa)
             if self.origin is not None:
                 self.position.fuse_height(-(self.last_baro_alt_m - self.baro_offset_m))
 
+    def _predict(self) -> None:
+        """Run the position filter's prediction over the accumulated IMU samples (50 Hz)."""
+        if self._acc_dt <= 0:
+            return
+        accel_ned = self._acc_sum / self._acc_dt + np.array([0.0, 0.0, GRAVITY_M_S2])
+        self.position.predict(accel_ned, self._acc_dt)
+        self.accel_ned = accel_ned - self.position.accel_bias_ned
+        self._acc_sum[:] = 0.0
+        self._acc_dt = 0.0
+
     def update_gps(self, g: GpsSample) -> None:
+        self._predict()
         self.gps_fix_type = g.fix_type
         if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
             return

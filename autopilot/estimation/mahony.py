@@ -21,6 +21,7 @@ P_KI = declare("ATT_MAHONY_KI", 0.05, 0.0, 5.0, "rad/s^2", "Mahony filter integr
 P_KMAG = declare("ATT_MAHONY_KMAG", 0.5, 0.0, 20.0, "rad/s", "Mahony filter heading gain from the magnetometer")
 
 GRAVITY_M_S2 = 9.80665
+CORRECTION_EVERY = 5  # accelerometer/heading correction at 1/5 of the gyro rate (50 Hz at 250 Hz)
 
 
 class MahonyFilter:
@@ -31,6 +32,8 @@ class MahonyFilter:
         self.declination_rad = 0.0
         self.initialised = False
         self.time_aligned_s = 0.0  # time since initialisation
+        self._corr = np.zeros(3)
+        self._count = 0
 
     def _heading_from_mag(self, roll: float, pitch: float, mag: np.ndarray) -> float:
         """True heading (rad) from the magnetometer, tilt-compensated."""
@@ -56,6 +59,17 @@ class MahonyFilter:
             if abs(np.linalg.norm(accel_frd) - GRAVITY_M_S2) > 0.1 * GRAVITY_M_S2:
                 return gyro_frd - self.gyro_bias  # not at rest: wait for a sample that shows gravity
             self.initialise(accel_frd, mag_frd if mag_frd is not None else np.array([1.0, 0.0, 0.0]))
+        self._count += 1
+        if self._count % CORRECTION_EVERY == 0:
+            self._correct(accel_frd, mag_frd, dt_s * CORRECTION_EVERY, accel_ned_kinematic)
+        rate = gyro_frd - self.gyro_bias
+        self.q = quat.integrate(self.q, rate + self._corr, dt_s)
+        self.time_aligned_s += dt_s
+        return rate
+
+    def _correct(self, accel_frd: np.ndarray, mag_frd: np.ndarray | None, dt_s: float,
+                 accel_ned_kinematic: np.ndarray | None) -> None:
+        """Recompute the correction rate from gravity and heading; learn the gyro bias."""
         r = quat.to_matrix(self.q)
         err = np.zeros(3)
         # Gravity: measured specific force f = R^T (a - g); expected direction from the estimate.
@@ -64,7 +78,7 @@ class MahonyFilter:
         n_meas = np.linalg.norm(accel_frd)
         n_exp = np.linalg.norm(expected)
         if n_meas > 1e-3 and n_exp > 1e-3 and abs(n_meas - n_exp) < 0.25 * GRAVITY_M_S2:
-            err += np.cross(accel_frd / n_meas, expected / n_exp)
+            err += quat.cross(accel_frd / n_meas, expected / n_exp)
         gyro_corr_err = err * self.kp
         if mag_frd is not None and np.linalg.norm(mag_frd) > 1e-6 and self.k_mag > 0:
             roll, pitch, yaw = quat.to_euler(self.q)
@@ -72,8 +86,5 @@ class MahonyFilter:
             gyro_corr_err = gyro_corr_err + r.T @ np.array([0.0, 0.0, yaw_err]) * self.k_mag
         if self.ki > 0:
             self.gyro_bias -= self.ki * err * dt_s
-            np.clip(self.gyro_bias, -0.1, 0.1, out=self.gyro_bias)
-        rate = gyro_frd - self.gyro_bias
-        self.q = quat.integrate(self.q, rate + gyro_corr_err, dt_s)
-        self.time_aligned_s += dt_s
-        return rate
+            self.gyro_bias = np.minimum(np.maximum(self.gyro_bias, -0.1), 0.1)
+        self._corr = gyro_corr_err
