@@ -12,6 +12,8 @@ import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
 
+LINK_PERIOD_US = 20_000  # ground-station link serviced at 50 Hz of simulated time
+
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="autopilot", description="Multirotor flight controller (PX4-compatible MAVLink)")
@@ -52,12 +54,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
           f"{args.gcs_port + args.instance} and {args.api_port + args.instance}", flush=True)
     now_us = 0
+    last_link_us = -LINK_PERIOD_US
     try:
         sim.connect(on_wait=lambda: link.update(now_us))
         print("[autopilot] connected to the simulator", flush=True)
         gps = None
         while True:
-            msgs = sim.receive(timeout_s=0.5)
+            msgs = sim.receive(timeout_s=0.05)
             if msgs is None:
                 print("[autopilot] simulator closed the link; reconnecting", flush=True)
                 sim.connect(on_wait=lambda: link.update(now_us))
@@ -73,7 +76,9 @@ def main(argv: list[str] | None = None) -> int:
                     gps = None
                     now_us = imu.timestamp_us
                     sim.send_actuators(now_us, commands, fc.commander.armed)
-                    link.update(now_us)
+                    if now_us - last_link_us >= LINK_PERIOD_US:  # ground-station link at 50 Hz
+                        link.update(now_us)
+                        last_link_us = now_us
                 elif t == "HIL_GPS":
                     gps = gps_from_msg(m)
                 elif t == "BATTERY_STATUS":

@@ -97,8 +97,8 @@ class Commander:
         self.now_us, self.est, self.gps_ok = now_us, est, gps_ok
         if gps is not None:
             self.gps = gps
-        if not self.armed and est.position_valid:
-            self._set_home(est)
+        if self.home is None and est.position_valid:
+            self._set_home(est)  # first valid position; set again at arming, as PX4 does
         before = self.land.state
         state = self.land.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), self.thrust_frac_of_hover)
         if state is not before and self.armed:
@@ -153,7 +153,8 @@ class Commander:
         if self.est is None:
             self.say(S.MAV_SEVERITY_CRITICAL, "Arming denied: no sensor data")
             return S.MAV_RESULT_DENIED
-        self._set_home(self.est) if self.est.position_valid else None
+        if self.est.position_valid:
+            self._set_home(self.est)
         self.armed = True
         self.armed_at_us = self.now_us
         self.land.on_arm(float(self.est.pos_ned_m[2]))

@@ -7,13 +7,19 @@ time constant differs when speeding up and slowing down (RotorS' motor model).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from params.vehicle import VehicleSpec
 
 
 class RotorModel:
-    """Rotor speeds (rad/s) and thrusts (N) of all rotors of one vehicle."""
+    """Rotor speeds (rad/s) and thrusts (N) of all rotors of one vehicle.
+
+    The lag runs on Python floats (a handful of rotors; numpy's per-call cost would
+    dominate), exactly integrated: w += (1 - exp(-dt/tau)) (w_cmd - w).
+    """
 
     def __init__(self, spec: VehicleSpec) -> None:
         self.n = len(spec.rotors)
@@ -22,28 +28,33 @@ class RotorModel:
         self.max_speed_rad_s = spec.max_speed_rad_s
         self.tau_up_s = spec.time_constant_up_s
         self.tau_down_s = spec.time_constant_down_s
-        self.speed_rad_s = np.zeros(self.n)
-        self.efficiency = np.ones(self.n)  # thrust scale per rotor (1 = healthy)
-        self._alpha_dt = None
+        self.speeds: list[float] = [0.0] * self.n
+        self.efficiency: list[float] = [1.0] * self.n  # thrust scale per rotor (1 = healthy)
+        self._alpha_dt: float | None = None
 
-    def commanded_speed(self, commands: np.ndarray) -> np.ndarray:
+    @property
+    def speed_rad_s(self) -> np.ndarray:
+        return np.array(self.speeds)
+
+    def commanded_speed(self, commands) -> list[float]:
         """Motor command 0..1 (clipped) -> commanded rotor speed, rad/s."""
-        return np.minimum(np.maximum(commands, 0.0), 1.0) * self.max_speed_rad_s
+        w = self.max_speed_rad_s
+        return [min(max(float(c), 0.0), 1.0) * w for c in commands]
 
-    def step(self, commands: np.ndarray, dt_s: float) -> np.ndarray:
+    def step(self, commands, dt_s: float) -> np.ndarray:
         """Advance the motor lag by dt_s toward the commands; return thrusts (N)."""
         if self._alpha_dt != dt_s:
-            self._alpha_up = 1.0 - np.exp(-dt_s / self.tau_up_s)
-            self._alpha_down = 1.0 - np.exp(-dt_s / self.tau_down_s)
+            self._alpha_up = 1.0 - math.exp(-dt_s / self.tau_up_s)
+            self._alpha_down = 1.0 - math.exp(-dt_s / self.tau_down_s)
             self._alpha_dt = dt_s
-        target = self.commanded_speed(commands)
-        alpha = np.where(target > self.speed_rad_s, self._alpha_up, self._alpha_down)
-        self.speed_rad_s += alpha * (target - self.speed_rad_s)
+        up, down = self._alpha_up, self._alpha_down
+        self.speeds = [w + (up if c > w else down) * (c - w) for w, c in zip(self.speeds, self.commanded_speed(commands))]
         return self.thrust_n()
 
     def thrust_n(self) -> np.ndarray:
         """T_i = k_T w_i^2 (seed 001 eq 4.8), times each rotor's efficiency."""
-        return self.efficiency * self.k_thrust * self.speed_rad_s**2
+        k = self.k_thrust
+        return np.array([e * k * w * w for e, w in zip(self.efficiency, self.speeds)])
 
     def drag_torque_nm(self) -> np.ndarray:
         """|M_i| = k_M T_i (seed 001 eq 4.9); the sign comes from the spin direction."""
@@ -51,4 +62,5 @@ class RotorModel:
 
     def shaft_power_w(self) -> float:
         """Mechanical power the rotors absorb: sum of M_i w_i (W)."""
-        return float(np.dot(self.drag_torque_nm(), self.speed_rad_s))
+        kk = self.k_moment * self.k_thrust
+        return sum(e * kk * w * w * w for e, w in zip(self.efficiency, self.speeds))

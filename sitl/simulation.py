@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from params.vehicle import VehicleSpec
+from params.vehicle import GRAVITY_M_S2, VehicleSpec
 from sitl.battery import Battery
 from sitl.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
 from sitl.model import PHYSICS_DT_S, build_model
@@ -50,8 +50,6 @@ class Simulation:
         self.substeps = round(LOCKSTEP_DT_S / PHYSICS_DT_S)
         self._accel_adr = self.model.sensor("accel").adr[0]
         self._gyro_adr = self.model.sensor("gyro").adr[0]
-        self._prev_vel_ned = np.zeros(3)
-        self._accel_ned = np.zeros(3)
 
     def _settle(self, seconds: float = 1.0) -> None:
         """Let the vehicle come to rest on its legs before simulated time starts."""
@@ -69,21 +67,23 @@ class Simulation:
             mujoco.mj_step(self.model, self.data)
         self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S)
         self.time_us += int(LOCKSTEP_DT_S * 1e6)
-        vel = enu_to_ned(self.data.qvel[0:3])
-        self._accel_ned = (vel - self._prev_vel_ned) / LOCKSTEP_DT_S
-        self._prev_vel_ned = vel
 
     def truth(self) -> Truth:
         d = self.data
         sd = d.sensordata
+        q = quat_enu_flu_to_ned_frd(d.qpos[3:7])
+        f_frd = flu_to_frd(sd[self._accel_adr:self._accel_adr + 3])
+        r = np.empty(9)
+        mujoco.mju_quat2Mat(r, q)
+        accel_ned = r.reshape(3, 3) @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
         return Truth(
             time_us=self.time_us,
             pos_ned_m=enu_to_ned(np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1], d.qpos[2]])),
             vel_ned_m_s=enu_to_ned(d.qvel[0:3]),
-            accel_ned_m_s2=self._accel_ned.copy(),
-            q_ned_frd=quat_enu_flu_to_ned_frd(d.qpos[3:7]),
+            accel_ned_m_s2=accel_ned,
+            q_ned_frd=q,
             rate_frd_rad_s=flu_to_frd(d.qvel[3:6]),  # free-joint angular velocity is in the body frame
-            specific_force_frd_m_s2=flu_to_frd(sd[self._accel_adr:self._accel_adr + 3]),
+            specific_force_frd_m_s2=f_frd,
         )
 
     def height_above_ground_m(self) -> float:

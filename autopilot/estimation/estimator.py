@@ -32,6 +32,11 @@ GPS_MIN_SATS = 6
 GPS_TIMEOUT_US = 500_000
 
 
+def _finite(v: np.ndarray) -> bool:
+    """All three components finite (cheaper than np.all(np.isfinite(v)) on a 3-vector)."""
+    return math.isfinite(float(v[0]) + float(v[1]) + float(v[2]))
+
+
 def pressure_to_altitude_m(pressure_hpa: float) -> float:
     """ISA barometric altitude (m) from static pressure (hPa)."""
     return (1.0 - (pressure_hpa / 1013.25) ** (1.0 / 5.25588)) / 2.25577e-5
@@ -57,9 +62,9 @@ class Estimator:
     def update_imu(self, s: ImuSample) -> None:
         dt = 0.004 if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
         self.last_imu_us = s.timestamp_us
-        if not 0.0 < dt < 0.1 or not (np.all(np.isfinite(s.accel_frd_m_s2)) and np.all(np.isfinite(s.gyro_frd_rad_s))):
-            return
-        mag = s.mag_frd_gauss if np.all(np.isfinite(s.mag_frd_gauss)) else None
+        if not 0.0 < dt < 0.1 or not _finite(s.accel_frd_m_s2) or not _finite(s.gyro_frd_rad_s):
+            return  # NaN never reaches the filters
+        mag = s.mag_frd_gauss if _finite(s.mag_frd_gauss) else None
         self.rate_frd = self.attitude.update(s.gyro_frd_rad_s, s.accel_frd_m_s2, mag, dt, self.accel_ned)
         r = quat.to_matrix(self.attitude.q)
         self._acc_sum += (r @ s.accel_frd_m_s2) * dt
