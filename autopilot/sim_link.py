@@ -13,6 +13,7 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.socket_wait import SpinReceiver
 from autopilot.topics import BatteryState, GpsSample, ImuSample
 
 UINT16_MAX = 65535
@@ -72,6 +73,7 @@ class SimLink:
                 s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
                 s.settimeout(None)
                 self.sock = s
+                self.receiver = SpinReceiver(s)
                 return
             except OSError:
                 if not warned:
@@ -86,9 +88,8 @@ class SimLink:
         if self.pending:
             out, self.pending = self.pending, []
             return out
-        self.sock.settimeout(timeout_s)
         try:
-            data = self.sock.recv(65536)
+            data = self.receiver.recv(65536, timeout_s)
         except socket.timeout:
             return []
         except OSError:

@@ -20,6 +20,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.geodesy import ned_to_geodetic
+from autopilot.socket_wait import SpinReceiver
 from sitl.sensors import course_over_ground_deg
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
 
@@ -67,6 +68,7 @@ class LockstepServer:
         conn, addr = self.listener.accept()
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.conn = conn
+        self.receiver = SpinReceiver(conn)
         self.mav = mavlink.MAVLink(_Sink(), SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")
@@ -130,7 +132,7 @@ class LockstepServer:
     def _wait_actuators(self) -> bool:
         """Block until HIL_ACTUATOR_CONTROLS arrives; False if the link closed."""
         while True:
-            data = self.conn.recv(4096)
+            data = self.receiver.recv(4096)
             if not data:
                 return False
             got = False

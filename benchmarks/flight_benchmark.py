@@ -1,0 +1,118 @@
+"""Benchmark: hover accuracy and real-time factor of the two-process stack.
+
+Starts the simulator and the flight controller (``--speed max``, lockstep,
+telemetry on), takes off to 5 m, holds 30 simulated seconds and compares the
+ground truth (the simulator's LOCAL_POSITION_NED on UDP 14560+instance, float
+metres from the start point) with the commanded point (5 m above where the
+vehicle was armed).  Then it flies the demo square and lands.  It prints:
+
+- hover error, RMS, horizontal and vertical (truth against the commanded point);
+- the estimator's position error against truth during the hover;
+- the real-time factor (simulated seconds per wall second) of the hover and of
+  the whole flight;
+- the landing error from the take-off point.
+
+Usage: ``python benchmarks/flight_benchmark.py [--instance N] [--hover S] [--vehicle NAME]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from pymavlink import mavutil
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from gcs.client import VehicleClient  # noqa: E402
+from gcs.stack import Stack  # noqa: E402
+
+ALT_M = 5.0
+SIDE_M = 10.0
+
+
+class Truth:
+    """The simulator's ground truth, read from its UDP port."""
+
+    def __init__(self, port: int) -> None:
+        self.conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=254)
+        self.pos_ned = None
+        self.time_s = 0.0
+
+    def pump(self) -> None:
+        while True:
+            m = self.conn.recv_match(type="LOCAL_POSITION_NED", blocking=False)
+            if m is None:
+                return
+            self.pos_ned = np.array([m.x, m.y, m.z])
+            self.time_s = m.time_boot_ms / 1000.0
+
+
+def rms(a: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(a * a))) if len(a) else float("nan")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--instance", type=int, default=20)
+    ap.add_argument("--hover", type=float, default=30.0, help="hover duration, simulated seconds")
+    ap.add_argument("--vehicle", default="quad_x")
+    args = ap.parse_args(argv)
+
+    with Stack(instance=args.instance, speed="max", vehicle=args.vehicle) as stack:
+        truth = Truth(14560 + args.instance)
+        client = VehicleClient(stack.api_url, timeout_s=60, idle=lambda: (truth.pump(), stack.check_alive()))
+        client.wait_until(client.prearm_ok, 120, "ready to arm")
+        truth.pump()
+        start_truth = truth.pos_ned.copy()
+        wall_flight0, sim_flight0 = time.monotonic(), client.sim_time_s()
+        client.arm().check()
+        client.takeoff(client.home().alt_amsl_m + ALT_M).check()
+        client.wait_until(lambda: client.takeoff_done(ALT_M), 120, "take-off to 5 m")
+        client.wait_sim_time(5.0)  # settle
+        target = start_truth + np.array([0.0, 0.0, -ALT_M])
+        samples, est_err = [], []
+        wall0, sim0 = time.monotonic(), truth.time_s
+        last = None
+        while truth.time_s - sim0 < args.hover:
+            client.pump(0.05)
+            truth.pump()
+            if truth.time_s != last and truth.pos_ned is not None:
+                last = truth.time_s
+                samples.append(truth.pos_ned - target)
+                lp = client.local_position_ned()
+                home = client.latest("HOME_POSITION")
+                if lp is not None and home is not None:
+                    est_rel = np.array(lp) - np.array([home.x, home.y, home.z])
+                    est_err.append(est_rel - (truth.pos_ned - start_truth))
+        hover_rtf = (truth.time_s - sim0) / (time.monotonic() - wall0)
+        err = np.array(samples)
+        eerr = np.array(est_err) if est_err else np.zeros((0, 3))
+
+        for n, e in ((SIDE_M, 0.0), (SIDE_M, SIDE_M), (0.0, SIDE_M), (0.0, 0.0)):
+            client.goto_ned(n, e, -ALT_M).check()
+            client.wait_until(lambda: client.arrived(n, e, 0.3, 0.3), 120, f"corner {n:.0f},{e:.0f}")
+        client.land().check()
+        client.wait_until(client.landed_and_disarmed, 180, "landed and disarmed")
+        truth.pump()
+        flight_rtf = (client.sim_time_s() - sim_flight0) / (time.monotonic() - wall_flight0)
+        land_err = float(np.hypot(*(truth.pos_ned - start_truth)[:2]))
+        client.close()
+
+    print(f"vehicle {args.vehicle}, hover {args.hover:.0f} s at {ALT_M:.0f} m, {len(err)} truth samples (50 Hz)")
+    print(f"hover error vs truth, RMS: horizontal {rms(np.hypot(err[:, 0], err[:, 1])):.3f} m, "
+          f"vertical {rms(err[:, 2]):.3f} m (max horizontal {np.hypot(err[:, 0], err[:, 1]).max():.3f} m)")
+    if len(eerr):
+        print(f"estimator position error vs truth, RMS: horizontal {rms(np.hypot(eerr[:, 0], eerr[:, 1])):.3f} m, "
+              f"vertical {rms(eerr[:, 2]):.3f} m")
+    print(f"real-time factor: hover {hover_rtf:.1f}x, whole flight (take-off, hover, square, landing) {flight_rtf:.1f}x")
+    print(f"landing error from the take-off point: {land_err:.2f} m")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
