@@ -38,6 +38,11 @@ SENSORS_PRESENT = (
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
 
 
+def _int_param(x: float, default: int = 0) -> int:
+    """A command parameter as an integer; NaN or infinite ("unused", as MAVSDK sends) gives default."""
+    return int(x) if math.isfinite(x) else default
+
+
 class Commander:
     def __init__(self, params: ParameterStore, mav_type_name: str) -> None:
         self.params = params
@@ -171,7 +176,7 @@ class Commander:
         self.say(S.MAV_SEVERITY_INFO, f"Disarmed ({why})")
 
     def _cmd_arm(self, p: tuple[float, ...]) -> int:
-        force = int(p[1]) == FORCE_MAGIC
+        force = _int_param(p[1]) == FORCE_MAGIC
         if p[0] >= 0.5:
             return self._arm(force)
         if not self.armed:
@@ -268,7 +273,7 @@ class Commander:
                 return S.MAV_RESULT_DENIED
             return self._enter(Mode.AUTO_RTL)
         if command == S.MAV_CMD_DO_SET_MODE:
-            return self.handle_set_mode(int(p[0]), int(p[1]) << 16 | int(p[2]) << 24)
+            return self.handle_set_mode(_int_param(p[0]), _int_param(p[1]) << 16 | _int_param(p[2]) << 24)
         if command == S.MAV_CMD_DO_REPOSITION:
             return self._reposition(p)
         return S.MAV_RESULT_UNSUPPORTED
