@@ -92,7 +92,6 @@ class LandTask:
 class RtlPhase(Enum):
     CLIMB = "climb"
     RETURN = "return"
-    DESCEND = "descend"
     LOITER = "loiter"
     LAND = "land"
 
