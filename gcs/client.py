@@ -118,33 +118,6 @@ class CommandResult:
     def result_name(self) -> str:
         return result_name(self.result)
 
-    # ----------------------------------------------------------------- flight conditions
-
-    def takeoff_done(self, target_m: float | None, tol_m: float = 0.5, still_m_s: float = 0.3) -> bool:
-        """True once armed, in the air and no longer climbing, within ``tol_m`` of ``target_m`` above home.
-
-        With no known target (None): above 1 m and vertical speed below ``still_m_s`` m/s.
-        """
-        alt, vel = self.relative_alt_m(), self.velocity_ned_m_s()
-        if alt is None or vel is None or not self.armed() or self.on_ground() is True:
-            return False
-        if target_m is not None and abs(alt - target_m) > tol_m:
-            return False
-        if target_m is None and alt < 1.0:
-            return False
-        return abs(vel[2]) < still_m_s
-
-    def landed_and_disarmed(self) -> bool:
-        """True when disarmed and (if the vehicle reports a landed state) on the ground."""
-        return not self.armed() and self.on_ground() is not False
-
-    def arrived(self, north_m: float, east_m: float, radius_m: float = 0.5, speed_m_s: float = 0.5) -> bool:
-        """Within ``radius_m`` horizontally of (north, east) m from home and slower than ``speed_m_s``."""
-        pos, gs = self.position_ned(), self.ground_speed_m_s()
-        if pos is None or gs is None:
-            return False
-        return math.hypot(pos[0] - north_m, pos[1] - east_m) < radius_m and gs < speed_m_s
-
     def describe(self) -> str:
         text = f"{self.command_name}: {self.result_name}"
         if self.reason:
@@ -734,7 +707,8 @@ class VehicleClient:
         want = param_codec.decode_param_bytes(raw, param_type)
         if got != want and not (isinstance(got, float) and math.isnan(got) and math.isnan(want)):
             reason = self._refusal_reason(texts_before)
-            raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {got!r}" + (f" ({reason})" if reason else ""))
+            because = f" ({reason})" if reason else ""
+            raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {got!r}{because}")
         return got
 
     @staticmethod

@@ -1,0 +1,517 @@
+"""End-to-end: the real simulator and flight controller, flown over real sockets.
+
+Every test here starts the real ``sitl`` and ``autopilot`` processes (through
+:class:`gcs.stack.Stack`) and talks MAVLink to the flight controller the way a
+ground station does: :class:`gcs.client.VehicleClient` (pymavlink underneath) on
+the API port, a second client on the ground-station port, the ``gcs`` CLI as a
+subprocess.  Ground truth comes from the simulator's own UDP channel
+(HIL_STATE_QUATERNION + LOCAL_POSITION_NED on 14560 + instance) and is compared
+with what the vehicle reports; it never reaches the flight controller.
+
+One max-speed stack (module scope) carries the scenarios in file order; each
+flight scenario starts and ends landed and disarmed.  Durations the vehicle must
+hold are simulated seconds (its clock); wall-clock values are only "give up
+waiting" timeouts.
+
+Instances: instance I uses TCP 4560+I and UDP 14540+I, 14550+I, 14560+I (truth), and
+the flight controller binds UDP 14580+I and 18570+I.  Instances 0-9 (people) and
+40-49 (test_gcs_link) cover UDP 14540-14609, 14620-14629 and 18570-18619, so
+instances 11-13 would collide with people's ports (14551 is instance 1's
+QGroundControl port); 91-93 collide with nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import socket
+import subprocess
+import sys
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink2
+
+from gcs import demo, geo
+from gcs.__main__ import main as gcs_main
+from gcs.client import GcsTimeout, ParamRefused, VehicleClient, mavlink
+from gcs.stack import Stack, StackError
+
+ROOT = Path(__file__).resolve().parent.parent
+INSTANCE_REALTIME = 91  # scenario (a): real-time stack, started and stopped by its test
+INSTANCE = 92  # the shared max-speed stack
+INSTANCE_DEMO = 93  # flight-demo starts its own stack
+
+WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
+ON_GROUND, IN_AIR, LANDING = (mavlink.MAV_LANDED_STATE_ON_GROUND, mavlink.MAV_LANDED_STATE_IN_AIR,
+                              mavlink.MAV_LANDED_STATE_LANDING)
+UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
+
+
+# --------------------------------------------------------------------------- ground truth
+
+
+@dataclass(frozen=True)
+class TruthSample:
+    time_ms: int
+    pos_ned_m: tuple[float, float, float]  # from the start point; z is the height of the centre of mass, negated
+    vel_ned_m_s: tuple[float, float, float]
+
+
+class TruthListener:
+    """Receives the simulator's ground truth on UDP 14560 + instance in a thread."""
+
+    def __init__(self, instance: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 14560 + instance))
+        self.sock.settimeout(0.2)
+        self.parser = mavlink2.MAVLink(None)
+        self.parser.robust_parsing = True
+        self.positions: dict[int, TruthSample] = {}
+        self.latest_attitude = None  # HIL_STATE_QUATERNION
+        self.lock = threading.Lock()
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="truth", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data = self.sock.recv(65536)
+            except OSError:
+                continue
+            for msg in self.parser.parse_buffer(data) or []:
+                kind = msg.get_type()
+                if msg.get_srcComponent() != 51:  # the simulator's component id
+                    continue
+                with self.lock:
+                    if kind == "LOCAL_POSITION_NED":
+                        self.positions[msg.time_boot_ms] = TruthSample(
+                            msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz))
+                    elif kind == "HIL_STATE_QUATERNION":
+                        self.latest_attitude = msg
+
+    def at(self, time_ms: int) -> TruthSample | None:
+        """The truth sample with exactly this simulated time stamp (truth runs at 50 Hz), if received."""
+        with self.lock:
+            return self.positions.get(time_ms)
+
+    def latest(self) -> TruthSample | None:
+        with self.lock:
+            if not self.positions:
+                return None
+            return self.positions[max(self.positions)]
+
+    def close(self) -> None:
+        self._stop.set()
+        self.thread.join(timeout=2)
+        self.sock.close()
+
+
+# --------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="module")
+def truth():
+    listener = TruthListener(INSTANCE)
+    yield listener
+    listener.close()
+
+
+@pytest.fixture(scope="module")
+def stack(truth):
+    with Stack(instance=INSTANCE) as s:  # speed "max" is the default
+        yield s
+
+
+@pytest.fixture(scope="module")
+def vehicle(stack):
+    """A client on the API port (14540 + instance), once the vehicle is ready to arm."""
+    with VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as c:
+        c.wait_until(c.prearm_ok, WAIT_S, "ready to arm")
+        c.wait_home(WAIT_S)
+        yield c
+
+
+@pytest.fixture
+def client(vehicle):
+    """The shared client, once the vehicle is landed, disarmed and ready; brought down after a failed flight."""
+    vehicle.wait_until(lambda: vehicle.landed_and_disarmed() and vehicle.prearm_ok(), WAIT_S,
+                       "the vehicle to be on the ground, disarmed and ready")
+    yield vehicle
+    if vehicle.armed():  # a failed flight: bring it down so the next scenario starts clean
+        try:
+            vehicle.land(timeout_s=10)
+            vehicle.wait_until(vehicle.landed_and_disarmed, WAIT_S, "landing after a failed test")
+        except Exception:
+            vehicle.disarm(force=True, timeout_s=10)
+
+
+class Recorder:
+    """Client listener: keeps selected messages with the vehicle time they arrived at."""
+
+    def __init__(self, client: VehicleClient, types: tuple[str, ...]) -> None:
+        self.client = client
+        self.types = types
+        self.msgs: list[tuple[float | None, object]] = []
+
+    def __call__(self, msg) -> None:
+        if msg.get_type() in self.types:
+            self.msgs.append((self.client.sim_time_s(), msg))
+
+    def __enter__(self) -> "Recorder":
+        self.client.add_listener(self)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.client.remove_listener(self)
+
+    def of(self, mtype: str) -> list:
+        return [m for _, m in self.msgs if m.get_type() == mtype]
+
+
+def texts_since(client: VehicleClient, index: int) -> list[str]:
+    return [st.text for st in client.statustexts[index:]]
+
+
+def text_time(client: VehicleClient, index: int, fragment: str) -> float:
+    """Vehicle time at which the first STATUSTEXT containing ``fragment`` (after ``index``) arrived."""
+    return next(st.sim_time_s for st in client.statustexts[index:] if fragment in st.text)
+
+
+def wait_text(client: VehicleClient, index: int, fragment: str) -> None:
+    client.wait_until(lambda: any(fragment in t for t in texts_since(client, index)), WAIT_S,
+                      f"a STATUSTEXT containing {fragment!r}")
+
+
+def arm(client: VehicleClient) -> None:
+    client.arm(timeout_s=10).check()
+    client.wait_armed(True, WAIT_S)
+
+
+def wait_hovering(client: VehicleClient, alt_m: float) -> None:
+    """Until the take-off is over: mode LOITER, near the altitude, not climbing."""
+    client.wait_until(lambda: client.mode_name() == "LOITER" and client.takeoff_done(alt_m, 0.5), WAIT_S,
+                      f"hover at {alt_m:g} m")
+
+
+def horizontal(a, b) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])
+
+
+# --------------------------------------------------------------------------- (a) arming waits for the estimate
+
+
+def test_arming_denied_until_estimate_ready_then_accepted():
+    """Real time, armed at the first heartbeat: denied with a reason; once ready, accepted.
+
+    The estimator needs a few simulated seconds; at speed 1 those are wall seconds, far more than
+    a command's round trip, so both early attempts (the client's and the CLI's) come first.
+    """
+    stack = Stack(instance=INSTANCE_REALTIME, speed=1)
+    with stack:
+        # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
+        cli = subprocess.Popen([sys.executable, "-m", "gcs", "--instance", str(INSTANCE_REALTIME),
+                                "--timeout", "30", "arm"], cwd=ROOT, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+        try:
+            with VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as c:
+                early = c.arm(timeout_s=10)
+                assert early.result == mavlink.MAV_RESULT_DENIED, early.describe()
+                assert early.reason is not None and early.reason.startswith("Arming denied: ")
+                assert "not ready" in early.reason
+                assert any(st.severity <= mavlink.MAV_SEVERITY_CRITICAL and st.text == early.reason
+                           for st in c.statustexts)
+                assert not c.armed()
+
+                out, err = cli.communicate(timeout=WAIT_S)
+                assert cli.returncode == 1, out + err
+                assert "arm refused: DENIED" in err and "Arming denied: " in err
+
+                c.wait_until(c.prearm_ok, WAIT_S, "the pre-arm checks to pass")
+                assert c.sim_time_s() > 1.0  # the estimator needed simulated time
+                arm(c)
+                assert "Armed" in [st.text for st in c.statustexts]
+                c.disarm(timeout_s=10).check()
+                c.wait_armed(False, WAIT_S)
+        finally:
+            if cli.poll() is None:
+                cli.kill()
+                cli.communicate()
+        procs = list(stack.procs.values())
+        assert all(p.poll() is None for p in procs)
+        sitl_log = stack.log_path("sitl").read_text()
+        autopilot_log = stack.log_path("autopilot").read_text()
+    assert all(p.poll() is not None for p in procs)  # both children end with the stack
+    assert "speed 1x" in sitl_log and "flight controller connected" in sitl_log
+    assert "[autopilot] connected to the simulator" in autopilot_log
+
+
+# --------------------------------------------------------------------------- the flight demo
+# (before the shared stack starts: its two processes would compete with the demo's for the CPUs)
+
+
+def test_flight_demo_flies_its_square(capsys):
+    sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
+    try:
+        rc = demo.main(["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S),
+                        "--step-timeout", str(WAIT_S)])
+    finally:
+        signal.signal(signal.SIGTERM, sigterm)
+    out = capsys.readouterr()
+    assert rc == 0, out.err + out.out[-3000:]
+    assert "flight demo: OK" in out.out
+    for expected in ("armed", "taking off to 5 m", "held 10 s", "at corner 4 (start)", "disarmed",
+                     "flight time", "max altitude", "landing error", "real-time factor"):
+        assert expected in out.out
+    landing_error = float(out.out.split("landing error")[1].split()[0])
+    assert landing_error < 1.0
+
+
+# --------------------------------------------------------------------------- on the shared max-speed stack
+
+
+def test_second_stack_on_a_busy_instance_is_refused(stack):
+    with pytest.raises(StackError, match="already in use"):
+        Stack(instance=INSTANCE).start()
+    assert stack.exited() == {}
+
+
+def test_identity_modes_and_unknown_command(client):
+    hb = client.latest("HEARTBEAT")
+    assert hb.autopilot == mavlink.MAV_AUTOPILOT_PX4 and hb.type == mavlink.MAV_TYPE_QUADROTOR
+    # (c) a command nobody implements is answered, not ignored
+    res = client.command_long(UNKNOWN_COMMAND, 1, 2, 3, timeout_s=10)
+    assert res.result == mavlink.MAV_RESULT_UNSUPPORTED
+    res = client.command_long(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE, timeout_s=10)
+    assert res.result == mavlink.MAV_RESULT_UNSUPPORTED
+    # mode changes on the ground, MAVSDK's way (DO_SET_MODE) and QGroundControl's way (SET_MODE)
+    client.set_mode("AUTO.LOITER", timeout_s=10).check()
+    client.wait_mode("LOITER", WAIT_S)
+    posctl = 3 << 16
+    client.conn.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, posctl)
+    ack = client.recv("COMMAND_ACK", WAIT_S, lambda m: m.command == mavlink.MAVLINK_MSG_ID_SET_MODE)
+    assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
+    client.wait_mode("POSCTL", WAIT_S)
+    assert client.latest("HEARTBEAT").custom_mode == posctl
+
+
+def test_parameters_int32_and_real32(client):
+    assert client.param_get("SYS_AUTOSTART", timeout_s=10) == 4001
+    assert isinstance(client.param_get("SYS_AUTOSTART"), int)
+    assert client.param_get("MIS_TAKEOFF_ALT", timeout_s=10) == pytest.approx(2.5)
+    try:
+        assert client.param_set("MIS_TAKEOFF_ALT", 3.25, timeout_s=10) == pytest.approx(3.25)
+        assert client.param_get("MIS_TAKEOFF_ALT", timeout_s=10) == pytest.approx(3.25)
+        with pytest.raises(ParamRefused, match=r"MIS_TAKEOFF_ALT.*kept 3\.25.*outside range"):
+            client.param_set("MIS_TAKEOFF_ALT", 500.0, timeout_s=10)
+    finally:
+        client.param_set("MIS_TAKEOFF_ALT", 2.5, timeout_s=10)
+    with pytest.raises(GcsTimeout, match="NO_SUCH_PARAM"):
+        client.param_get("NO_SUCH_PARAM", timeout_s=1.0)
+    assert any("unknown parameter NO_SUCH_PARAM" in t for t in texts_since(client, 0))
+
+
+def test_two_ground_stations_at_once(stack, client):
+    """(d) QGroundControl's port and MAVSDK's port at the same time, each heard and obeyed."""
+    with VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as gcs:
+        for c in (gcs, client):
+            c.wait_until(lambda c=c: c.latest("HEARTBEAT") is not None and c.latest("GLOBAL_POSITION_INT"),
+                         WAIT_S, "telemetry")
+            assert c.latest("HEARTBEAT").autopilot == mavlink.MAV_AUTOPILOT_PX4
+        try:
+            # one sets, the other reads back
+            assert client.param_set("MPC_XY_CRUISE", 4.5, timeout_s=10) == pytest.approx(4.5)
+            assert gcs.param_get("MPC_XY_CRUISE", timeout_s=10) == pytest.approx(4.5)
+            # each gets the acknowledgement of its own command, and both are obeyed
+            assert gcs.command_long(UNKNOWN_COMMAND, timeout_s=10).result == mavlink.MAV_RESULT_UNSUPPORTED
+            assert client.set_mode("AUTO.LOITER", timeout_s=10).accepted
+            for c in (gcs, client):
+                c.wait_mode("LOITER", WAIT_S)
+            assert gcs.set_mode("POSCTL", timeout_s=10).accepted
+            for c in (gcs, client):
+                c.wait_mode("POSCTL", WAIT_S)
+        finally:
+            client.param_set("MPC_XY_CRUISE", 3.0, timeout_s=10)
+
+
+@pytest.mark.xfail(strict=True, raises=ParamRefused,
+                   reason="gcs.client bug: a PARAM_VALUE queued before a PARAM_SET is taken as its echo")
+def test_param_set_after_another_station_changed_it(stack, client):
+    """A station that saw another's change can still set the parameter (QGroundControl + MAVSDK)."""
+    with VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as gcs:
+        try:
+            client.param_set("MPC_XY_CRUISE", 4.5, timeout_s=10)
+            assert gcs.param_get("MPC_XY_CRUISE", timeout_s=10) == pytest.approx(4.5)
+            assert gcs.param_set("MPC_XY_CRUISE", 3.5, timeout_s=10) == pytest.approx(3.5)
+        finally:
+            client.pump(0.2)  # (drop queued echoes so the restore below is not confused by the same bug)
+            client.param_set("MPC_XY_CRUISE", 3.0, timeout_s=10)
+            assert client.param_get("MPC_XY_CRUISE", timeout_s=10) == pytest.approx(3.0)
+
+
+def test_takeoff_hover_land_and_automatic_disarm(client, truth):
+    """(b) + (f): take off to 5 m, hold 10 s, land; the vehicle disarms by itself.  Truth agrees."""
+    home = client.wait_home(WAIT_S)
+    disarm_delay_s = 3.0
+    client.param_set("COM_DISARM_LAND", disarm_delay_s, timeout_s=10)
+    try:
+        ground = truth.latest()
+        assert ground is not None, "no ground truth on UDP 14560 + instance"
+        assert abs(ground.vel_ned_m_s[2]) < 0.05
+        arm(client)
+        n_texts = len(client.statustexts)
+        client.takeoff(home.alt_amsl_m + 5.0, timeout_s=10).check()
+        wait_hovering(client, 5.0)
+        assert client.relative_alt_m() == pytest.approx(5.0, abs=0.5)
+
+        with Recorder(client, ("GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "ATTITUDE")) as rec:
+            client.wait_sim_time(10.0, WAIT_S, "10 s of hover")
+        gpi, lpn = rec.of("GLOBAL_POSITION_INT"), rec.of("LOCAL_POSITION_NED")
+        assert len(gpi) >= 40 and len(lpn) >= 40  # 5 Hz for 10 simulated seconds
+        alts = [m.relative_alt / 1000.0 for m in gpi]
+        assert max(abs(a - 5.0) for a in alts) <= 0.3
+        assert max(abs(-m.z - (-lpn[0].z)) for m in lpn) <= 0.3
+        drift = max(math.hypot(m.x - lpn[0].x, m.y - lpn[0].y) for m in lpn)
+        assert drift < 0.5
+        start = (gpi[0].lat * 1e-7, gpi[0].lon * 1e-7, 0.0)
+        assert max(horizontal(geo.global_to_ned(*start, m.lat * 1e-7, m.lon * 1e-7, 0.0), (0, 0)) for m in gpi) < 0.5
+        assert max(abs(m.roll) + abs(m.pitch) for m in rec.of("ATTITUDE")) < math.radians(5)
+        assert client.mode_name() == "LOITER" and client.landed_state() == IN_AIR
+
+        # (f) ground truth: same simulated instants, height above the ground truth had before take-off
+        pairs = [(m.relative_alt / 1000.0, truth.at(m.time_boot_ms)) for m in gpi]
+        pairs = [(alt, t) for alt, t in pairs if t is not None]
+        assert len(pairs) >= 0.8 * len(gpi)
+        for alt, t in pairs:
+            assert -(t.pos_ned_m[2] - ground.pos_ned_m[2]) == pytest.approx(alt, abs=0.3)
+        true_drift = max(horizontal(t.pos_ned_m, pairs[0][1].pos_ned_m) for _, t in pairs)
+        assert true_drift < 0.5
+        att = truth.latest_attitude
+        assert att is not None and att.time_usec > 0
+        w, x, y, z = att.attitude_quaternion
+        assert 1 - 2 * (x * x + y * y) > math.cos(math.radians(5))  # truly level (body z near vertical)
+
+        with Recorder(client, ("EXTENDED_SYS_STATE", "HEARTBEAT")) as rec:
+            client.land(timeout_s=10).check()
+            client.wait_until(client.landed_and_disarmed, WAIT_S, "landing and the automatic disarm")
+        states = [m.landed_state for m in rec.of("EXTENDED_SYS_STATE")]
+        assert LANDING in states and states[-1] == ON_GROUND
+        # ON_GROUND was reported while still armed: landed first, then disarmed by itself
+        seq = [(m.get_type(), m.landed_state if m.get_type() == "EXTENDED_SYS_STATE"
+                else bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)) for _, m in rec.msgs]
+        first_ground = seq.index(("EXTENDED_SYS_STATE", ON_GROUND))
+        assert ("HEARTBEAT", True) in seq[first_ground:]
+        texts = texts_since(client, n_texts)
+        assert "Landing detected" in texts and "Disarmed (landed)" in texts
+        assert not any("Disarmed (command)" in t for t in texts)
+        delay = text_time(client, n_texts, "Disarmed (landed)") - text_time(client, n_texts, "Landing detected")
+        assert delay == pytest.approx(disarm_delay_s, abs=0.25)  # COM_DISARM_LAND, in simulated seconds
+        landed = truth.latest()
+        assert landed.pos_ned_m[2] == pytest.approx(ground.pos_ned_m[2], abs=0.05)  # really on its legs
+        assert horizontal(landed.pos_ned_m, ground.pos_ned_m) < 1.0
+    finally:
+        client.param_set("COM_DISARM_LAND", 2.0, timeout_s=10)
+
+
+def test_mavproxy_takeoff_goto_and_return_to_launch(client, truth):
+    """(g) NAV_TAKEOFF param7 = 5 (below home) climbs 5 m, with an explanation; (h) RTL from 10 m away."""
+    ground = truth.latest()
+    arm(client)
+    n_texts = len(client.statustexts)
+    client.takeoff(5.0, timeout_s=10).check()  # what MAVProxy's "takeoff 5" sends
+    wait_text(client, n_texts, "below home")
+    assert any("5 m above home" in t for t in texts_since(client, n_texts))
+    wait_hovering(client, 5.0)
+    assert client.relative_alt_m() == pytest.approx(5.0, abs=0.5)
+
+    client.goto_ned(8.0, -6.0, -5.0, timeout_s=10).check()
+    client.wait_until(lambda: client.arrived(8.0, -6.0, 0.5, 0.3), WAIT_S, "arrival 10 m away")
+    away = truth.latest()
+    assert horizontal(away.pos_ned_m, (ground.pos_ned_m[0] + 8.0, ground.pos_ned_m[1] - 6.0)) < 1.0
+
+    return_alt = client.param_get("RTL_RETURN_ALT", timeout_s=10)
+    with Recorder(client, ("GLOBAL_POSITION_INT",)) as rec:
+        client.return_to_launch(timeout_s=10).check()
+        client.wait_mode("RTL", WAIT_S)
+        client.wait_until(client.landed_and_disarmed, WAIT_S, "return, landing and disarm")
+    assert max(m.relative_alt / 1000.0 for m in rec.of("GLOBAL_POSITION_INT")) == pytest.approx(return_alt, abs=0.5)
+    n, e, _ = client.position_ned()
+    assert math.hypot(n, e) < 1.0
+    back = truth.latest()
+    assert horizontal(back.pos_ned_m, ground.pos_ned_m) < 1.0
+    assert back.pos_ned_m[2] == pytest.approx(ground.pos_ned_m[2], abs=0.05)
+    assert "Disarmed (landed)" in texts_since(client, n_texts)
+
+
+def run_gcs(client: VehicleClient, *args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
+    """``python -m gcs --instance I ...`` as a user runs it (the ground-station port, 14550 + I).
+
+    ``client`` keeps listening meanwhile (a UDP socket left unread overflows within a wall second
+    at max speed) and afterwards waits for a fresh HEARTBEAT and EXTENDED_SYS_STATE, so its view
+    of the vehicle is current.
+    """
+    cmd = [sys.executable, "-m", "gcs", "--instance", str(INSTANCE), *args]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        client.wait_until(lambda: proc.poll() is not None, timeout_s, f"{' '.join(cmd[2:])} to finish")
+        out, err = proc.communicate()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    fresh: set[str] = set()
+
+    def note(msg) -> None:
+        fresh.add(msg.get_type())
+
+    client.add_listener(note)
+    try:
+        client.wait_until(lambda: {"HEARTBEAT", "EXTENDED_SYS_STATE"} <= fresh, WAIT_S, "fresh telemetry")
+    finally:
+        client.remove_listener(note)
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+def test_gcs_cli_flight(client, truth):
+    """(e) status, arm, takeoff 3, a refused disarm in the air, land: exit codes and visible effects."""
+    # The simulation runs several times faster than real time: keep the vehicle from disarming
+    # for want of a take-off while the next command's process starts.
+    client.param_set("COM_DISARM_PRFLT", 60.0, timeout_s=10)
+    try:
+        p = run_gcs(client, "status", "--once")
+        assert p.returncode == 0, p.stderr
+        line = p.stdout
+        assert client.mode_name() in line and "disarmed" in line
+        assert "alt   0.00 m" in line or "alt  -0.0" in line or "alt   0.0" in line, line
+        assert "batt 16." in line  # 4 cells, nearly full
+
+        p = run_gcs(client, "arm")
+        assert p.returncode == 0, p.stderr
+        assert "armed" in p.stdout
+        client.wait_armed(True, WAIT_S)
+
+        p = run_gcs(client, "takeoff", "3")
+        assert p.returncode == 0, p.stderr
+        assert "m above home (mode" in p.stdout
+        assert client.relative_alt_m() == pytest.approx(3.0, abs=0.5)
+        assert client.landed_state() in (IN_AIR, mavlink.MAV_LANDED_STATE_TAKEOFF)
+
+        p = run_gcs(client, "disarm")
+        assert p.returncode == 1
+        assert "disarm refused: DENIED" in p.stderr and "Disarm denied: vehicle in air" in p.stderr
+        client.wait_sim_time(1.0, WAIT_S)
+        assert client.armed() and client.relative_alt_m() == pytest.approx(3.0, abs=0.5)
+
+        p = run_gcs(client, "status", "--once")
+        assert p.returncode == 0 and "ARMED" in p.stdout
+
+        p = run_gcs(client, "land")
+        assert p.returncode == 0, p.stderr
+        assert "landed and disarmed" in p.stdout
+        client.wait_armed(False, WAIT_S)
+        assert client.on_ground() is True and client.relative_alt_m() == pytest.approx(0.0, abs=0.3)
+    finally:
+        client.param_set("COM_DISARM_PRFLT", 10.0, timeout_s=10)
