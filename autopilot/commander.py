@@ -56,7 +56,7 @@ class Commander:
         self.gps_ok = False
         self.home: HomePosition | None = None
         self.battery = BatteryState(float("nan"), -1.0, -1.0)
-        self.land = LandDetector()
+        self.land = LandDetector(params)
         self.task = None
         self.events: list[tuple[int, str]] = []
         self.throttle_frac = 0.0

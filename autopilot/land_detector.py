@@ -16,12 +16,13 @@ from enum import Enum
 
 import numpy as np
 
-from autopilot.parameters import declare
+from autopilot.parameters import ParameterStore, declare
 
-declare("LNDMC_TRIG_TIME", 1.0, 0.1, 10.0, "s", "Time the landed conditions must hold before landing is declared")
-declare("LNDMC_Z_VEL_MAX", 0.3, 0.1, 2.0, "m/s", "Maximum vertical speed while landed")
-declare("LNDMC_XY_VEL_MAX", 1.0, 0.1, 5.0, "m/s", "Maximum horizontal speed while landed")
+P_TRIG_TIME = declare("LNDMC_TRIG_TIME", 1.0, 0.1, 10.0, "s", "Time the landed conditions must hold before landing is declared")
+P_Z_VEL_MAX = declare("LNDMC_Z_VEL_MAX", 0.3, 0.1, 2.0, "m/s", "Maximum vertical speed while landed")
+P_XY_VEL_MAX = declare("LNDMC_XY_VEL_MAX", 1.0, 0.1, 5.0, "m/s", "Maximum horizontal speed while landed")
 
+_DEFAULTS = {p.name: p.default for p in (P_TRIG_TIME, P_Z_VEL_MAX, P_XY_VEL_MAX)}
 TAKEOFF_HEIGHT_M = 0.3
 TAKEOFF_THRUST_FRAC_OF_HOVER = 0.7
 LANDED_THRUST_FRAC_OF_HOVER = 0.8
@@ -34,11 +35,9 @@ class Landed(Enum):
 
 
 class LandDetector:
-    def __init__(self, trig_time_s: float = 1.0, z_vel_max: float = 0.3, xy_vel_max: float = 1.0) -> None:
+    def __init__(self, params: ParameterStore | None = None) -> None:
         self.state = Landed.ON_GROUND
-        self.trig_time_s = trig_time_s
-        self.z_vel_max = z_vel_max
-        self.xy_vel_max = xy_vel_max
+        self.params = params
         self.ground_down_m = 0.0
         self._low_since_us: int | None = None
         self.landed_since_us: int | None = 0
@@ -77,13 +76,14 @@ class LandDetector:
                 self.state = Landed.IN_AIR
                 self.landed_since_us = None
             return self.state
-        quiet = (self._f_vz < self.z_vel_max and self._f_vxy < self.xy_vel_max
+        get = self.params.get if self.params is not None else (lambda n: _DEFAULTS[n])
+        quiet = (self._f_vz < get("LNDMC_Z_VEL_MAX") and self._f_vxy < get("LNDMC_XY_VEL_MAX")
                  and self._f_thrust < LANDED_THRUST_FRAC_OF_HOVER)
         if not quiet:
             self._low_since_us = None
         elif self._low_since_us is None:
             self._low_since_us = now_us
-        elif now_us - self._low_since_us >= self.trig_time_s * 1e6:
+        elif now_us - self._low_since_us >= get("LNDMC_TRIG_TIME") * 1e6:
             self.state = Landed.ON_GROUND
             self.landed_since_us = now_us
             self._low_since_us = None

@@ -21,6 +21,8 @@ import math
 import sys
 import time
 
+from pymavlink.dialects.v20 import common as mavlink
+
 from . import modes
 from .client import (
     GPS_FIX_NAMES,
@@ -119,9 +121,14 @@ class _Cli:
     def status(self) -> int:
         c = self.client
         if self.args.once:
-            # give the periodic streams a moment to arrive so the line is complete
+            # ask for the slow messages at once, then give the streams a moment so the line is complete
+            for mid in (mavlink.MAVLINK_MSG_ID_HOME_POSITION, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
+                        mavlink.MAVLINK_MSG_ID_BATTERY_STATUS):
+                c.conn.mav.command_long_send(c.target_system, c.target_component,
+                                             mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mid, 0, 0, 0, 0, 0, 0)
+            wanted = ("GLOBAL_POSITION_INT", "SYS_STATUS", "GPS_RAW_INT", "HOME_POSITION")
             try:
-                c.wait_until(lambda: c.latest("GLOBAL_POSITION_INT") and c.latest("SYS_STATUS"),
+                c.wait_until(lambda: all(c.latest(t) for t in wanted),
                              min(self.args.timeout or 3.0, 3.0), "telemetry")
             except GcsTimeout:
                 pass

@@ -700,6 +700,7 @@ class VehicleClient:
                 self.param_get(name, timeout_s)
             param_type = self._param_types[name]
         raw = param_codec.encode_param_bytes(value, param_type)
+        self.pump(0.0)  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
         texts_before = len(self.statustexts)
         msg = self._param_exchange(name, lambda: self._send_param_set(name_b, raw, param_type), timeout_s, retries,
                                    f"PARAM_VALUE echo for {name}")
@@ -723,6 +724,7 @@ class VehicleClient:
         timeout = self._timeout(timeout_s)
         retries = max(1, retries)
         for _ in range(retries):
+            self.pump(0.0)  # a PARAM_VALUE queued before the request is not its answer
             send()
             msg = self.recv("PARAM_VALUE", timeout / retries, lambda m: self._text(m.param_id) == name)
             if msg is not None:

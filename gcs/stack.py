@@ -94,7 +94,7 @@ class Stack:
     start_timeout_s: wall seconds for the simulator to start listening.
     python: the interpreter for the children.
     sitl_module, autopilot_module: what ``python -m`` runs; may carry leading
-        arguments (``"gcs.fake_vehicle sitl"``), for testing with stand-ins.
+        arguments, e.g. a module that does not exist to test start-up failures.
     """
 
     def __init__(

@@ -337,8 +337,6 @@ def test_two_ground_stations_at_once(stack, client):
             client.param_set("MPC_XY_CRUISE", 3.0, timeout_s=10)
 
 
-@pytest.mark.xfail(strict=True, raises=ParamRefused,
-                   reason="gcs.client bug: a PARAM_VALUE queued before a PARAM_SET is taken as its echo")
 def test_param_set_after_another_station_changed_it(stack, client):
     """A station that saw another's change can still set the parameter (QGroundControl + MAVSDK)."""
     with VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as gcs:

@@ -500,8 +500,10 @@ def test_mahony_tracks_constant_yaw_rate():
 
 
 class LandRun:
-    def __init__(self) -> None:
-        self.ld = LandDetector(trig_time_s=1.0)
+    def __init__(self, trig_time_s: float = 1.0) -> None:
+        self.params = ParameterStore()
+        self.params.set("LNDMC_TRIG_TIME", trig_time_s)
+        self.ld = LandDetector(self.params)
         self.ld.on_arm(0.0)
         self.t_us = 0
         self.log: list[tuple[float, Landed, bool]] = []
@@ -534,6 +536,16 @@ def test_land_detector_declares_landing_after_trigger_time():
     landed = r.first(t0, lambda s, c: s is Landed.ON_GROUND)
     assert landed - contact == pytest.approx(1.0, abs=0.021)  # LNDMC_TRIG_TIME of hysteresis
     assert r.ld.landed_since_us == round(landed * 1e6)
+
+
+def test_land_detector_trigger_time_is_the_parameter():
+    r = LandRun(trig_time_s=2.5)
+    take_off(r)
+    t0 = r.t_us / 1e6
+    assert r.run(6.0) is Landed.ON_GROUND
+    contact = r.first(t0, lambda s, c: c)
+    landed = r.first(t0, lambda s, c: s is Landed.ON_GROUND)
+    assert landed - contact == pytest.approx(2.5, abs=0.021)
 
 
 def test_land_detector_hysteresis_restarts_on_disturbance():
