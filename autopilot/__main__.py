@@ -13,7 +13,8 @@ import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
 
-LINK_PERIOD_US = 20_000  # ground-station link serviced at 50 Hz of simulated time
+LOCKSTEP_US = 4_000
+LINK_EVERY, LINK_PHASE = 5, 2  # ground-station link at 50 Hz of simulated time, off the outer loop's period
 
 
 def quiet_gc() -> None:
@@ -67,7 +68,6 @@ def main(argv: list[str] | None = None) -> int:
           f"{args.gcs_port + args.instance} and {args.api_port + args.instance}", flush=True)
     quiet_gc()
     now_us = 0
-    last_link_us = -LINK_PERIOD_US
     try:
         sim.connect(on_wait=lambda: link.update(now_us))
         print("[autopilot] connected to the simulator", flush=True)
@@ -89,9 +89,11 @@ def main(argv: list[str] | None = None) -> int:
                     gps = None
                     now_us = imu.timestamp_us
                     sim.send_actuators(now_us, commands, fc.commander.armed)
-                    if now_us - last_link_us >= LINK_PERIOD_US:  # ground-station link at 50 Hz
+                    # While the simulator steps its physics: the outer loops, and in another
+                    # period the ground-station link (both 50 Hz), so the two never add up.
+                    fc.after_step()
+                    if (now_us // LOCKSTEP_US) % LINK_EVERY == LINK_PHASE:
                         link.update(now_us)
-                        last_link_us = now_us
                 elif t == "HIL_GPS":
                     gps = gps_from_msg(m)
                 elif t == "BATTERY_STATUS":

@@ -1,8 +1,12 @@
 """One control iteration per IMU sample: estimate -> commander -> cascade -> mixer.
 
 Pure: no sockets, no clock.  :meth:`FlightController.step` takes the sensor
-samples of one lockstep period and returns motor commands 0..1; the process
-loop (``autopilot.__main__``) does the I/O.
+samples of one lockstep period and returns motor commands 0..1 (estimator and
+the 250 Hz attitude and rate loops); :meth:`FlightController.after_step` runs the
+50 Hz outer loops (commander, navigator, position control), whose setpoint the
+inner loops use from the next period on.  The process loop
+(``autopilot.__main__``) calls ``after_step`` after sending the motor commands,
+so that work overlaps the simulator's physics step instead of delaying it.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ class FlightController:
         self.thrust_sp_n = 0.0
         self.setpoint = None
         self.last_outer_us: int | None = None
+        self._gps_pending: GpsSample | None = None
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -62,8 +67,9 @@ class FlightController:
         if gps is not None:
             self.estimator.update_gps(gps)
         cmd = self.commander
-        if self.last_outer_us is None or now - self.last_outer_us >= OUTER_PERIOD_US or gps is not None:
-            self._outer_loop(now, gps)
+        self._gps_pending = self._gps_pending or gps
+        if self.last_outer_us is None:
+            self.after_step()
         n = len(self.spec.rotors)
         if not cmd.armed:
             self._reset_controllers()
@@ -86,6 +92,15 @@ class FlightController:
         self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
         self._publish(out.commands, float(out.thrusts_n.sum()))
         return out.commands
+
+    def after_step(self) -> None:
+        """Run the outer loops if due: every OUTER_PERIOD_US and on each new GPS fix."""
+        now = self.last_us
+        if now is None:
+            return
+        if self.last_outer_us is None or now - self.last_outer_us >= OUTER_PERIOD_US or self._gps_pending is not None:
+            gps, self._gps_pending = self._gps_pending, None
+            self._outer_loop(now, gps)
 
     def _outer_loop(self, now: int, gps: GpsSample | None) -> None:
         """Commander, navigator and position control (50 Hz and on each GPS fix)."""
