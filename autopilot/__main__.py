@@ -8,24 +8,12 @@ let the ground-station link receive, stream telemetry and send events.
 from __future__ import annotations
 
 import argparse
-import gc
 import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
 
 LOCKSTEP_US = 4_000
 LINK_EVERY, LINK_PHASE = 5, 2  # ground-station link at 50 Hz of simulated time, off the outer loop's period
-
-
-def quiet_gc() -> None:
-    """Move start-up objects out of the collector's way and collect less often.
-
-    The loops allocate many short-lived arrays but build no reference cycles, so the
-    cyclic collector's frequent young-generation passes are pure overhead.
-    """
-    gc.collect()
-    gc.freeze()
-    gc.set_threshold(50_000, 20, 20)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -66,7 +54,6 @@ def main(argv: list[str] | None = None) -> int:
     sim = SimLink(args.sim_host, args.sim_port + args.instance, args.sysid)
     print(f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
           f"{args.gcs_port + args.instance} and {args.api_port + args.instance}", flush=True)
-    quiet_gc()
     now_us = 0
     try:
         sim.connect(on_wait=lambda: link.update(now_us))

@@ -165,8 +165,8 @@ class Commander:
         self.land.on_arm(float(self.est.pos_ned_m[2]))
         self.land.landed_since_us = self.now_us
         self.task = None
-        if self.mode not in (Mode.AUTO_TAKEOFF,):
-            self.mode = Mode.AUTO_LOITER if self.mode is not Mode.POSCTL else Mode.POSCTL
+        if self.mode not in (Mode.AUTO_TAKEOFF, Mode.POSCTL):
+            self.mode = Mode.AUTO_LOITER
         self.say(S.MAV_SEVERITY_INFO, "Armed")
         return S.MAV_RESULT_ACCEPTED
 
@@ -217,7 +217,7 @@ class Commander:
             self.task = MoveTask(e.pos_ned_m, goal, e.yaw_rad, self.now_us, self.params.get("MPC_TKO_SPEED"), 1.0)
             self.say(S.MAV_SEVERITY_INFO, f"Taking off to {self.home.pos_ned_m[2] - takeoff_down_m:.1f} m above home")
         elif mode in (Mode.AUTO_LOITER, Mode.POSCTL):
-            if self.mode not in (Mode.AUTO_LOITER, Mode.POSCTL) or self.task is None or mode is not self.mode:
+            if mode is not self.mode or self.task is None:
                 self.task = self._hold_here()
         elif mode is Mode.AUTO_LAND:
             self.task = LandTask(e.pos_ned_m[:2], e.yaw_rad, self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params)
@@ -238,20 +238,12 @@ class Commander:
             return S.MAV_RESULT_DENIED
         if mode is self.mode:
             return S.MAV_RESULT_ACCEPTED
-        if not self.armed and mode in (Mode.AUTO_TAKEOFF, Mode.AUTO_RTL, Mode.AUTO_LAND):
-            if mode not in AVAILABLE:
-                return self._enter(mode)
-            self.mode = mode  # PX4 accepts these on the ground; they act once armed
-            self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
-            return S.MAV_RESULT_ACCEPTED
-        if not self.armed:
-            if mode not in AVAILABLE:
-                return self._enter(mode)
-            self.mode = mode
-            self.task = None
-            self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
-            return S.MAV_RESULT_ACCEPTED
-        return self._enter(mode)
+        if self.armed or mode not in AVAILABLE:
+            return self._enter(mode)  # starts the mode's task, or refuses with a reason
+        self.mode = mode  # on the ground, disarmed: PX4 accepts the mode; it acts once armed
+        self.task = None
+        self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
+        return S.MAV_RESULT_ACCEPTED
 
     # -- commands -----------------------------------------------------------------------
     def handle_command(self, command: int, p: tuple[float, ...], frame: int) -> int:

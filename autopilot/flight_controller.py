@@ -47,7 +47,6 @@ class FlightController:
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
         self.rate_sp = np.zeros(3)
         self.thrust_n = 0.0
-        self.thrust_sp_n = 0.0
         self.setpoint = None
         self.last_outer_us: int | None = None
         self._gps_pending: GpsSample | None = None
@@ -86,7 +85,7 @@ class FlightController:
         alpha = self.rate_control.update(self.estimator.rate_frd, self.rate_sp, dt, self.sat_pos, self.sat_neg,
                                          integrate=not cmd.land.ground_contact)
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
-        body_up = -quat.to_matrix(q)[:, 2]
+        body_up = -self.estimator.r_ned_frd[:, 2]
         thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
         out = self.mixer.mix(self.inertia * alpha, thrust_n)
         self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg

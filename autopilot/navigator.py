@@ -105,7 +105,6 @@ class ReturnTask:
         self.yaw_rad = est.yaw_rad
         self.return_down = min(float(est.pos_ned_m[2]), self.home[2] - params.get("RTL_RETURN_ALT"))
         self.phase = RtlPhase.CLIMB
-        self.phase_log: list[str] = []
         self._start_phase(RtlPhase.CLIMB, now_us, est.pos_ned_m)
 
     def _move(self, start: np.ndarray, goal: np.ndarray, now_us: int) -> MoveTask:
@@ -116,7 +115,6 @@ class ReturnTask:
 
     def _start_phase(self, phase: RtlPhase, now_us: int, pos: np.ndarray) -> None:
         self.phase = phase
-        self.phase_log.append(phase.value)
         if phase is RtlPhase.CLIMB:
             self.task = self._move(pos, np.array([pos[0], pos[1], self.return_down]), now_us)
         elif phase is RtlPhase.RETURN:

@@ -13,10 +13,6 @@ from autopilot.parameters import ParameterStore
 from autopilot.topics import TelemetrySnapshot
 
 
-class StatusEvent(tuple):
-    """(severity, text): severity is MAV_SEVERITY (0 emergency .. 7 debug)."""
-
-
 class VehicleInterface(Protocol):
     params: ParameterStore
 

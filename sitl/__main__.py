@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot.__main__ import quiet_gc
 from params.vehicle import VehicleFileError, load_vehicle
 
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4's default SITL home, Zurich
@@ -67,7 +66,6 @@ def main(argv: list[str] | None = None) -> int:
     speed = "max" if args.speed is None else f"{args.speed:g}x"
     print(f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
           f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}", file=sys.stderr, flush=True)
-    quiet_gc()
     try:
         server.run(args.duration)
     except KeyboardInterrupt:

@@ -15,7 +15,6 @@ import socket
 import sys
 import time
 
-import mujoco
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -31,13 +30,6 @@ HIL_SENSOR_ALL_FIELDS = 0x1FFF
 SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, our simulator component
 
 
-class _Sink:
-    """File-like object pymavlink writes into; we send the bytes ourselves."""
-
-    def write(self, data: bytes) -> None:  # pragma: no cover - never used for output
-        pass
-
-
 def _log(text: str) -> None:
     print(f"[sitl] {text}", file=sys.stderr, flush=True)
 
@@ -48,9 +40,9 @@ class LockstepServer:
         self.port = port
         self.truth_addr = truth_addr
         self.speed = speed
-        self.mav = mavlink.MAVLink(_Sink(), SIM_SYSID, SIM_COMPID)
+        self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
-        self.truth_mav = mavlink.MAVLink(_Sink(), SIM_SYSID, SIM_COMPID)
+        self.truth_mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.truth_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM) if truth_addr else None
         if self.truth_sock:
             self.truth_sock.setblocking(False)
@@ -69,7 +61,7 @@ class LockstepServer:
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.conn = conn
         self.receiver = SpinReceiver(conn)
-        self.mav = mavlink.MAVLink(_Sink(), SIM_SYSID, SIM_COMPID)
+        self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")
 
@@ -80,9 +72,7 @@ class LockstepServer:
     def _send_sensors(self) -> None:
         sim = self.sim
         t = sim.truth()
-        r = np.empty(9)
-        mujoco.mju_quat2Mat(r, t.q_ned_frd)
-        imu = sim.sensors.imu(t.specific_force_frd_m_s2, t.rate_frd_rad_s, r.reshape(3, 3), t.pos_ned_m)
+        imu = sim.sensors.imu(t.specific_force_frd_m_s2, t.rate_frd_rad_s, t.r_ned_frd, t.pos_ned_m)
         a, g, m = imu.accel_frd_m_s2, imu.gyro_frd_rad_s, imu.mag_frd_gauss
         out = []
         if t.time_us % GPS_PERIOD_US == 0:

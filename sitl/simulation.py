@@ -32,6 +32,7 @@ class Truth:
     vel_ned_m_s: np.ndarray
     accel_ned_m_s2: np.ndarray
     q_ned_frd: np.ndarray  # (w, x, y, z)
+    r_ned_frd: np.ndarray  # the same attitude as a 3x3 matrix taking FRD vectors to NED
     rate_frd_rad_s: np.ndarray
     specific_force_frd_m_s2: np.ndarray
 
@@ -75,16 +76,16 @@ class Simulation:
         f_frd = flu_to_frd(sd[self._accel_adr:self._accel_adr + 3])
         r = np.empty(9)
         mujoco.mju_quat2Mat(r, q)
-        accel_ned = r.reshape(3, 3) @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
+        r = r.reshape(3, 3)
+        accel_ned = r @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
         return Truth(
             time_us=self.time_us,
             pos_ned_m=enu_to_ned(np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1], d.qpos[2]])),
             vel_ned_m_s=enu_to_ned(d.qvel[0:3]),
             accel_ned_m_s2=accel_ned,
             q_ned_frd=q,
+            r_ned_frd=r,
             rate_frd_rad_s=flu_to_frd(d.qvel[3:6]),  # free-joint angular velocity is in the body frame
             specific_force_frd_m_s2=f_frd,
         )
 
-    def height_above_ground_m(self) -> float:
-        return float(self.data.qpos[2])

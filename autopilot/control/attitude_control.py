@@ -7,8 +7,6 @@ MC_YAW_P, limited to MC_*RATE_MAX.  Rates in rad/s.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from autopilot import quat
@@ -40,7 +38,3 @@ class AttitudeControl:
         rate_sp = 2.0 * sign * qe[1:4] * self.gain
         return np.minimum(np.maximum(rate_sp, -self.rate_max), self.rate_max)
 
-
-def yaw_of(q: np.ndarray) -> float:
-    w, x, y, z = q
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))

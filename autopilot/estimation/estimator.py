@@ -54,7 +54,7 @@ class Estimator:
         self.origin: tuple[float, float, float] | None = None
         self.baro_offset_m = 0.0
         self.last_baro_alt_m: float | None = None
-        self.gps_fix_type = 0
+        self.r_ned_frd = np.eye(3)  # attitude as a matrix (FRD -> NED), refreshed on each IMU sample
         self._acc_sum = np.zeros(3)  # kinematic acceleration accumulated since the last prediction
         self._acc_dt = 0.0
 
@@ -66,7 +66,7 @@ class Estimator:
             return  # NaN never reaches the filters
         mag = s.mag_frd_gauss if _finite(s.mag_frd_gauss) else None
         self.rate_frd = self.attitude.update(s.gyro_frd_rad_s, s.accel_frd_m_s2, mag, dt, self.accel_ned)
-        r = quat.to_matrix(self.attitude.q)
+        r = self.r_ned_frd = quat.to_matrix(self.attitude.q)
         self._acc_sum += (r @ s.accel_frd_m_s2) * dt
         self._acc_dt += dt
         if s.timestamp_us % BARO_PERIOD_US >= 4000:
@@ -89,7 +89,6 @@ class Estimator:
 
     def update_gps(self, g: GpsSample) -> None:
         self._predict()
-        self.gps_fix_type = g.fix_type
         if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
             return
         self.last_gps_us = g.timestamp_us
