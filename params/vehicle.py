@@ -51,6 +51,12 @@ class VehicleSpec:
     time_constant_down_s: float
     leg_positions_frd_m: tuple[tuple[float, float, float], ...]
     leg_size_m: tuple[float, float, float]
+    rotor_drag_k_d: float  # k_d in F_d,i = w_i k_d V_a_perp, N/((rad/s)(m/s))     (seed 001 eq 4.12)
+    rolling_moment_k_r: float  # k_r in M_r,i = w_i k_r V_a_perp, N m/((rad/s)(m/s))  (seed 001 eq 4.13)
+    body_drag_cd_area_m2: tuple[float, float, float]  # drag coefficient x area along body x, y, z (FRD)
+    battery_cells: int
+    battery_capacity_mah: float
+    battery_resistance_ohm: float
 
     @property
     def mass_kg(self) -> float:
@@ -139,7 +145,7 @@ def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
         raise VehicleFileError(f"{path}: {exc}") from exc
     where = str(path)
     try:
-        body, rot, legs = data["body"], data["rotors"], data["legs"]
+        body, rot, legs, aero, batt = data["body"], data["rotors"], data["legs"], data["aero"], data["battery"]
     except KeyError as exc:
         raise VehicleFileError(f"{where}: missing section [{exc.args[0]}]") from exc
     positions = rot.get("positions_frd_m")
@@ -173,6 +179,12 @@ def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
         time_constant_down_s=_num(rot, "time_constant_down_s", where),
         leg_positions_frd_m=leg_pos,
         leg_size_m=_vec(legs, "size_m", 3, where),
+        rotor_drag_k_d=_num(aero, "rotor_drag_k_d", where, positive=False),
+        rolling_moment_k_r=_num(aero, "rolling_moment_k_r", where, positive=False),
+        body_drag_cd_area_m2=_vec(aero, "body_drag_cd_area_m2", 3, where),
+        battery_cells=int(_num(batt, "cells", where)),
+        battery_capacity_mah=_num(batt, "capacity_mah", where),
+        battery_resistance_ohm=_num(batt, "internal_resistance_ohm", where),
     )
     if spec.hover_thrust_fraction >= 0.9:
         raise VehicleFileError(

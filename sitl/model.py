@@ -79,4 +79,19 @@ def build_mjcf(spec: VehicleSpec) -> str:
 
 
 def build_model(spec: VehicleSpec) -> mujoco.MjModel:
-    return mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    """Compile the MJCF and set the vehicle's inertia to the file's exactly.
+
+    Seed 001's Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
+    inequality I_xx + I_yy >= I_zz that every real mass distribution satisfies, and MuJoCo's
+    compiler refuses such a body.  The model is therefore compiled with ``balanceinertia``
+    and the file's values are written into ``body_inertia`` afterwards: the rigid-body
+    equations (seed 001 eq 4.5) use J as given, which is what the seed specifies.
+    """
+    xml = build_mjcf(spec)
+    j = spec.inertia_kg_m2
+    if j[0] + j[1] < j[2] or j[0] + j[2] < j[1] or j[1] + j[2] < j[0]:
+        xml = xml.replace("<option ", '<compiler balanceinertia="true"/>\n  <option ', 1)
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.body_inertia[model.body("vehicle").id] = j
+    mujoco.mj_setConst(model, mujoco.MjData(model))  # recompute what the compiler derived from the inertia
+    return model

@@ -3,6 +3,8 @@
 Motor commands u_i in 0..1 map linearly to the commanded rotor speed
 w_cmd = u_i * w_max (rad/s); the rotor speed follows with a first-order lag whose
 time constant differs when speeding up and slowing down (RotorS' motor model).
+A motor at efficiency e (0..1, a failure) only reaches sqrt(e) of the commanded
+speed, so it gives e times the thrust, and its drag and power follow from that speed.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ class RotorModel:
         self.tau_up_s = spec.time_constant_up_s
         self.tau_down_s = spec.time_constant_down_s
         self.speeds: list[float] = [0.0] * self.n
-        self.efficiency: list[float] = [1.0] * self.n  # thrust scale per rotor (1 = healthy)
+        self.efficiency: list[float] = [1.0] * self.n  # thrust scale per rotor (1 = healthy, 0 = stopped)
         self._alpha_dt: float | None = None
 
     @property
@@ -39,7 +41,8 @@ class RotorModel:
     def commanded_speed(self, commands) -> list[float]:
         """Motor command 0..1 (clipped) -> commanded rotor speed, rad/s."""
         w = self.max_speed_rad_s
-        return [min(max(float(c), 0.0), 1.0) * w for c in commands]
+        return [min(max(float(c), 0.0), 1.0) * w * (e if e == 1.0 else math.sqrt(max(e, 0.0)))
+                for c, e in zip(commands, self.efficiency)]
 
     def step(self, commands, dt_s: float) -> np.ndarray:
         """Advance the motor lag by dt_s toward the commands; return thrusts (N)."""
@@ -52,9 +55,9 @@ class RotorModel:
         return self.thrust_n()
 
     def thrust_n(self) -> np.ndarray:
-        """T_i = k_T w_i^2 (seed 001 eq 4.8), times each rotor's efficiency."""
+        """T_i = k_T w_i^2 (seed 001 eq 4.8)."""
         k = self.k_thrust
-        return np.array([e * k * w * w for e, w in zip(self.efficiency, self.speeds)])
+        return np.array([k * w * w for w in self.speeds])
 
     def drag_torque_nm(self) -> np.ndarray:
         """|M_i| = k_M T_i (seed 001 eq 4.9); the sign comes from the spin direction."""
@@ -63,4 +66,4 @@ class RotorModel:
     def shaft_power_w(self) -> float:
         """Mechanical power the rotors absorb: sum of M_i w_i (W)."""
         kk = self.k_moment * self.k_thrust
-        return sum(e * kk * w * w * w for e, w in zip(self.efficiency, self.speeds))
+        return sum(kk * w * w * w for w in self.speeds)

@@ -1,4 +1,4 @@
-"""The physics core of the simulator: MuJoCo rigid body, rotors, battery, sensors.
+"""The physics core of the simulator: MuJoCo rigid body, rotors, aerodynamics, wind, battery, sensors.
 
 No sockets and no clocks: :meth:`Simulation.step` advances simulated time by one
 lockstep period for given motor commands; the process loop (``sitl.lockstep``)
@@ -8,17 +8,21 @@ does the I/O.  Truth is returned in MAVLink frames (NED, FRD) through
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from params.vehicle import GRAVITY_M_S2, VehicleSpec
+from sitl.aerodynamics import Aerodynamics
 from sitl.battery import Battery
 from sitl.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
 from sitl.model import PHYSICS_DT_S, build_model
 from sitl.rotors import RotorModel
-from sitl.sensors import NoiseLevels, SensorSuite
+from sitl.sensors import SensorSuite
+from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
+from sitl.wind import WindModel
 
 LOCKSTEP_DT_S = 0.004  # 250 Hz sensor and control rate
 
@@ -35,18 +39,33 @@ class Truth:
     r_ned_frd: np.ndarray  # the same attitude as a 3x3 matrix taking FRD vectors to NED
     rate_frd_rad_s: np.ndarray
     specific_force_frd_m_s2: np.ndarray
+    wind_ned_m_s: np.ndarray
 
 
 class Simulation:
+    """One vehicle in its world.
+
+    The settings objects (``wind_settings``, ``sensors.settings``, ``motor_settings``)
+    are read on every step, so a ``SIM_*`` parameter changed between steps acts on the next.
+    """
+
     def __init__(self, spec: VehicleSpec, home: tuple[float, float, float], seed: int = 0,
-                 noise: NoiseLevels = NoiseLevels()) -> None:
+                 wind: WindSettings | None = None, sensors: SensorSettings | None = None,
+                 motors: MotorSettings | None = None) -> None:
         self.spec = spec
         self.model = build_model(spec)
         self.data = mujoco.MjData(self.model)
+        self._body = self.model.body("vehicle").id
         self._settle()
         self.rotors = RotorModel(spec)
-        self.battery = Battery()
-        self.sensors = SensorSuite(*home, seed=seed, noise=noise)
+        self.aero = Aerodynamics(spec)
+        self.battery = Battery(spec.battery_cells, spec.battery_capacity_mah, spec.battery_resistance_ohm)
+        self.wind_settings = wind if wind is not None else WindSettings()
+        self.motor_settings = motors if motors is not None else MotorSettings()
+        # Independent random streams: changing one model's draws never changes another's.
+        self.wind = WindModel(self.wind_settings, seed=seed * 7919 + 1)
+        self.sensors = SensorSuite(*home, seed=seed, settings=sensors)
+        self.wind_enu = (0.0, 0.0, 0.0)
         self.time_us = 0
         self.substeps = round(LOCKSTEP_DT_S / PHYSICS_DT_S)
         self._accel_adr = self.model.sensor("accel").adr[0]
@@ -60,11 +79,36 @@ class Simulation:
         self._start_xy_enu = self.data.qpos[0:2].copy()
         mujoco.mj_forward(self.model, self.data)
 
+    def _apply_motor_failure(self) -> None:
+        m, eff = self.motor_settings, self.rotors.efficiency
+        for i in range(self.rotors.n):
+            eff[i] = m.fail_efficiency if i + 1 == m.fail_motor else 1.0
+
+    def _apply_aerodynamics(self, dt_s: float) -> None:
+        """Wind for this step, then rotor drag, rolling moment and body drag as an external wrench."""
+        d = self.data
+        vx, vy, vz = float(d.qvel[0]), float(d.qvel[1]), float(d.qvel[2])  # world ENU
+        wn, we, wd = self.wind.step(dt_s, float(d.qpos[2]), math.sqrt(vx * vx + vy * vy + vz * vz))
+        self.wind_enu = (we, wn, -wd)
+        ax, ay, az = we - vx, wn - vy, -wd - vz  # V_a = V_wind - V_n (seed 001 eq 4.11), ENU
+        r = d.xmat[self._body]  # body FLU -> world ENU, row-major
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = (float(x) for x in r)
+        bx = r0 * ax + r3 * ay + r6 * az  # R^T V_a
+        by = r1 * ax + r4 * ay + r7 * az
+        bz = r2 * ax + r5 * ay + r8 * az
+        fx, fy, fz, mx, my, mz = self.aero.wrench_flu(self.rotors.speeds, (bx, by, bz))
+        d.xfrc_applied[self._body] = (
+            r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz,
+            r0 * mx + r1 * my + r2 * mz, r3 * mx + r4 * my + r5 * mz, r6 * mx + r7 * my + r8 * mz,
+        )
+
     def step(self, motor_commands: np.ndarray) -> None:
         """Advance one lockstep period with motor commands 0..1 (one per rotor)."""
         cmds = np.asarray(motor_commands, dtype=float)[: self.rotors.n]
+        self._apply_motor_failure()
         for _ in range(self.substeps):
             self.data.ctrl[:] = self.rotors.step(cmds, PHYSICS_DT_S)
+            self._apply_aerodynamics(PHYSICS_DT_S)
             mujoco.mj_step(self.model, self.data)
         self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S)
         self.time_us += int(LOCKSTEP_DT_S * 1e6)
@@ -87,5 +131,6 @@ class Simulation:
             r_ned_frd=r,
             rate_frd_rad_s=flu_to_frd(d.qvel[3:6]),  # free-joint angular velocity is in the body frame
             specific_force_frd_m_s2=f_frd,
+            wind_ned_m_s=enu_to_ned(self.wind_enu),
         )
 

@@ -600,17 +600,3 @@ def test_hover_command_holds_it_level_and_balances_weight(sim, quad):
     assert t.specific_force_frd_m_s2 == pytest.approx([0.0, 0.0, -G], abs=0.01)  # thrust = weight
     assert t.vel_ned_m_s == pytest.approx(v_start, abs=0.02)  # no acceleration
     assert abs(t.vel_ned_m_s[2]) < 0.3 and -t.pos_ned_m[2] > 4.0
-
-
-def test_free_fall_accelerates_at_g(sim):
-    sim.data.qpos[2] = 20.0
-    z0 = sim.truth().pos_ned_m[2]
-    steps = round(1.0 / LOCKSTEP_DT_S)
-    for _ in range(steps):
-        sim.step(np.zeros(4))
-    t = sim.truth()
-    assert t.vel_ned_m_s[2] == pytest.approx(G * 1.0, rel=1e-3)
-    assert t.pos_ned_m[2] - z0 == pytest.approx(0.5 * G, rel=0.01)
-    assert t.accel_ned_m_s2 == pytest.approx([0.0, 0.0, G], abs=1e-3)
-    assert t.specific_force_frd_m_s2 == pytest.approx([0.0, 0.0, 0.0], abs=1e-3)  # weightless accelerometer
-    assert sim.time_us == steps * round(LOCKSTEP_DT_S * 1e6)
