@@ -27,9 +27,8 @@ import math
 import socket
 import struct
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable
 
-import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.geodesy import ned_to_geodetic
@@ -37,6 +36,7 @@ from autopilot.quat import to_euler
 from autopilot.parameters import ParamError, ParamType
 from autopilot.topics import TelemetrySnapshot
 from autopilot.vehicle_interface import VehicleInterface
+from params.param_encoding import decode_param_bytes, encode_param_bytes, raw_param_value
 
 log = logging.getLogger(__name__)
 
@@ -126,23 +126,6 @@ def split_statustext(text: str) -> list[bytes]:
     return chunks
 
 
-def encode_param_value(value: float, ptype: str) -> bytes:
-    """The 4 bytes of PARAM_VALUE.param_value in PX4's byte-wise encoding.
-
-    INT32: the int32's little-endian bytes; REAL32: the float32's bytes.
-    """
-    if ptype == ParamType.INT32:
-        return struct.pack("<i", int(value))
-    return struct.pack("<f", value)
-
-
-def decode_param_value(raw4: bytes, mav_param_type: int) -> float:
-    """Inverse of :func:`encode_param_value` for a MAV_PARAM_TYPE (INT32 or anything float)."""
-    if mav_param_type == mavlink.MAV_PARAM_TYPE_INT32:
-        return float(struct.unpack("<i", raw4)[0])
-    return float(struct.unpack("<f", raw4)[0])
-
-
 def _ptype_name(mav_param_type: int) -> str:
     """MAV_PARAM_TYPE number -> ParamType-style name ("INT32", "REAL32", "UINT8", ...)."""
     for name, number in _MAV_PARAM_TYPE.items():
@@ -172,16 +155,6 @@ def _time_boot_ms(now_us: int) -> int:
 
 def _degE7(deg: float) -> int:
     return _int(deg * 1e7, -(2**31), INT32_MAX, 0)
-
-
-def _raw_param_value(msg: mavlink.MAVLink_message) -> bytes:
-    """The 4 wire bytes of param_value in a received PARAM_SET (Python floats lose sNaN bits)."""
-    buf = msg.get_msgbuf()
-    if buf:
-        header = mavlink.HEADER_LEN_V2 if buf[0] == mavlink.PROTOCOL_MARKER_V2 else mavlink.HEADER_LEN_V1
-        payload_len = buf[1]
-        return bytes(buf[header : header + min(4, payload_len)]).ljust(4, b"\x00")
-    return struct.pack("<f", msg.param_value)
 
 
 class _ParamValueMessage(mavlink.MAVLink_param_value_message):
@@ -624,8 +597,9 @@ class GcsLink:
         """PARAM_VALUE with the current value of ``name`` (byte-wise encoded)."""
         store = self.vehicle.params
         ptype = store.definition(name).ptype
-        raw = encode_param_value(store.get(name), ptype)
-        return _ParamValueMessage(name, raw, _MAV_PARAM_TYPE[ptype], len(store), store.index(name))
+        mav_type = _MAV_PARAM_TYPE[ptype]
+        raw = encode_param_bytes(store.get(name), mav_type)
+        return _ParamValueMessage(name, raw, mav_type, len(store), store.index(name))
 
     def _on_param_request_list(self, ep: _Endpoint, msg: mavlink.MAVLink_message) -> None:
         if self._for_us(msg):
@@ -665,7 +639,10 @@ class GcsLink:
         if name not in store:
             self.send_statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter {name}", ep.name)
             return
-        value = decode_param_value(_raw_param_value(msg), msg.param_type)
+        try:
+            value = decode_param_bytes(raw_param_value(msg), msg.param_type)
+        except ValueError:  # an 8-byte type: refused by the store's type check below
+            value = math.nan
         try:
             store.set(name, value, _ptype_name(msg.param_type))
         except ParamError as e:

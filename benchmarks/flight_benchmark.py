@@ -18,7 +18,6 @@ Usage: ``python benchmarks/flight_benchmark.py [--instance N] [--hover S] [--veh
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path

@@ -3,7 +3,7 @@
 - :mod:`gcs.client`: :class:`VehicleClient` (commands, modes, parameters, waiting).
 - :mod:`gcs.modes`: PX4 mode names <-> HEARTBEAT custom_mode.
 - :mod:`gcs.geo`: flat-earth NED <-> latitude/longitude/altitude.
-- :mod:`gcs.param_codec`: PX4's byte-wise parameter encoding.
+- PX4's byte-wise parameter encoding: :mod:`params.param_encoding` (shared with the flight controller and the simulator).
 - :mod:`gcs.stack`: :class:`Stack`, starting and stopping ``sitl`` + ``autopilot``.
 - ``python -m gcs`` / ``gcs``: the CLI; ``flight-demo`` (:mod:`gcs.demo`): the scripted flight.
 """

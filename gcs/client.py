@@ -24,7 +24,9 @@ from typing import Callable, Iterable
 
 from pymavlink import mavutil
 
-from . import geo, modes, param_codec
+from params import param_encoding
+
+from . import geo, modes
 
 mavlink = mavutil.mavlink
 
@@ -699,13 +701,13 @@ class VehicleClient:
             if name not in self._param_types:
                 self.param_get(name, timeout_s)
             param_type = self._param_types[name]
-        raw = param_codec.encode_param_bytes(value, param_type)
+        raw = param_encoding.encode_param_bytes(value, param_type)
         self.pump(0.0)  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
         texts_before = len(self.statustexts)
         msg = self._param_exchange(name, lambda: self._send_param_set(name_b, raw, param_type), timeout_s, retries,
                                    f"PARAM_VALUE echo for {name}")
         got = self._decode_param_value(msg)
-        want = param_codec.decode_param_bytes(raw, param_type)
+        want = param_encoding.decode_param_bytes(raw, param_type)
         if got != want and not (isinstance(got, float) and math.isnan(got) and math.isnan(want)):
             reason = self._refusal_reason(texts_before)
             because = f" ({reason})" if reason else ""
@@ -744,9 +746,9 @@ class VehicleClient:
     @staticmethod
     def _decode_param_value(msg) -> int | float:
         """int for integer types (byte-wise), float for REAL32."""
-        if not param_codec.is_integer_type(msg.param_type):
+        if not param_encoding.is_integer_type(msg.param_type):
             return msg.param_value
-        return param_codec.decode_param_bytes(param_codec.raw_param_value(msg), msg.param_type)
+        return param_encoding.decode_param_bytes(param_encoding.raw_param_value(msg), msg.param_type)
 
     @staticmethod
     def _text(value) -> str:

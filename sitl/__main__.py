@@ -6,6 +6,9 @@ import argparse
 import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
+from sitl.scenario import Scenario, ScenarioError, list_scenarios, load_scenario
+from sitl.sim_params import SimParamError, SimParameters, format_table
+from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
 
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4's default SITL home, Zurich
 
@@ -32,6 +35,22 @@ def parse_home(text: str) -> tuple[float, float, float]:
     return lat, lon, alt
 
 
+def parse_param_assignment(text: str) -> tuple[str, int | float]:
+    """``NAME=VALUE`` of ``--param``: the syntax only; the name and range are checked later."""
+    name, sep, value = text.partition("=")
+    name, value = name.strip(), value.strip()
+    if not sep or not name or not value:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE (e.g. SIM_WIND_SPD=5), not {text!r}")
+    try:
+        return name, int(value)
+    except ValueError:
+        pass
+    try:
+        return name, float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name}: value must be a number, not {value!r}") from None
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="sitl", description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)")
     p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
@@ -40,14 +59,49 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=int, default=4560, help="TCP port the flight controller connects to (+instance)")
     p.add_argument("--truth-port", type=int, default=14560, help="UDP port for ground truth (+instance); 0 disables")
     p.add_argument("--truth-host", default="127.0.0.1")
+    p.add_argument("--truth-local-port", type=int, default=0,
+                   help="local UDP port of the simulator's MAVLink component (truth, SIM_* parameters), "
+                        "+instance; 0 = chosen by the OS")
     p.add_argument("--home", type=parse_home, default=DEFAULT_HOME, help="LAT,LON,ALT of the start point")
     p.add_argument("--seed", type=int, default=0, help="random seed of the sensor noise")
     p.add_argument("--duration", type=float, default=None, help="stop after this many simulated seconds")
+    p.add_argument("--scenario", metavar="NAME|FILE",
+                   help=f"SIM_* parameters and timed events from a TOML file or a shipped scenario "
+                        f"({', '.join(list_scenarios())})")
+    p.add_argument("--param", metavar="NAME=VALUE", type=parse_param_assignment, action="append", default=[],
+                   help="set a SIM_* parameter at start-up (repeatable; applied after --scenario)")
+    p.add_argument("--list-params", action="store_true",
+                   help="print the SIM_* parameters (with --scenario/--param applied) and exit")
     return p
+
+
+def configure(args: argparse.Namespace) -> tuple[tuple[WindSettings, SensorSettings, MotorSettings], Scenario | None]:
+    """The settings objects with the scenario's parameters, then ``--param``, applied.
+
+    Raises ScenarioError or SimParamError (nothing is half-applied: each step checks all its values first).
+    """
+    settings = (WindSettings(), SensorSettings(), MotorSettings())
+    params = SimParameters(*settings)
+    scenario = load_scenario(args.scenario, params) if args.scenario else None
+    if scenario is not None:
+        params.set_many(scenario.parameters)
+    params.set_many(dict(args.param))  # later --param of the same name wins
+    return settings, scenario
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    try:
+        (wind, sensors, motors), scenario = configure(args)
+    except ScenarioError as exc:
+        print(f"sitl: scenario {exc}", file=sys.stderr)
+        return 2
+    except SimParamError as exc:
+        print(f"sitl: --param {exc}", file=sys.stderr)
+        return 2
+    if args.list_params:
+        print(format_table(SimParameters(wind, sensors, motors).describe()))
+        return 0
     try:
         spec = load_vehicle(args.vehicle)
     except VehicleFileError as exc:
@@ -56,20 +110,32 @@ def main(argv: list[str] | None = None) -> int:
     from sitl.lockstep import LockstepServer
     from sitl.simulation import Simulation
 
-    sim = Simulation(spec, args.home, seed=args.seed)
+    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors)
     truth = (args.truth_host, args.truth_port + args.instance) if args.truth_port else None
+    truth_bind = ("0.0.0.0", args.truth_local_port + args.instance if args.truth_local_port else 0)
     try:
-        server = LockstepServer(sim, args.port + args.instance, truth, args.speed)
+        server = LockstepServer(sim, args.port + args.instance, truth, args.speed, truth_bind=truth_bind,
+                                events=scenario.events if scenario else ())
     except OSError as exc:
-        print(f"sitl: cannot listen on TCP port {args.port + args.instance}: {exc}", file=sys.stderr)
+        print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
         return 2
     speed = "max" if args.speed is None else f"{args.speed:g}x"
     print(f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
           f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}", file=sys.stderr, flush=True)
+    if scenario is not None:
+        about = f": {scenario.description}" if scenario.description else ""
+        print(f"[sitl] scenario {scenario.name}{about} ({len(scenario.parameters)} parameters, "
+              f"{len(scenario.events)} events)", file=sys.stderr, flush=True)
+    if server.param_server is not None:
+        port = server.param_server.local_address[1]
+        print(f"[sitl] SIM_* parameters and ground truth: MAVLink sysid 1 compid 51 on UDP port {port}, "
+              f"sending to {truth[0]}:{truth[1]}", file=sys.stderr, flush=True)
     try:
         server.run(args.duration)
     except KeyboardInterrupt:
         pass
+    finally:
+        server.close()
     return 0
 
 

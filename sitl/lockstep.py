@@ -1,63 +1,111 @@
 """The simulator process loop: PX4's simulator MAVLink API over TCP, in lockstep.
 
 The simulator listens on TCP (4560 + instance); the flight controller connects.
-Each period the simulator sends HIL_SENSOR (and HIL_GPS at 10 Hz) stamped with
-simulated time, waits for HIL_ACTUATOR_CONTROLS, and only then steps the physics,
-so a run is deterministic for a seed.  ``speed`` paces simulated time to the wall
-clock (1 = real time); ``None`` runs as fast as lockstep allows.  Ground truth
-goes as HIL_STATE_QUATERNION and LOCAL_POSITION_NED to UDP (14560 + instance).
+Each period the simulator sends HIL_SENSOR (and HIL_GPS whenever the GPS model
+produces a fix, BATTERY_STATUS at 5 Hz) stamped with simulated time, waits for
+HIL_ACTUATOR_CONTROLS, and only then steps the physics, so a run is
+deterministic for a seed.  ``speed`` paces simulated time to the wall clock
+(1 = real time); ``None`` runs as fast as lockstep allows.
+
+The simulator is also a MAVLink component on UDP (:mod:`sitl.param_server`):
+ground truth (HIL_STATE_QUATERNION, LOCAL_POSITION_NED at 50 Hz of simulated time)
+goes to 127.0.0.1:(14560 + instance) and to whoever talks to it, and the same
+socket serves the ``SIM_*`` parameters, so a ground station or a test changes
+wind, sensor errors and failures in flight.  It is polled every 50 Hz period and
+while the simulator waits for the flight controller.  Scenario events
+(:mod:`sitl.scenario`) are applied at the first 50 Hz period at or after their time.
 """
 
 from __future__ import annotations
 
 import math
+import select
 import socket
 import sys
 import time
+from typing import Sequence
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.geodesy import ned_to_geodetic
 from autopilot.socket_wait import SpinReceiver
+from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer
+from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sensors import course_over_ground_deg
+from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
 
-GPS_PERIOD_US = 100_000  # 10 Hz
-TRUTH_PERIOD_US = 20_000  # 50 Hz
-BATTERY_PERIOD_US = 1_000_000
+TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
+BATTERY_PERIOD_US = 200_000  # 5 Hz
 HIL_SENSOR_ALL_FIELDS = 0x1FFF
-SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, our simulator component
+ACCEPT_POLL_S = 0.1  # while waiting for the flight controller, serve parameters at least this often
 
 
 def _log(text: str) -> None:
     print(f"[sitl] {text}", file=sys.stderr, flush=True)
 
 
+def _log_param_set(name: str, value: int | float, addr: tuple[str, int]) -> None:
+    _log(f"{name} = {value:g} (PARAM_SET from {addr[0]}:{addr[1]})")
+
+
 class LockstepServer:
-    def __init__(self, sim: Simulation, port: int, truth_addr: tuple[str, int] | None, speed: float | None) -> None:
+    """The simulator process: lockstep TCP link to the flight controller, UDP truth and SIM_* parameters.
+
+    ``truth_addr``: default peer of the UDP component (None: no truth, no parameter
+    service).  ``truth_bind``: its local address (port 0: chosen by the OS).
+    ``events``: scenario events, applied when simulated time reaches them.
+    """
+
+    def __init__(self, sim: Simulation, port: int, truth_addr: tuple[str, int] | None, speed: float | None,
+                 *, truth_bind: tuple[str, int] = ("0.0.0.0", 0), events: Sequence[ScenarioEvent] = ()) -> None:
         self.sim = sim
         self.port = port
         self.truth_addr = truth_addr
         self.speed = speed
         self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
-        self.truth_mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
-        self.truth_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM) if truth_addr else None
-        if self.truth_sock:
-            self.truth_sock.setblocking(False)
-        self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        self.listener.bind(("0.0.0.0", port))
-        self.listener.listen(1)
+        # The settings objects the models read on every step; a set acts on the next step.
+        self.params = SimParameters(sim.wind_settings, sim.sensors.settings, sim.motor_settings)
+        self.events = EventSchedule(events)
+        self.param_server: SimParamServer | None = None
         self.conn: socket.socket | None = None
+        if truth_addr:
+            self.param_server = SimParamServer(self.params, bind=truth_bind, default_peer=truth_addr,
+                                               on_param_set=_log_param_set)
+        self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            self.listener.bind(("0.0.0.0", port))
+            self.listener.listen(1)
+        except OSError as e:
+            self.close()
+            raise OSError(e.errno, f"cannot listen on TCP port {port}: {e.strerror}") from e
         self.motor_commands = np.zeros(sim.rotors.n)
         self.steps = 0
 
+    def close(self) -> None:
+        for s in (self.conn, self.listener):
+            if s is not None:
+                s.close()
+        if self.param_server is not None:
+            self.param_server.close()
+
     # -- connection ---------------------------------------------------------------
     def _accept(self) -> None:
+        """Wait for the flight controller, serving SIM_* parameters meanwhile."""
         _log(f"waiting for the flight controller on TCP port {self.port}")
+        server = self.param_server
+        watched = [self.listener] + ([server.sock] if server else [])
+        while True:
+            if server:
+                server.poll(time.monotonic())
+            ready, _, _ = select.select(watched, [], [], ACCEPT_POLL_S)
+            if self.listener in ready:
+                break
         conn, addr = self.listener.accept()
+        conn.settimeout(None)
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.conn = conn
         self.receiver = SpinReceiver(conn)
@@ -71,20 +119,24 @@ class LockstepServer:
     # -- one period --------------------------------------------------------------
     def _send_sensors(self) -> None:
         sim = self.sim
-        t = sim.truth()
-        imu = sim.sensors.imu(t.specific_force_frd_m_s2, t.rate_frd_rad_s, t.r_ned_frd, t.pos_ned_m)
+        t = sim.sensor_truth()  # plain floats; the full truth is built only at 50 Hz for the truth port
+        time_us = sim.time_us
+        imu = sim.sensors.imu(t.specific_force_frd_m_s2, t.rate_frd_rad_s, t.r_ned_frd, t.pos_ned_m,
+                              dt_s=LOCKSTEP_DT_S, current_a=sim.battery.current_a)
         a, g, m = imu.accel_frd_m_s2, imu.gyro_frd_rad_s, imu.mag_frd_gauss
         out = []
-        if t.time_us % GPS_PERIOD_US == 0:
-            fix = sim.sensors.gps(t.pos_ned_m, t.vel_ned_m_s)
+        # Every period: the GPS model decides when a fix is due (SIM_GPS_HZ) and what delayed
+        # state it describes (SIM_GPS_LAG_MS); it is sent stamped with the current time.
+        fix = sim.sensors.gps(time_us, t.pos_ned_m, t.vel_ned_m_s)
+        if fix is not None:
             v = fix.vel_ned_m_s
             out.append(mavlink.MAVLink_hil_gps_message(
-                t.time_us, fix.fix_type, round(fix.lat_deg * 1e7), round(fix.lon_deg * 1e7),
+                time_us, fix.fix_type, round(fix.lat_deg * 1e7), round(fix.lon_deg * 1e7),
                 round(fix.alt_amsl_m * 1000), round(fix.eph_m * 100), round(fix.epv_m * 100),
                 round(math.hypot(v[0], v[1]) * 100), round(v[0] * 100), round(v[1] * 100), round(v[2] * 100),
                 round(course_over_ground_deg(v) * 100) % 36000, fix.satellites, 0, 0,
             ))
-        if t.time_us % BATTERY_PERIOD_US == 0:
+        if time_us % BATTERY_PERIOD_US == 0:
             b = sim.battery
             cells = [min(65534, round(b.voltage_v / b.cells * 1000))] * b.cells + [65535] * (10 - b.cells)
             out.append(mavlink.MAVLink_battery_status_message(
@@ -93,13 +145,29 @@ class LockstepServer:
             ))
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
         out.append(mavlink.MAVLink_hil_sensor_message(
-            t.time_us, a[0], a[1], a[2], g[0], g[1], g[2], m[0], m[1], m[2],
+            time_us, a[0], a[1], a[2], g[0], g[1], g[2], m[0], m[1], m[2],
             imu.pressure_hpa, 0.0, sim.sensors.home[2] - t.pos_ned_m[2], imu.temperature_c,
             HIL_SENSOR_ALL_FIELDS, 0,
         ))
         self.conn.sendall(b"".join(msg.pack(self.mav) for msg in out))
-        if self.truth_sock and t.time_us % TRUTH_PERIOD_US == 0:
-            self._send_truth(t)
+        if time_us % TRUTH_PERIOD_US == 0:
+            self._every_truth_period(time_us)
+
+    def _every_truth_period(self, time_us: int) -> None:
+        """50 Hz of simulated time: scenario events, ground truth, parameter service."""
+        if time_us >= self.events.next_us:
+            self._apply_events(time_us)
+        server = self.param_server
+        if server is not None:
+            self._send_truth(self.sim.truth())
+            server.poll(time.monotonic())
+
+    def _apply_events(self, time_us: int) -> None:
+        for event in self.events.pop_due(time_us):
+            self.params.set_many(event.values)  # checked when the scenario was loaded
+            changes = ", ".join(f"{name} = {format_value(v, self.params.param(name).type)}"
+                                for name, v in event.values.items())
+            _log(f"t = {time_us / 1e6:.3f} s: scenario event: {changes}")
 
     def _send_truth(self, t) -> None:
         lat, lon, alt = ned_to_geodetic(t.pos_ned_m, *self.sim.sensors.home)
@@ -114,10 +182,8 @@ class LockstepServer:
             mavlink.MAVLink_local_position_ned_message(
                 t.time_us // 1000, *[float(x) for x in t.pos_ned_m], *[float(x) for x in t.vel_ned_m_s]),
         ]
-        try:
-            self.truth_sock.sendto(b"".join(m.pack(self.truth_mav) for m in msgs), self.truth_addr)
-        except OSError:
-            pass
+        server = self.param_server
+        server.send(server.encode(msgs))
 
     def _wait_actuators(self) -> bool:
         """Block until HIL_ACTUATOR_CONTROLS arrives; False if the link closed."""
@@ -134,8 +200,8 @@ class LockstepServer:
                 if msg.get_type() == "HIL_ACTUATOR_CONTROLS":
                     armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
                     n = self.sim.rotors.n
-                    cmds = np.array(msg.controls[:n], dtype=float)
-                    self.motor_commands = np.where(np.isfinite(cmds), cmds, 0.0) if armed else np.zeros(n)
+                    self.motor_commands = ([c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed
+                                           else [0.0] * n)
                     got = True
             if got:
                 return True

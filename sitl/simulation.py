@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -40,6 +41,16 @@ class Truth:
     rate_frd_rad_s: np.ndarray
     specific_force_frd_m_s2: np.ndarray
     wind_ned_m_s: np.ndarray
+
+
+class SensorTruth(NamedTuple):
+    """The subset of :class:`Truth` the sensor models read, as float tuples (NED/FRD, SI)."""
+
+    specific_force_frd_m_s2: tuple[float, float, float]
+    rate_frd_rad_s: tuple[float, float, float]
+    r_ned_frd: tuple[tuple[float, float, float], ...]  # rows; takes FRD vectors to NED
+    pos_ned_m: tuple[float, float, float]
+    vel_ned_m_s: tuple[float, float, float]
 
 
 class Simulation:
@@ -76,7 +87,7 @@ class Simulation:
         for _ in range(round(seconds / PHYSICS_DT_S)):
             mujoco.mj_step(self.model, self.data)
         self.data.time = 0.0
-        self._start_xy_enu = self.data.qpos[0:2].copy()
+        self._start_xy_enu = tuple(self.data.qpos[0:2].tolist())
         mujoco.mj_forward(self.model, self.data)
 
     def _apply_motor_failure(self) -> None:
@@ -87,12 +98,11 @@ class Simulation:
     def _apply_aerodynamics(self, dt_s: float) -> None:
         """Wind for this step, then rotor drag, rolling moment and body drag as an external wrench."""
         d = self.data
-        vx, vy, vz = float(d.qvel[0]), float(d.qvel[1]), float(d.qvel[2])  # world ENU
+        vx, vy, vz = d.qvel[0:3].tolist()  # world ENU
         wn, we, wd = self.wind.step(dt_s, float(d.qpos[2]), math.sqrt(vx * vx + vy * vy + vz * vz))
         self.wind_enu = (we, wn, -wd)
         ax, ay, az = we - vx, wn - vy, -wd - vz  # V_a = V_wind - V_n (seed 001 eq 4.11), ENU
-        r = d.xmat[self._body]  # body FLU -> world ENU, row-major
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = (float(x) for x in r)
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = d.xmat[self._body].tolist()  # body FLU -> world ENU, row-major
         bx = r0 * ax + r3 * ay + r6 * az  # R^T V_a
         by = r1 * ax + r4 * ay + r7 * az
         bz = r2 * ax + r5 * ay + r8 * az
@@ -104,14 +114,40 @@ class Simulation:
 
     def step(self, motor_commands: np.ndarray) -> None:
         """Advance one lockstep period with motor commands 0..1 (one per rotor)."""
-        cmds = np.asarray(motor_commands, dtype=float)[: self.rotors.n]
+        cmds = np.asarray(motor_commands, dtype=float)[: self.rotors.n].tolist()
         self._apply_motor_failure()
         for _ in range(self.substeps):
-            self.data.ctrl[:] = self.rotors.step(cmds, PHYSICS_DT_S)
+            self.data.ctrl[:] = self.rotors.step(cmds, PHYSICS_DT_S)  # a list of thrusts, N
             self._apply_aerodynamics(PHYSICS_DT_S)
             mujoco.mj_step(self.model, self.data)
         self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S)
         self.time_us += int(LOCKSTEP_DT_S * 1e6)
+
+    def sensor_truth(self) -> SensorTruth:
+        """The true state the sensors need, as plain floats (cheap: called every lockstep period).
+
+        The same frames and values as :meth:`truth`; the attitude matrix is built from the
+        FLU->ENU quaternion in ``qpos`` (after the step, like :meth:`truth`; MuJoCo's ``xmat``
+        still holds the attitude before it) as R_ned_frd = P R_enu_flu F with P the ENU->NED
+        swap and F = diag(1, -1, -1) the FRD->FLU flip (the conversions of :mod:`sitl.frames`).
+        """
+        d = self.data
+        a = self._accel_adr
+        fx, fy, fz = d.sensordata[a:a + 3].tolist()
+        w, x, y, z = d.qpos[3:7].tolist()
+        r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+        r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+        r20, r21, r22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+        e, n, u = d.qpos[0:3].tolist()
+        ve, vn, vu = d.qvel[0:3].tolist()
+        p, q, r = d.qvel[3:6].tolist()
+        return SensorTruth(
+            specific_force_frd_m_s2=(fx, -fy, -fz),
+            rate_frd_rad_s=(p, -q, -r),
+            r_ned_frd=((r10, -r11, -r12), (r00, -r01, -r02), (-r20, r21, r22)),
+            pos_ned_m=(n - self._start_xy_enu[1], e - self._start_xy_enu[0], -u),
+            vel_ned_m_s=(vn, ve, -vu),
+        )
 
     def truth(self) -> Truth:
         d = self.data

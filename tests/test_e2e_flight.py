@@ -35,7 +35,6 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from gcs import demo, geo
-from gcs.__main__ import main as gcs_main
 from gcs.client import GcsTimeout, ParamRefused, VehicleClient, mavlink
 from gcs.stack import Stack, StackError
 

@@ -20,10 +20,11 @@ from pathlib import Path
 
 import pytest
 
-from gcs import demo, geo, modes, param_codec
+from gcs import demo, geo, modes
 from gcs.__main__ import build_parser, main, resolve_url, status_line
 from gcs.client import GcsTimeout, VehicleClient
 from gcs.stack import Stack
+from params import param_encoding
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -80,31 +81,31 @@ INT32_VALUES = [0, 1, -1, 42, 4001, 1000000, 2**31 - 1, -2**31,
 
 @pytest.mark.parametrize("value", INT32_VALUES)
 def test_int32_bytewise_round_trip(value):
-    raw = param_codec.encode_param_bytes(value, param_codec.INT32)
+    raw = param_encoding.encode_param_bytes(value, param_encoding.INT32)
     assert raw == struct.pack("<i", value)  # byte-wise: the int's own bytes, not a float conversion
-    assert param_codec.decode_param_bytes(raw, param_codec.INT32) == value
+    assert param_encoding.decode_param_bytes(raw, param_encoding.INT32) == value
 
 
 def test_int32_encoding_is_not_float_conversion():
-    assert param_codec.encode_param_float(1, param_codec.INT32) == struct.unpack("<f", b"\x01\0\0\0")[0]
-    assert param_codec.encode_param_float(1, param_codec.INT32) != 1.0
+    assert param_encoding.encode_param_float(1, param_encoding.INT32) == struct.unpack("<f", b"\x01\0\0\0")[0]
+    assert param_encoding.encode_param_float(1, param_encoding.INT32) != 1.0
     for value in (0, 1, -1, 42, 2**31 - 1, -2**31, 123456789):
-        f = param_codec.encode_param_float(value, param_codec.INT32)
-        assert param_codec.decode_param_float(f, param_codec.INT32) == value
+        f = param_encoding.encode_param_float(value, param_encoding.INT32)
+        assert param_encoding.decode_param_float(f, param_encoding.INT32) == value
 
 
 def test_real32_and_small_int_types():
     for value in (0.0, 2.5, -1e-3, 1e6):
-        raw = param_codec.encode_param_bytes(value, param_codec.REAL32)
+        raw = param_encoding.encode_param_bytes(value, param_encoding.REAL32)
         as_float32 = struct.unpack("<f", struct.pack("<f", value))[0]
-        assert param_codec.decode_param_bytes(raw, param_codec.REAL32) == as_float32
-    assert param_codec.decode_param_bytes(param_codec.encode_param_bytes(-5, param_codec.INT8), param_codec.INT8) == -5
-    assert param_codec.decode_param_bytes(param_codec.encode_param_bytes(60000, param_codec.UINT16),
-                                          param_codec.UINT16) == 60000
+        assert param_encoding.decode_param_bytes(raw, param_encoding.REAL32) == as_float32
+    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(-5, param_encoding.INT8), param_encoding.INT8) == -5
+    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(60000, param_encoding.UINT16),
+                                             param_encoding.UINT16) == 60000
     with pytest.raises(ValueError):
-        param_codec.encode_param_bytes(1.5, param_codec.INT32)
+        param_encoding.encode_param_bytes(1.5, param_encoding.INT32)
     with pytest.raises(ValueError):
-        param_codec.encode_param_bytes(2**31, param_codec.INT32)
+        param_encoding.encode_param_bytes(2**31, param_encoding.INT32)
 
 
 # --------------------------------------------------------------------------- geo

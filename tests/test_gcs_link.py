@@ -20,12 +20,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
-from autopilot.gcs_link import (  # noqa: E402
-    GcsLink,
-    decode_param_value,
-    encode_param_value,
-    split_statustext,
-)
+from autopilot.gcs_link import GcsLink, split_statustext  # noqa: E402
 from autopilot.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
 from autopilot.quat import to_euler  # noqa: E402
 from autopilot.parameters import ParamDef, ParameterStore, ParamType  # noqa: E402
@@ -37,6 +32,7 @@ from autopilot.topics import (  # noqa: E402
     TelemetrySnapshot,
     VehicleEstimate,
 )
+from params.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
 
 ORIGIN = (47.397742, 8.545594, 488.0)
 CUSTOM_MODE_POSCTL = 3 << 16
@@ -244,11 +240,11 @@ def test_split_statustext():
 
 def test_param_value_encoding():
     for v in (0, 1, -1, 4001, -5_000_000, 2**31 - 1, -(2**31)):
-        raw = encode_param_value(v, ParamType.INT32)
+        raw = encode_param_bytes(v, mavlink.MAV_PARAM_TYPE_INT32)
         assert raw == struct.pack("<i", v)
-        assert decode_param_value(raw, mavlink.MAV_PARAM_TYPE_INT32) == v
-    raw = encode_param_value(0.25, ParamType.REAL32)
-    assert decode_param_value(raw, mavlink.MAV_PARAM_TYPE_REAL32) == 0.25
+        assert decode_param_bytes(raw, mavlink.MAV_PARAM_TYPE_INT32) == v
+    raw = encode_param_bytes(0.25, mavlink.MAV_PARAM_TYPE_REAL32)
+    assert decode_param_bytes(raw, mavlink.MAV_PARAM_TYPE_REAL32) == 0.25
 
 
 # --------------------------------------------------------------------------- telemetry

@@ -298,7 +298,7 @@ def test_rotor_thrust_is_k_t_omega_squared(quad):
     w = u * quad.max_speed_rad_s
     assert rotors.speed_rad_s == pytest.approx(np.full(4, w))
     assert thrusts == pytest.approx(np.full(4, quad.k_thrust * w * w))
-    assert rotors.drag_torque_nm() == pytest.approx(quad.k_moment * thrusts)
+    assert rotors.drag_torque_nm() == pytest.approx(quad.k_moment * np.array(thrusts))
 
 
 def test_motor_lag_63_percent_in_one_time_constant_slower_down(quad):

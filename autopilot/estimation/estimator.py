@@ -13,12 +13,13 @@ implementing the same three methods: ``update_imu``, ``update_gps`` and
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
 from autopilot import quat
 from autopilot.estimation.mahony import MahonyFilter
-from autopilot.estimation.position_kf import PositionVelocityFilter
+from autopilot.estimation.position_kf import P_GPS_DELAY, PositionVelocityFilter
 from autopilot.topics import GpsSample, ImuSample, VehicleEstimate
 from autopilot.geodesy import geodetic_to_ned
 
@@ -57,6 +58,10 @@ class Estimator:
         self.r_ned_frd = np.eye(3)  # attitude as a matrix (FRD -> NED), refreshed on each IMU sample
         self._acc_sum = np.zeros(3)  # kinematic acceleration accumulated since the last prediction
         self._acc_dt = 0.0
+        self.gps_delay_us = int(P_GPS_DELAY.default * 1000)
+        # (time_us, position, velocity) after each prediction (50 Hz, 0.64 s): what the estimate was
+        # when a delayed GPS fix was measured.
+        self._history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=32)
 
     # -- inputs ---------------------------------------------------------------------
     def update_imu(self, s: ImuSample) -> None:
@@ -86,6 +91,21 @@ class Estimator:
         self.accel_ned = accel_ned - self.position.accel_bias_ned
         self._acc_sum[:] = 0.0
         self._acc_dt = 0.0
+        if self.last_imu_us is not None:
+            x = self.position.x
+            self._history.append((self.last_imu_us, x[:, 0].copy(), x[:, 1].copy()))
+
+    def _estimate_at(self, time_us: int) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
+        """Position and velocity estimate nearest to an earlier time (None if the history does not reach)."""
+        best = None
+        for t, pos, vel in reversed(self._history):
+            if best is None or abs(t - time_us) < abs(best[0] - time_us):
+                best = (t, pos, vel)
+            if t < time_us:
+                break
+        if best is None or abs(best[0] - time_us) > 20_000:
+            return None, None
+        return best[1], best[2]
 
     def update_gps(self, g: GpsSample) -> None:
         self._predict()
@@ -102,7 +122,8 @@ class Estimator:
             self._set_declination(g.lat_deg, g.lon_deg, g.alt_amsl_m)
             return
         pos = geodetic_to_ned(g.lat_deg, g.lon_deg, g.alt_amsl_m, *self.origin)
-        self.position.fuse_gps(pos, g.vel_ned_m_s)
+        pos_then, vel_then = self._estimate_at(g.timestamp_us - self.gps_delay_us)
+        self.position.fuse_gps(pos, g.vel_ned_m_s, pos_then, vel_then)
 
     def _set_declination(self, lat: float, lon: float, alt: float) -> None:
         """Magnetic declination at the origin, from the World Magnetic Model."""

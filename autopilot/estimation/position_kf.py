@@ -24,6 +24,8 @@ P_GPS_P_NOISE = declare("EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position 
 P_GPS_V_NOISE = declare("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
 P_BARO_NOISE = declare("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
 P_GATE = declare("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate for GPS and baro (standard deviations)")
+P_GPS_DELAY = declare("EKF2_GPS_DELAY", 110.0, 0.0, 300.0, "ms",
+                      "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago")
 
 _ACC_BIAS_RW = 0.002  # m/s^2 per sqrt(s), accelerometer bias random walk
 
@@ -76,10 +78,16 @@ class PositionVelocityFilter:
         self.p_h = f @ self.p_h @ f.T + q
         self.p_v = f @ self.p_v @ f.T + q
 
-    def _update_scalar(self, axes: list[int], p: np.ndarray, state: int, z: np.ndarray, r: float) -> np.ndarray:
-        """Fuse a measurement of one state element on the given axes (same P)."""
+    def _update_scalar(self, axes: list[int], p: np.ndarray, state: int, z: np.ndarray, r: float,
+                       reference: np.ndarray | None = None) -> np.ndarray:
+        """Fuse a measurement of one state element on the given axes (same P).
+
+        ``reference``: the filter's own value of that element at the time the measurement
+        describes (a delayed sensor); the innovation is taken against it and the correction
+        applied to the current state.
+        """
         s = p[state, state] + r
-        innov = z - self.x[axes, state]
+        innov = z - (self.x[axes, state] if reference is None else reference)
         if np.any(innov * innov > self.gate * self.gate * s):
             self.rejected += 1
             return p
@@ -87,10 +95,14 @@ class PositionVelocityFilter:
         self.x[axes, :] += np.outer(innov, k)
         return p - np.outer(k, p[state, :])
 
-    def fuse_gps(self, pos_ned_m: np.ndarray, vel_ned_m_s: np.ndarray) -> None:
-        self.p_h = self._update_scalar([0, 1], self.p_h, 0, pos_ned_m[:2], self.gps_p_noise**2)
-        self.p_h = self._update_scalar([0, 1], self.p_h, 1, vel_ned_m_s[:2], self.gps_v_noise**2)
-        self.p_v = self._update_scalar([2], self.p_v, 1, vel_ned_m_s[2:3], (1.5 * self.gps_v_noise) ** 2)
+    def fuse_gps(self, pos_ned_m: np.ndarray, vel_ned_m_s: np.ndarray,
+                 pos_then: np.ndarray | None = None, vel_then: np.ndarray | None = None) -> None:
+        """Fuse a GPS fix; ``pos_then``/``vel_then`` are the estimate at the time the fix describes."""
+        pos_then = self.x[:, 0] if pos_then is None else pos_then
+        vel_then = self.x[:, 1] if vel_then is None else vel_then
+        self.p_h = self._update_scalar([0, 1], self.p_h, 0, pos_ned_m[:2], self.gps_p_noise**2, pos_then[:2])
+        self.p_h = self._update_scalar([0, 1], self.p_h, 1, vel_ned_m_s[:2], self.gps_v_noise**2, vel_then[:2])
+        self.p_v = self._update_scalar([2], self.p_v, 1, vel_ned_m_s[2:3], (1.5 * self.gps_v_noise) ** 2, vel_then[2:3])
 
     def fuse_height(self, down_m: float) -> None:
         self.p_v = self._update_scalar([2], self.p_v, 0, np.array([down_m]), self.baro_noise**2)

@@ -5,11 +5,15 @@ flight controller here) does not convert integers to float: it copies the
 integer's bytes into the field (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE),
 so an INT32 of 1 travels as the float 1.4e-45.
 
+One module for the three users: the flight controller's parameter service
+(``autopilot.gcs_link``), the simulator's (``sitl.param_server``) and the
+bundled ground station (``gcs.client``).
+
 The exact form is the 4 little-endian wire bytes.  Helpers working on Python
 floats are provided too, but note that a Python float cannot keep every bit
 pattern: int32 values whose bytes form a *signalling* NaN (0x7F800001..0x7FBFFFFF
 and 0xFF800001..0xFFBFFFFF) are changed by a float round trip, so the client
-sends and decodes the raw bytes.
+sends and decodes the raw bytes (and so do the two parameter services).
 """
 
 from __future__ import annotations

@@ -1,0 +1,143 @@
+"""Benchmark: both vehicles, hover in calm and in wind, 10 m step response, real-time factor.
+
+For each vehicle (``quad_x``, ``firefly``) one stack runs (``--speed max``, lockstep,
+telemetry on, the simulator's default sensor errors: IMU noise and bias walk, GPS at
+5 Hz with 120 ms latency and a wandering error):
+
+1. take off to 5 m, settle, hover 30 simulated seconds in calm air;
+2. a 10 m position step North (DO_REPOSITION: the navigator's trajectory toward the
+   new point, as a ground station's "go to" flies it): rise time 10-90 %, overshoot,
+   settling time to within 0.1 m of the target;
+3. turn on 5 m/s wind from the West with 1 m/s Dryden turbulence and 2 m/s gusts
+   every ~10 s (``SIM_*`` parameters set over the simulator's MAVLink port), settle,
+   hover 30 simulated seconds;
+4. land.
+
+Errors are ground truth (the simulator's LOCAL_POSITION_NED, float metres) against
+the commanded point.  Real-time factor = simulated seconds / wall seconds over the
+windy hover (all effects on) and over the whole flight.
+
+Usage: ``python benchmarks/vehicle_benchmark.py [--vehicles quad_x firefly] [--hover S] [--seed N]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from gcs.client import VehicleClient  # noqa: E402
+from gcs.sim_client import SimClient  # noqa: E402
+from gcs.stack import Stack  # noqa: E402
+
+ALT_M = 5.0
+STEP_M = 10.0
+WIND = {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 270.0, "SIM_WIND_TURB": 1.0,
+        "SIM_GUST_SPD": 2.0, "SIM_GUST_DUR": 2.0, "SIM_GUST_INT": 10.0}
+
+
+def rms(a) -> float:
+    a = np.asarray(a, dtype=float)
+    return float(np.sqrt(np.mean(a * a))) if len(a) else float("nan")
+
+
+def hover_errors(truth: SimClient, client: VehicleClient, target: np.ndarray, seconds: float):
+    """Truth minus target over ``seconds`` of simulated time; also the wall time it took."""
+    client.pump(0.05)
+    t0 = truth.latest().time_ms
+    wall0 = time.monotonic()
+    while truth.latest().time_ms - t0 < seconds * 1000:
+        client.pump(0.05)
+    wall = time.monotonic() - wall0
+    samples = [s for s in truth.since(t0) if s.time_ms <= t0 + seconds * 1000]
+    err = np.array([np.array(s.pos_ned_m) - target for s in samples])
+    return err, seconds / wall
+
+
+def step_response(truth: SimClient, client: VehicleClient, start: np.ndarray, seconds: float = 25.0) -> dict:
+    """Command a STEP_M North step from ``start`` (the flight controller's local frame) and measure
+    the truth's response along North, from where the truth was when the step was commanded."""
+    client.pump(0.05)
+    t0 = truth.latest().time_ms
+    north0 = truth.latest().pos_ned_m[0]
+    client.goto_ned(start[0] + STEP_M, start[1], start[2]).check()
+    while truth.latest().time_ms - t0 < seconds * 1000:
+        client.pump(0.05)
+    s = [x for x in truth.since(t0) if x.time_ms <= t0 + seconds * 1000]
+    t = np.array([x.time_ms - t0 for x in s]) / 1000.0
+    north = np.array([x.pos_ned_m[0] for x in s]) - north0
+    frac = north / STEP_M
+    t10 = t[np.argmax(frac >= 0.1)]
+    t90 = t[np.argmax(frac >= 0.9)]
+    outside = np.abs(north - STEP_M) > 0.1
+    settle = t[np.nonzero(outside)[0][-1] + 1] if outside.any() and outside.nonzero()[0][-1] + 1 < len(t) else (
+        float("nan") if outside[-1] else t[0])
+    return {"rise_s": t90 - t10, "overshoot_pct": max(0.0, (north.max() - STEP_M) / STEP_M * 100),
+            "settle_s": settle, "final_err_m": abs(north[-1] - STEP_M)}
+
+
+def fly(vehicle: str, instance: int, hover_s: float, seed: int) -> dict:
+    out: dict = {"vehicle": vehicle}
+    with Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed) as stack, \
+            SimClient(14560 + instance) as truth:
+        client = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
+        client.wait_until(client.prearm_ok, 120, "ready to arm")
+        truth.wait_connected()
+        start = np.array(truth.latest().pos_ned_m)
+        wall_flight0, sim_flight0 = time.monotonic(), client.sim_time_s()
+        client.arm().check()
+        client.takeoff(client.home().alt_amsl_m + ALT_M).check()
+        client.wait_until(lambda: client.takeoff_done(ALT_M), 120, "take-off to 5 m")
+        client.wait_sim_time(5.0)
+        target = start + np.array([0.0, 0.0, -ALT_M])
+        err, _ = hover_errors(truth, client, target, hover_s)
+        out["calm_h"], out["calm_v"] = rms(np.hypot(err[:, 0], err[:, 1])), rms(err[:, 2])
+        # The estimator's home is where it armed; commands are relative to it, truth to the start point.
+        home = client.latest("HOME_POSITION")
+        step_start = np.array([home.x, home.y, home.z]) + np.array([0.0, 0.0, -ALT_M])
+        out["step"] = step_response(truth, client, step_start)
+        client.goto_ned(*step_start).check()
+        client.wait_until(lambda: client.arrived(step_start[0], step_start[1], 0.3, 0.3), 120, "back")
+        for name, value in WIND.items():
+            truth.set(name, value)
+        client.wait_sim_time(10.0)
+        err, rtf = hover_errors(truth, client, target, hover_s)
+        out["wind_h"], out["wind_v"] = rms(np.hypot(err[:, 0], err[:, 1])), rms(err[:, 2])
+        out["wind_max_h"] = float(np.hypot(err[:, 0], err[:, 1]).max())
+        out["rtf_wind"] = rtf
+        client.land().check()
+        client.wait_until(client.landed_and_disarmed, 180, "landed and disarmed")
+        out["rtf_flight"] = (client.sim_time_s() - sim_flight0) / (time.monotonic() - wall_flight0)
+        client.close()
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--vehicles", nargs="+", default=["quad_x", "firefly"])
+    ap.add_argument("--instance", type=int, default=21)
+    ap.add_argument("--hover", type=float, default=30.0, help="each hover, simulated seconds")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    results = [fly(v, args.instance + i, args.hover, args.seed) for i, v in enumerate(args.vehicles)]
+    print(f"hover {args.hover:.0f} s at {ALT_M:.0f} m; wind {WIND['SIM_WIND_SPD']:.0f} m/s from 270 deg, "
+          f"turbulence {WIND['SIM_WIND_TURB']:.0f} m/s RMS, gusts {WIND['SIM_GUST_SPD']:.0f} m/s every "
+          f"~{WIND['SIM_GUST_INT']:.0f} s; errors = truth - setpoint, RMS")
+    print(f"{'vehicle':9} {'calm h':>7} {'calm v':>7} {'wind h':>7} {'wind v':>7} {'wind max':>8} "
+          f"{'rise':>6} {'overshoot':>9} {'settle':>7} {'RTF wind':>8} {'RTF all':>7}")
+    for r in results:
+        s = r["step"]
+        print(f"{r['vehicle']:9} {r['calm_h']:6.3f}m {r['calm_v']:6.3f}m {r['wind_h']:6.3f}m {r['wind_v']:6.3f}m "
+              f"{r['wind_max_h']:7.3f}m {s['rise_s']:5.2f}s {s['overshoot_pct']:8.1f}% {s['settle_s']:6.2f}s "
+              f"{r['rtf_wind']:7.1f}x {r['rtf_flight']:6.1f}x")
+    print("step: 10 m North via DO_REPOSITION; rise 10-90 %, settle = last time outside 0.1 m of the target")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

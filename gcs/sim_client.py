@@ -1,0 +1,163 @@
+"""Client of the simulator's own MAVLink port: ground truth and ``SIM_*`` parameters.
+
+The simulator sends ground truth (HIL_STATE_QUATERNION and LOCAL_POSITION_NED,
+50 Hz of simulated time) and its heartbeat to UDP 14560 + instance, and answers
+parameter requests on the same link (component 51).  :class:`SimClient` binds
+that port, keeps the truth in a background thread, and reads and sets ``SIM_*``
+parameters with the MAVLink parameter protocol (C-cast encoding: the simulator
+is not PX4, so an INT32 of 3 travels as 3.0), as MAVProxy would.  Truth is NED metres from the simulator's start point.
+"""
+
+from __future__ import annotations
+
+import queue
+import socket
+import threading
+import time
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import common as mavlink
+
+
+SIM_COMPONENT_ID = 51
+
+
+class SimParamError(RuntimeError):
+    """The simulator refused a parameter or did not answer."""
+
+
+@dataclass(frozen=True)
+class TruthSample:
+    time_ms: int
+    pos_ned_m: tuple[float, float, float]
+    vel_ned_m_s: tuple[float, float, float]
+
+
+class SimClient:
+    """Ground truth and SIM_* parameters of one simulator instance."""
+
+    def __init__(self, port: int, host: str = "127.0.0.1") -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind((host, port))
+        self.sock.settimeout(0.2)
+        self.mav = mavlink.MAVLink(None, 254, 190)
+        self.mav.robust_parsing = True
+        self.sim_addr: tuple[str, int] | None = None
+        self.positions: dict[int, TruthSample] = {}
+        self.latest_state = None  # HIL_STATE_QUATERNION
+        self.lock = threading.Lock()
+        self.param_values: queue.Queue = queue.Queue()
+        self.statustexts: list[str] = []
+        self._types: dict[str, int] = {}
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="sim-client", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data, addr = self.sock.recvfrom(65536)
+            except OSError:
+                continue
+            try:
+                msgs = self.mav.parse_buffer(data) or []
+            except mavlink.MAVError:
+                continue
+            for msg in msgs:
+                if msg.get_srcComponent() != SIM_COMPONENT_ID:
+                    continue
+                self.sim_addr = addr
+                kind = msg.get_type()
+                if kind == "LOCAL_POSITION_NED":
+                    with self.lock:
+                        self.positions[msg.time_boot_ms] = TruthSample(
+                            msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz))
+                elif kind == "HIL_STATE_QUATERNION":
+                    self.latest_state = msg
+                elif kind == "PARAM_VALUE":
+                    self.param_values.put(msg)
+                elif kind == "STATUSTEXT":
+                    self.statustexts.append(msg.text)
+
+    # -- truth -------------------------------------------------------------------------
+    def at(self, time_ms: int, within_ms: int = 10) -> TruthSample | None:
+        """The truth sample nearest this simulated time, if one is within ``within_ms``."""
+        with self.lock:
+            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
+                if time_ms + dt in self.positions:
+                    return self.positions[time_ms + dt]
+        return None
+
+    def latest(self) -> TruthSample | None:
+        with self.lock:
+            return self.positions[max(self.positions)] if self.positions else None
+
+    def since(self, time_ms: int) -> list[TruthSample]:
+        """Truth samples from this simulated time on, in time order."""
+        with self.lock:
+            return [self.positions[t] for t in sorted(self.positions) if t >= time_ms]
+
+    # -- parameters ----------------------------------------------------------------------
+    def _send(self, msg) -> None:
+        if self.sim_addr is None:
+            raise SimParamError("no heartbeat or truth from the simulator yet")
+        self.sock.sendto(msg.pack(self.mav), self.sim_addr)
+
+    def _wait_value(self, name: str, timeout_s: float):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                msg = self.param_values.get(timeout=max(0.01, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            if msg.param_id == name:
+                self._types[name] = msg.param_type
+                return msg
+        raise SimParamError(f"no PARAM_VALUE for {name} from the simulator")
+
+    @staticmethod
+    def _value(msg) -> int | float:
+        """A PARAM_VALUE's value: int for integer types, float for REAL32 (C-cast encoding)."""
+        return msg.param_value if msg.param_type == mavlink.MAV_PARAM_TYPE_REAL32 else int(msg.param_value)
+
+    def wait_connected(self, timeout_s: float = 30.0) -> None:
+        deadline = time.monotonic() + timeout_s
+        while self.sim_addr is None:
+            if time.monotonic() > deadline:
+                raise SimParamError("no message from the simulator")
+            time.sleep(0.05)
+
+    def get(self, name: str, timeout_s: float = 5.0) -> int | float:
+        """Read a parameter (PARAM_REQUEST_READ by name)."""
+        for _ in range(3):
+            self._send(mavlink.MAVLink_param_request_read_message(1, SIM_COMPONENT_ID, name.encode(), -1))
+            try:
+                msg = self._wait_value(name, timeout_s / 3)
+            except SimParamError:
+                continue
+            return self._value(msg)
+        raise SimParamError(f"no answer reading {name}")
+
+    def set(self, name: str, value: float, timeout_s: float = 5.0) -> int | float:
+        """Set a parameter; return the value the simulator now holds; raise if it refused."""
+        if name not in self._types:
+            self.get(name, timeout_s)
+        ptype = self._types[name]
+        self._send(mavlink.MAVLink_param_set_message(1, SIM_COMPONENT_ID, name.encode(), float(value), ptype))
+        msg = self._wait_value(name, timeout_s)
+        got = self._value(msg)
+        if abs(float(got) - float(value)) > 1e-6 * max(1.0, abs(float(value))):
+            reason = self.statustexts[-1] if self.statustexts else "no reason given"
+            raise SimParamError(f"{name} = {value} refused (still {got}): {reason}")
+        return got
+
+    def close(self) -> None:
+        self._stop.set()
+        self.thread.join(timeout=2)
+        self.sock.close()
+
+    def __enter__(self) -> "SimClient":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,354 @@
+"""The simulator as a MAVLink component: ``SIM_*`` parameters on its ground-truth UDP port.
+
+:class:`SimParamServer` owns one bound, non-blocking UDP socket.  Everything the
+simulator sends on it (HEARTBEAT, ground truth, parameter answers) goes to the
+default peer (127.0.0.1:14560 + instance) and to every address that has sent it a
+MAVLink packet (the few most recent), as PX4's UDP endpoints do.  It serves:
+
+* HEARTBEAT at 1 Hz of wall time: MAV_TYPE_GENERIC, MAV_AUTOPILOT_GENERIC, from
+  sysid 1, compid 51 (the simulator's identity in ``sitl.lockstep``).  A generic
+  autopilot (not INVALID) and a type that is not GCS/gimbal/ADSB/onboard controller
+  is what pymavlink (``probably_vehicle_heartbeat``) and MAVProxy
+  (``heartbeat_is_from_autopilot``) lock onto as their target; it does not claim
+  to be a PX4 vehicle, which the flight controller (compid 1) is.
+* the parameter protocol: PARAM_REQUEST_LIST, PARAM_REQUEST_READ (by name when
+  ``param_index`` is negative, else by 0-based index), PARAM_SET.  Values travel
+  C-cast (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST: an INT32 of 3 is the float
+  3.0), the encoding ground stations assume for a component that is not PX4; the
+  flight controller (compid 1, PX4) keeps PX4's byte-wise encoding.  A PARAM_SET
+  is always answered with a PARAM_VALUE carrying the value now in force; a refused
+  one also gets a STATUSTEXT with the reason.  The value is validated against the
+  parameter, so a fractional value for an INT32 parameter is refused.
+* COMMAND_LONG / COMMAND_INT: REQUEST_MESSAGE for HEARTBEAT, AUTOPILOT_VERSION and
+  PARAM_VALUE (by index), REQUEST_AUTOPILOT_CAPABILITIES; everything else is
+  acknowledged MAV_RESULT_UNSUPPORTED, never left unanswered.
+* FILE_TRANSFER_PROTOCOL (MAVFTP, which MAVProxy tries first for a parameter
+  download): answered with a NAK "unknown command", so clients fall back to the
+  parameter protocol at once instead of after a timeout.
+
+The process loop calls :meth:`SimParamServer.poll` often; it does all the
+non-blocking work and costs one ``poll(2)`` system call (under 1 us) when
+nothing arrived.
+Malformed datagrams are counted (``rx_errors``) and ignored.
+"""
+
+from __future__ import annotations
+
+import math
+import select
+import socket
+from typing import Callable, Iterable
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.gcs_link import split_statustext
+from sitl.sim_params import SimParam, SimParamError, SimParameters
+from sitl.sim_settings import INT32, REAL32
+
+SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, the simulator component
+HEARTBEAT_PERIOD_S = 1.0
+MAX_PEERS = 4  # remembered reply addresses, besides the default peer
+MAX_DATAGRAMS_PER_POLL = 64  # a flood of requests cannot stall the simulation
+RX_BUFFER_BYTES = 65536
+STATUSTEXT_ID_MAX = 65535
+
+_MAV_PARAM_TYPE = {INT32: mavlink.MAV_PARAM_TYPE_INT32, REAL32: mavlink.MAV_PARAM_TYPE_REAL32}
+CAPABILITIES = (
+    mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+)
+# MAVFTP (FILE_TRANSFER_PROTOCOL payload): header offsets and codes used for the NAK
+_FTP_OPCODE, _FTP_SIZE, _FTP_REQ_OPCODE = 3, 4, 5
+_FTP_HEADER_LEN = 12
+_FTP_ACK, _FTP_NAK, _FTP_ERR_UNKNOWN_COMMAND = 128, 129, 7
+
+Address = tuple[str, int]
+ParamChangeCallback = Callable[[str, "int | float", Address], None]
+
+
+class SimParamServer:
+    """MAVLink component of the simulator on one UDP socket (see the module docstring).
+
+    ``bind``: local address (port 0: chosen by the OS; see :attr:`local_address`).
+    ``default_peer``: where everything goes even before anyone has talked to us.
+    ``on_param_set(name, value, addr)``: called after a PARAM_SET changed a value.
+    Counters: ``rx_messages`` (packets handled), ``rx_errors`` (damaged datagrams,
+    failed handlers), ``tx_errors`` (failed sends), ``params_set`` (accepted sets).
+    """
+
+    def __init__(
+        self,
+        params: SimParameters,
+        *,
+        bind: Address = ("0.0.0.0", 0),
+        default_peer: Address = ("127.0.0.1", 14560),
+        sysid: int = SIM_SYSID,
+        compid: int = SIM_COMPID,
+        heartbeat_period_s: float = HEARTBEAT_PERIOD_S,
+        on_param_set: ParamChangeCallback | None = None,
+    ) -> None:
+        self.params = params
+        self.sysid = sysid
+        self.compid = compid
+        self.heartbeat_period_s = heartbeat_period_s
+        self.on_param_set = on_param_set
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self.sock.bind(bind)
+        except OSError as e:
+            self.sock.close()
+            raise OSError(e.errno, f"sim param server: cannot bind UDP {bind[0]}:{bind[1]}: {e.strerror}") from e
+        self.sock.setblocking(False)
+        # poll(0) on this is the idle fast path: ~0.6 us, a failed recvfrom plus its exception ~2 us.
+        self._poller = select.poll()
+        self._poller.register(self.sock, select.POLLIN)
+        self.default_peer = default_peer
+        self.peers: list[Address] = []  # most recent last
+        self.destinations: list[Address] = [default_peer]
+        self.mav = mavlink.MAVLink(None, sysid, compid)  # the one encoder: continuous sequence numbers
+        self._parser = mavlink.MAVLink(None, sysid, compid)
+        self._parser.robust_parsing = True  # bad bytes come back as BAD_DATA instead of raising
+        self._rx_buf = bytearray(RX_BUFFER_BYTES)
+        self._next_heartbeat_s = -math.inf
+        self._statustext_id = 0
+        self._addr: Address = default_peer  # sender of the datagram being handled
+        self.rx_messages = 0
+        self.rx_errors = 0
+        self.tx_errors = 0
+        self.params_set = 0
+        self._handlers: dict[str, Callable[[mavlink.MAVLink_message], None]] = {
+            "PARAM_REQUEST_LIST": self._on_param_request_list,
+            "PARAM_REQUEST_READ": self._on_param_request_read,
+            "PARAM_SET": self._on_param_set,
+            "COMMAND_LONG": self._on_command_long,
+            "COMMAND_INT": self._on_command_int,
+            "FILE_TRANSFER_PROTOCOL": self._on_file_transfer_protocol,
+        }
+
+    # ------------------------------------------------------------------ public API
+
+    @property
+    def local_address(self) -> Address:
+        """(host, port) the socket is bound to."""
+        return self.sock.getsockname()
+
+    def poll(self, now_wall_s: float) -> None:
+        """All pending non-blocking work: heartbeat if due, then read and answer every waiting datagram.
+
+        ``now_wall_s`` is a monotonic wall clock (``time.monotonic()``); it only paces heartbeats.
+        """
+        if now_wall_s >= self._next_heartbeat_s:
+            self._send_heartbeat(now_wall_s)
+        if not self._poller.poll(0):
+            return
+        recv = self.sock.recvfrom_into
+        buf = self._rx_buf
+        for _ in range(MAX_DATAGRAMS_PER_POLL):
+            try:
+                n, addr = recv(buf)
+            except (BlockingIOError, InterruptedError):
+                return
+            except ConnectionError:  # ICMP error for an earlier send (some OSes): try the next datagram
+                continue
+            except OSError:
+                return
+            self._handle_datagram(bytes(memoryview(buf)[:n]), addr)
+
+    def send(self, data: bytes) -> None:
+        """One datagram to the default peer and every remembered peer (best effort)."""
+        sendto = self.sock.sendto
+        for addr in self.destinations:
+            try:
+                sendto(data, addr)
+            except OSError:  # nobody listening, buffer full, network down
+                self.tx_errors += 1
+
+    def encode(self, msgs: Iterable[mavlink.MAVLink_message]) -> bytes:
+        """Messages packed as this component (use it for anything sent with :meth:`send`)."""
+        return b"".join(m.pack(self.mav) for m in msgs)
+
+    def send_message(self, msg: mavlink.MAVLink_message) -> None:
+        self.send(msg.pack(self.mav))
+
+    def send_statustext(self, severity: int, text: str) -> None:
+        """STATUSTEXT (MAV_SEVERITY), cut into 50-byte chunks with a common id when longer."""
+        chunks = split_statustext(text)
+        chunk_id = 0
+        if len(chunks) > 1:
+            self._statustext_id = self._statustext_id % STATUSTEXT_ID_MAX + 1
+            chunk_id = self._statustext_id
+        for seq, chunk in enumerate(chunks):
+            self.send_message(mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq))
+
+    def close(self) -> None:
+        self.sock.close()
+
+    # ------------------------------------------------------------------ receiving
+
+    def _note_peer(self, addr: Address) -> None:
+        if self.peers and self.peers[-1] == addr:
+            return
+        if addr in self.peers:
+            self.peers.remove(addr)
+        self.peers.append(addr)
+        del self.peers[:-MAX_PEERS]
+        self.destinations = [self.default_peer] + [a for a in self.peers if a != self.default_peer]
+
+    def _parse(self, data: bytes) -> list:
+        """All packets of one datagram; a datagram holds whole packets, so leftovers are damage."""
+        p = self._parser
+        msgs = p.parse_buffer(data) or []
+        if p.buf_len() > 0:
+            msgs.append(mavlink.MAVLink_bad_data(p.buf[p.buf_index:], "truncated packet"))
+            p.buf = bytearray()
+            p.buf_index = 0
+            p.expected_length = mavlink.HEADER_LEN_V1 + 2
+        return msgs
+
+    def _handle_datagram(self, data: bytes, addr: Address) -> None:
+        self._addr = addr
+        try:
+            msgs = self._parse(data)
+        except Exception:  # robust parsing should not raise; a datagram must never stop the simulator
+            self._parser = mavlink.MAVLink(None, self.sysid, self.compid)
+            self._parser.robust_parsing = True
+            self.rx_errors += 1
+            return
+        for msg in msgs:
+            mtype = msg.get_type()
+            if mtype == "BAD_DATA":
+                self.rx_errors += 1
+                continue
+            if msg.get_srcSystem() == self.sysid and msg.get_srcComponent() == self.compid:
+                continue  # our own packets looped back
+            self._note_peer(addr)
+            handler = self._handlers.get(mtype)
+            if handler is None:
+                continue
+            self.rx_messages += 1
+            try:
+                handler(msg)
+            except Exception:
+                self.rx_errors += 1
+
+    def _for_us(self, msg) -> bool:
+        """Addressed to our system (or broadcast) and our component (or all)."""
+        return msg.target_system in (0, self.sysid) and msg.target_component in (0, self.compid)
+
+    # -- parameters
+
+    def _param_value(self, p: SimParam) -> mavlink.MAVLink_message:
+        """PARAM_VALUE with the current value, C-cast encoded.
+
+        Exact for integers: SimParameters keeps INT32 limits inside +-2**23, which a float32 holds.
+        """
+        mav_type = _MAV_PARAM_TYPE[p.type]
+        value = float(self.params.get(p.name))
+        return mavlink.MAVLink_param_value_message(p.name.encode("ascii"), value, mav_type, len(self.params), p.index)
+
+    def _on_param_request_list(self, msg) -> None:
+        if self._for_us(msg):
+            for p in self.params:
+                self.send_message(self._param_value(p))
+
+    def _on_param_request_read(self, msg) -> None:
+        if not self._for_us(msg):
+            return
+        try:
+            p = self.params.param(msg.param_id) if msg.param_index < 0 else self.params.at(msg.param_index)
+        except SimParamError as e:
+            self.send_statustext(mavlink.MAV_SEVERITY_ERROR, str(e))
+            return
+        self.send_message(self._param_value(p))
+
+    def _on_param_set(self, msg) -> None:
+        if not self._for_us(msg):
+            return
+        name = msg.param_id
+        if name not in self.params:
+            self.send_statustext(mavlink.MAV_SEVERITY_ERROR, f"{name}: unknown parameter")
+            return
+        p = self.params.param(name)
+        refused = None
+        before = self.params.get(name)
+        try:
+            value = self.params.set(name, float(msg.param_value))  # C-cast: the float is the value
+        except SimParamError as e:
+            refused = str(e)
+        else:
+            self.params_set += 1
+            if value != before and self.on_param_set is not None:
+                self.on_param_set(name, value, self._addr)
+        self.send_message(self._param_value(p))  # the value in force, new or old
+        if refused is not None:
+            self.send_statustext(mavlink.MAV_SEVERITY_ERROR, refused)
+
+    # -- commands
+
+    def _on_command_long(self, msg) -> None:
+        if self._for_us(msg):
+            self._run_command(msg, msg.command, msg.param1, msg.param2)
+
+    def _on_command_int(self, msg) -> None:
+        if self._for_us(msg):
+            self._run_command(msg, msg.command, msg.param1, msg.param2)
+
+    def _run_command(self, msg, command: int, param1: float, param2: float) -> None:
+        if command == mavlink.MAV_CMD_REQUEST_MESSAGE:
+            result = self._request_message(param1, param2)
+        elif command == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            self.send_message(self._autopilot_version())
+            result = mavlink.MAV_RESULT_ACCEPTED
+        else:
+            result = mavlink.MAV_RESULT_UNSUPPORTED
+        self.send_message(mavlink.MAVLink_command_ack_message(
+            command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def _request_message(self, msg_id: float, param2: float) -> int:
+        if not math.isfinite(msg_id):
+            return mavlink.MAV_RESULT_DENIED
+        mid = int(msg_id)
+        if mid == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
+            self.send_message(self._heartbeat())
+        elif mid == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            self.send_message(self._autopilot_version())
+        elif mid == mavlink.MAVLINK_MSG_ID_PARAM_VALUE:
+            if not (math.isfinite(param2) and 0 <= param2 < len(self.params)):
+                return mavlink.MAV_RESULT_DENIED
+            self.send_message(self._param_value(self.params.at(int(param2))))
+        else:
+            return mavlink.MAV_RESULT_UNSUPPORTED
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _on_file_transfer_protocol(self, msg) -> None:
+        """NAK every MAVFTP request: there is no file system here."""
+        if not self._for_us(msg):
+            return
+        req = bytes(msg.payload)
+        if len(req) < _FTP_HEADER_LEN or req[_FTP_OPCODE] in (_FTP_ACK, _FTP_NAK):  # never answer an answer
+            return
+        seq = (req[0] | req[1] << 8) + 1 & 0xFFFF
+        reply = bytearray(251)
+        reply[0], reply[1], reply[2] = seq & 0xFF, seq >> 8, req[2]  # seq, session
+        reply[_FTP_OPCODE], reply[_FTP_SIZE], reply[_FTP_REQ_OPCODE] = _FTP_NAK, 1, req[_FTP_OPCODE]
+        reply[_FTP_HEADER_LEN] = _FTP_ERR_UNKNOWN_COMMAND
+        self.send_message(mavlink.MAVLink_file_transfer_protocol_message(
+            0, msg.get_srcSystem(), msg.get_srcComponent(), list(reply)))
+
+    # ------------------------------------------------------------------ sending
+
+    def _heartbeat(self) -> mavlink.MAVLink_message:
+        return mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_GENERIC, 0, 0, mavlink.MAV_STATE_ACTIVE, 3)
+
+    def _send_heartbeat(self, now_wall_s: float) -> None:
+        self.send_message(self._heartbeat())
+        self._next_heartbeat_s += self.heartbeat_period_s
+        if self._next_heartbeat_s <= now_wall_s:  # first one, or the loop was stalled: no burst
+            self._next_heartbeat_s = now_wall_s + self.heartbeat_period_s
+
+    def _autopilot_version(self) -> mavlink.MAVLink_message:
+        uid = (0x53494D << 24) | (self.sysid << 8) | self.compid  # "SIM", non-zero
+        return mavlink.MAVLink_autopilot_version_message(
+            CAPABILITIES, 0, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, uid)
