@@ -846,5 +846,6 @@ class GcsLink:
             remaining, charge_state = -1, mavlink.MAV_BATTERY_CHARGE_STATE_UNDEFINED
         return mavlink.MAVLink_battery_status_message(
             0, mavlink.MAV_BATTERY_FUNCTION_UNKNOWN, mavlink.MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
-            current_ca, -1, -1, remaining, 0, charge_state, [0, 0, 0, 0], 0, 0,
+            current_ca, _int(b.consumed_mah, 0, 2**31 - 1, -1) if b.consumed_mah >= 0 else -1, -1, remaining, 0,
+            charge_state, [0, 0, 0, 0], 0, 0,
         )  # fmt: skip

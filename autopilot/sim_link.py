@@ -47,6 +47,7 @@ def battery_from_msg(m) -> BatteryState:
         current_a=m.current_battery / 100.0 if m.current_battery >= 0 else -1.0,
         remaining_frac=m.battery_remaining / 100.0 if m.battery_remaining >= 0 else -1.0,
         cell_count=len(cells) or 4,
+        consumed_mah=float(m.current_consumed) if m.current_consumed >= 0 else -1.0,
     )
 
 

@@ -94,6 +94,7 @@ class BatteryState:
     current_a: float  # -1 unknown
     remaining_frac: float  # 0..1, -1 unknown
     cell_count: int = 4
+    consumed_mah: float = -1.0  # charge drawn since start, mAh; -1 unknown
 
 
 @dataclass(frozen=True, slots=True)

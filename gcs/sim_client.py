@@ -45,6 +45,7 @@ class SimClient:
         self.sim_addr: tuple[str, int] | None = None
         self.positions: dict[int, TruthSample] = {}
         self.latest_state = None  # HIL_STATE_QUATERNION
+        self.states: dict[int, object] = {}  # HIL_STATE_QUATERNION by simulated time, ms
         self.lock = threading.Lock()
         self.param_values: queue.Queue = queue.Queue()
         self.statustexts: list[str] = []
@@ -73,7 +74,9 @@ class SimClient:
                         self.positions[msg.time_boot_ms] = TruthSample(
                             msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz))
                 elif kind == "HIL_STATE_QUATERNION":
-                    self.latest_state = msg
+                    with self.lock:
+                        self.latest_state = msg
+                        self.states[msg.time_usec // 1000] = msg
                 elif kind == "PARAM_VALUE":
                     self.param_values.put(msg)
                 elif kind == "STATUSTEXT":
@@ -86,6 +89,14 @@ class SimClient:
             for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
                 if time_ms + dt in self.positions:
                     return self.positions[time_ms + dt]
+        return None
+
+    def state_at(self, time_ms: int, within_ms: int = 10):
+        """The HIL_STATE_QUATERNION nearest this simulated time (attitude quaternion FRD->NED, body rates)."""
+        with self.lock:
+            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
+                if time_ms + dt in self.states:
+                    return self.states[time_ms + dt]
         return None
 
     def latest(self) -> TruthSample | None:

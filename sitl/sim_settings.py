@@ -47,20 +47,22 @@ class WindSettings:
 class SensorSettings:
     """Noise, bias, delay and failures of the IMU, magnetometer, barometer and GPS (sitl.sensors).
 
-    Defaults: the IMU figures are those of an ADIS16448-class IMU (the defaults of
-    the PX4/RotorS Gazebo IMU plugin); turn-on biases are the residuals after a
-    factory calibration; the GPS is a good dual-band receiver (0.1 m white noise,
+    Defaults: the IMU noise densities and bias walks are those of PX4's Gazebo IMU
+    plugin defaults (an ADIS16448-class IMU: accelerometer 1.86e-3 m/s^2/sqrt(Hz),
+    walk 6e-3; gyro 1.8665e-4 rad/s/sqrt(Hz), walk 3.8785e-5); turn-on biases are the
+    residuals after a factory calibration (smaller than that plugin's 0.196 m/s^2 and
+    0.0087 rad/s, which are uncalibrated); the GPS is a good dual-band receiver (0.1 m white noise,
     a 0.05 m slowly wandering error) at 5 Hz and 120 ms latency.
     """
 
     # IMU (250 Hz)
-    accel_noise_density: float = sim_param("SIM_ACC_NOISE", 4.0e-3, 0.0, 1.0, "m/s^2/sqrt(Hz)",
+    accel_noise_density: float = sim_param("SIM_ACC_NOISE", 1.86e-3, 0.0, 1.0, "m/s^2/sqrt(Hz)",
                                            "Accelerometer white noise density")
-    gyro_noise_density: float = sim_param("SIM_GYR_NOISE", 3.4e-4, 0.0, 0.1, "rad/s/sqrt(Hz)",
+    gyro_noise_density: float = sim_param("SIM_GYR_NOISE", 1.8665e-4, 0.0, 0.1, "rad/s/sqrt(Hz)",
                                           "Gyro white noise density")
     accel_bias_walk: float = sim_param("SIM_ACC_BIAS_RW", 6.0e-3, 0.0, 1.0, "m/s^3/sqrt(Hz)",
                                        "Accelerometer bias random walk")
-    gyro_bias_walk: float = sim_param("SIM_GYR_BIAS_RW", 3.9e-5, 0.0, 0.1, "rad/s^2/sqrt(Hz)",
+    gyro_bias_walk: float = sim_param("SIM_GYR_BIAS_RW", 3.8785e-5, 0.0, 0.1, "rad/s^2/sqrt(Hz)",
                                       "Gyro bias random walk")
     accel_bias_sd: float = sim_param("SIM_ACC_BIAS_SD", 0.05, 0.0, 2.0, "m/s^2",
                                      "Standard deviation of the accelerometer turn-on bias (drawn at start)")

@@ -38,6 +38,8 @@ declare("MPC_THR_MAX", 1.0, 0.5, 1.0, "norm", "Maximum collective thrust (fracti
 declare("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp (seed 000 3.4)")
 declare("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp (seed 000 3.4)")
 declare("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term (seed 000 3.4)")
+declare("MPC_VELD_LP", 5.0, 0.0, 10.0, "Hz",
+        "Low-pass cut-off of the velocity derivative (0 = unfiltered): GPS corrections step the velocity estimate")
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,6 +58,7 @@ class PositionControl:
         self.max_total_thrust_n = max_total_thrust_n
         self.vel_int = np.zeros(3)  # m/s^2
         self.prev_vel = None
+        self.d_filt = np.zeros(3)  # low-passed velocity derivative, m/s^2
         self.vel_sp = np.zeros(3)
         self.acc_sp = np.zeros(3)
         self._load()
@@ -74,10 +77,12 @@ class PositionControl:
         self.thr_max = g("MPC_THR_MAX") * self.max_total_thrust_n
         self.int_lim = np.array([g("MPC_XY_INT_LIM")] * 2 + [g("MPC_Z_INT_LIM")])
         self.d_lim = g("MPC_ACC_D_LIM")
+        self.d_lp_hz = g("MPC_VELD_LP")
 
     def reset(self) -> None:
         self.vel_int[:] = 0.0
         self.prev_vel = None
+        self.d_filt[:] = 0.0
 
     def update(self, pos: np.ndarray, vel: np.ndarray, sp: PositionSetpoint, dt: float) -> np.ndarray:
         """Return the thrust vector (N, NED) for this step."""
@@ -96,9 +101,13 @@ class PositionControl:
 
         # Velocity PID (derivative on the measurement, clamped).
         vel_err = vel_sp - vel
-        d_term = np.zeros(3) if self.prev_vel is None or dt <= 0 else -(vel - self.prev_vel) / dt
+        d_raw = np.zeros(3) if self.prev_vel is None or dt <= 0 else -(vel - self.prev_vel) / dt
         self.prev_vel = vel.copy()
-        d_term = np.minimum(np.maximum(d_term, -self.d_lim), self.d_lim)
+        if self.d_lp_hz > 0 and dt > 0:
+            self.d_filt += dt / (dt + 1.0 / (2.0 * math.pi * self.d_lp_hz)) * (d_raw - self.d_filt)
+        else:
+            self.d_filt[:] = d_raw
+        d_term = np.minimum(np.maximum(self.d_filt, -self.d_lim), self.d_lim)
         acc_sp = self.vel_p * vel_err + self.vel_int + self.vel_d * d_term
 
         # Thrust vector with hover feed-forward: T = m (a - g), NED.

@@ -31,6 +31,7 @@ MAX_H_STD_M = 0.5
 MAX_V_STD_M = 0.5
 GPS_MIN_SATS = 6
 GPS_TIMEOUT_US = 500_000
+GPS_ACCEL_TAU_S = 0.5  # low-pass of the GPS velocity derivative given to the attitude filter
 
 
 def _finite(v: np.ndarray) -> bool:
@@ -59,6 +60,11 @@ class Estimator:
         self._acc_sum = np.zeros(3)  # kinematic acceleration accumulated since the last prediction
         self._acc_dt = 0.0
         self.gps_delay_us = int(P_GPS_DELAY.default * 1000)
+        # Kinematic acceleration for the attitude filter's gravity reference, NED m/s^2: the
+        # low-passed derivative of GPS velocity.  It must not come from the accelerometer itself
+        # (that would make the gravity correction compare the accelerometer with itself).
+        self.gps_accel_ned = np.zeros(3)
+        self._gps_vels: deque[tuple[int, np.ndarray]] = deque(maxlen=2)
         # (time_us, position, velocity) after each prediction (50 Hz, 0.64 s): what the estimate was
         # when a delayed GPS fix was measured.
         self._history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=32)
@@ -70,7 +76,7 @@ class Estimator:
         if not 0.0 < dt < 0.1 or not _finite(s.accel_frd_m_s2) or not _finite(s.gyro_frd_rad_s):
             return  # NaN never reaches the filters
         mag = s.mag_frd_gauss if _finite(s.mag_frd_gauss) else None
-        self.rate_frd = self.attitude.update(s.gyro_frd_rad_s, s.accel_frd_m_s2, mag, dt, self.accel_ned)
+        self.rate_frd = self.attitude.update(s.gyro_frd_rad_s, s.accel_frd_m_s2, mag, dt, self.gps_accel_ned)
         r = self.r_ned_frd = quat.to_matrix(self.attitude.q)
         self._acc_sum += (r @ s.accel_frd_m_s2) * dt
         self._acc_dt += dt
@@ -112,6 +118,7 @@ class Estimator:
         if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
             return
         self.last_gps_us = g.timestamp_us
+        self._update_gps_accel(g.timestamp_us, np.asarray(g.vel_ned_m_s, dtype=float))
         if self.origin is None:
             if self.last_baro_alt_m is None:
                 return
@@ -124,6 +131,21 @@ class Estimator:
         pos = geodetic_to_ned(g.lat_deg, g.lon_deg, g.alt_amsl_m, *self.origin)
         pos_then, vel_then = self._estimate_at(g.timestamp_us - self.gps_delay_us)
         self.position.fuse_gps(pos, g.vel_ned_m_s, pos_then, vel_then)
+
+    def _update_gps_accel(self, time_us: int, vel_ned: np.ndarray) -> None:
+        """Low-pass (GPS_ACCEL_TAU_S) the derivative of GPS velocity between fixes."""
+        if not _finite(vel_ned):
+            return
+        last = self._gps_vels[-1] if self._gps_vels else None
+        self._gps_vels.append((time_us, vel_ned))
+        if last is None:
+            return
+        dt = (time_us - last[0]) * 1e-6
+        if 0.0 < dt < 1.0:
+            accel = (vel_ned - last[1]) / dt
+            self.gps_accel_ned += dt / (dt + GPS_ACCEL_TAU_S) * (accel - self.gps_accel_ned)
+        else:
+            self.gps_accel_ned[:] = 0.0
 
     def _set_declination(self, lat: float, lon: float, alt: float) -> None:
         """Magnetic declination at the origin, from the World Magnetic Model."""

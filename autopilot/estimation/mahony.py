@@ -34,6 +34,7 @@ class MahonyFilter:
         self.time_aligned_s = 0.0  # time since initialisation
         self._corr = np.zeros(3)
         self._count = 0
+        self._acc_sum = np.zeros(3)  # accelerometer samples summed over one correction interval
 
     def _heading_from_mag(self, roll: float, pitch: float, mag: np.ndarray) -> float:
         """True heading (rad) from the magnetometer, tilt-compensated."""
@@ -60,8 +61,11 @@ class MahonyFilter:
                 return gyro_frd - self.gyro_bias  # not at rest: wait for a sample that shows gravity
             self.initialise(accel_frd, mag_frd if mag_frd is not None else np.array([1.0, 0.0, 0.0]))
         self._count += 1
+        self._acc_sum += accel_frd
         if self._count % CORRECTION_EVERY == 0:
-            self._correct(accel_frd, mag_frd, dt_s * CORRECTION_EVERY, accel_ned_kinematic)
+            # The mean of the interval's samples: 1/sqrt(5) of one sample's noise.
+            self._correct(self._acc_sum / CORRECTION_EVERY, mag_frd, dt_s * CORRECTION_EVERY, accel_ned_kinematic)
+            self._acc_sum[:] = 0.0
         rate = gyro_frd - self.gyro_bias
         self.q = quat.integrate(self.q, rate + self._corr, dt_s)
         self.time_aligned_s += dt_s
