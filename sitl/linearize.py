@@ -50,6 +50,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from autopilot import quat
+
 from params.vehicle import GRAVITY_M_S2, VehicleSpec
 from sitl.aerodynamics import Aerodynamics
 from sitl.frames import enu_to_ned, flu_to_frd, frd_to_flu, ned_to_enu, quat_ned_frd_to_enu_flu
@@ -105,15 +107,7 @@ class LinearModel:
 
 def euler_zyx_to_quat_wxyz(phi: float, theta: float, psi: float) -> np.ndarray:
     """Quaternion (w, x, y, z) of R = Rz(psi) Ry(theta) Rx(phi) (seed eq 4.1), FRD->NED here."""
-    cr, sr = math.cos(phi / 2), math.sin(phi / 2)
-    cp, sp = math.cos(theta / 2), math.sin(theta / 2)
-    cy, sy = math.cos(psi / 2), math.sin(psi / 2)
-    return np.array([
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ])
+    return quat.from_euler(phi, theta, psi)
 
 
 def euler_rate_matrix(phi: float, theta: float) -> np.ndarray:

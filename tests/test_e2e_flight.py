@@ -24,18 +24,15 @@ from __future__ import annotations
 
 import math
 import signal
-import socket
 import subprocess
 import sys
-import threading
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from pymavlink.dialects.v20 import common as mavlink2
 
 from gcs import demo, geo
 from gcs.client import GcsTimeout, ParamRefused, VehicleClient, mavlink
+from gcs.sim_client import SimClient
 from gcs.stack import Stack, StackError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -52,72 +49,12 @@ UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
 # --------------------------------------------------------------------------- ground truth
 
 
-@dataclass(frozen=True)
-class TruthSample:
-    time_ms: int
-    pos_ned_m: tuple[float, float, float]  # from the start point; z is the height of the centre of mass, negated
-    vel_ned_m_s: tuple[float, float, float]
-
-
-class TruthListener:
-    """Receives the simulator's ground truth on UDP 14560 + instance in a thread."""
-
-    def __init__(self, instance: int) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", 14560 + instance))
-        self.sock.settimeout(0.2)
-        self.parser = mavlink2.MAVLink(None)
-        self.parser.robust_parsing = True
-        self.positions: dict[int, TruthSample] = {}
-        self.latest_attitude = None  # HIL_STATE_QUATERNION
-        self.lock = threading.Lock()
-        self._stop = threading.Event()
-        self.thread = threading.Thread(target=self._run, name="truth", daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                data = self.sock.recv(65536)
-            except OSError:
-                continue
-            for msg in self.parser.parse_buffer(data) or []:
-                kind = msg.get_type()
-                if msg.get_srcComponent() != 51:  # the simulator's component id
-                    continue
-                with self.lock:
-                    if kind == "LOCAL_POSITION_NED":
-                        self.positions[msg.time_boot_ms] = TruthSample(
-                            msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz))
-                    elif kind == "HIL_STATE_QUATERNION":
-                        self.latest_attitude = msg
-
-    def at(self, time_ms: int, within_ms: int = 10) -> TruthSample | None:
-        """The truth sample nearest this simulated time (truth runs at 50 Hz), if one is within ``within_ms``."""
-        with self.lock:
-            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
-                if time_ms + dt in self.positions:
-                    return self.positions[time_ms + dt]
-        return None
-
-    def latest(self) -> TruthSample | None:
-        with self.lock:
-            if not self.positions:
-                return None
-            return self.positions[max(self.positions)]
-
-    def close(self) -> None:
-        self._stop.set()
-        self.thread.join(timeout=2)
-        self.sock.close()
-
-
 # --------------------------------------------------------------------------- fixtures
 
 
 @pytest.fixture(scope="module")
 def truth():
-    listener = TruthListener(INSTANCE)
+    listener = SimClient(14560 + INSTANCE)  # ground truth on the simulator's own port
     yield listener
     listener.close()
 
@@ -389,7 +326,7 @@ def test_takeoff_hover_land_and_automatic_disarm(client, truth):
             assert -(t.pos_ned_m[2] - ground.pos_ned_m[2]) == pytest.approx(alt, abs=0.3)
         true_drift = max(horizontal(t.pos_ned_m, pairs[0][1].pos_ned_m) for _, t in pairs)
         assert true_drift < 0.5
-        att = truth.latest_attitude
+        att = truth.latest_state
         assert att is not None and att.time_usec > 0
         w, x, y, z = att.attitude_quaternion
         assert 1 - 2 * (x * x + y * y) > math.cos(math.radians(5))  # truly level (body z near vertical)
