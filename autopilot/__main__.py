@@ -8,6 +8,7 @@ let the ground-station link receive, stream telemetry and send events.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
@@ -25,7 +26,41 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gcs-port", type=int, default=14550, help="UDP port of ground stations (+instance)")
     p.add_argument("--api-port", type=int, default=14540, help="UDP port of APIs such as MAVSDK (+instance)")
     p.add_argument("--sysid", type=int, default=1, help="MAVLink system id")
+    # -- parameters (autopilot/param_storage.py)
+    p.add_argument("--params", metavar="FILE",
+                   help="apply a parameter file at start-up (QGroundControl's tab-separated format or MAVProxy's "
+                        "NAME VALUE); bad lines are reported and skipped")
+    p.add_argument("--state-dir", metavar="DIR",
+                   help="save changed parameters in DIR/<vehicle>-<instance>.params and load them at start-up "
+                        "(default: nothing saved, every run starts from the defaults)")
+    # -- flight logs (autopilot/flight_recorder.py)
+    p.add_argument("--log-dir", default="logs", metavar="DIR",
+                   help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs)")
+    p.add_argument("--no-log", action="store_true", help="write no flight logs")
     return p
+
+
+def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str):
+    """Vehicle defaults, saved state and --params into the store; the ParamSaver (None: not saving, False: error)."""
+    from pathlib import Path
+
+    from autopilot.param_storage import ParamSaver, prepare_parameters, state_file
+    from params.vehicle import vehicle_path
+
+    state_path = None
+    if args.state_dir:
+        try:
+            Path(args.state_dir).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            print(f"autopilot: cannot create the state directory {args.state_dir}: {exc}", file=sys.stderr)
+            return False
+        state_path = state_file(args.state_dir, vehicle_name, args.instance)
+    prepare_parameters(params, vehicle_toml=vehicle_path(args.vehicle), state_path=state_path,
+                       params_path=args.params, log=lambda text: print(text, flush=True))
+    if state_path is None:
+        return None
+    print(f"[autopilot] parameter changes are saved to {state_path}", flush=True)
+    return ParamSaver(params, state_path, vehicle_name=vehicle_name, initial_save=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,6 +79,9 @@ def main(argv: list[str] | None = None) -> int:
     from autopilot.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
 
     params = ParameterStore()
+    saver = _prepare_parameters(params, args, spec.name)
+    if saver is False:
+        return 2
     fc = FlightController(spec, params)
     try:
         link = GcsLink(fc.commander, instance=args.instance, sysid=args.sysid, compid=1,
@@ -51,6 +89,16 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"autopilot: cannot open the ground-station UDP ports: {exc}", file=sys.stderr)
         return 2
+    # -- flight logs: one .tlog + control-rate log per arming
+    recorder = None
+    if not args.no_log:
+        from autopilot.flight_recorder import FlightRecorder
+        try:
+            recorder = FlightRecorder(args.log_dir, fc, instance=args.instance)
+            link.set_traffic_tap(recorder.tap)
+        except OSError as exc:
+            print(f"autopilot: cannot write flight logs to {args.log_dir}: {exc}; flying without logs", file=sys.stderr)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the logs like Ctrl-C
     sim = SimLink(args.sim_host, args.sim_port + args.instance, args.sysid)
     print(f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
           f"{args.gcs_port + args.instance} and {args.api_port + args.instance}", flush=True)
@@ -76,6 +124,8 @@ def main(argv: list[str] | None = None) -> int:
                     gps = None
                     now_us = imu.timestamp_us
                     sim.send_actuators(now_us, commands, fc.commander.armed)
+                    if recorder is not None:
+                        recorder.on_step()
                     # While the simulator steps its physics: the outer loops, and in another
                     # period the ground-station link (both 50 Hz), so the two never add up.
                     fc.after_step()
@@ -89,6 +139,10 @@ def main(argv: list[str] | None = None) -> int:
         pass
     finally:
         link.close()
+        if saver is not None:
+            saver.close()
+        if recorder is not None:
+            recorder.close()
     return 0
 
 

@@ -8,6 +8,7 @@ simulated time of the latest sensor sample; nothing here reads a clock.
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
@@ -18,7 +19,8 @@ from autopilot.land_detector import LandDetector, Landed
 from autopilot.modes import AVAILABLE, Mode
 from autopilot.navigator import LandTask, MoveTask, ReturnTask
 from autopilot.parameters import ParameterStore, ParamType, declare
-from autopilot.topics import BatteryState, GpsSample, HomePosition, LandedState, TelemetrySnapshot, VehicleEstimate
+from autopilot.topics import (BatteryState, ControlSetpoints, GpsSample, HomePosition, LandedState, TelemetrySnapshot,
+                              VehicleEstimate)
 
 declare("COM_DISARM_LAND", 2.0, -1.0, 20.0, "s", "Disarm this long after landing (-1: never)")
 declare("COM_DISARM_PRFLT", 10.0, -1.0, 60.0, "s", "Disarm this long after arming if no take-off (-1: never)")
@@ -63,6 +65,10 @@ class Commander:
         self.thrust_frac_of_hover = 0.0
         self.motor_outputs: tuple[float, ...] = ()
         self.setpoint: PositionSetpoint | None = None
+        # Telemetry of the controllers' setpoints (set by the FlightController that owns this commander).
+        self.control_setpoints: Callable[[], ControlSetpoints | None] | None = None
+        self.estimator = None  # autopilot.estimation.estimator.Estimator, set by the FlightController
+        self._reset_count = 0
 
     # -- events ---------------------------------------------------------------------
     def say(self, severity: int, text: str) -> None:
@@ -82,6 +88,8 @@ class Commander:
             out.append("no 3D GPS fix")
         if e is None or not e.position_valid:
             out.append("position estimate not ready")
+        if self.estimator is not None and self.estimator.use_ekf:
+            out.extend(self.estimator.prearm_failures())
         if self.home is None:
             out.append("home position not set")
         if e is not None and e.attitude_valid:
@@ -104,6 +112,8 @@ class Commander:
             self.gps = gps
         if self.home is None and est.position_valid:
             self._set_home(est)  # first valid position; set again at arming, as PX4 does
+        if est.reset_count != self._reset_count:
+            self._follow_reset(est)
         before = self.land.state
         state = self.land.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), self.thrust_frac_of_hover)
         if state is not before and self.armed:
@@ -128,6 +138,17 @@ class Commander:
             return None
         self.setpoint = self.task.setpoint(now_us, est)
         return self.setpoint
+
+    def _follow_reset(self, est: VehicleEstimate) -> None:
+        """The estimator jumped (reset to GPS): move setpoints and home with it, as PX4 does,
+        so the vehicle stays where it is."""
+        self._reset_count = est.reset_count
+        delta = est.reset_delta_ned_m if est.reset_delta_ned_m is not None else np.zeros(3)
+        if self.task is not None and hasattr(self.task, "shift"):
+            self.task.shift(delta)
+        if self.home is not None:
+            h = self.home
+            self.home = HomePosition(h.lat_deg, h.lon_deg, h.alt_amsl_m, h.pos_ned_m + delta, h.yaw_rad)
 
     def _auto_disarm(self, now_us: int) -> None:
         p = self.params
@@ -198,7 +219,7 @@ class Commander:
         if mode not in AVAILABLE:
             self.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} not available on this vehicle")
             return S.MAV_RESULT_DENIED
-        if e is None or not e.position_valid:
+        if e is None or not (e.position_valid or (mode is Mode.AUTO_LAND and e.height_valid)):
             self.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} denied: no position estimate")
             return S.MAV_RESULT_DENIED
         if mode is Mode.AUTO_RTL and self.home is None:
@@ -340,6 +361,15 @@ class Commander:
             health &= ~S.MAV_SYS_STATUS_SENSOR_GPS
         if e is None or not e.position_valid:
             health &= ~S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+        est_status = None
+        if self.estimator is not None:
+            est_status = self.estimator.status()
+            if est_status.mag_fault:
+                health &= ~S.MAV_SYS_STATUS_SENSOR_3D_MAG
+            if est_status.gps_glitch:
+                health &= ~S.MAV_SYS_STATUS_SENSOR_GPS
+            if self.estimator.use_ekf and not est_status.flags & 1:
+                health &= ~S.MAV_SYS_STATUS_AHRS
         prearm_ok = not self.armed and not self.prearm_failures()
         if not prearm_ok and not self.armed:
             health &= ~S.MAV_SYS_STATUS_PREARM_CHECK
@@ -357,4 +387,6 @@ class Commander:
             sensors_enabled=SENSORS_PRESENT, sensors_health=health, prearm_ok=prearm_ok or self.armed,
             position_setpoint_ned_m=None if self.setpoint is None else self.setpoint.pos_ned_m,
             motor_outputs=self.motor_outputs,
+            control=self.control_setpoints() if self.control_setpoints is not None else None,
+            estimator_status=est_status,
         )

@@ -12,6 +12,7 @@ so that work overlaps the simulator's physics step instead of delaying it.
 from __future__ import annotations
 
 import numpy as np
+from pymavlink.dialects.v20 import common as S
 
 from autopilot import quat
 from autopilot.commander import Commander
@@ -21,7 +22,7 @@ from autopilot.control.rate_control import RateControl
 from autopilot.estimation.estimator import Estimator
 from autopilot.mixer import Mixer
 from autopilot.parameters import ParameterStore, declare
-from autopilot.topics import GpsSample, ImuSample
+from autopilot.topics import ControlSetpoints, GpsSample, ImuSample
 from params.vehicle import VehicleSpec
 
 OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 Hz
@@ -33,8 +34,9 @@ class FlightController:
     def __init__(self, spec: VehicleSpec, params: ParameterStore) -> None:
         self.spec = spec
         self.params = params
-        self.estimator = Estimator()
+        self.estimator = Estimator(params)
         self.commander = Commander(params, spec.mav_type)
+        self.commander.estimator = self.estimator
         self.inertia = spec.inertia_kg_m2
         self.weight_n = spec.mass_kg * GRAVITY_M_S2
         self.mixer = Mixer(spec)
@@ -50,6 +52,7 @@ class FlightController:
         self.setpoint = None
         self.last_outer_us: int | None = None
         self._gps_pending: GpsSample | None = None
+        self.commander.control_setpoints = self.control_setpoints  # ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -79,8 +82,8 @@ class FlightController:
             idle = np.full(n, self.params.get("MPC_IDLE_CMD"))
             self._publish(idle, 0.0)
             return idle
-        # Inner loops at the IMU rate, on the attitude filter's latest output.
-        q = self.estimator.attitude.q
+        # Inner loops at the IMU rate, on the selected estimator's latest attitude.
+        q = self.estimator.q
         self.rate_sp = self.attitude_control.update(q, self.q_sp)
         alpha = self.rate_control.update(self.estimator.rate_frd, self.rate_sp, dt, self.sat_pos, self.sat_neg,
                                          integrate=not cmd.land.ground_contact)
@@ -105,8 +108,13 @@ class FlightController:
         """Commander, navigator and position control (50 Hz and on each GPS fix)."""
         dt = 0.02 if self.last_outer_us is None else (now - self.last_outer_us) * 1e-6
         self.last_outer_us = now
-        est = self.estimator.estimate()
-        sp = self.commander.update(now, est, gps, self.estimator.gps_ok(now))
+        estimator = self.estimator
+        for severity, text in estimator.events:
+            self.commander.say(getattr(S, "MAV_SEVERITY_" + severity), text)
+        estimator.events.clear()
+        estimator.set_in_air(self.commander.in_air)
+        est = estimator.estimate()
+        sp = self.commander.update(now, est, gps, estimator.gps_ok(now))
         if sp is None or not est.attitude_valid or not self.commander.armed:
             self.setpoint = None
             return
@@ -119,3 +127,19 @@ class FlightController:
         self.commander.thrust_frac_of_hover = thrust_n / self.weight_n
         self.commander.throttle_frac = thrust_n / (len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n)
         self.commander.motor_outputs = tuple(float(c) for c in commands)
+
+    # -- telemetry (read-only view of the controllers' setpoints) --------------------------------
+    def control_setpoints(self) -> ControlSetpoints | None:
+        """The setpoints the cascade is flying now, or None while it is not (disarmed, idle on the ground)."""
+        sp = self.setpoint
+        if sp is None or not self.commander.armed:
+            return None
+        pc = self.position_control
+        max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
+        thrust_vec = getattr(self, "thrust_vec", None)
+        thrust_frac = float(np.linalg.norm(thrust_vec)) / max_thrust_n if thrust_vec is not None else 0.0
+        return ControlSetpoints(
+            timestamp_us=self.last_us or 0, pos_ned_m=sp.pos_ned_m.copy(), vel_ned_m_s=pc.vel_sp.copy(),
+            acc_ned_m_s2=pc.acc_sp.copy(), yaw_rad=sp.yaw_rad, q_sp_wxyz=self.q_sp.copy(),
+            rate_sp_frd_rad_s=self.rate_sp.copy(), thrust_frac=thrust_frac,
+        )

@@ -58,6 +58,11 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
     mavlink.MAVLINK_MSG_ID_VFR_HUD: 4.0,
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
     mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 0.5,
+    # setpoint against actual while tuning: ATTITUDE_TARGET at ATTITUDE's rate (PX4 onboard profile: 10 Hz)
+    mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET: 20.0,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: 10.0,
+    mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: 5.0,  # motor outputs as PWM µs, as PX4 reports them
+    mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS: 2.0,  # the EKF's health (PX4 normal profile)
 }
 
 PARAM_BURST = 20  # PARAM_VALUEs sent per update() while a list request is being served
@@ -98,6 +103,17 @@ _LOCAL_FRAMES = frozenset({
     mavlink.MAV_FRAME_LOCAL_FRD,
     mavlink.MAV_FRAME_LOCAL_FLU,
 })
+
+PWM_MIN_US, PWM_MAX_US, PWM_DISARMED_US = 1000, 2000, 900  # PX4's PWM_MAIN_MIN/MAX/DISARM defaults
+
+# POSITION_TARGET_LOCAL_NED type_mask bits of x, y, z, vx, vy, vz, afx, afy, afz, yaw
+_POSITION_TARGET_IGNORE_BITS = (
+    mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE,
+)
 
 # ParamType <-> MAV_PARAM_TYPE
 _MAV_PARAM_TYPE = {ParamType.INT32: mavlink.MAV_PARAM_TYPE_INT32, ParamType.REAL32: mavlink.MAV_PARAM_TYPE_REAL32}
@@ -214,10 +230,13 @@ class _Endpoint:
         self.param_cursor: int | None = None  # next index of a PARAM_REQUEST_LIST being served
         self.tx_errors = 0
         self._rx_buf = bytearray(65536)
+        self.tap: Callable[[bytes], None] | None = None  # sees every packet sent (GcsLink.set_traffic_tap)
 
     # -- sending
     def write(self, data: bytes) -> None:
         """File-like sink for the encoder: one datagram to every destination."""
+        if self.tap is not None:
+            self.tap(data)
         for addr in self.destinations:
             try:
                 self.sock.sendto(data, addr)
@@ -358,6 +377,7 @@ class GcsLink:
         self._statustext_id = 0
         self._params_changed: dict[str, None] = {}  # ordered set of names to broadcast
         self._extra_handlers: dict[str, Callable[[mavlink.MAVLink_message], None]] = {}
+        self._tap: Callable[[int, str, bool, bytes], None] | None = None
         self._closed = False
         vehicle.params.subscribe(self._on_param_changed)
         self._handlers: dict[str, Callable[[_Endpoint, mavlink.MAVLink_message], None]] = {
@@ -386,6 +406,10 @@ class GcsLink:
             mavlink.MAVLINK_MSG_ID_VFR_HUD: self._vfr_hud,
             mavlink.MAVLINK_MSG_ID_HOME_POSITION: self._home_position,
             mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: self._battery_status,
+            mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET: self._attitude_target,
+            mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: self._position_target_local_ned,
+            mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: self._servo_output_raw,
+            mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS: self._estimator_status,
         }
 
     # ------------------------------------------------------------------ public API
@@ -402,6 +426,16 @@ class GcsLink:
         if msg_type in self._handlers:
             raise ValueError(f"{msg_type} is handled by the link itself")
         self._extra_handlers[msg_type] = callback
+
+    def set_traffic_tap(self, tap: Callable[[int, str, bool, bytes], None] | None) -> None:
+        """Hand every packet the link sends or receives to ``tap(now_us, endpoint, sent, packet)`` (a .tlog).
+
+        ``now_us`` is the simulated time of the current update; ``endpoint`` is "gcs" or "api";
+        received packets are the good MAVLink messages from other systems.  None removes the tap.
+        """
+        self._tap = tap
+        for ep in self._endpoints:
+            ep.tap = None if tap is None else (lambda data, name=ep.name: tap(self._now_us, name, True, data))
 
     def update(self, now_us: int) -> None:
         """One link iteration at simulated time ``now_us`` (µs): receive, answer, stream."""
@@ -468,6 +502,8 @@ class GcsLink:
             if msg.get_srcSystem() == self.sysid and msg.get_srcComponent() == self.compid:
                 continue  # our own packets looped back
             ep.note_peer(addr)
+            if self._tap is not None:
+                self._tap(self._now_us, ep.name, False, bytes(msg.get_msgbuf()))
             handler = self._handlers.get(mtype)
             extra = self._extra_handlers.get(mtype) if handler is None else None
             if handler is None and extra is None:
@@ -763,6 +799,39 @@ class GcsLink:
         p, q, r = (float(v) for v in e.rate_frd_rad_s)
         return mavlink.MAVLink_attitude_quaternion_message(_time_boot_ms(now_us), w, x, y, z, p, q, r, [0.0] * 4)
 
+    def _attitude_target(self, s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
+        """The attitude, body-rate and collective-thrust setpoints of the cascade (type_mask 0: all valid)."""
+        c = s.control
+        if c is None:
+            return None
+        q = [float(v) for v in c.q_sp_wxyz]
+        p, q_rate, r = (float(v) for v in c.rate_sp_frd_rad_s)
+        thrust = min(max(c.thrust_frac, 0.0), 1.0) if math.isfinite(c.thrust_frac) else 0.0
+        return mavlink.MAVLink_attitude_target_message(_time_boot_ms(now_us), 0, q, p, q_rate, r, thrust)
+
+    def _position_target_local_ned(self, s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
+        """Position, velocity and acceleration setpoints (NED, estimator origin) and yaw; NaN parts flagged ignored."""
+        c = s.control
+        if c is None:
+            return None
+        values = [float(v) for v in (*c.pos_ned_m, *c.vel_ned_m_s, *c.acc_ned_m_s2)] + [float(c.yaw_rad)]
+        mask = mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # no yaw-rate setpoint in NED
+        for value, bit in zip(values, _POSITION_TARGET_IGNORE_BITS):
+            if not math.isfinite(value):
+                mask |= bit
+        return mavlink.MAVLink_position_target_local_ned_message(
+            _time_boot_ms(now_us), mavlink.MAV_FRAME_LOCAL_NED, mask, *values, math.nan)
+
+    def _servo_output_raw(self, s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
+        """Motor commands 0..1 as PWM microseconds (PWM_MIN_US..PWM_MAX_US; PWM_DISARMED_US when disarmed)."""
+        if not s.motor_outputs:
+            return None
+        span = PWM_MAX_US - PWM_MIN_US
+        pwm = [_int(PWM_MIN_US + span * c, PWM_MIN_US, PWM_MAX_US, PWM_MIN_US) if s.armed else PWM_DISARMED_US
+               for c in s.motor_outputs[:16]]
+        pwm += [0] * (16 - len(pwm))  # 0: output not used
+        return mavlink.MAVLink_servo_output_raw_message(now_us & 0xFFFFFFFF, 0, *pwm)
+
     def _global_position_int(self, s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
         e = s.estimate
         if e is None or not e.position_valid:
@@ -804,6 +873,14 @@ class GcsLink:
             _int(speed * 100.0, 0, UINT16_MAX - 1, UINT16_MAX), _cdeg_0_36000(math.atan2(ve, vn)),
             _int(g.satellites, 0, 255, 255), 0, acc_mm(g.eph_m), acc_mm(g.epv_m), 0, 0, 0,
         )  # fmt: skip
+
+    def _estimator_status(self, s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
+        st = s.estimator_status
+        if st is None:
+            return None
+        return mavlink.MAVLink_estimator_status_message(
+            now_us, st.flags, st.vel_ratio, st.pos_horiz_ratio, st.pos_vert_ratio, st.mag_ratio,
+            0.0, 0.0, st.pos_horiz_accuracy_m, st.pos_vert_accuracy_m)
 
     def _vfr_hud(self, s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
         e = s.estimate

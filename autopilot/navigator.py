@@ -72,9 +72,19 @@ class MoveTask:
     def arrived(self, now_us: int, est: VehicleEstimate) -> bool:
         return self.finished(now_us) and float(np.linalg.norm(est.pos_ned_m - self.goal)) < ARRIVE_RADIUS_M
 
+    def shift(self, delta_ned_m: np.ndarray) -> None:
+        """Move the whole path with an estimator reset, so the vehicle itself does not move."""
+        self.start += delta_ned_m
+        self.goal += delta_ned_m
+
 
 class LandTask:
-    """Hold north/east, descend at a speed that slows near the ground (velocity control on D)."""
+    """Hold north/east, descend at a speed that slows near the ground (velocity control on D).
+
+    Without a horizontal position (GPS lost) north/east are not controlled: the
+    horizontal velocity setpoint is zero on the inertial estimate and the height is
+    the barometer's (PX4's descend).
+    """
 
     def __init__(self, north_east: np.ndarray, yaw_rad: float, home_down_m: float, params: ParameterStore) -> None:
         self.ne = north_east.astype(float).copy()
@@ -86,7 +96,13 @@ class LandTask:
         height = self.home_down_m - float(est.pos_ned_m[2])
         slow = self.params.get("MPC_LAND_SPEED")
         speed = slow if height < self.params.get("MPC_LAND_ALT1") else max(slow, self.params.get("MPC_Z_VEL_MAX_DN"))
+        if not est.position_valid:
+            return PositionSetpoint(np.array([math.nan, math.nan, math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)
         return PositionSetpoint(np.array([self.ne[0], self.ne[1], math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)
+
+    def shift(self, delta_ned_m: np.ndarray) -> None:
+        self.ne += delta_ned_m[:2]
+        self.home_down_m += float(delta_ned_m[2])
 
 
 class RtlPhase(Enum):
@@ -124,6 +140,11 @@ class ReturnTask:
             self.loiter_until_us = now_us + int(max(self.params.get("RTL_LAND_DELAY"), 0.0) * 1e6)
         else:
             self.task = LandTask(self.home[:2], self.yaw_rad, self.home[2], self.params)
+
+    def shift(self, delta_ned_m: np.ndarray) -> None:
+        self.home += delta_ned_m
+        self.return_down += float(delta_ned_m[2])
+        self.task.shift(delta_ned_m)
 
     def setpoint(self, now_us: int, est: VehicleEstimate) -> PositionSetpoint:
         t = self.task

@@ -6,11 +6,17 @@ MAVLink parameter service (``gcs_link``) sits on top of one :class:`ParameterSto
 
 Names follow PX4 where PX4 has the same parameter.  Only INT32 and REAL32 exist,
 as in PX4.
+
+Cross-parameter rules (:data:`RULES`, e.g. ``MPC_THR_MIN < MPC_THR_MAX``) are
+checked on every set: a value that would break one is refused like an
+out-of-range value.  PX4 clamps such values silently in its controllers; here
+the ground station is told why.
 """
 
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
 from typing import Callable
 
@@ -69,18 +75,72 @@ class ParamError(ValueError):
     """A parameter set was refused; the message says why."""
 
 
+@dataclass(frozen=True)
+class ParamRule:
+    """``lhs op rhs`` must hold between the current values of two parameters (op ``<`` or ``<=``)."""
+
+    lhs: str
+    op: str
+    rhs: str
+    why: str  # what the rule protects, for documentation
+
+    def __post_init__(self) -> None:
+        if self.op not in ("<", "<="):
+            raise ValueError(f"rule {self.lhs} {self.op} {self.rhs}: operator must be < or <=")
+
+    def holds(self, lhs_value: float, rhs_value: float) -> bool:
+        return lhs_value < rhs_value if self.op == "<" else lhs_value <= rhs_value
+
+    def __str__(self) -> str:
+        return f"{self.lhs} {self.op} {self.rhs}"
+
+
+# The rules between declared parameters.  Each names two parameters of the same unit;
+# a rule whose parameters are not both in a store is not checked there.
+RULES: tuple[ParamRule, ...] = (
+    ParamRule("MPC_THR_MIN", "<", "MPC_THR_MAX", "the thrust range of flight is not empty"),
+    ParamRule("MPC_LAND_SPEED", "<=", "MPC_Z_VEL_MAX_DN", "landing descends no faster than any descent"),
+    ParamRule("MPC_TKO_SPEED", "<=", "MPC_Z_VEL_MAX_UP", "take-off climbs no faster than any ascent"),
+    ParamRule("MPC_XY_CRUISE", "<=", "MPC_XY_VEL_MAX", "automatic moves respect the horizontal speed limit"),
+    ParamRule("LNDMC_Z_VEL_MAX", "<", "MPC_LAND_SPEED", "a landing descent is never taken for landed"),
+)
+
+
+def _same(a: float, b: float) -> bool:
+    """Equal, or equal once rounded to float32 (what REAL32 parameters are on the wire)."""
+    if a == b:
+        return True
+    try:
+        return struct.pack("<f", a) == struct.pack("<f", b)
+    except OverflowError:
+        return False
+
+
 class ParameterStore:
     """Current values of all declared parameters, in name order (index = position).
 
-    ``set`` validates name, type and range and refuses with :class:`ParamError`
-    without changing anything.  Listeners are called after each accepted change.
+    ``set`` validates name, type, range and the cross-parameter ``rules`` and
+    refuses with :class:`ParamError` without changing anything.  Listeners are
+    called after each accepted change.  Each store keeps its own defaults: the
+    declared ones, replaced by a vehicle's default set with :meth:`set_defaults`.
     """
 
-    def __init__(self, defs: dict[str, ParamDef] | None = None) -> None:
+    def __init__(self, defs: dict[str, ParamDef] | None = None, rules: tuple[ParamRule, ...] = RULES) -> None:
         self._defs = dict(sorted((defs if defs is not None else registry()).items()))
-        self._values: dict[str, float] = {n: d.default for n, d in self._defs.items()}
+        self._defaults: dict[str, float] = {n: float(d.default) for n, d in self._defs.items()}
+        self._values: dict[str, float] = dict(self._defaults)
         self._names = list(self._defs)
+        self._index = {n: i for i, n in enumerate(self._names)}
+        self._rules = tuple(r for r in rules if r.lhs in self._defs and r.rhs in self._defs)
+        self._rules_of: dict[str, list[ParamRule]] = {}
+        for r in self._rules:
+            self._rules_of.setdefault(r.lhs, []).append(r)
+            self._rules_of.setdefault(r.rhs, []).append(r)
         self._listeners: list[Callable[[str, float], None]] = []
+        for r in self._rules:
+            if not r.holds(self._values[r.lhs], self._values[r.rhs]):
+                raise ValueError(f"declared defaults break the rule {r}: "
+                                 f"{self._values[r.lhs]:g} vs {self._values[r.rhs]:g}")
 
     def __len__(self) -> int:
         return len(self._names)
@@ -91,6 +151,10 @@ class ParameterStore:
     def names(self) -> list[str]:
         return list(self._names)
 
+    def rules(self) -> tuple[ParamRule, ...]:
+        """The cross-parameter rules checked by this store."""
+        return self._rules
+
     def definition(self, name: str) -> ParamDef:
         try:
             return self._defs[name]
@@ -98,7 +162,10 @@ class ParameterStore:
             raise ParamError(f"unknown parameter {name}") from None
 
     def index(self, name: str) -> int:
-        return self._names.index(name)
+        try:
+            return self._index[name]
+        except KeyError:
+            raise ParamError(f"unknown parameter {name}") from None
 
     def name_at(self, index: int) -> str:
         if not 0 <= index < len(self._names):
@@ -111,12 +178,48 @@ class ParameterStore:
         except KeyError:
             raise ParamError(f"unknown parameter {name}") from None
 
-    def set(self, name: str, value: float, ptype: str | None = None) -> float:
-        """Validate and store; return the stored value.  Raise ParamError if refused."""
+    def default(self, name: str) -> float:
+        """This store's default of ``name`` (declared, or the vehicle's)."""
+        try:
+            return self._defaults[name]
+        except KeyError:
+            raise ParamError(f"unknown parameter {name}") from None
+
+    def values(self) -> dict[str, float]:
+        """A copy of every current value, by name."""
+        return dict(self._values)
+
+    def changed(self) -> dict[str, float]:
+        """The values that differ from this store's defaults, in name order.
+
+        REAL32 values compare as 32-bit floats: 0.95 set over MAVLink arrives as
+        0.949999988 and is still the default 0.95.
+        """
+        values = dict(self._values)  # one copy: safe to call from another thread
+        return {n: v for n, v in values.items() if not _same(v, self._defaults[n])}
+
+    def check(self, name: str, value: float, ptype: str | None = None) -> float:
+        """The value ``set`` would store (validated, integers made exact); raise ParamError if refused."""
+        v = self._validate(name, value, ptype)
+        for r in self._rules_of.get(name, ()):
+            lhs = v if r.lhs == name else self._values[r.lhs]
+            rhs = v if r.rhs == name else self._values[r.rhs]
+            if not r.holds(lhs, rhs):
+                other, op = (r.rhs, r.op) if r.lhs == name else (r.lhs, {"<": ">", "<=": ">="}[r.op])
+                unit = self._defs[name].unit
+                unit = f" {unit}" if unit else ""
+                raise ParamError(f"{name} {v:g} refused: must be {op} {other} ({self._values[other]:g}{unit})")
+        return v
+
+    def _validate(self, name: str, value: float, ptype: str | None) -> float:
+        """Name, type and range of one value (no rules); the value as stored."""
         d = self.definition(name)
         if ptype is not None and ptype != d.ptype:
             raise ParamError(f"{name} is {d.ptype}, not {ptype}")
-        v = float(value)
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ParamError(f"{name}: {value!r} is not a number") from None
         if not math.isfinite(v):
             raise ParamError(f"{name}: value must be finite")
         if d.ptype == ParamType.INT32:
@@ -124,11 +227,36 @@ class ParameterStore:
                 raise ParamError(f"{name} is an integer, {value} is not")
             v = float(int(v))
         if not d.min <= v <= d.max:
-            raise ParamError(f"{name}: {value:g} outside range [{d.min:g}, {d.max:g}] {d.unit}".rstrip())
+            raise ParamError(f"{name}: {v:g} outside range [{d.min:g}, {d.max:g}] {d.unit}".rstrip())
+        return v
+
+    def set(self, name: str, value: float, ptype: str | None = None) -> float:
+        """Validate and store; return the stored value.  Raise ParamError if refused."""
+        v = self.check(name, value, ptype)
         self._values[name] = v
         for cb in self._listeners:
             cb(name, v)
         return v
 
+    def set_defaults(self, values: dict[str, float]) -> None:
+        """Replace defaults (a vehicle's default set, at start-up); current values follow.
+
+        All or nothing: every value is checked (range, type) and the rules must hold
+        for the new set, else ParamError and nothing changes.
+        """
+        new = dict(self._values)
+        for name, value in values.items():
+            new[name] = self._validate(name, value, None)
+        for r in self._rules:
+            if not r.holds(new[r.lhs], new[r.rhs]):
+                raise ParamError(f"default set breaks the rule {r}: {new[r.lhs]:g} vs {new[r.rhs]:g}")
+        for name in values:
+            self._defaults[name] = new[name]
+            if new[name] != self._values[name]:
+                self._values[name] = new[name]
+                for cb in self._listeners:
+                    cb(name, new[name])
+
     def subscribe(self, callback: Callable[[str, float], None]) -> None:
+        """Call ``callback(name, value)`` after each accepted change (in the setting thread)."""
         self._listeners.append(callback)

@@ -63,10 +63,32 @@ class VehicleEstimate:
     roll_rad: float = 0.0
     pitch_rad: float = 0.0
     yaw_rad: float = 0.0
+    height_valid: bool = True  # vertical position (barometer) usable even when position_valid is not
+    reset_count: int = 0  # position resets so far (e.g. to GPS after a persistent glitch)
+    reset_delta_ned_m: np.ndarray | None = None  # the latest reset's jump, m NED
 
     @property
     def alt_amsl_m(self) -> float:
         return self.origin_alt_amsl_m - float(self.pos_ned_m[2])
+
+
+@dataclass(frozen=True, slots=True)
+class EstimatorStatus:
+    """The EKF's health (PX4's estimator_status): test ratios are innovation^2 / (gate^2 S), > 1 rejected."""
+
+    timestamp_us: int
+    flags: int  # ESTIMATOR_STATUS_FLAGS
+    vel_ratio: float
+    pos_horiz_ratio: float
+    pos_vert_ratio: float
+    mag_ratio: float
+    pos_horiz_accuracy_m: float  # 1-sigma
+    pos_vert_accuracy_m: float
+    tilt_std_rad: float
+    yaw_std_rad: float
+    mag_fault: bool
+    gps_glitch: bool
+    position_ok: bool
 
 
 class LandedState(IntEnum):
@@ -98,6 +120,25 @@ class BatteryState:
 
 
 @dataclass(frozen=True, slots=True)
+class ControlSetpoints:
+    """What the controllers are aiming at (ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED).
+
+    Position components are NaN where the position is not controlled.  ``q_sp_wxyz``
+    takes FRD vectors to NED like the estimate; ``thrust_frac`` is the collective
+    thrust setpoint as a fraction of the maximum (0..1).
+    """
+
+    timestamp_us: int
+    pos_ned_m: np.ndarray
+    vel_ned_m_s: np.ndarray
+    acc_ned_m_s2: np.ndarray
+    yaw_rad: float
+    q_sp_wxyz: np.ndarray
+    rate_sp_frd_rad_s: np.ndarray
+    thrust_frac: float
+
+
+@dataclass(frozen=True, slots=True)
 class TelemetrySnapshot:
     """Everything the ground-station link reports, gathered once per iteration."""
 
@@ -119,3 +160,5 @@ class TelemetrySnapshot:
     prearm_ok: bool
     position_setpoint_ned_m: np.ndarray | None = None
     motor_outputs: tuple[float, ...] = field(default=())
+    control: ControlSetpoints | None = None  # None while the controllers are not flying
+    estimator_status: EstimatorStatus | None = None

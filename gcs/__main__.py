@@ -8,6 +8,8 @@ Examples::
     gcs land                   # land here and wait for the automatic disarm
     gcs --instance 2 rtl       # the vehicle of instance 2 (UDP 14552)
     gcs param get MPC_XY_P
+    gcs plot logs/             # PNG figures of the newest flight log there
+    gcs param save tuned.params  # also: param list, set, load, diff (see gcs/param_cli.py)
 
 Each command waits for the COMMAND_ACK and then for its effect.  Exit codes:
 0 success, 1 refused by the vehicle (its result and reason are printed), 2 timed
@@ -23,7 +25,7 @@ import time
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from . import modes
+from . import modes, param_cli
 from .client import (
     GPS_FIX_NAMES,
     CommandRefused,
@@ -89,13 +91,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", metavar="NAME", help="one of " + ", ".join(modes.mode_names())
                    + " (PX4 spellings such as AUTO.LOITER and HOLD accepted; case-insensitive)")
 
-    p = sub.add_parser("param", help="read or write a parameter")
-    psub = p.add_subparsers(dest="param_command", required=True, metavar="get|set")
-    g = psub.add_parser("get", help="print a parameter")
-    g.add_argument("name")
-    s = psub.add_parser("set", help="set a parameter (its type is read from the vehicle first)")
-    s.add_argument("name")
-    s.add_argument("value", type=float)
+    param_cli.add_param_parser(sub)
+    # -- gcs plot (gcs/plot.py): figures from a flight log, no vehicle needed
+    from . import plot
+    plot.add_arguments(sub.add_parser("plot", help="write PNG figures (setpoint vs estimate vs truth, motors) "
+                                                   "of a flight log (.fc.npy or .tlog)"))
     return parser
 
 
@@ -221,15 +221,7 @@ class _Cli:
         return EXIT_OK
 
     def param(self) -> int:
-        c = self.client
-        if self.args.param_command == "get":
-            print(f"{self.args.name} = {c.param_get(self.args.name)}")
-        else:
-            value = self.args.value
-            if value == int(value):
-                value = int(value)
-            print(f"{self.args.name} = {c.param_set(self.args.name, value)}")
-        return EXIT_OK
+        return param_cli.run_param_command(self.client, self.args)
 
 
 def status_line(client: VehicleClient) -> str:
@@ -264,6 +256,9 @@ def status_line(client: VehicleClient) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Run the ``gcs`` CLI; returns the exit code (0 ok, 1 refused, 2 timed out)."""
     args = build_parser().parse_args(argv)
+    if args.command == "plot":
+        from . import plot
+        return plot.run(args)
     if args.command == "mode":
         try:
             modes.lookup_mode(args.name)

@@ -24,7 +24,7 @@ from typing import Callable, Iterable
 
 from pymavlink import mavutil
 
-from params import param_encoding
+from params import param_encoding, param_file
 
 from . import geo, modes
 
@@ -711,8 +711,20 @@ class VehicleClient:
         if got != want and not (isinstance(got, float) and math.isnan(got) and math.isnan(want)):
             reason = self._refusal_reason(texts_before)
             because = f" ({reason})" if reason else ""
-            raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {got!r}{because}")
+            kept = param_file.format_value(got, param_type if param_encoding.is_integer_type(param_type) else None)
+            raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {kept}{because}")
         return got
+
+    def param_list(self, progress: Callable[[int, int], None] | None = None, timeout_s: float | None = None):
+        """Every parameter of the vehicle in index order (list of ``gcs.param_download.VehicleParam``).
+
+        PARAM_REQUEST_LIST, then PARAM_REQUEST_READ by index for any missing, as
+        QGroundControl does; ``progress(received, count)`` follows the download.
+        See :func:`gcs.param_download.download_parameters` for the errors.
+        """
+        from .param_download import download_parameters
+
+        return download_parameters(self, progress, timeout_s)
 
     @staticmethod
     def _param_id(name: str) -> bytes:

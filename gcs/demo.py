@@ -46,7 +46,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="wall seconds to wait for the vehicle to be ready to arm (default 120)")
     parser.add_argument("--step-timeout", type=float, default=120.0,
                         help="wall seconds allowed for each flight step (default 120)")
-    parser.add_argument("--log-dir", default=None, help="where to write the child logs (default: a temp dir)")
+    parser.add_argument("--log-dir", default=None,
+                        help="where to write the child logs and the flight logs (default: a temp dir)")
     parser.add_argument("--sitl-module", default="sitl", help="module run as the simulator (testing; default sitl)")
     parser.add_argument("--autopilot-module", default="autopilot",
                         help="module run as the flight controller (testing; default autopilot)")
@@ -249,6 +250,7 @@ def main(argv: list[str] | None = None) -> int:
         wall_flight = time.monotonic() - wall_flight_start
         sim_flight = client.sim_time_s() - sim_flight_start
         print(demo.summary(time.monotonic() - wall_start, wall_flight, sim_flight))
+        print(f"flight logs (.tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
         print("flight demo: OK")
         return 0
     except KeyboardInterrupt:

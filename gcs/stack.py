@@ -10,7 +10,9 @@ The simulator starts first; the flight controller is started once the
 simulator listens on its TCP port (4560 + instance), checked through
 ``/proc/net/tcp`` so no probe connection steals the simulator's accept.  Each
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
-``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given).
+``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given); the
+flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.fc.npy`` from
+the flight controller, ``.truth.npy`` from the simulator), unless ``flight_logs`` is False.
 Children run in their own session so a Ctrl-C in the terminal reaches only
 us; :meth:`Stack.stop` ends them (SIGTERM, then SIGKILL), always: on leaving
 the ``with`` block, at interpreter exit, and (Linux) when this process dies.
@@ -90,7 +92,9 @@ class Stack:
     extra_sitl_args, extra_autopilot_args: appended to each command line.
     home: ``"LAT,LON,ALT"`` for the simulator, or None for its default.
     seed: simulator random seed, or None for its default.
-    log_dir: where the child logs go; a new temp dir if None (kept after stop).
+    log_dir: where the child logs and the flight logs go; a new temp dir if None (kept after stop).
+    flight_logs: pass ``--log-dir log_dir`` to both children (tlog, control-rate and truth logs);
+        False: no flight logs at all (``autopilot --no-log``).
     start_timeout_s: wall seconds for the simulator to start listening.
     python: the interpreter for the children.
     sitl_module, autopilot_module: what ``python -m`` runs; may carry leading
@@ -112,6 +116,7 @@ class Stack:
         python: str = sys.executable,
         sitl_module: str = "sitl",
         autopilot_module: str = "autopilot",
+        flight_logs: bool = True,
     ) -> None:
         self.instance = int(instance)
         self.speed = str(speed)
@@ -124,6 +129,7 @@ class Stack:
         self.python = python
         self.sitl_module = sitl_module.split()
         self.autopilot_module = autopilot_module.split()
+        self.flight_logs = flight_logs
         self._log_dir_arg = Path(log_dir) if log_dir is not None else None
         self.log_dir: Path | None = None
         self.procs: dict[str, subprocess.Popen] = {}
@@ -170,11 +176,17 @@ class Stack:
             cmd += ["--home", self.home]
         if self.seed is not None:
             cmd += ["--seed", str(self.seed)]
-        return cmd + self.extra_sitl_args
+        return cmd + self._log_dir_args("sitl") + self.extra_sitl_args
 
     def autopilot_command(self) -> list[str]:
         return [self.python, "-m", *self.autopilot_module, "--vehicle", self.vehicle,
-                "--instance", str(self.instance)] + self.extra_autopilot_args
+                "--instance", str(self.instance)] + self._log_dir_args("autopilot") + self.extra_autopilot_args
+
+    def _log_dir_args(self, child: str) -> list[str]:
+        """``--log-dir`` for the flight logs once the stack has its log directory (at start); ``--no-log`` if off."""
+        if not self.flight_logs:
+            return ["--no-log"] if child == "autopilot" else []
+        return ["--log-dir", str(self.log_dir)] if self.log_dir is not None else []
 
     # ----------------------------------------------------------------- start / stop
 
@@ -208,11 +220,11 @@ class Stack:
             raise
         return self
 
-    def _spawn(self, name: str, cmd: list[str]) -> None:
+    def _spawn(self, name: str, cmd: list[str], log_mode: str = "w") -> None:
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
         env["PYTHONPATH"] = os.pathsep.join(p for p in (str(PROJECT_ROOT), env.get("PYTHONPATH")) if p)
-        log = open(self.log_path(name), "w")
+        log = open(self.log_path(name), log_mode)
         log.write("$ " + " ".join(cmd) + "\n")
         log.flush()
         self._log_files[name] = log
@@ -301,3 +313,23 @@ class Stack:
                     proc.wait(timeout=poll_s / max(len(self.procs), 1))
                 except subprocess.TimeoutExpired:
                     pass
+
+    def restart_autopilot(self, timeout_s: float = 5.0) -> int | None:
+        """Stop the flight controller (SIGTERM: it saves its state) and start it again; its old exit code.
+
+        The simulator keeps running and waits for the new flight controller, as it
+        would for a rebooting board.  The log goes on in the same file.
+        """
+        proc = self.procs.get("autopilot")
+        if proc is None:
+            raise StackError("stack not started")
+        if proc.poll() is None:
+            self._signal(proc, signal.SIGTERM)
+            try:
+                proc.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                self._signal(proc, signal.SIGKILL)
+                proc.wait(timeout=timeout_s)
+        self._log_files.pop("autopilot").close()
+        self._spawn("autopilot", self.autopilot_command(), log_mode="a")
+        return proc.returncode

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
@@ -72,6 +73,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="set a SIM_* parameter at start-up (repeatable; applied after --scenario)")
     p.add_argument("--list-params", action="store_true",
                    help="print the SIM_* parameters (with --scenario/--param applied) and exit")
+    p.add_argument("--log-dir", metavar="DIR", default=None,
+                   help="write a ground-truth log (.truth.npy) per arming here (default: none)")
     return p
 
 
@@ -119,6 +122,13 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
         return 2
+    if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
+        from sitl.truth_log import TruthRecorder
+        try:
+            server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance)
+        except OSError as exc:
+            print(f"sitl: cannot write ground-truth logs to {args.log_dir}: {exc}", file=sys.stderr)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
     speed = "max" if args.speed is None else f"{args.speed:g}x"
     print(f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
           f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}", file=sys.stderr, flush=True)
@@ -136,6 +146,8 @@ def main(argv: list[str] | None = None) -> int:
         pass
     finally:
         server.close()
+        if server.truth_log is not None:
+            server.truth_log.close()
     return 0
 
 

@@ -84,6 +84,8 @@ class LockstepServer:
             raise OSError(e.errno, f"cannot listen on TCP port {port}: {e.strerror}") from e
         self.motor_commands = np.zeros(sim.rotors.n)
         self.steps = 0
+        self.armed = False  # the flight controller's HIL_ACTUATOR_CONTROLS mode flag
+        self.truth_log = None  # sitl.truth_log.TruthRecorder (sitl --log-dir): fed every period
 
     def close(self) -> None:
         for s in (self.conn, self.listener):
@@ -150,6 +152,8 @@ class LockstepServer:
             HIL_SENSOR_ALL_FIELDS, 0,
         ))
         self.conn.sendall(b"".join(msg.pack(self.mav) for msg in out))
+        if self.truth_log is not None:  # while the flight controller computes its step
+            self.truth_log.record(time_us, t, self.armed, self.motor_commands)
         if time_us % TRUTH_PERIOD_US == 0:
             self._every_truth_period(time_us)
 
@@ -198,7 +202,7 @@ class LockstepServer:
                 msgs = []
             for msg in msgs:
                 if msg.get_type() == "HIL_ACTUATOR_CONTROLS":
-                    armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+                    armed = self.armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
                     n = self.sim.rotors.n
                     self.motor_commands = ([c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed
                                            else [0.0] * n)

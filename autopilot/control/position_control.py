@@ -23,8 +23,8 @@ GRAVITY_M_S2 = 9.80665
 
 declare("MPC_XY_P", 0.95, 0.0, 2.0, "1/s", "Horizontal position proportional gain")
 declare("MPC_Z_P", 1.0, 0.0, 2.0, "1/s", "Vertical position proportional gain")
-declare("MPC_XY_VEL_P_ACC", 1.8, 0.0, 10.0, "1/s", "Horizontal velocity proportional gain (acceleration per velocity error)")
-declare("MPC_XY_VEL_I_ACC", 0.4, 0.0, 10.0, "1/s^2", "Horizontal velocity integral gain")
+declare("MPC_XY_VEL_P_ACC", 2.2, 0.0, 10.0, "1/s", "Horizontal velocity proportional gain (acceleration per velocity error)")
+declare("MPC_XY_VEL_I_ACC", 0.8, 0.0, 10.0, "1/s^2", "Horizontal velocity integral gain")
 declare("MPC_XY_VEL_D_ACC", 0.2, 0.0, 2.0, "-", "Horizontal velocity derivative gain")
 declare("MPC_Z_VEL_P_ACC", 4.0, 0.0, 15.0, "1/s", "Vertical velocity proportional gain")
 declare("MPC_Z_VEL_I_ACC", 2.0, 0.0, 10.0, "1/s^2", "Vertical velocity integral gain")

@@ -21,12 +21,14 @@ P_KI = declare("ATT_MAHONY_KI", 0.05, 0.0, 5.0, "rad/s^2", "Mahony filter integr
 P_KMAG = declare("ATT_MAHONY_KMAG", 0.5, 0.0, 20.0, "rad/s", "Mahony filter heading gain from the magnetometer")
 
 GRAVITY_M_S2 = 9.80665
+HEADING_BIAS_MAX_ERR_RAD = math.radians(5.0)  # heading errors larger than this do not teach the gyro bias
 CORRECTION_EVERY = 5  # accelerometer/heading correction at 1/5 of the gyro rate (50 Hz at 250 Hz)
 
 
 class MahonyFilter:
     def __init__(self, kp: float = P_KP.default, ki: float = P_KI.default, k_mag: float = P_KMAG.default) -> None:
         self.kp, self.ki, self.k_mag = kp, ki, k_mag
+        self.correct_every = CORRECTION_EVERY  # 1 when fed 50 Hz delta-angle averages
         self.q = np.array([1.0, 0.0, 0.0, 0.0])
         self.gyro_bias = np.zeros(3)
         self.declination_rad = 0.0
@@ -62,9 +64,10 @@ class MahonyFilter:
             self.initialise(accel_frd, mag_frd if mag_frd is not None else np.array([1.0, 0.0, 0.0]))
         self._count += 1
         self._acc_sum += accel_frd
-        if self._count % CORRECTION_EVERY == 0:
-            # The mean of the interval's samples: 1/sqrt(5) of one sample's noise.
-            self._correct(self._acc_sum / CORRECTION_EVERY, mag_frd, dt_s * CORRECTION_EVERY, accel_ned_kinematic)
+        n = self.correct_every
+        if self._count % n == 0:
+            # The mean of the interval's samples: 1/sqrt(n) of one sample's noise.
+            self._correct(self._acc_sum / n, mag_frd, dt_s * n, accel_ned_kinematic)
             self._acc_sum[:] = 0.0
         rate = gyro_frd - self.gyro_bias
         self.q = quat.integrate(self.q, rate + self._corr, dt_s)
@@ -84,11 +87,16 @@ class MahonyFilter:
         if n_meas > 1e-3 and n_exp > 1e-3 and abs(n_meas - n_exp) < 0.25 * GRAVITY_M_S2:
             err += quat.cross(accel_frd / n_meas, expected / n_exp)
         gyro_corr_err = err * self.kp
+        bias_err = err
         if mag_frd is not None and np.linalg.norm(mag_frd) > 1e-6 and self.k_mag > 0:
             roll, pitch, yaw = quat.to_euler(self.q)
             yaw_err = quat.wrap_pi(self._heading_from_mag(roll, pitch, mag_frd) - yaw)
-            gyro_corr_err = gyro_corr_err + r.T @ np.array([0.0, 0.0, yaw_err]) * self.k_mag
+            heading_err = r.T @ np.array([0.0, 0.0, yaw_err])
+            gyro_corr_err = gyro_corr_err + heading_err * self.k_mag
+            if abs(yaw_err) < HEADING_BIAS_MAX_ERR_RAD:  # not while still aligning: that would wind up
+                bias_err = err + heading_err * (self.k_mag / self.kp if self.kp > 0 else 1.0)
         if self.ki > 0:
-            self.gyro_bias -= self.ki * err * dt_s
+            # The integral learns the gyro bias from both corrections (the heading one for the z gyro).
+            self.gyro_bias -= self.ki * bias_err * dt_s
             self.gyro_bias = np.minimum(np.maximum(self.gyro_bias, -0.1), 0.1)
         self._corr = gyro_corr_err

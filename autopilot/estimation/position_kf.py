@@ -19,13 +19,13 @@ import numpy as np
 
 from autopilot.parameters import declare
 
-P_ACC_NOISE = declare("EKF2_ACC_NOISE", 0.35, 0.01, 2.0, "m/s^2", "Accelerometer noise for position prediction")
-P_GPS_P_NOISE = declare("EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise")
-P_GPS_V_NOISE = declare("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
-P_BARO_NOISE = declare("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
-P_GATE = declare("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate for GPS and baro (standard deviations)")
+from autopilot.estimation.ekf import (  # noqa: E402  (shared with the EKF: one set of sensor noises)
+    P_BARO_NOISE, P_GPS_P_GATE as P_GATE, P_GPS_P_NOISE, P_GPS_V_NOISE,
+)
+
 P_GPS_DELAY = declare("EKF2_GPS_DELAY", 110.0, 0.0, 300.0, "ms",
                       "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago")
+ACC_NOISE_DENSITY = 0.35  # m/s^2/sqrt(s): acceleration process noise of this filter (not EKF2_ACC_NOISE's per-step form)
 
 _ACC_BIAS_RW = 0.002  # m/s^2 per sqrt(s), accelerometer bias random walk
 
@@ -36,7 +36,7 @@ class PositionVelocityFilter:
         self.x = np.zeros((3, 3))
         self.p_h = np.diag([100.0, 4.0, 0.1])  # shared by north and east
         self.p_v = np.diag([100.0, 4.0, 0.1])
-        self.acc_noise = P_ACC_NOISE.default
+        self.acc_noise = ACC_NOISE_DENSITY
         self.gps_p_noise = P_GPS_P_NOISE.default
         self.gps_v_noise = P_GPS_V_NOISE.default
         self.baro_noise = P_BARO_NOISE.default

@@ -1,0 +1,318 @@
+"""Error-state extended Kalman filter: position, velocity, attitude, gyro and accelerometer bias.
+
+Frames and units: position (m) and velocity (m/s) NED relative to the estimator
+origin; attitude a unit quaternion (w, x, y, z) rotating FRD body vectors into
+NED; gyro bias (rad/s) and accelerometer bias (m/s^2) in FRD.
+
+Nominal state (16): p, v, q, b_g, b_a.  Error state (15), in this order::
+
+    dp (0:3)  dv (3:6)  dtheta (6:9, body frame: q_true = q * exp(dtheta))  db_g (9:12)  db_a (12:15)
+
+Prediction (50 Hz, the rate of the outer loops and the barometer), on the IMU's
+summed delta angle and delta velocity of the interval, as PX4's EKF2 runs on
+downsampled IMU data; the estimator's output predictor carries the attitude
+between predictions at the IMU rate.  The covariance is propagated with the
+error-state Jacobian over the interval T::
+
+    dp' = dp + dv T
+    dv' = dv - R [dv_b]x dtheta - R db_a T
+    dtheta' = (I - [dtheta_b]x) dtheta - db_g T
+    db' = db
+
+with dv_b and dtheta_b the bias-corrected body-frame velocity and angle increments
+of the interval.  Process noise follows PX4's EKF2 parameters: (EKF2_ACC_NOISE T)^2
+on each velocity axis, (EKF2_GYR_NOISE T)^2 on each angle, (EKF2_*_B_NOISE T)^2 on
+the biases.
+
+Measurements, each fused as a scalar with an innovation gate (test ratio =
+innovation^2 / (gate^2 S); > 1 is rejected, as in PX4's EKF2):
+
+* GPS horizontal position and NED velocity, against the state at the time the fix
+  describes (EKF2_GPS_DELAY): the innovation is taken against the stored estimate
+  of that time and the correction applied now;
+* barometer height (the height reference, as EKF2_HGT_REF = baro);
+* magnetometer heading (tilt-compensated, with the World Magnetic Model's
+  declination) -- heading only, so a disturbed magnetometer can only affect yaw;
+* a constant-position pseudo-measurement when nothing else aids the filter (on the
+  ground before the first fix, or after GPS is lost): PX4's "fake position" fusion,
+  which keeps velocity and tilt bounded.
+
+What is left out, and why: PX4's EKF2 and ArduPilot's EKF3 also estimate the
+earth magnetic field and body magnetic bias (3-axis magnetometer fusion) and the
+wind (from airspeed or a drag model).  Here the magnetometer is fused as a heading,
+which needs no field states and keeps a magnetic disturbance out of roll and pitch;
+a multirotor without an airspeed sensor gains little from wind states, and the
+position controller's integrator already holds against wind.  A barometer bias
+state (EKF2 keeps one against GPS height) is not estimated: the baro is the only
+height reference.
+
+Why hand-written and not filterpy's ExtendedKalmanFilter: the attitude is a
+quaternion kept outside the covariance (the error-state form), each correction is
+injected multiplicatively and the error reset, measurements are delayed and fused
+as sequential gated scalars.  filterpy's classes assume an additive state vector
+updated in place and a full-vector update, so neither the quaternion nor the
+gating per component fits them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+from autopilot import quat
+from autopilot.parameters import declare
+
+GRAVITY_M_S2 = 9.80665
+_G = np.array([0.0, 0.0, GRAVITY_M_S2])
+P, V, TH, BG, BA = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)
+N = 15
+_EYE3 = np.eye(3)
+
+P_GYR_NOISE = declare("EKF2_GYR_NOISE", 0.015, 0.0001, 0.1, "rad/s", "Rate gyro noise for covariance prediction")
+P_ACC_NOISE = declare("EKF2_ACC_NOISE", 0.35, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
+P_GYR_B_NOISE = declare("EKF2_GYR_B_NOISE", 0.001, 0.0, 0.01, "rad/s^2", "Process noise of the gyro bias")
+P_ACC_B_NOISE = declare("EKF2_ACC_B_NOISE", 0.003, 0.0, 0.01, "m/s^3", "Process noise of the accelerometer bias")
+P_GPS_P_NOISE = declare("EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)")
+P_GPS_V_NOISE = declare("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
+P_BARO_NOISE = declare("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
+P_HEAD_NOISE = declare("EKF2_HEAD_NOISE", 0.1, 0.01, 1.0, "rad", "Magnetometer heading measurement noise")
+P_GPS_P_GATE = declare("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS position (standard deviations)")
+P_GPS_V_GATE = declare("EKF2_GPS_V_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS velocity (standard deviations)")
+P_BARO_GATE = declare("EKF2_BARO_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of barometer height (standard deviations)")
+P_HDG_GATE = declare("EKF2_HDG_GATE", 2.6, 1.0, 20.0, "SD", "Innovation gate of magnetometer heading (standard deviations)")
+P_NOAID_NOISE = declare("EKF2_NOAID_NOISE", 10.0, 0.5, 50.0, "m",
+                        "Noise of the constant-position pseudo-measurement fused when nothing aids the filter in flight")
+
+_FAKE_POS_NOISE_GROUND_M = 0.5  # at rest on the ground before the first fix
+_MIN_VAR = np.array([1e-6] * 6 + [1e-9] * 3 + [1e-12] * 6)
+_MAX_VAR = np.array([1e6] * 6 + [1.0] * 3 + [0.01] * 3 + [1.0] * 3)
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+class ErrorStateEkf:
+    """The filter; :class:`autopilot.estimation.estimator.Estimator` feeds it and reads it."""
+
+    def __init__(self) -> None:
+        self.p = np.zeros(3)
+        self.v = np.zeros(3)
+        self.q = np.array([1.0, 0.0, 0.0, 0.0])
+        self.bg = np.zeros(3)
+        self.ba = np.zeros(3)
+        self.cov = np.zeros((N, N))
+        self.r_ned_frd = np.eye(3)
+        self.accel_ned = np.zeros(3)  # kinematic acceleration (gravity removed), m/s^2
+        self.initialised = False
+        self.time_aligned_s = 0.0
+        self.gyr_noise = P_GYR_NOISE.default
+        self.acc_noise = P_ACC_NOISE.default
+        self.gyr_b_noise = P_GYR_B_NOISE.default
+        self.acc_b_noise = P_ACC_B_NOISE.default
+        # (time_us, position, velocity) after each prediction: the estimate a delayed fix is compared with.
+        self.history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=32)
+        # Latest test ratios (innovation^2 / (gate^2 S)), PX4's ESTIMATOR_STATUS quantities.
+        self.ratio = {"pos": 0.0, "vel": 0.0, "hgt": 0.0, "mag": 0.0}
+        self.rejected = {"pos": 0, "vel": 0, "hgt": 0, "mag": 0}
+        self._batch_kind: str | None = None  # scalars of one sensor being fused together
+        self._f = np.eye(N)  # state transition of one prediction (blocks rewritten each time)
+        self._q_key: tuple | None = None
+        self._q_diag = np.zeros(N)
+        self._predictions = 0
+
+    # -- set-up ---------------------------------------------------------------------------
+    def initialise(self, q: np.ndarray, time_s: float = 0.0) -> None:
+        """Start from a levelled attitude (from gravity and magnetometer) at rest."""
+        self.q = q / np.linalg.norm(q)
+        self.r_ned_frd = quat.to_matrix(self.q)
+        self.p[:] = 0.0
+        self.v[:] = 0.0
+        self.cov = np.diag(np.concatenate((
+            [1.0] * 3, [0.25] * 3, [0.05**2, 0.05**2, 0.15**2], [0.01**2] * 3, [0.1**2] * 3)))
+        self.initialised = True
+        self.time_aligned_s = 0.0
+
+    def reset_position(self, pos_ned_m: np.ndarray, var_m2: float, axes: slice = slice(0, 3)) -> np.ndarray:
+        """Set the position on some axes (decorrelating them); return the change (m)."""
+        old = self.p.copy()
+        self.p[axes] = pos_ned_m[axes]
+        self.cov[axes, :] = 0.0
+        self.cov[:, axes] = 0.0
+        idx = range(axes.start, axes.stop)
+        for i in idx:
+            self.cov[i, i] = var_m2
+        for t, pos, _ in self.history:
+            pos[axes] += (self.p - old)[axes]
+        return self.p - old
+
+    def reset_velocity(self, vel_ned_m_s: np.ndarray, var: float) -> None:
+        self.v[:] = vel_ned_m_s
+        self.cov[V, :] = 0.0
+        self.cov[:, V] = 0.0
+        self.cov[3, 3] = self.cov[4, 4] = self.cov[5, 5] = var
+
+    def rotate_yaw(self, angle_rad: float) -> None:
+        """Turn the attitude about NED down by ``angle_rad`` (e.g. when the declination becomes known)."""
+        half = 0.5 * angle_rad
+        self.q = quat.mul(np.array([math.cos(half), 0.0, 0.0, math.sin(half)]), self.q)
+        self.r_ned_frd = quat.to_matrix(self.q)
+
+    # -- prediction -------------------------------------------------------------------------
+    def predict(self, dtheta_frd: np.ndarray, dvel_frd: np.ndarray, t: float, time_us: int) -> None:
+        """Advance over ``t`` seconds of IMU data: ``dtheta_frd`` (rad) and ``dvel_frd`` (m/s) are the
+        summed gyro and accelerometer increments of the interval (PX4's downsampled delta angle and
+        delta velocity), biases not yet removed."""
+        if t <= 0.0:
+            return
+        dth = dtheta_frd - self.bg * t
+        dvb = dvel_frd - self.ba * t
+        # Velocity increment rotated with the attitude at the middle of the interval.
+        q_mid = quat.integrate(self.q, dth, 0.5)
+        dv = quat.to_matrix(q_mid) @ dvb + _G * t
+        self.p += (self.v + 0.5 * dv) * t
+        self.v += dv
+        self.accel_ned = dv / t
+        self.q = quat.integrate(self.q, dth, 1.0)
+        self.r_ned_frd = r = quat.to_matrix(self.q)
+        self.time_aligned_s += t
+        f = self._f
+        f[0, 3] = f[1, 4] = f[2, 5] = t
+        f[V, TH] = -r @ _skew(dvb)
+        f[V, BA] = -r * t
+        f[TH, TH] = _EYE3 - _skew(dth)
+        f[6, 9] = f[7, 10] = f[8, 11] = -t
+        c = f @ self.cov @ f.T
+        c.flat[::N + 1] += self._process_noise(t)
+        self._predictions += 1
+        if self._predictions % 10 == 0:  # keep P symmetric and its variances sane (once per 0.2 s)
+            c = 0.5 * (c + c.T)
+            self.cov = c
+            self._condition()
+        else:
+            self.cov = c
+        self.history.append((time_us, self.p.copy(), self.v.copy()))
+
+    def _process_noise(self, t: float) -> np.ndarray:
+        """Diagonal of Q for an interval of t seconds (cached: t is nearly always the same)."""
+        key = (t, self.acc_noise, self.gyr_noise, self.gyr_b_noise, self.acc_b_noise)
+        if key != self._q_key:
+            qa, qg = (self.acc_noise * t) ** 2, (self.gyr_noise * t) ** 2
+            qbg, qba = (self.gyr_b_noise * t) ** 2, (self.acc_b_noise * t) ** 2
+            self._q_diag = np.array([0.0] * 3 + [qa] * 3 + [qg] * 3 + [qbg] * 3 + [qba] * 3)
+            self._q_key = key
+        return self._q_diag
+
+    def _condition(self) -> None:
+        """Keep the variances inside sane bounds (a numerically broken P must not blow up the state)."""
+        d = np.diagonal(self.cov)
+        if np.any(d < _MIN_VAR) or np.any(d > _MAX_VAR):
+            idx = np.arange(N)
+            self.cov[idx, idx] = np.clip(d, _MIN_VAR, _MAX_VAR)
+
+    def state_at(self, time_us: int) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
+        """Position and velocity estimate stored nearest to an earlier time (None if not reached)."""
+        best = None
+        for t, pos, vel in reversed(self.history):
+            if best is None or abs(t - time_us) < abs(best[0] - time_us):
+                best = (t, pos, vel)
+            if t < time_us:
+                break
+        if best is None or abs(best[0] - time_us) > 60_000:
+            return None, None
+        return best[1], best[2]
+
+    # -- corrections ----------------------------------------------------------------------------
+    def _inject(self, dx: np.ndarray) -> None:
+        """Add an error-state correction to the nominal state (attitude multiplicatively)."""
+        self.p += dx[P]
+        self.v += dx[V]
+        w, x, y, z = (float(c) for c in self.q)
+        a, b, c = 0.5 * float(dx[6]), 0.5 * float(dx[7]), 0.5 * float(dx[8])
+        qn = (w - x * a - y * b - z * c, x + w * a + y * c - z * b, y + w * b + z * a - x * c, z + w * c + x * b - y * a)
+        k = 1.0 / math.sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3])
+        self.q = np.array([qn[0] * k, qn[1] * k, qn[2] * k, qn[3] * k])
+        self.r_ned_frd = quat.to_matrix(self.q)
+        self.bg += dx[BG]
+        self.ba += dx[BA]
+
+    def fuse_state(self, i: int, innovation: float, r: float, gate: float, kind: str | None = None) -> bool:
+        """Fuse a direct measurement of error-state element ``i``; False if the gate rejects it."""
+        c = self.cov
+        s = c[i, i] + r
+        ratio = innovation * innovation / (gate * gate * s)
+        if kind is not None:
+            self.ratio[kind] = max(self.ratio[kind], ratio) if kind == self._batch_kind else ratio
+        if ratio > 1.0:
+            if kind is not None:
+                self.rejected[kind] += 1
+            return False
+        k = c[:, i] / s
+        self.cov = c - np.outer(k, c[i, :])
+        self._inject(k * innovation)
+        return True
+
+    def fuse(self, h: np.ndarray, innovation: float, r: float, gate: float, kind: str | None = None) -> bool:
+        """Fuse a scalar measurement with Jacobian ``h`` (15,); False if the gate rejects it."""
+        ph = self.cov @ h
+        s = float(h @ ph) + r
+        ratio = innovation * innovation / (gate * gate * s)
+        if kind is not None:
+            self.ratio[kind] = ratio
+        if ratio > 1.0:
+            if kind is not None:
+                self.rejected[kind] += 1
+            return False
+        k = ph / s
+        self.cov = self.cov - np.outer(k, ph)
+        self._inject(k * innovation)
+        return True
+
+
+    def fuse_vector(self, first: int, values: np.ndarray, then: np.ndarray, r: float, gate: float, kind: str) -> int:
+        """Fuse consecutive direct measurements (e.g. velocity N, E, D) of error-state elements
+        ``first``...; ``then`` is the state they are compared with.  Returns how many were rejected."""
+        self._batch_kind = kind
+        self.ratio[kind] = 0.0
+        rejected = 0
+        current = self.p if first < 3 else self.v
+        offset = first if first < 3 else first - 3
+        n = len(values)
+        then = np.array(then[:n], dtype=float)
+        for j in range(n):
+            before = current[offset:offset + n].copy()
+            if not self.fuse_state(first + j, float(values[j] - then[j]), r, gate, kind):
+                rejected += 1
+            # Later components are compared with the delayed estimate moved by this correction.
+            then += current[offset:offset + n] - before
+        self._batch_kind = None
+        return rejected
+
+    def heading_jacobian(self) -> np.ndarray:
+        """d(yaw)/d(error state): yaw (3-2-1) moves with the body-frame angle error through R."""
+        r = self.r_ned_frd
+        yaw = math.atan2(r[1, 0], r[0, 0])
+        pitch = -math.asin(max(-1.0, min(1.0, r[2, 0])))
+        tp = math.tan(pitch)
+        hw = np.array([tp * math.cos(yaw), tp * math.sin(yaw), 1.0])
+        h = np.zeros(N)
+        h[TH] = hw @ r
+        return h
+
+    # -- outputs --------------------------------------------------------------------------
+    def horizontal_pos_std_m(self) -> float:
+        return math.sqrt(max(self.cov[0, 0], self.cov[1, 1]))
+
+    def vertical_pos_std_m(self) -> float:
+        return math.sqrt(self.cov[2, 2])
+
+    def horizontal_vel_std_m_s(self) -> float:
+        return math.sqrt(max(self.cov[3, 3], self.cov[4, 4]))
+
+    def tilt_std_rad(self) -> float:
+        return math.sqrt(max(self.cov[6, 6], self.cov[7, 7]))
+
+    def yaw_std_rad(self) -> float:
+        return math.sqrt(float(self.heading_jacobian() @ self.cov @ self.heading_jacobian()))

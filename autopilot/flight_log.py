@@ -1,0 +1,121 @@
+"""The flight controller's own log: setpoints, estimates and motor outputs at the control rate.
+
+One row per control step (250 Hz; ``every`` > 1 keeps one step in ``every``), written
+by :class:`FlightLogWriter` as an append-only ``.npy`` of records (:mod:`autopilot.npy_log`):
+``np.load("2026-01-01_12-00-00.fc.npy")["pos_d_m"]``.  Columns (NED world, FRD body,
+quaternions w, x, y, z taking FRD to NED; NaN where there is no setpoint):
+
+=========================  ===================================================================
+time_us                    simulated time of the step, µs (int64; the lockstep clock)
+armed, main_mode, sub_mode  arming state and PX4 mode numbers
+pos_sp_{n,e,d}_m           position setpoint (NaN on an axis that is not position-controlled)
+vel_sp_{n,e,d}_m_s         velocity setpoint (position P output + feed-forward, limited)
+acc_sp_{n,e,d}_m_s2        acceleration setpoint of the velocity PID
+yaw_sp_rad                 yaw setpoint
+q_sp_{w,x,y,z}             attitude setpoint
+rate_sp_{p,q,r}_rad_s      body-rate setpoint (attitude controller output)
+thrust_sp                  collective thrust setpoint, fraction of the maximum
+thrust                     collective thrust delivered by the mixer, fraction of the maximum
+pos_{n,e,d}_m              position estimate the outer loops used (updated at 50 Hz; estimator
+                           origin: the first good GPS fix)
+vel_{n,e,d}_m_s            velocity estimate (likewise)
+q_{w,x,y,z}                attitude estimate
+rate_{p,q,r}_rad_s         body rates, bias-corrected
+motor_0 ... motor_{N-1}    motor commands 0..1
+=========================  ===================================================================
+
+The values are read from the controllers' and the estimator's attributes after each
+step; nothing in them changes.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from autopilot.npy_log import NpyLogWriter
+
+SUFFIX = ".fc.npy"
+
+_SETPOINT_FIELDS = (
+    "pos_sp_n_m", "pos_sp_e_m", "pos_sp_d_m", "vel_sp_n_m_s", "vel_sp_e_m_s", "vel_sp_d_m_s",
+    "acc_sp_n_m_s2", "acc_sp_e_m_s2", "acc_sp_d_m_s2", "yaw_sp_rad", "q_sp_w", "q_sp_x", "q_sp_y", "q_sp_z",
+    "rate_sp_p_rad_s", "rate_sp_q_rad_s", "rate_sp_r_rad_s", "thrust_sp",
+)
+_ESTIMATE_FIELDS = (
+    "thrust", "pos_n_m", "pos_e_m", "pos_d_m", "vel_n_m_s", "vel_e_m_s", "vel_d_m_s",
+    "q_w", "q_x", "q_y", "q_z", "rate_p_rad_s", "rate_q_rad_s", "rate_r_rad_s",
+)
+_NO_SETPOINT = (math.nan,) * len(_SETPOINT_FIELDS)
+_NO_POS_VEL = (math.nan,) * 6
+
+
+def flight_log_fields(n_motors: int) -> list[tuple[str, str]]:
+    """(name, struct code) of every column, for a vehicle with ``n_motors`` rotors."""
+    return ([("time_us", "q"), ("armed", "B"), ("main_mode", "B"), ("sub_mode", "B")]
+            + [(name, "f") for name in _SETPOINT_FIELDS + _ESTIMATE_FIELDS]
+            + [(f"motor_{i}", "f") for i in range(n_motors)])
+
+
+class FlightLogWriter:
+    """Appends one row per control step of a :class:`~autopilot.flight_controller.FlightController`."""
+
+    def __init__(self, path: str | Path, fc, every: int = 1, chunk_rows: int = 250) -> None:
+        self.fc = fc
+        self.n_motors = len(fc.spec.rotors)
+        self.max_thrust_n = self.n_motors * fc.spec.max_thrust_per_rotor_n
+        self.every = max(1, int(every))
+        self._count = 0
+        self.writer = NpyLogWriter(path, flight_log_fields(self.n_motors), chunk_rows)
+        self._idle_motors = (0.0,) * self.n_motors
+
+    @property
+    def path(self) -> Path:
+        return self.writer.path
+
+    def record(self) -> None:
+        """Log the step that just ran (call after ``FlightController.step``)."""
+        self._count += 1
+        if self._count < self.every:
+            return
+        self._count = 0
+        fc = self.fc
+        cmd = fc.commander
+        est = fc.estimator
+        main_mode, sub_mode = cmd.mode.value
+        row = [fc.last_us or 0, cmd.armed, main_mode, sub_mode]  # .tolist(): far cheaper than numpy scalars
+        sp = fc.setpoint
+        if sp is not None and cmd.armed:
+            pc = fc.position_control
+            row += sp.pos_ned_m.tolist()
+            row += pc.vel_sp.tolist()
+            row += pc.acc_sp.tolist()
+            row.append(sp.yaw_rad)
+            row += fc.q_sp.tolist()
+            row += fc.rate_sp.tolist()
+            tv = getattr(fc, "thrust_vec", None)
+            if tv is not None:
+                x, y, z = tv.tolist()
+                row.append(math.sqrt(x * x + y * y + z * z) / self.max_thrust_n)
+            else:
+                row.append(math.nan)
+        else:
+            row += _NO_SETPOINT
+        row.append(cmd.throttle_frac)
+        e = cmd.est  # the estimate the outer loops used (position, velocity: 50 Hz)
+        if e is not None:
+            row += e.pos_ned_m.tolist()
+            row += e.vel_ned_m_s.tolist()
+        else:
+            row += _NO_POS_VEL
+        q = getattr(est, "q", None)  # the selected filter's attitude, updated every step
+        row += (q if q is not None else est.attitude.q).tolist()
+        row += est.rate_frd.tolist()
+        row += (cmd.motor_outputs or self._idle_motors)[: self.n_motors]
+        self.writer.append(*row)
+
+    def flush(self) -> None:
+        self.writer.flush()
+
+    def close(self) -> None:
+        self.writer.close()
