@@ -1,9 +1,11 @@
 """Flight logs and plots: the setpoint streams, the .tlog, the control-rate log, ``gcs plot``.
 
 Unit tests write files in pytest's tmp_path; one GcsLink test uses UDP on instance 68;
-the end-to-end test flies the real processes (``Stack``, instance 65) and reads the
-logs they leave.  Instances 65-69 are this file's (UDP 14605-14609, 14615-14619,
-14645-14649, 18635-18639; TCP 4625-4629).
+the end-to-end test flies the real processes (``Stack``, instance 67) and reads the
+logs they leave.  Instances 65-69 are this file's.  Not 65: its API port 14605 is the
+flight controller's local API port (14580 + I) of instance 25, the estimator benchmark's.
+The simulator's UDP truth is off (``--truth-port 0``): 14560 + 67 = 14627 is a port of
+test_gcs_link's instance 47, and the test reads the truth from the simulator's log.
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ from sitl.truth_log import truth_log_fields  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+LINK_INSTANCE = 68  # GcsLink binds UDP 14648, 18638; the client 14618
+E2E_INSTANCE = 67  # TCP 4627; the flight controller binds UDP 14647, 18637; the client 14607
 EPOCH0_US = 1_750_000_000_000_000  # 2025-06-15, a plausible wall-clock anchor
 
 
@@ -257,7 +261,7 @@ class _Vehicle:
 
 def test_link_streams_attitude_and_position_targets():
     """ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED and SERVO_OUTPUT_RAW: fields, default rates, SET_MESSAGE_INTERVAL."""
-    instance = 68
+    instance = LINK_INSTANCE
     q_sp = from_euler(0.1, -0.05, 1.0)
     control = ControlSetpoints(
         timestamp_us=0, pos_ned_m=np.array([1.0, 2.0, math.nan]), vel_ned_m_s=np.array([0.1, 0.2, -0.5]),
@@ -416,7 +420,7 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
 
     wait_s, alt_m = 90.0, 3.0
     logs = tmp_path / "logs"
-    with Stack(instance=65, speed="max", log_dir=logs) as stack:
+    with Stack(instance=E2E_INSTANCE, speed="max", log_dir=logs, extra_sitl_args=["--truth-port", "0"]) as stack:
         with VehicleClient(stack.api_url, timeout_s=wait_s, idle=stack.check_alive) as c:
             c.wait_until(c.prearm_ok, wait_s, "ready to arm")
             home = c.wait_home(wait_s)
@@ -432,7 +436,7 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
 
     tlogs, fcs, truths = (sorted(logs.glob("*" + sfx)) for sfx in (".tlog", ".fc.npy", ".truth.npy"))
     assert len(tlogs) == len(fcs) == len(truths) == 1, sorted(p.name for p in logs.iterdir())
-    assert tlogs[0].name.endswith("_i65.tlog") and fcs[0].name == tlogs[0].name.replace(".tlog", ".fc.npy")
+    assert tlogs[0].name.endswith(f"_i{E2E_INSTANCE}.tlog") and fcs[0].name == tlogs[0].name.replace(".tlog", ".fc.npy")
 
     msgs = _read_tlog(tlogs[0])
     types = Counter(m.get_type() for m in msgs)
