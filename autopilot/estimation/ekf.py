@@ -90,6 +90,20 @@ _MIN_VAR = np.array([1e-6] * 6 + [1e-9] * 3 + [1e-12] * 6)
 _MAX_VAR = np.array([1e6] * 6 + [1.0] * 3 + [0.01] * 3 + [1.0] * 3)
 
 
+def nearest_state(history, time_us: int, tolerance_us: int = 60_000):
+    """(position, velocity) of the (time_us, position, velocity) entry nearest ``time_us`` in a
+    time-ordered history, or (None, None) if none lies within ``tolerance_us``."""
+    best = None
+    for t, pos, vel in reversed(history):
+        if best is None or abs(t - time_us) < abs(best[0] - time_us):
+            best = (t, pos, vel)
+        if t < time_us:
+            break
+    if best is None or abs(best[0] - time_us) > tolerance_us:
+        return None, None
+    return best[1], best[2]
+
+
 def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
@@ -214,15 +228,7 @@ class ErrorStateEkf:
 
     def state_at(self, time_us: int) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
         """Position and velocity estimate stored nearest to an earlier time (None if not reached)."""
-        best = None
-        for t, pos, vel in reversed(self.history):
-            if best is None or abs(t - time_us) < abs(best[0] - time_us):
-                best = (t, pos, vel)
-            if t < time_us:
-                break
-        if best is None or abs(best[0] - time_us) > 60_000:
-            return None, None
-        return best[1], best[2]
+        return nearest_state(self.history, time_us)
 
     # -- corrections ----------------------------------------------------------------------------
     def _inject(self, dx: np.ndarray) -> None:

@@ -36,7 +36,7 @@ import numpy as np
 from autopilot import quat
 from autopilot.estimation.ekf import (
     P_BARO_GATE, P_BARO_NOISE, P_GPS_P_GATE, P_GPS_P_NOISE, P_GPS_V_GATE, P_GPS_V_NOISE, P_HDG_GATE, P_HEAD_NOISE,
-    P_NOAID_NOISE, ErrorStateEkf,
+    P_NOAID_NOISE, ErrorStateEkf, nearest_state,
 )
 from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import P_GPS_DELAY, PositionVelocityFilter
@@ -342,15 +342,7 @@ class Estimator:
     # -- GPS ------------------------------------------------------------------------------
     def _estimate_at(self, time_us: int) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
         """The linear filter's position and velocity nearest to an earlier time."""
-        best = None
-        for t, pos, vel in reversed(self._history):
-            if best is None or abs(t - time_us) < abs(best[0] - time_us):
-                best = (t, pos, vel)
-            if t < time_us:
-                break
-        if best is None or abs(best[0] - time_us) > 60_000:
-            return None, None
-        return best[1], best[2]
+        return nearest_state(self._history, time_us)
 
     def update_gps(self, g: GpsSample) -> None:
         if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
