@@ -251,6 +251,16 @@ class Stack:
             except subprocess.TimeoutExpired:
                 pass
 
+    def _terminate(self, proc: subprocess.Popen, timeout_s: float) -> None:
+        """SIGTERM a running child, SIGKILL it if it has not ended within timeout_s."""
+        if proc.poll() is None:
+            self._signal(proc, signal.SIGTERM)
+            try:
+                proc.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                self._signal(proc, signal.SIGKILL)
+                proc.wait(timeout=timeout_s)
+
     def stop(self, timeout_s: float = 5.0) -> dict[str, int | None]:
         """End both children (flight controller first); return their exit codes. Idempotent."""
         codes: dict[str, int | None] = {}
@@ -258,13 +268,7 @@ class Stack:
             proc = self.procs.get(name)
             if proc is None:
                 continue
-            if proc.poll() is None:
-                self._signal(proc, signal.SIGTERM)
-                try:
-                    proc.wait(timeout=timeout_s)
-                except subprocess.TimeoutExpired:
-                    self._signal(proc, signal.SIGKILL)
-                    proc.wait(timeout=timeout_s)
+            self._terminate(proc, timeout_s)
             codes[name] = proc.returncode
         for log in self._log_files.values():
             log.close()
@@ -323,13 +327,7 @@ class Stack:
         proc = self.procs.get("autopilot")
         if proc is None:
             raise StackError("stack not started")
-        if proc.poll() is None:
-            self._signal(proc, signal.SIGTERM)
-            try:
-                proc.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                self._signal(proc, signal.SIGKILL)
-                proc.wait(timeout=timeout_s)
+        self._terminate(proc, timeout_s)
         self._log_files.pop("autopilot").close()
         self._spawn("autopilot", self.autopilot_command(), log_mode="a")
         return proc.returncode
