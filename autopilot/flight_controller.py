@@ -3,8 +3,9 @@
 Pure: no sockets, no clock.  :meth:`FlightController.step` takes the sensor
 samples of one lockstep period and returns motor commands 0..1 (estimator and
 the 250 Hz attitude and rate loops); :meth:`FlightController.after_step` runs the
-50 Hz outer loops (commander, navigator, position control), whose setpoint the
-inner loops use from the next period on.  The process loop
+estimator's 50 Hz filter work and GPS fusion (its output predictor carries the
+attitude in between) and the 50 Hz outer loops (commander, navigator, position
+control), whose results the inner loops use from the next period on.  The process loop
 (``autopilot.__main__``) calls ``after_step`` after sending the motor commands,
 so that work overlaps the simulator's physics step instead of delaying it.
 """
@@ -26,6 +27,9 @@ from autopilot.topics import ControlSetpoints, GpsSample, ImuSample
 from params.vehicle import VehicleSpec
 
 OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 Hz
+# ... in the 4 ms period 1 of each 20 ms: the estimator's filters run after period 0 and the
+# ground-station link after period 2 (autopilot.__main__), so no two heavy jobs share a period.
+OUTER_OFFSET_US = 4_000
 
 declare("MPC_IDLE_CMD", 0.15, 0.0, 0.4, "norm", "Motor command while armed on the ground (idle spin)")
 
@@ -35,6 +39,7 @@ class FlightController:
         self.spec = spec
         self.params = params
         self.estimator = Estimator(params)
+        self.estimator.defer_filters = True  # its 50 Hz work runs in after_step, off the critical path
         self.commander = Commander(params, spec.mav_type)
         self.commander.estimator = self.estimator
         self.inertia = spec.inertia_kg_m2
@@ -51,7 +56,8 @@ class FlightController:
         self.thrust_n = 0.0
         self.setpoint = None
         self.last_outer_us: int | None = None
-        self._gps_pending: GpsSample | None = None
+        self._gps_pending: GpsSample | None = None  # the latest fix, for the next outer loop
+        self._outer_slot: int | None = None  # the 20 ms slot the outer loops last ran in
         self.commander.control_setpoints = self.control_setpoints  # ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED
 
     def _reset_controllers(self) -> None:
@@ -69,7 +75,7 @@ class FlightController:
         if gps is not None:
             self.estimator.update_gps(gps)
         cmd = self.commander
-        self._gps_pending = self._gps_pending or gps
+        self._gps_pending = gps or self._gps_pending
         if self.last_outer_us is None:
             self.after_step()
         n = len(self.spec.rotors)
@@ -96,11 +102,14 @@ class FlightController:
         return out.commands
 
     def after_step(self) -> None:
-        """Run the outer loops if due: every OUTER_PERIOD_US and on each new GPS fix."""
+        """The estimator's deferred filter work, then the outer loops once per OUTER_PERIOD_US slot."""
         now = self.last_us
         if now is None:
             return
-        if self.last_outer_us is None or now - self.last_outer_us >= OUTER_PERIOD_US or self._gps_pending is not None:
+        self.estimator.run_deferred()
+        slot = (now - OUTER_OFFSET_US) // OUTER_PERIOD_US
+        if slot != self._outer_slot:
+            self._outer_slot = slot
             gps, self._gps_pending = self._gps_pending, None
             self._outer_loop(now, gps)
 

@@ -13,6 +13,10 @@ clients on any port.  The link has no flight logic: telemetry comes from
 parameters live in ``vehicle.params``.  The link serves the parameter protocol,
 message-interval commands, AUTOPILOT_VERSION, TIMESYNC and an empty mission.
 
+What one :meth:`GcsLink.update` sends to a destination goes out packed into as few
+datagrams as fit MAX_DATAGRAM_BYTES, as PX4's UDP links buffer theirs: one system
+call per update instead of one per message.  Replies outside an update go out at once.
+
 Time: :meth:`GcsLink.update` receives the SIMULATED time (lockstep, microseconds).
 Stream intervals are measured in it; this module never reads the wall clock.
 
@@ -68,6 +72,7 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
 PARAM_BURST = 20  # PARAM_VALUEs sent per update() while a list request is being served
 RX_DATAGRAMS_PER_UPDATE = 2  # recvfrom calls per socket and update() at most
 MAX_PEERS = 4  # remembered reply addresses per endpoint, besides the default
+MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
 STATUSTEXT_LEN = 50  # bytes of text in one STATUSTEXT
 REPORTED_LOAD_PERMILLE = 100  # SYS_STATUS.load: nothing to measure in simulation
 
@@ -231,12 +236,37 @@ class _Endpoint:
         self.tx_errors = 0
         self._rx_buf = bytearray(65536)
         self.tap: Callable[[bytes], None] | None = None  # sees every packet sent (GcsLink.set_traffic_tap)
+        self._batch: list[bytes] | None = None  # packets held for one datagram (begin_batch .. flush)
 
     # -- sending
     def write(self, data: bytes) -> None:
-        """File-like sink for the encoder: one datagram to every destination."""
+        """File-like sink for the encoder: the packet joins the open batch, or goes out as a datagram."""
         if self.tap is not None:
             self.tap(data)
+        if self._batch is not None:
+            self._batch.append(data)
+        else:
+            self._send_datagram(data)
+
+    def begin_batch(self) -> None:
+        """Hold the packets sent from now until :meth:`flush` (one link iteration)."""
+        self._batch = []
+
+    def flush(self) -> None:
+        """The held packets, several per datagram (up to MAX_DATAGRAM_BYTES), as PX4's UDP link sends them."""
+        batch, self._batch = self._batch, None
+        if not batch:
+            return
+        out, size = [], 0
+        for packet in batch:
+            if out and size + len(packet) > MAX_DATAGRAM_BYTES:
+                self._send_datagram(b"".join(out))
+                out, size = [], 0
+            out.append(packet)
+            size += len(packet)
+        self._send_datagram(b"".join(out))
+
+    def _send_datagram(self, data: bytes) -> None:
         for addr in self.destinations:
             try:
                 self.sock.sendto(data, addr)
@@ -373,6 +403,7 @@ class GcsLink:
         self._now_us = 0
         self._snap: TelemetrySnapshot | None = None
         self._snap_valid = False  # _snap belongs to the current update()
+        self._built: dict[int, mavlink.MAVLink_message | None] = {}  # stream messages of the current update()
         self._home_key: tuple[float, float, float] | None = None
         self._statustext_id = 0
         self._params_changed: dict[str, None] = {}  # ordered set of names to broadcast
@@ -446,6 +477,16 @@ class GcsLink:
                 ep.refresh_next_due()
         self._now_us = now_us
         self._snap_valid = False
+        self._built.clear()
+        for ep in self._endpoints:
+            ep.begin_batch()
+        try:
+            self._update(now_us)
+        finally:
+            for ep in self._endpoints:
+                ep.flush()
+
+    def _update(self, now_us: int) -> None:
         for ep in self._endpoints:
             for _ in range(RX_DATAGRAMS_PER_UPDATE):
                 got = ep.recv()
@@ -749,9 +790,14 @@ class GcsLink:
         ep.refresh_next_due()
 
     def _build(self, mid: int, now_us: int) -> mavlink.MAVLink_message | None:
-        """A stream message from the current snapshot, or None if there is nothing to report."""
+        """A stream message from the current snapshot, or None if there is nothing to report.
+
+        Built once per update() and packed for each endpoint that streams it."""
+        if mid in self._built:
+            return self._built[mid]
         try:
-            return self._builders[mid](self._snapshot(), now_us)
+            msg = self._built[mid] = self._builders[mid](self._snapshot(), now_us)
+            return msg
         except Exception:
             if mid not in self._build_failures:  # one report per message, not one per iteration
                 self._build_failures.add(mid)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import socket
 import time
 
-SPIN_BUDGET_S = 0.0005
+SPIN_BUDGET_S = 0.0001
 
 
 class SpinReceiver:

@@ -42,6 +42,11 @@ HIL_SENSOR_ALL_FIELDS = 0x1FFF
 ACCEPT_POLL_S = 0.1  # while waiting for the flight controller, serve parameters at least this often
 
 
+def _int16(x: float) -> int:
+    """Rounded and clamped to a MAVLink int16 field (plain Python: numpy's scalar clip costs ~10 us)."""
+    return max(-32767, min(32767, round(x)))
+
+
 def _log(text: str) -> None:
     print(f"[sitl] {text}", file=sys.stderr, flush=True)
 
@@ -175,16 +180,15 @@ class LockstepServer:
 
     def _send_truth(self, t) -> None:
         lat, lon, alt = ned_to_geodetic(t.pos_ned_m, *self.sim.sensors.home)
-        a_mg = (t.accel_ned_m_s2 / 9.80665 * 1000).round().astype(int)
+        vn, ve, vd = t.vel_ned_m_s.tolist()
+        ax, ay, az = (t.accel_ned_m_s2 * (1000.0 / 9.80665)).tolist()  # mG
         msgs = [
             mavlink.MAVLink_hil_state_quaternion_message(
-                t.time_us, [float(x) for x in t.q_ned_frd], *[float(x) for x in t.rate_frd_rad_s],
+                t.time_us, t.q_ned_frd.tolist(), *t.rate_frd_rad_s.tolist(),
                 round(lat * 1e7), round(lon * 1e7), round(alt * 1000),
-                *[int(np.clip(round(x * 100), -32767, 32767)) for x in t.vel_ned_m_s],
-                0, 0, *[int(np.clip(x, -32767, 32767)) for x in a_mg],
+                _int16(vn * 100), _int16(ve * 100), _int16(vd * 100), 0, 0, _int16(ax), _int16(ay), _int16(az),
             ),
-            mavlink.MAVLink_local_position_ned_message(
-                t.time_us // 1000, *[float(x) for x in t.pos_ned_m], *[float(x) for x in t.vel_ned_m_s]),
+            mavlink.MAVLink_local_position_ned_message(t.time_us // 1000, *t.pos_ned_m.tolist(), vn, ve, vd),
         ]
         server = self.param_server
         server.send(server.encode(msgs))

@@ -321,4 +321,5 @@ class ErrorStateEkf:
         return math.sqrt(max(self.cov[6, 6], self.cov[7, 7]))
 
     def yaw_std_rad(self) -> float:
-        return math.sqrt(float(self.heading_jacobian() @ self.cov @ self.heading_jacobian()))
+        h = self.heading_jacobian()
+        return math.sqrt(float(h @ self.cov @ h))

@@ -147,6 +147,13 @@ class Estimator:
         self._last_fake_us = 0
         self.events: list[tuple[str, str]] = []  # (severity name, text), drained by the flight controller
         self._in_air = False
+        # Deferred mode (the flight controller's): the 50 Hz filter run and GPS fusion wait for
+        # run_deferred(), which the flight controller calls after it has sent the motor commands,
+        # so that work overlaps the simulator's physics step.  The output predictor carries the
+        # attitude meanwhile; the correction reaches it one sample (4 ms) later.
+        self.defer_filters = False
+        self._deferred_filters: tuple[int, np.ndarray | None, float | None] | None = None
+        self._deferred_gps: list[GpsSample] = []
         if params is not None:
             self._load_params()
             params.subscribe(lambda name, value: self._load_params()
@@ -175,6 +182,8 @@ class Estimator:
     # -- inputs ---------------------------------------------------------------------
     def update_imu(self, s: ImuSample) -> None:
         """One IMU sample (250 Hz): carry the attitude forward; every 20 ms run the filters."""
+        if self._deferred_filters is not None or self._deferred_gps:
+            self.run_deferred()  # never skipped, and always before this sample's increments
         dt = 0.004 if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
         self.last_imu_us = s.timestamp_us
         if not 0.0 < dt < 0.1 or not _finite(s.accel_frd_m_s2) or not _finite(s.gyro_frd_rad_s):
@@ -195,8 +204,22 @@ class Estimator:
             self.last_baro_alt_m = pressure_to_altitude_m(s.pressure_hpa)
             if self.origin is not None:
                 baro = -(self.last_baro_alt_m - self.baro_offset_m)
+        if self.defer_filters:
+            self._deferred_filters = (s.timestamp_us, mag, baro)
+            self.r_ned_frd = quat.to_matrix(self.q)
+            return
         self._filters(s.timestamp_us, mag, baro)
         self.r_ned_frd = quat.to_matrix(self.q)
+
+    def run_deferred(self) -> None:
+        """In deferred mode: the filter run and the GPS fusion the latest samples asked for, in order."""
+        pending, self._deferred_filters = self._deferred_filters, None
+        if pending is not None:
+            self._filters(*pending)
+            self.r_ned_frd = quat.to_matrix(self.q)
+        gps, self._deferred_gps = self._deferred_gps, []
+        for g in gps:
+            self._fuse_gps(g)
 
     def _filters(self, now_us: int, mag: np.ndarray | None, baro_down_m: float | None) -> None:
         """Both estimators over the IMU data since they last ran, then their corrections.
@@ -345,6 +368,13 @@ class Estimator:
         return nearest_state(self._history, time_us)
 
     def update_gps(self, g: GpsSample) -> None:
+        """A GPS fix: fused now, or (deferred mode) by the next run_deferred()."""
+        if self.defer_filters:
+            self._deferred_gps.append(g)
+        else:
+            self._fuse_gps(g)
+
+    def _fuse_gps(self, g: GpsSample) -> None:
         if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
             return
         self.last_gps_us = g.timestamp_us
