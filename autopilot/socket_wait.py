@@ -6,6 +6,11 @@ follows costs tens of microseconds, more than the work of a step.  So a receive
 first polls without blocking for a short spin budget, then blocks.  The spin is
 adaptive: if the previous wait was longer than the budget (the peer is paced to
 real time, or busy), the next receive blocks immediately and wastes no CPU.
+
+The budget is short (100 us): a flight runs three processes (simulator, flight
+controller, the ground station or test) on two cores here, and a longer spin took
+CPU from the process that had work.  ``vehicle_benchmark.py`` measured 9.5-9.9x with
+a 500 us budget against 9.8-10.6x with 100 us or none (three alternating runs each).
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ from __future__ import annotations
 import socket
 import time
 
-SPIN_BUDGET_S = 0.0001
+SPIN_BUDGET_S = 0.0001  # s
 
 
 class SpinReceiver:
