@@ -13,10 +13,13 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.hil_codec import MessageLayout, StreamParser
 from autopilot.socket_wait import SpinReceiver
 from autopilot.topics import BatteryState, GpsSample, ImuSample
 
 UINT16_MAX = 65535
+_ACTUATORS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
+_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
 
 
 def imu_from_msg(m) -> ImuSample:
@@ -58,6 +61,7 @@ class SimLink:
         self.sock: socket.socket | None = None
         self.mav = mavlink.MAVLink(None, sysid, compid)  # we send the packed bytes ourselves
         self.mav.robust_parsing = True
+        self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
         self.pending: list = []
 
     def connect(self, retry_s: float = 0.2, on_wait=None) -> None:
@@ -70,6 +74,9 @@ class SimLink:
                 s.settimeout(None)
                 self.sock = s
                 self.receiver = SpinReceiver(s)
+                self.mav = mavlink.MAVLink(None, self.sysid, self.compid)  # a new link: fresh parser state
+                self.mav.robust_parsing = True
+                self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
                 return
             except OSError:
                 if not warned:
@@ -92,14 +99,9 @@ class SimLink:
             return None
         if not data:
             return None
-        try:
-            return self.mav.parse_buffer(data) or []
-        except mavlink.MAVError:
-            return []
+        return self.parser.parse(data)
 
     def send_actuators(self, time_us: int, commands: np.ndarray, armed: bool) -> None:
         controls = [0.0] * 16
-        controls[: len(commands)] = [float(c) for c in commands]
-        mode = mavlink.MAV_MODE_FLAG_SAFETY_ARMED if armed else 0
-        msg = mavlink.MAVLink_hil_actuator_controls_message(time_us, controls, mode, 0)
-        self.sock.sendall(msg.pack(self.mav))
+        controls[: len(commands)] = commands.tolist()
+        self.sock.sendall(_ACTUATORS.encode(self.mav, (time_us, controls, _ARMED if armed else 0, 0)))

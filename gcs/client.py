@@ -706,10 +706,21 @@ class VehicleClient:
         texts_before = len(self.statustexts)
         msg = self._param_exchange(name, lambda: self._send_param_set(name_b, raw, param_type), timeout_s, retries,
                                    f"PARAM_VALUE echo for {name}")
-        got = self._decode_param_value(msg)
         want = param_encoding.decode_param_bytes(raw, param_type)
-        if got != want and not (isinstance(got, float) and math.isnan(got) and math.isnan(want)):
+
+        def matches(m) -> bool:
+            v = self._decode_param_value(m)
+            return v == want or (isinstance(v, float) and math.isnan(v) and math.isnan(want))
+
+        got = self._decode_param_value(msg)
+        if not matches(msg):
+            # A refusal comes with a STATUSTEXT; without one this was a late answer to an earlier
+            # request (another station's change, a read), and the echo of this set follows.
             reason = self._refusal_reason(texts_before)
+            if reason is None:
+                later = self.recv("PARAM_VALUE", 1.0, lambda m: self._text(m.param_id) == name and matches(m))
+                if later is not None:
+                    return self._decode_param_value(later)
             because = f" ({reason})" if reason else ""
             kept = param_file.format_value(got, param_type if param_encoding.is_integer_type(param_type) else None)
             raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {kept}{because}")

@@ -29,6 +29,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.geodesy import ned_to_geodetic
+from autopilot.hil_codec import MessageLayout, StreamParser
 from autopilot.socket_wait import SpinReceiver
 from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer
 from sitl.scenario import EventSchedule, ScenarioEvent
@@ -39,6 +40,7 @@ from sitl.simulation import LOCKSTEP_DT_S, Simulation
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
 HIL_SENSOR_ALL_FIELDS = 0x1FFF
+_HIL_SENSOR = MessageLayout(mavlink.MAVLink_hil_sensor_message)
 ACCEPT_POLL_S = 0.1  # while waiting for the flight controller, serve parameters at least this often
 
 
@@ -118,10 +120,14 @@ class LockstepServer:
         self.receiver = SpinReceiver(conn)
         self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
+        self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_actuator_controls_message])
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")
 
-    def _send(self, msg) -> None:
-        self.conn.sendall(msg.pack(self.mav))
+    def _pack(self, msg) -> bytes:
+        """A message packed for the flight controller, its sequence number advanced (as mav.send does)."""
+        data = msg.pack(self.mav)
+        self.mav.seq = (self.mav.seq + 1) % 256
+        return data
 
     # -- one period --------------------------------------------------------------
     def _send_sensors(self) -> None:
@@ -131,13 +137,13 @@ class LockstepServer:
         imu = sim.sensors.imu(t.specific_force_frd_m_s2, t.rate_frd_rad_s, t.r_ned_frd, t.pos_ned_m,
                               dt_s=LOCKSTEP_DT_S, current_a=sim.battery.current_a)
         a, g, m = imu.accel_frd_m_s2, imu.gyro_frd_rad_s, imu.mag_frd_gauss
-        out = []
+        out = b""
         # Every period: the GPS model decides when a fix is due (SIM_GPS_HZ) and what delayed
         # state it describes (SIM_GPS_LAG_MS); it is sent stamped with the current time.
         fix = sim.sensors.gps(time_us, t.pos_ned_m, t.vel_ned_m_s)
         if fix is not None:
             v = fix.vel_ned_m_s
-            out.append(mavlink.MAVLink_hil_gps_message(
+            out += self._pack(mavlink.MAVLink_hil_gps_message(
                 time_us, fix.fix_type, round(fix.lat_deg * 1e7), round(fix.lon_deg * 1e7),
                 round(fix.alt_amsl_m * 1000), round(fix.eph_m * 100), round(fix.epv_m * 100),
                 round(math.hypot(v[0], v[1]) * 100), round(v[0] * 100), round(v[1] * 100), round(v[2] * 100),
@@ -146,17 +152,17 @@ class LockstepServer:
         if time_us % BATTERY_PERIOD_US == 0:
             b = sim.battery
             cells = [min(65534, round(b.voltage_v / b.cells * 1000))] * b.cells + [65535] * (10 - b.cells)
-            out.append(mavlink.MAVLink_battery_status_message(
+            out += self._pack(mavlink.MAVLink_battery_status_message(
                 0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 32767, cells,
                 round(b.current_a * 100), round(b.consumed_mah), -1, round(b.remaining_frac * 100),
             ))
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
-        out.append(mavlink.MAVLink_hil_sensor_message(
+        out += _HIL_SENSOR.encode(self.mav, (
             time_us, a[0], a[1], a[2], g[0], g[1], g[2], m[0], m[1], m[2],
             imu.pressure_hpa, 0.0, sim.sensors.home[2] - t.pos_ned_m[2], imu.temperature_c,
             HIL_SENSOR_ALL_FIELDS, 0,
         ))
-        self.conn.sendall(b"".join(msg.pack(self.mav) for msg in out))
+        self.conn.sendall(out)
         if self.truth_log is not None:  # while the flight controller computes its step
             self.truth_log.record(time_us, t, self.armed, self.motor_commands)
         if time_us % TRUTH_PERIOD_US == 0:
@@ -200,11 +206,7 @@ class LockstepServer:
             if not data:
                 return False
             got = False
-            try:
-                msgs = self.mav.parse_buffer(data) or []
-            except mavlink.MAVError:
-                msgs = []
-            for msg in msgs:
+            for msg in self.parser.parse(data):
                 if msg.get_type() == "HIL_ACTUATOR_CONTROLS":
                     armed = self.armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
                     n = self.sim.rotors.n
