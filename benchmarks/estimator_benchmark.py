@@ -112,11 +112,14 @@ def errors(rec: Recorder, truth: SimClient, home_truth_alt_m: float) -> dict:
             "v_m": rms(d_v), "vel_h": rms(d_vh), "vel_v": rms(d_vv), "n_att": len(d_att) // 2, "n_pos": len(d_h)}
 
 
-def fly(vehicle: str, instance: int, seed: int, group: int) -> dict:
+def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str] = ()) -> dict:
     with Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, flight_logs=False) as stack, \
             SimClient(14560 + instance) as truth:
         c = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
         c.param_set("SYS_MC_EST_GROUP", group)
+        for item in fc_params:
+            name, value = item.split("=", 1)
+            c.param_set(name, float(value))
         for mid in (mavlink.MAVLINK_MSG_ID_ATTITUDE, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT):
             c.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mid, 20_000).check()
         c.wait_until(c.prearm_ok, 120, "ready to arm")
@@ -155,6 +158,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--instance", type=int, default=25)
     ap.add_argument("--estimators", type=int, nargs="+", default=[2, 1], choices=[1, 2],
                     help="SYS_MC_EST_GROUP values to fly (2 = EKF, 1 = Mahony)")
+    ap.add_argument("--fc-param", action="append", default=[], metavar="NAME=VALUE",
+                    help="a flight-controller parameter set before take-off (e.g. ATT_MAHONY_KP=0.5), repeatable")
     args = ap.parse_args(argv)
     print(f"{args.vehicle}: take-off to {ALT_M:.0f} m, {SQUARE_M:.0f} m square, {HOVER_S:.0f} s hover in "
           f"{WIND['SIM_WIND_SPD']:.0f} m/s wind with gusts, landing; RMS of estimate - truth while airborne")
@@ -163,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
     summary: dict[int, list[dict]] = {g: [] for g in args.estimators}
     for seed in args.seeds:
         for g in args.estimators:
-            r = fly(args.vehicle, args.instance, seed, g)
+            r = fly(args.vehicle, args.instance, seed, g, args.fc_param)
             summary[g].append(r)
             print(f"{ESTIMATORS[g]:9} {seed:4d} {r['rp_deg']:9.3f}° {r['yaw_deg']:5.2f}° {r['h_m']:6.3f}m "
                   f"{r['v_m']:6.3f}m {r['vel_h']:5.3f}m/s {r['vel_v']:5.3f}m/s {r['rtf']:5.1f}x", flush=True)

@@ -16,7 +16,7 @@ import numpy as np
 from autopilot import quat
 from autopilot.parameters import declare
 
-P_KP = declare("ATT_MAHONY_KP", 1.0, 0.0, 20.0, "rad/s", "Mahony filter proportional gain (accelerometer and heading)")
+P_KP = declare("ATT_MAHONY_KP", 0.5, 0.0, 20.0, "rad/s", "Mahony filter proportional gain (accelerometer and heading)")
 P_KI = declare("ATT_MAHONY_KI", 0.05, 0.0, 5.0, "rad/s^2", "Mahony filter integral gain (gyro bias learning)")
 P_KMAG = declare("ATT_MAHONY_KMAG", 0.5, 0.0, 20.0, "rad/s", "Mahony filter heading gain from the magnetometer")
 
