@@ -18,6 +18,7 @@ from pymavlink.dialects.v20 import common as S
 from autopilot import quat
 from autopilot.commander import Commander
 from autopilot.control.attitude_control import AttitudeControl
+from autopilot.control.gyro_filter import GyroFilter
 from autopilot.control.position_control import GRAVITY_M_S2, PositionControl, attitude_from_thrust
 from autopilot.control.rate_control import RateControl
 from autopilot.estimation.estimator import Estimator
@@ -48,6 +49,7 @@ class FlightController:
         self.position_control = PositionControl(params, spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n)
         self.attitude_control = AttitudeControl(params)
         self.rate_control = RateControl(params)
+        self.gyro_filter = GyroFilter(params)
         self.sat_pos = np.zeros(3, dtype=bool)
         self.sat_neg = np.zeros(3, dtype=bool)
         self.last_us: int | None = None
@@ -74,6 +76,7 @@ class FlightController:
         self.estimator.update_imu(imu)
         if gps is not None:
             self.estimator.update_gps(gps)
+        rate = self.gyro_filter.apply(self.estimator.rate_frd)  # every sample, so its state stays current
         cmd = self.commander
         self._gps_pending = gps or self._gps_pending
         if self.last_outer_us is None:
@@ -91,7 +94,7 @@ class FlightController:
         # Inner loops at the IMU rate, on the selected estimator's latest attitude.
         q = self.estimator.q
         self.rate_sp = self.attitude_control.update(q, self.q_sp)
-        alpha = self.rate_control.update(self.estimator.rate_frd, self.rate_sp, dt, self.sat_pos, self.sat_neg,
+        alpha = self.rate_control.update(rate, self.rate_sp, dt, self.sat_pos, self.sat_neg,
                                          integrate=not cmd.land.ground_contact)
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
         body_up = -self.estimator.r_ned_frd[:, 2]

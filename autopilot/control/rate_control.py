@@ -15,10 +15,10 @@ import numpy as np
 
 from autopilot.parameters import ParameterStore, declare
 
-declare("MC_ROLLRATE_P", 12.0, 0.0, 60.0, "1/s", "Roll rate P: angular acceleration (rad/s^2) per rad/s of error")
+declare("MC_ROLLRATE_P", 12.0, 0.0, 150.0, "1/s", "Roll rate P: angular acceleration (rad/s^2) per rad/s of error")
 declare("MC_ROLLRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Roll rate integral gain")
 declare("MC_ROLLRATE_D", 0.15, 0.0, 2.0, "-", "Roll rate derivative gain")
-declare("MC_PITCHRATE_P", 12.0, 0.0, 60.0, "1/s", "Pitch rate P: angular acceleration (rad/s^2) per rad/s of error")
+declare("MC_PITCHRATE_P", 12.0, 0.0, 150.0, "1/s", "Pitch rate P: angular acceleration (rad/s^2) per rad/s of error")
 declare("MC_PITCHRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Pitch rate integral gain")
 declare("MC_PITCHRATE_D", 0.15, 0.0, 2.0, "-", "Pitch rate derivative gain")
 declare("MC_YAWRATE_P", 6.0, 0.0, 60.0, "1/s", "Yaw rate P: angular acceleration (rad/s^2) per rad/s of error")
