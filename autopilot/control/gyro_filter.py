@@ -38,7 +38,7 @@ class GyroFilter:
     def _design(self, cutoff_hz: float) -> None:
         """Coefficients for a cutoff; 0, or one at or above 0.45 x the sample rate, passes rates through."""
         self.cutoff_hz = cutoff_hz
-        self._state: list[list[float]] | None = None
+        self._state: list[float] | None = None  # per axis: the two delay states, flat
         if cutoff_hz <= 0.0 or cutoff_hz >= 0.45 * self.fs:
             self._coef = None
             return
@@ -46,27 +46,27 @@ class GyroFilter:
         self._coef = (float(b[0]), float(b[1]), float(b[2]), float(a[1]), float(a[2]))
 
     def apply(self, rate) -> list[float]:
-        """One sample (3 rates, rad/s) in, the filtered rates out."""
-        x = [float(rate[0]), float(rate[1]), float(rate[2])]
+        """One sample (3 rates, rad/s) in, the filtered rates out (runs at 250 Hz: written out per axis)."""
+        x0, x1, x2 = rate.tolist() if hasattr(rate, "tolist") else rate
         coef = self._coef
-        if coef is None:
-            return x
-        if not math.isfinite(x[0] + x[1] + x[2]):
-            return x  # NaN never enters the filter's state; the rate controller rejects it
+        if coef is None or not math.isfinite(x0 + x1 + x2):
+            return [x0, x1, x2]  # NaN never enters the filter's state; the rate controller rejects it
         b0, b1, b2, a1, a2 = coef
-        state = self._state
-        if state is None:  # start settled on the first sample: no start-up transient
+        s = self._state
+        if s is None:  # start settled on the first sample: no start-up transient
             gain = (b0 + b1 + b2) / (1.0 + a1 + a2)  # DC gain (1 for this low-pass)
-            state = self._state = []
-            for v in x:  # direct form II transposed, steady state for a constant input v
+            s = self._state = []
+            for v in (x0, x1, x2):  # direct form II transposed, steady state for a constant input v
                 y = gain * v
                 s2 = b2 * v - a2 * y
-                state.append([b1 * v - a1 * y + s2, s2])
-        out = [0.0, 0.0, 0.0]
-        for i in range(3):
-            s = state[i]
-            y = b0 * x[i] + s[0]
-            s[0] = b1 * x[i] - a1 * y + s[1]
-            s[1] = b2 * x[i] - a2 * y
-            out[i] = y
-        return out
+                s += [b1 * v - a1 * y + s2, s2]
+        y0 = b0 * x0 + s[0]
+        s[0] = b1 * x0 - a1 * y0 + s[1]
+        s[1] = b2 * x0 - a2 * y0
+        y1 = b0 * x1 + s[2]
+        s[2] = b1 * x1 - a1 * y1 + s[3]
+        s[3] = b2 * x1 - a2 * y1
+        y2 = b0 * x2 + s[4]
+        s[4] = b1 * x2 - a1 * y2 + s[5]
+        s[5] = b2 * x2 - a2 * y2
+        return [y0, y1, y2]
