@@ -50,21 +50,21 @@ class MoveTask:
         self.t_cruise = (self.length - 2 * d_acc) / self.v if self.v > 0 else 0.0
         self.duration_s = 2 * self.t_acc + max(self.t_cruise, 0.0)
 
-    def _profile(self, t: float) -> tuple[float, float]:
-        """Distance along the line and speed at time t (s) since the start."""
+    def _profile(self, t: float) -> tuple[float, float, float]:
+        """Distance along the line, speed and acceleration at time t (s) since the start."""
         if self.v <= 0 or t >= self.duration_s:
-            return self.length, 0.0
+            return self.length, 0.0, 0.0
         if t < self.t_acc:
-            return 0.5 * self.a * t * t, self.a * t
+            return 0.5 * self.a * t * t, self.a * t, self.a
         d_acc = 0.5 * self.a * self.t_acc**2
         if t < self.t_acc + self.t_cruise:
-            return d_acc + self.v * (t - self.t_acc), self.v
+            return d_acc + self.v * (t - self.t_acc), self.v, 0.0
         td = t - self.t_acc - self.t_cruise
-        return d_acc + self.v * self.t_cruise + self.v * td - 0.5 * self.a * td * td, self.v - self.a * td
+        return d_acc + self.v * self.t_cruise + self.v * td - 0.5 * self.a * td * td, self.v - self.a * td, -self.a
 
     def setpoint(self, now_us: int, est: VehicleEstimate) -> PositionSetpoint:
-        s, v = self._profile((now_us - self.t0_us) * 1e-6)
-        return PositionSetpoint(self.start + self.dir * s, self.dir * v, self.yaw_rad)
+        s, v, a = self._profile((now_us - self.t0_us) * 1e-6)
+        return PositionSetpoint(self.start + self.dir * s, self.dir * v, self.yaw_rad, self.dir * a)
 
     def finished(self, now_us: int) -> bool:
         return (now_us - self.t0_us) * 1e-6 >= self.duration_s

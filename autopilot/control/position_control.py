@@ -44,11 +44,13 @@ declare("MPC_VELD_LP", 5.0, 0.0, 10.0, "Hz",
 
 @dataclass(frozen=True, slots=True)
 class PositionSetpoint:
-    """Position (m, NED; NaN = not controlled), velocity feed-forward (m/s) and yaw (rad)."""
+    """Position (m, NED; NaN = not controlled), velocity feed-forward (m/s), yaw (rad) and
+    acceleration feed-forward (m/s^2, NED; a trajectory's own acceleration)."""
 
     pos_ned_m: np.ndarray
     vel_ned_m_s: np.ndarray
     yaw_rad: float
+    acc_ned_m_s2: np.ndarray | None = None
 
 
 class PositionControl:
@@ -109,6 +111,8 @@ class PositionControl:
             self.d_filt[:] = d_raw
         d_term = np.minimum(np.maximum(self.d_filt, -self.d_lim), self.d_lim)
         acc_sp = self.vel_p * vel_err + self.vel_int + self.vel_d * d_term
+        if sp.acc_ned_m_s2 is not None:
+            acc_sp = acc_sp + sp.acc_ned_m_s2
 
         # Thrust vector with hover feed-forward: T = m (a - g), NED.
         thrust = self.mass_kg * (acc_sp - np.array([0.0, 0.0, GRAVITY_M_S2]))
