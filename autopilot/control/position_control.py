@@ -37,6 +37,8 @@ declare("MPC_THR_MIN", 0.12, 0.05, 0.5, "norm", "Minimum collective thrust in fl
 declare("MPC_THR_MAX", 1.0, 0.5, 1.0, "norm", "Maximum collective thrust (fraction of maximum)")
 declare("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp (seed 000 3.4)")
 declare("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp (seed 000 3.4)")
+declare("MPC_JERK_AUTO", 4.0, 1.0, 80.0, "m/s^3",
+        "Jerk limit of automatic moves: how fast their acceleration feed-forward may change")
 declare("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term (seed 000 3.4)")
 declare("MPC_VELD_LP", 5.0, 0.0, 10.0, "Hz",
         "Low-pass cut-off of the velocity derivative (0 = unfiltered): GPS corrections step the velocity estimate")
@@ -63,6 +65,7 @@ class PositionControl:
         self.d_filt = np.zeros(3)  # low-passed velocity derivative, m/s^2
         self.vel_sp = np.zeros(3)
         self.acc_sp = np.zeros(3)
+        self.acc_ff = np.zeros(3)  # the trajectory's acceleration as fed forward, jerk-limited, m/s^2
         self._load()
         params.subscribe(lambda name, value: self._load() if name.startswith("MPC_") else None)
 
@@ -80,11 +83,13 @@ class PositionControl:
         self.int_lim = np.array([g("MPC_XY_INT_LIM")] * 2 + [g("MPC_Z_INT_LIM")])
         self.d_lim = g("MPC_ACC_D_LIM")
         self.d_lp_hz = g("MPC_VELD_LP")
+        self.jerk_max = g("MPC_JERK_AUTO")
 
     def reset(self) -> None:
         self.vel_int[:] = 0.0
         self.prev_vel = None
         self.d_filt[:] = 0.0
+        self.acc_ff[:] = 0.0
 
     def update(self, pos: np.ndarray, vel: np.ndarray, sp: PositionSetpoint, dt: float) -> np.ndarray:
         """Return the thrust vector (N, NED) for this step."""
@@ -111,8 +116,13 @@ class PositionControl:
             self.d_filt[:] = d_raw
         d_term = np.minimum(np.maximum(self.d_filt, -self.d_lim), self.d_lim)
         acc_sp = self.vel_p * vel_err + self.vel_int + self.vel_d * d_term
-        if sp.acc_ned_m_s2 is not None:
-            acc_sp = acc_sp + sp.acc_ned_m_s2
+        # The trajectory's acceleration, fed forward at most MPC_JERK_AUTO faster per second: the
+        # moves' speed profile is trapezoidal, and a step in it would be a step of the attitude
+        # setpoint that saturates the motors.
+        want = sp.acc_ned_m_s2 if sp.acc_ned_m_s2 is not None else np.zeros(3)
+        step = self.jerk_max * dt
+        self.acc_ff += np.clip(np.where(np.isfinite(want), want, 0.0) - self.acc_ff, -step, step)
+        acc_sp = acc_sp + self.acc_ff
 
         # Thrust vector with hover feed-forward: T = m (a - g), NED.
         thrust = self.mass_kg * (acc_sp - np.array([0.0, 0.0, GRAVITY_M_S2]))
