@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections import deque
 import sys
 import time
 from dataclasses import dataclass
@@ -182,6 +183,9 @@ class VehicleClient:
         self._latest: dict[str, object] = {}
         self._latest_wall: dict[str, float] = {}
         self._listeners: list[Callable[[object], None]] = []
+        # Messages that came in the same read as one recv() returned, after it: the next recv()
+        # looks at them first (a ground station's datagram can hold several answers).
+        self._pending: deque = deque()
         self._chunks: dict[int, tuple[int, str]] = {}
         self._sim_time_ms: int | None = None
         self._param_types: dict[str, int] = {}
@@ -260,12 +264,27 @@ class VehicleClient:
         """The next message of the given type(s) from the vehicle (meeting ``condition``), or None."""
         wanted = {types} if isinstance(types, str) else set(types)
         deadline = time.monotonic() + self._timeout(timeout_s)
+
+        def fits(msg) -> bool:
+            return msg.get_type() in wanted and (condition is None or condition(msg))
+
+        while self._pending:
+            msg = self._pending.popleft()
+            if fits(msg):
+                return msg
         while True:
-            for msg in self.pump(min(PUMP_TIMEOUT_S, max(deadline - time.monotonic(), 0.0))):
-                if msg.get_type() in wanted and (condition is None or condition(msg)):
+            batch = self.pump(min(PUMP_TIMEOUT_S, max(deadline - time.monotonic(), 0.0)))
+            for i, msg in enumerate(batch):
+                if fits(msg):
+                    self._pending.extend(batch[i + 1:])
                     return msg
             if time.monotonic() >= deadline:
                 return None
+
+    def drain(self) -> None:
+        """Forget what has arrived so far (it answers earlier requests, not the next one)."""
+        self.pump(0.0)
+        self._pending.clear()
 
     def _handle(self, msg) -> bool:
         """Cache one message; True if it came from the vehicle."""
@@ -702,7 +721,7 @@ class VehicleClient:
                 self.param_get(name, timeout_s)
             param_type = self._param_types[name]
         raw = param_encoding.encode_param_bytes(value, param_type)
-        self.pump(0.0)  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
+        self.drain()  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
         texts_before = len(self.statustexts)
         msg = self._param_exchange(name, lambda: self._send_param_set(name_b, raw, param_type), timeout_s, retries,
                                    f"PARAM_VALUE echo for {name}")
@@ -714,13 +733,16 @@ class VehicleClient:
 
         got = self._decode_param_value(msg)
         if not matches(msg):
-            # A refusal comes with a STATUSTEXT; without one this was a late answer to an earlier
-            # request (another station's change, a read), and the echo of this set follows.
-            reason = self._refusal_reason(texts_before)
-            if reason is None:
-                later = self.recv("PARAM_VALUE", 1.0, lambda m: self._text(m.param_id) == name and matches(m))
-                if later is not None:
+            # A refusal comes with a STATUSTEXT (in the same datagram as the echo); without one this
+            # was a late answer to an earlier request (another station's change, a read), and the
+            # echo of this set follows.
+            if len(self.statustexts) == texts_before:
+                later = self.recv(("PARAM_VALUE", "STATUSTEXT"), 1.0,
+                                  lambda m: m.get_type() == "STATUSTEXT" or
+                                  (self._text(m.param_id) == name and matches(m)))
+                if later is not None and later.get_type() == "PARAM_VALUE":
                     return self._decode_param_value(later)
+            reason = self._refusal_reason(texts_before)
             because = f" ({reason})" if reason else ""
             kept = param_file.format_value(got, param_type if param_encoding.is_integer_type(param_type) else None)
             raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {kept}{because}")
@@ -749,7 +771,7 @@ class VehicleClient:
         timeout = self._timeout(timeout_s)
         retries = max(1, retries)
         for _ in range(retries):
-            self.pump(0.0)  # a PARAM_VALUE queued before the request is not its answer
+            self.drain()  # a PARAM_VALUE queued before the request is not its answer
             send()
             msg = self.recv("PARAM_VALUE", timeout / retries, lambda m: self._text(m.param_id) == name)
             if msg is not None:

@@ -109,7 +109,7 @@ def download_parameters(client: VehicleClient, progress: Callable[[int, int], No
     col = _Collector(c, progress)
     lists_sent = 0
     re_requested = 0
-    c.pump(0.0)  # what is queued belongs to earlier exchanges
+    c.drain()  # what is queued belongs to earlier exchanges
     c.add_listener(col)
     try:
         c.conn.mav.param_request_list_send(c.target_system, c.target_component)
