@@ -496,6 +496,9 @@ class FakeVehicleLink:
                 cb(m)
         return msgs
 
+    def drain(self):
+        self.pump(0.0)
+
     def param_request_list_send(self, sysid, compid):
         for i in range(self.count):
             if i not in self.drop:
