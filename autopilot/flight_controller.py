@@ -138,7 +138,7 @@ class FlightController:
         self.thrust_n = thrust_n
         self.commander.thrust_frac_of_hover = thrust_n / self.weight_n
         self.commander.throttle_frac = thrust_n / (len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n)
-        self.commander.motor_outputs = tuple(float(c) for c in commands)
+        self.commander.motor_outputs = tuple(commands.tolist())
 
     # -- telemetry (read-only view of the controllers' setpoints) --------------------------------
     def control_setpoints(self) -> ControlSetpoints | None:
