@@ -21,6 +21,8 @@ from autopilot.topics import VehicleEstimate
 declare("MIS_TAKEOFF_ALT", 2.5, 0.0, 100.0, "m", "Take-off altitude above home when none is given")
 declare("MPC_TKO_SPEED", 1.5, 0.5, 5.0, "m/s", "Take-off climb speed")
 declare("MPC_LAND_SPEED", 0.7, 0.2, 2.0, "m/s", "Landing descent speed (final phase)")
+declare("MPC_ACC_DOWN_MAX", 3.0, 2.0, 15.0, "m/s^2",
+        "Largest change per second of the descent speed setpoint when landing starts or slows")
 declare("MPC_LAND_ALT1", 5.0, 0.0, 50.0, "m", "Below this height above home, descend at MPC_LAND_SPEED")
 declare("MPC_XY_CRUISE", 3.0, 0.5, 20.0, "m/s", "Horizontal cruise speed of automatic moves")
 declare("MPC_ACC_HOR", 2.0, 0.5, 10.0, "m/s^2", "Horizontal acceleration of automatic moves")
@@ -91,11 +93,23 @@ class LandTask:
         self.yaw_rad = yaw_rad
         self.home_down_m = home_down_m
         self.params = params
+        self._speed: float | None = None  # the descent speed setpoint flown, m/s down
+        self._last_us: int | None = None
 
     def setpoint(self, now_us: int, est: VehicleEstimate) -> PositionSetpoint:
         height = self.home_down_m - float(est.pos_ned_m[2])
         slow = self.params.get("MPC_LAND_SPEED")
-        speed = slow if height < self.params.get("MPC_LAND_ALT1") else max(slow, self.params.get("MPC_Z_VEL_MAX_DN"))
+        want = slow if height < self.params.get("MPC_LAND_ALT1") else max(slow, self.params.get("MPC_Z_VEL_MAX_DN"))
+        # Change the speed at most MPC_ACC_DOWN_MAX per second, starting from the vehicle's own: a step
+        # of the velocity setpoint would cut the thrust at once (and tilt the vehicle further).
+        if self._speed is None:
+            vz = float(est.vel_ned_m_s[2])
+            self._speed = vz if math.isfinite(vz) else 0.0
+        dt = 0.0 if self._last_us is None else max(0.0, (now_us - self._last_us) * 1e-6)
+        self._last_us = now_us
+        step = self.params.get("MPC_ACC_DOWN_MAX") * dt
+        self._speed += min(max(want - self._speed, -step), step)
+        speed = self._speed
         if not est.position_valid:
             return PositionSetpoint(np.array([math.nan, math.nan, math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)
         return PositionSetpoint(np.array([self.ne[0], self.ne[1], math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)
