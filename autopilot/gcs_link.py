@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import logging
 import math
-import socket
 import struct
 from dataclasses import dataclass
 from typing import Callable
@@ -39,6 +38,7 @@ from autopilot.geodesy import ned_to_geodetic
 from autopilot.quat import to_euler
 from autopilot.parameters import ParamError, ParamType
 from autopilot.topics import TelemetrySnapshot
+from autopilot.udp_endpoint import UdpEndpoint
 from autopilot.vehicle_interface import VehicleInterface
 from params.param_encoding import decode_param_bytes, encode_param_bytes, raw_param_value
 
@@ -71,7 +71,6 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
 
 PARAM_BURST = 20  # PARAM_VALUEs sent per update() while a list request is being served
 RX_DATAGRAMS_PER_UPDATE = 2  # recvfrom calls per socket and update() at most
-MAX_PEERS = 4  # remembered reply addresses per endpoint, besides the default
 MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
 STATUSTEXT_LEN = 50  # bytes of text in one STATUSTEXT
 REPORTED_LOAD_PERMILLE = 100  # SYS_STATUS.load: nothing to measure in simulation
@@ -203,8 +202,8 @@ class _Stream:
     next_due_us: int
 
 
-class _Endpoint:
-    """One UDP socket with its default destination, recent peers, encoder, parser and streams."""
+class _Endpoint(UdpEndpoint):
+    """One UDP socket (:class:`UdpEndpoint`) with its encoder, send batching and streams."""
 
     def __init__(
         self,
@@ -215,26 +214,13 @@ class _Endpoint:
         compid: int,
         default_intervals_us: dict[int, int],
     ) -> None:
+        super().__init__(f"gcs_link {name}", bind, default_dest, sysid, compid)
         self.name = name
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            self.sock.bind(bind)
-        except OSError as e:
-            self.sock.close()
-            raise OSError(e.errno, f"gcs_link {name}: cannot bind UDP {bind[0]}:{bind[1]}: {e.strerror}") from e
-        self.sock.setblocking(False)
-        self.default_dest = default_dest
-        self.peers: list[tuple[str, int]] = []  # most recent last
-        self.destinations: list[tuple[str, int]] = [default_dest]
         self.mav = mavlink.MAVLink(self, sysid, compid)  # encoder: writes through self.write
-        self.parser = mavlink.MAVLink(None, sysid, compid)
-        self.parser.robust_parsing = True  # bad bytes come back as BAD_DATA, never raise
         self.default_intervals_us = default_intervals_us
         self.streams = {mid: _Stream(iv, 0) for mid, iv in default_intervals_us.items()}
         self.next_due_us = 0  # earliest next_due_us of the enabled streams
         self.param_cursor: int | None = None  # next index of a PARAM_REQUEST_LIST being served
-        self.tx_errors = 0
-        self._rx_buf = bytearray(65536)
         self.tap: Callable[[bytes], None] | None = None  # sees every packet sent (GcsLink.set_traffic_tap)
         self._batch: list[bytes] | None = None  # packets held for one datagram (begin_batch .. flush)
 
@@ -246,7 +232,7 @@ class _Endpoint:
         if self._batch is not None:
             self._batch.append(data)
         else:
-            self._send_datagram(data)
+            self.send_datagram(data)
 
     def begin_batch(self) -> None:
         """Hold the packets sent from now until :meth:`flush` (one link iteration)."""
@@ -260,68 +246,19 @@ class _Endpoint:
         out, size = [], 0
         for packet in batch:
             if out and size + len(packet) > MAX_DATAGRAM_BYTES:
-                self._send_datagram(b"".join(out))
+                self.send_datagram(b"".join(out))
                 out, size = [], 0
             out.append(packet)
             size += len(packet)
-        self._send_datagram(b"".join(out))
-
-    def _send_datagram(self, data: bytes) -> None:
-        for addr in self.destinations:
-            try:
-                self.sock.sendto(data, addr)
-            except OSError:  # nobody listening, buffer full, network down: telemetry is best effort
-                self.tx_errors += 1
+        self.send_datagram(b"".join(out))
 
     def send(self, msg: mavlink.MAVLink_message) -> None:
         self.mav.send(msg)
-
-    def note_peer(self, addr: tuple[str, int]) -> None:
-        """Remember a sender as a destination (keeping the MAX_PEERS most recent)."""
-        if self.peers and self.peers[-1] == addr:
-            return
-        if addr in self.peers:
-            self.peers.remove(addr)
-        self.peers.append(addr)
-        del self.peers[:-MAX_PEERS]
-        self.destinations = [self.default_dest] + [a for a in self.peers if a != self.default_dest]
-
-    # -- receiving
-    def recv(self) -> tuple[bytearray, tuple[str, int]] | None:
-        """One datagram, or None when nothing is waiting."""
-        while True:
-            try:
-                n, addr = self.sock.recvfrom_into(self._rx_buf)
-            except (BlockingIOError, InterruptedError):
-                return None
-            except ConnectionError:  # ICMP error reported by some OSes for an earlier send
-                continue
-            except OSError:
-                return None
-            return self._rx_buf[:n], addr
-
-    def parse(self, data: bytearray) -> list[mavlink.MAVLink_message]:
-        """All MAVLink packets of one datagram (BAD_DATA entries for damaged bytes).
-
-        A datagram holds whole packets, so bytes left over at its end are damage: they
-        are dropped (and reported as BAD_DATA) instead of being glued to the next datagram.
-        """
-        p = self.parser
-        msgs = p.parse_buffer(data) or []
-        if p.buf_len() > 0:
-            msgs.append(mavlink.MAVLink_bad_data(p.buf[p.buf_index :], "truncated packet"))
-            p.buf = bytearray()
-            p.buf_index = 0
-            p.expected_length = mavlink.HEADER_LEN_V1 + 2
-        return msgs
 
     # -- streams
     def refresh_next_due(self) -> None:
         due = [s.next_due_us for s in self.streams.values() if s.interval_us > 0]
         self.next_due_us = min(due) if due else 2**63
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 # --------------------------------------------------------------------------- the link
@@ -528,21 +465,11 @@ class GcsLink:
 
     # ------------------------------------------------------------------ receiving
 
-    def _handle_datagram(self, ep: _Endpoint, data: bytearray, addr: tuple[str, int]) -> None:
-        try:
-            msgs = ep.parse(data)
-        except Exception:  # pymavlink should not raise with robust parsing; never let it out
-            log.debug("gcs_link %s: unparsable datagram from %s", ep.name, addr, exc_info=True)
-            self.rx_errors += 1
-            return
+    def _handle_datagram(self, ep: _Endpoint, data: bytes, addr: tuple[str, int]) -> None:
+        msgs, damaged = ep.incoming(data, addr)
+        self.rx_errors += damaged
         for msg in msgs:
             mtype = msg.get_type()
-            if mtype == "BAD_DATA":
-                self.rx_errors += 1
-                continue
-            if msg.get_srcSystem() == self.sysid and msg.get_srcComponent() == self.compid:
-                continue  # our own packets looped back
-            ep.note_peer(addr)
             if self._tap is not None:
                 self._tap(self._now_us, ep.name, False, bytes(msg.get_msgbuf()))
             handler = self._handlers.get(mtype)

@@ -1,6 +1,6 @@
 """The simulator as a MAVLink component: ``SIM_*`` parameters on its ground-truth UDP port.
 
-:class:`SimParamServer` owns one bound, non-blocking UDP socket.  Everything the
+:class:`SimParamServer` owns one bound, non-blocking UDP socket (:class:`UdpEndpoint`).  Everything the
 simulator sends on it (HEARTBEAT, ground truth, parameter answers) goes to the
 default peer (127.0.0.1:14560 + instance) and to every address that has sent it a
 MAVLink packet (the few most recent), as PX4's UDP endpoints do.  It serves:
@@ -36,20 +36,18 @@ from __future__ import annotations
 
 import math
 import select
-import socket
 from typing import Callable, Iterable
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.gcs_link import split_statustext
+from autopilot.udp_endpoint import Address, UdpEndpoint
 from sitl.sim_params import SimParam, SimParamError, SimParameters
 from sitl.sim_settings import INT32, REAL32
 
 SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, the simulator component
 HEARTBEAT_PERIOD_S = 1.0
-MAX_PEERS = 4  # remembered reply addresses, besides the default peer
 MAX_DATAGRAMS_PER_POLL = 64  # a flood of requests cannot stall the simulation
-RX_BUFFER_BYTES = 65536
 STATUSTEXT_ID_MAX = 65535
 
 _MAV_PARAM_TYPE = {INT32: mavlink.MAV_PARAM_TYPE_INT32, REAL32: mavlink.MAV_PARAM_TYPE_REAL32}
@@ -63,7 +61,6 @@ _FTP_OPCODE, _FTP_SIZE, _FTP_REQ_OPCODE = 3, 4, 5
 _FTP_HEADER_LEN = 12
 _FTP_ACK, _FTP_NAK, _FTP_ERR_UNKNOWN_COMMAND = 128, 129, 7
 
-Address = tuple[str, int]
 ParamChangeCallback = Callable[[str, "int | float", Address], None]
 
 
@@ -93,29 +90,17 @@ class SimParamServer:
         self.compid = compid
         self.heartbeat_period_s = heartbeat_period_s
         self.on_param_set = on_param_set
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        try:
-            self.sock.bind(bind)
-        except OSError as e:
-            self.sock.close()
-            raise OSError(e.errno, f"sim param server: cannot bind UDP {bind[0]}:{bind[1]}: {e.strerror}") from e
-        self.sock.setblocking(False)
+        self.endpoint = UdpEndpoint("sim param server", bind, default_peer, sysid, compid)
+        self.sock = self.endpoint.sock  # (the process loop waits on it)
         # poll(0) on this is the idle fast path: ~0.6 us, a failed recvfrom plus its exception ~2 us.
         self._poller = select.poll()
         self._poller.register(self.sock, select.POLLIN)
-        self.default_peer = default_peer
-        self.peers: list[Address] = []  # most recent last
-        self.destinations: list[Address] = [default_peer]
         self.mav = mavlink.MAVLink(None, sysid, compid)  # the one encoder: continuous sequence numbers
-        self._parser = mavlink.MAVLink(None, sysid, compid)
-        self._parser.robust_parsing = True  # bad bytes come back as BAD_DATA instead of raising
-        self._rx_buf = bytearray(RX_BUFFER_BYTES)
         self._next_heartbeat_s = -math.inf
         self._statustext_id = 0
         self._addr: Address = default_peer  # sender of the datagram being handled
         self.rx_messages = 0
         self.rx_errors = 0
-        self.tx_errors = 0
         self.params_set = 0
         self._handlers: dict[str, Callable[[mavlink.MAVLink_message], None]] = {
             "PARAM_REQUEST_LIST": self._on_param_request_list,
@@ -131,7 +116,16 @@ class SimParamServer:
     @property
     def local_address(self) -> Address:
         """(host, port) the socket is bound to."""
-        return self.sock.getsockname()
+        return self.endpoint.local_address
+
+    @property
+    def destinations(self) -> list[Address]:
+        """The default peer and the most recent senders: where everything goes."""
+        return self.endpoint.destinations
+
+    @property
+    def tx_errors(self) -> int:
+        return self.endpoint.tx_errors
 
     def poll(self, now_wall_s: float) -> None:
         """All pending non-blocking work: heartbeat if due, then read and answer every waiting datagram.
@@ -142,27 +136,15 @@ class SimParamServer:
             self._send_heartbeat(now_wall_s)
         if not self._poller.poll(0):
             return
-        recv = self.sock.recvfrom_into
-        buf = self._rx_buf
         for _ in range(MAX_DATAGRAMS_PER_POLL):
-            try:
-                n, addr = recv(buf)
-            except (BlockingIOError, InterruptedError):
+            got = self.endpoint.recv()
+            if got is None:
                 return
-            except ConnectionError:  # ICMP error for an earlier send (some OSes): try the next datagram
-                continue
-            except OSError:
-                return
-            self._handle_datagram(bytes(memoryview(buf)[:n]), addr)
+            self._handle_datagram(*got)
 
     def send(self, data: bytes) -> None:
         """One datagram to the default peer and every remembered peer (best effort)."""
-        sendto = self.sock.sendto
-        for addr in self.destinations:
-            try:
-                sendto(data, addr)
-            except OSError:  # nobody listening, buffer full, network down
-                self.tx_errors += 1
+        self.endpoint.send_datagram(data)
 
     def encode(self, msgs: Iterable[mavlink.MAVLink_message]) -> bytes:
         """Messages packed as this component (use it for anything sent with :meth:`send`)."""
@@ -182,47 +164,16 @@ class SimParamServer:
             self.send_message(mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq))
 
     def close(self) -> None:
-        self.sock.close()
+        self.endpoint.close()
 
     # ------------------------------------------------------------------ receiving
 
-    def _note_peer(self, addr: Address) -> None:
-        if self.peers and self.peers[-1] == addr:
-            return
-        if addr in self.peers:
-            self.peers.remove(addr)
-        self.peers.append(addr)
-        del self.peers[:-MAX_PEERS]
-        self.destinations = [self.default_peer] + [a for a in self.peers if a != self.default_peer]
-
-    def _parse(self, data: bytes) -> list:
-        """All packets of one datagram; a datagram holds whole packets, so leftovers are damage."""
-        p = self._parser
-        msgs = p.parse_buffer(data) or []
-        if p.buf_len() > 0:
-            msgs.append(mavlink.MAVLink_bad_data(p.buf[p.buf_index:], "truncated packet"))
-            p.buf = bytearray()
-            p.buf_index = 0
-            p.expected_length = mavlink.HEADER_LEN_V1 + 2
-        return msgs
-
     def _handle_datagram(self, data: bytes, addr: Address) -> None:
         self._addr = addr
-        try:
-            msgs = self._parse(data)
-        except Exception:  # robust parsing should not raise; a datagram must never stop the simulator
-            self._parser = mavlink.MAVLink(None, self.sysid, self.compid)
-            self._parser.robust_parsing = True
-            self.rx_errors += 1
-            return
+        msgs, damaged = self.endpoint.incoming(data, addr)
+        self.rx_errors += damaged
         for msg in msgs:
             mtype = msg.get_type()
-            if mtype == "BAD_DATA":
-                self.rx_errors += 1
-                continue
-            if msg.get_srcSystem() == self.sysid and msg.get_srcComponent() == self.compid:
-                continue  # our own packets looped back
-            self._note_peer(addr)
             handler = self._handlers.get(mtype)
             if handler is None:
                 continue
