@@ -146,6 +146,21 @@ def split_statustext(text: str) -> list[bytes]:
     return chunks
 
 
+class StatustextChunker:
+    """STATUSTEXT messages for a text: one, or its 50-byte chunks sharing an id (1..65535, cycling)."""
+
+    def __init__(self) -> None:
+        self._id = 0
+
+    def messages(self, severity: int, text: str) -> list[mavlink.MAVLink_message]:
+        chunks = split_statustext(text)
+        chunk_id = 0
+        if len(chunks) > 1:
+            self._id = self._id % UINT16_MAX + 1
+            chunk_id = self._id
+        return [mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq) for seq, chunk in enumerate(chunks)]
+
+
 def _ptype_name(mav_param_type: int) -> str:
     """MAV_PARAM_TYPE number -> ParamType-style name ("INT32", "REAL32", "UINT8", ...)."""
     for name, number in _MAV_PARAM_TYPE.items():
@@ -342,7 +357,7 @@ class GcsLink:
         self._snap_valid = False  # _snap belongs to the current update()
         self._built: dict[int, mavlink.MAVLink_message | None] = {}  # stream messages of the current update()
         self._home_key: tuple[float, float, float] | None = None
-        self._statustext_id = 0
+        self._statustext = StatustextChunker()
         self._params_changed: dict[str, None] = {}  # ordered set of names to broadcast
         self._extra_handlers: dict[str, Callable[[mavlink.MAVLink_message], None]] = {}
         self._tap: Callable[[int, str, bool, bytes], None] | None = None
@@ -446,13 +461,7 @@ class GcsLink:
 
     def send_statustext(self, severity: int, text: str, endpoint: str | None = None) -> None:
         """Send a STATUSTEXT (MAV_SEVERITY) on both endpoints or the named one, chunked past 50 bytes."""
-        chunks = split_statustext(text)
-        chunk_id = 0
-        if len(chunks) > 1:
-            self._statustext_id = self._statustext_id % UINT16_MAX + 1
-            chunk_id = self._statustext_id
-        for seq, chunk in enumerate(chunks):
-            msg = mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq)
+        for msg in self._statustext.messages(severity, text):
             for ep in self._endpoints:
                 if endpoint is None or ep.name == endpoint:
                     ep.send(msg)

@@ -40,7 +40,7 @@ from typing import Callable, Iterable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.gcs_link import split_statustext
+from autopilot.gcs_link import StatustextChunker
 from autopilot.udp_endpoint import Address, UdpEndpoint
 from sitl.sim_params import SimParam, SimParamError, SimParameters
 from sitl.sim_settings import INT32, REAL32
@@ -48,7 +48,6 @@ from sitl.sim_settings import INT32, REAL32
 SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, the simulator component
 HEARTBEAT_PERIOD_S = 1.0
 MAX_DATAGRAMS_PER_POLL = 64  # a flood of requests cannot stall the simulation
-STATUSTEXT_ID_MAX = 65535
 
 _MAV_PARAM_TYPE = {INT32: mavlink.MAV_PARAM_TYPE_INT32, REAL32: mavlink.MAV_PARAM_TYPE_REAL32}
 CAPABILITIES = (
@@ -97,7 +96,7 @@ class SimParamServer:
         self._poller.register(self.sock, select.POLLIN)
         self.mav = mavlink.MAVLink(None, sysid, compid)  # the one encoder: continuous sequence numbers
         self._next_heartbeat_s = -math.inf
-        self._statustext_id = 0
+        self._statustext = StatustextChunker()
         self._addr: Address = default_peer  # sender of the datagram being handled
         self.rx_messages = 0
         self.rx_errors = 0
@@ -155,13 +154,8 @@ class SimParamServer:
 
     def send_statustext(self, severity: int, text: str) -> None:
         """STATUSTEXT (MAV_SEVERITY), cut into 50-byte chunks with a common id when longer."""
-        chunks = split_statustext(text)
-        chunk_id = 0
-        if len(chunks) > 1:
-            self._statustext_id = self._statustext_id % STATUSTEXT_ID_MAX + 1
-            chunk_id = self._statustext_id
-        for seq, chunk in enumerate(chunks):
-            self.send_message(mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq))
+        for msg in self._statustext.messages(severity, text):
+            self.send_message(msg)
 
     def close(self) -> None:
         self.endpoint.close()

@@ -222,33 +222,10 @@ class SensorSuite:
         self._zi = i + _IMU_DRAWS
         sqdt = math.sqrt(dt_s)
 
-        # accelerometer
-        fx, fy, fz = specific_force_frd.tolist() if type(specific_force_frd) is np.ndarray else specific_force_frd
-        w = self._acc_walk
-        k = s.accel_bias_walk * sqdt
-        w0 = w[0] = w[0] + k * wa0
-        w1 = w[1] = w[1] + k * wa1
-        w2 = w[2] = w[2] + k * wa2
-        sd = s.accel_bias_sd
-        z = self._acc_z0
-        sig = s.accel_noise_density / sqdt
-        accel = (fx + sd * z[0] + w0 + sig * na0,
-                 fy + sd * z[1] + w1 + sig * na1,
-                 fz + sd * z[2] + w2 + sig * na2)
-
-        # gyro
-        gx, gy, gz = rate_frd.tolist() if type(rate_frd) is np.ndarray else rate_frd
-        w = self._gyr_walk
-        k = s.gyro_bias_walk * sqdt
-        w0 = w[0] = w[0] + k * wg0
-        w1 = w[1] = w[1] + k * wg1
-        w2 = w[2] = w[2] + k * wg2
-        sd = s.gyro_bias_sd
-        z = self._gyr_z0
-        sig = s.gyro_noise_density / sqdt
-        gyro = (gx + sd * z[0] + w0 + sig * ng0,
-                gy + sd * z[1] + w1 + sig * ng1,
-                gz + sd * z[2] + w2 + sig * ng2)
+        accel = _inertial_axes(specific_force_frd, self._acc_walk, s.accel_bias_walk * sqdt, (wa0, wa1, wa2),
+                               s.accel_bias_sd, self._acc_z0, s.accel_noise_density / sqdt, (na0, na1, na2))
+        gyro = _inertial_axes(rate_frd, self._gyr_walk, s.gyro_bias_walk * sqdt, (wg0, wg1, wg2),
+                              s.gyro_bias_sd, self._gyr_z0, s.gyro_noise_density / sqdt, (ng0, ng1, ng2))
 
         # magnetometer
         mag = self._mag_last
@@ -367,6 +344,19 @@ class SensorSuite:
         return GpsReading(lat, lon, alt, vel,
                           max(GPS_MIN_ERROR_M, math.hypot(hn, dr)), max(GPS_MIN_ERROR_M, math.hypot(vn, drv)),
                           self._sats, FIX_TYPE_3D)
+
+
+def _inertial_axes(truth, walk: list[float], walk_step: float, walk_draws, bias_sd: float, bias_z0,
+                   noise_sd: float, noise_draws) -> Vec3:
+    """One accelerometer or gyro sample on three axes: truth + turn-on bias (bias_sd x its unit
+    draw z0) + bias random walk (advanced in place by walk_step x its draws) + white noise."""
+    x0, x1, x2 = truth.tolist() if type(truth) is np.ndarray else truth
+    w0 = walk[0] = walk[0] + walk_step * walk_draws[0]
+    w1 = walk[1] = walk[1] + walk_step * walk_draws[1]
+    w2 = walk[2] = walk[2] + walk_step * walk_draws[2]
+    return (x0 + bias_sd * bias_z0[0] + w0 + noise_sd * noise_draws[0],
+            x1 + bias_sd * bias_z0[1] + w1 + noise_sd * noise_draws[1],
+            x2 + bias_sd * bias_z0[2] + w2 + noise_sd * noise_draws[2])
 
 
 def course_over_ground_deg(vel_ned_m_s) -> float:

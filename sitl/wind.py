@@ -119,6 +119,29 @@ _TWO_PI = 2.0 * math.pi
 _ZERO = (0.0, 0.0, 0.0)
 
 
+def _discretisation(r: float) -> tuple[float, float, float, float]:
+    """Exact discretisation of a shaping filter over a step of ``r`` correlation lengths:
+    the decay a = e^-r and the Cholesky factor (l11; l21, l22) of the step's noise covariance
+    (first-order state: a, l11; the second-order Dryden pair adds l21, l22)."""
+    em = math.expm1(-r)
+    a = 1.0 + em
+    q11 = -em * (1.0 + a)
+    l11 = math.sqrt(q11)
+    a2 = a * a
+    l21 = (0.5 * q11 - a2 * r) / l11
+    if r < _SMALL_R:
+        d = r * r * r * (1.0 - r + 0.4666666666666667 * r * r) * 0.16666666666666666
+    else:
+        d = 0.5 - a2 * (r * r + r + 0.5) - l21 * l21
+    return a, l11, l21, (math.sqrt(d) if d > 0.0 else 0.0)
+
+
+def _second_order(x1: float, x2: float, r: float, a: float, l11: float, l21: float, l22: float,
+                  n1: float, n2: float) -> tuple[float, float]:
+    """One step of the second-order (v or w) Dryden state with unit normal draws n1, n2."""
+    return a * x1 + l11 * n1, a * (r * x1 + x2) + l21 * n1 + l22 * n2
+
+
 class WindModel:
     """Steady wind + Dryden turbulence + 1-cosine gusts; see the module docstring."""
 
@@ -223,39 +246,13 @@ class WindModel:
                 self._k = i + _NORMALS_PER_STEP
                 # u and v: r = dt / tau_u = dx / L_u
                 r = dx_ft * k04 * k04 * k04 / h_ft
-                em = math.expm1(-r)
-                a = 1.0 + em
-                q11 = -em * (1.0 + a)
-                l11 = math.sqrt(q11)
+                a, l11, l21, l22 = _discretisation(r)
                 self._xu = a * self._xu + l11 * buf[i]
-                a2 = a * a
-                l21 = (0.5 * q11 - a2 * r) / l11
-                if r < _SMALL_R:
-                    d = r * r * r * (1.0 - r + 0.4666666666666667 * r * r) * 0.16666666666666666
-                else:
-                    d = 0.5 - a2 * (r * r + r + 0.5) - l21 * l21
-                l22 = math.sqrt(d) if d > 0.0 else 0.0
-                n1 = buf[i + 1]
-                x1 = self._xv1
-                self._xv1 = a * x1 + l11 * n1
-                self._xv2 = a * (r * x1 + self._xv2) + l21 * n1 + l22 * buf[i + 2]
+                self._xv1, self._xv2 = _second_order(self._xv1, self._xv2, r, a, l11, l21, l22, buf[i + 1], buf[i + 2])
                 # w: r = dx / L_w, L_w = h
                 r = dx_ft / h_ft
-                em = math.expm1(-r)
-                a = 1.0 + em
-                q11 = -em * (1.0 + a)
-                l11 = math.sqrt(q11)
-                a2 = a * a
-                l21 = (0.5 * q11 - a2 * r) / l11
-                if r < _SMALL_R:
-                    d = r * r * r * (1.0 - r + 0.4666666666666667 * r * r) * 0.16666666666666666
-                else:
-                    d = 0.5 - a2 * (r * r + r + 0.5) - l21 * l21
-                l22 = math.sqrt(d) if d > 0.0 else 0.0
-                n1 = buf[i + 3]
-                x1 = self._xw1
-                self._xw1 = a * x1 + l11 * n1
-                self._xw2 = a * (r * x1 + self._xw2) + l21 * n1 + l22 * buf[i + 4]
+                a, l11, l21, l22 = _discretisation(r)
+                self._xw1, self._xw2 = _second_order(self._xw1, self._xw2, r, a, l11, l21, l22, buf[i + 3], buf[i + 4])
             tu = sigma * self._xu
             tv = sigma * (_C1 * self._xv1 + _C2 * self._xv2)
             vd = sigma * k04 * (_C1 * self._xw1 + _C2 * self._xw2)
