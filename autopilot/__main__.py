@@ -75,10 +75,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from autopilot.flight_controller import FlightController
     from autopilot.gcs_link import GcsLink
-    from autopilot.parameters import ParameterStore
+    from autopilot.param_catalogue import default_store
     from autopilot.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
 
-    params = ParameterStore()
+    params = default_store()
     saver = _prepare_parameters(params, args, spec.name)
     if saver is False:
         return 2

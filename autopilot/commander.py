@@ -14,18 +14,25 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.control.position_control import PositionSetpoint
-from autopilot.geodesy import geodetic_to_ned, ned_to_geodetic
+from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 from autopilot.land_detector import LandDetector, Landed
-from autopilot.modes import AVAILABLE, Mode
+from mavsim_core.px4_modes import Mode
 from autopilot.navigator import LandTask, MoveTask, ReturnTask
-from autopilot.parameters import ParameterStore, ParamType, declare
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (BatteryState, ControlSetpoints, GpsSample, HomePosition, LandedState, TelemetrySnapshot,
                               VehicleEstimate)
 
-declare("COM_DISARM_LAND", 2.0, -1.0, 20.0, "s", "Disarm this long after landing (-1: never)")
-declare("COM_DISARM_PRFLT", 10.0, -1.0, 60.0, "s", "Disarm this long after arming if no take-off (-1: never)")
-declare("COM_ARM_TILT_MAX", 10.0, 1.0, 60.0, "deg", "Maximum tilt to allow arming (vehicle level check)")
-declare("SYS_AUTOSTART", 4001, 1, 99999, "", "Airframe id (4001 quadcopter X, 6001 hexacopter)", ParamType.INT32, True)
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param("COM_DISARM_LAND", 2.0, -1.0, 20.0, "s", "Disarm this long after landing (-1: never)"),
+    param("COM_DISARM_PRFLT", 10.0, -1.0, 60.0, "s", "Disarm this long after arming if no take-off (-1: never)"),
+    param("COM_ARM_TILT_MAX", 10.0, 1.0, 60.0, "deg", "Maximum tilt to allow arming (vehicle level check)"),
+    param("SYS_AUTOSTART", 4001, 1, 99999, "", "Airframe id (4001 quadcopter X, 6001 hexacopter)", ParamType.INT32, True),
+)
+
+# Modes this flight controller can fly today (no RC input yet: POSCTL holds position).
+AVAILABLE = {Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_RTL, Mode.AUTO_LAND}
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_CMD_* constants
 FORCE_MAGIC = 21196

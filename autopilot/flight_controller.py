@@ -15,24 +15,29 @@ from __future__ import annotations
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
-from autopilot import quat
+from mavsim_core import quaternion as quat
 from autopilot.commander import Commander
 from autopilot.control.attitude_control import AttitudeControl
 from autopilot.control.gyro_filter import GyroFilter
-from autopilot.control.position_control import GRAVITY_M_S2, PositionControl, attitude_from_thrust
+from autopilot.control.position_control import PositionControl, attitude_from_thrust
 from autopilot.control.rate_control import RateControl
 from autopilot.estimation.estimator import Estimator
 from autopilot.mixer import Mixer
-from autopilot.parameters import ParameterStore, declare
+from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import ControlSetpoints, GpsSample, ImuSample
 from params.vehicle import VehicleSpec
+from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 
 OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 Hz
 # ... in the 4 ms period 1 of each 20 ms: the estimator's filters run after period 0 and the
 # ground-station link after period 2 (autopilot.__main__), so no two heavy jobs share a period.
 OUTER_OFFSET_US = 4_000
 
-declare("MPC_IDLE_CMD", 0.15, 0.0, 0.4, "norm", "Motor command while armed on the ground (idle spin)")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param("MPC_IDLE_CMD", 0.15, 0.0, 0.4, "norm", "Motor command while armed on the ground (idle spin)"),
+)
 
 
 class FlightController:
@@ -71,7 +76,7 @@ class FlightController:
     def step(self, imu: ImuSample, gps: GpsSample | None) -> np.ndarray:
         """Run one iteration; return motor commands (0..1, one per rotor)."""
         now = imu.timestamp_us
-        dt = 0.004 if self.last_us is None else (now - self.last_us) * 1e-6
+        dt = LOCKSTEP_DT_S if self.last_us is None else (now - self.last_us) * 1e-6
         self.last_us = now
         self.estimator.update_imu(imu)
         if gps is not None:

@@ -1,7 +1,7 @@
 """The flight controller's own log: setpoints, estimates and motor outputs at the control rate.
 
 One row per control step (250 Hz; ``every`` > 1 keeps one step in ``every``), written
-by :class:`FlightLogWriter` as an append-only ``.npy`` of records (:mod:`autopilot.npy_log`):
+by :class:`FlightLogWriter` as an append-only ``.npy`` of records (:mod:`mavsim_core.npy_log`):
 ``np.load("2026-01-01_12-00-00.fc.npy")["pos_d_m"]``.  Columns (NED world, FRD body,
 quaternions w, x, y, z taking FRD to NED; NaN where there is no setpoint):
 
@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from autopilot.npy_log import NpyLogWriter
+from mavsim_core.npy_log import NpyLogWriter
 
 SUFFIX = ".fc.npy"
 

@@ -3,7 +3,7 @@
 ``autopilot --log-dir DIR`` (default ``./logs``) writes, for every arming:
 
 * ``DIR/<date>_<time>[_i<instance>].tlog``: every MAVLink message the ground-station
-  link sent and received (:mod:`autopilot.tlog`), from ``PREARM_S`` before arming
+  link sent and received (:mod:`mavsim_core.tlog`), from ``PREARM_S`` before arming
   (so the arm command is in it) until ``POST_DISARM_S`` after disarming.  The link
   has two UDP endpoints (ground stations, APIs) that mostly carry the same
   telemetry; the API endpoint's copy of a message the ground-station endpoint has
@@ -26,24 +26,13 @@ from collections import deque
 from pathlib import Path
 from typing import Callable
 
-from autopilot import flight_log, tlog
+from autopilot import flight_log
+from mavsim_core import tlog
+from mavsim_core.log_naming import flight_stem
 
 PREARM_S = 10.0  # simulated seconds of link traffic before arming kept in the flight's tlog
 PREARM_MAX_PACKETS = 20_000  # bound on that buffer whatever the clock does
 POST_DISARM_S = 1.0  # simulated seconds logged after disarming (the disarm ack, heartbeats)
-DEFAULT_LOG_DIR = "logs"
-
-
-def flight_stem(log_dir: Path, epoch_s: float, instance: int = 0, suffixes: tuple[str, ...] = ()) -> str:
-    """``YYYY-MM-DD_HH-MM-SS`` (local time) [``_i<instance>``], made unique among ``suffixes`` in ``log_dir``."""
-    stem = time.strftime("%Y-%m-%d_%H-%M-%S", time.localtime(epoch_s)) + (f"_i{instance}" if instance else "")
-    candidate, n = stem, 1
-    while any((log_dir / (candidate + sfx)).exists() for sfx in suffixes):
-        n += 1
-        candidate = f"{stem}_{n}"
-    return candidate
-
-
 def _say(text: str) -> None:
     print(f"[autopilot] {text}", flush=True)
 

@@ -34,13 +34,14 @@ from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.geodesy import ned_to_geodetic
-from autopilot.quat import to_euler
+from mavsim_core.geodesy import ned_to_geodetic
+from mavsim_core.quaternion import to_euler
 from autopilot.parameters import ParamError, ParamType
 from autopilot.topics import TelemetrySnapshot
-from autopilot.udp_endpoint import UdpEndpoint
+from mavsim_core.mavlink_udp import UdpEndpoint
+from mavsim_core.statustext import StatustextChunker
 from autopilot.vehicle_interface import VehicleInterface
-from params.param_encoding import decode_param_bytes, encode_param_bytes, raw_param_value
+from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes, raw_param_value
 
 log = logging.getLogger(__name__)
 
@@ -72,7 +73,6 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
 PARAM_BURST = 20  # PARAM_VALUEs sent per update() while a list request is being served
 RX_DATAGRAMS_PER_UPDATE = 2  # recvfrom calls per socket and update() at most
 MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
-STATUSTEXT_LEN = 50  # bytes of text in one STATUSTEXT
 REPORTED_LOAD_PERMILLE = 100  # SYS_STATUS.load: nothing to measure in simulation
 
 # AUTOPILOT_VERSION.capabilities, as PX4 reports them (plus PARAM_FLOAT).
@@ -124,41 +124,6 @@ _MAV_PARAM_TYPE = {ParamType.INT32: mavlink.MAV_PARAM_TYPE_INT32, ParamType.REAL
 
 
 # --------------------------------------------------------------------------- pure helpers
-
-
-def split_statustext(text: str) -> list[bytes]:
-    """Cut a text into STATUSTEXT chunks of at most 50 bytes (UTF-8, never inside a character).
-
-    A multi-chunk text whose last chunk is full gets an empty terminating chunk, since
-    receivers take a chunk without a NUL as "more to come".
-    """
-    chunks: list[bytes] = []
-    current = b""
-    for ch in text:
-        b = ch.encode("utf-8")
-        if len(current) + len(b) > STATUSTEXT_LEN:
-            chunks.append(current)
-            current = b""
-        current += b
-    chunks.append(current)
-    if len(chunks) > 1 and len(chunks[-1]) == STATUSTEXT_LEN:
-        chunks.append(b"")
-    return chunks
-
-
-class StatustextChunker:
-    """STATUSTEXT messages for a text: one, or its 50-byte chunks sharing an id (1..65535, cycling)."""
-
-    def __init__(self) -> None:
-        self._id = 0
-
-    def messages(self, severity: int, text: str) -> list[mavlink.MAVLink_message]:
-        chunks = split_statustext(text)
-        chunk_id = 0
-        if len(chunks) > 1:
-            self._id = self._id % UINT16_MAX + 1
-            chunk_id = self._id
-        return [mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq) for seq, chunk in enumerate(chunks)]
 
 
 def _ptype_name(mav_param_type: int) -> str:

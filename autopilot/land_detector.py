@@ -16,11 +16,18 @@ from enum import Enum
 
 import numpy as np
 
-from autopilot.parameters import ParameterStore, declare
+from autopilot.parameters import ParamDef, ParameterStore, param
 
-P_TRIG_TIME = declare("LNDMC_TRIG_TIME", 1.0, 0.1, 10.0, "s", "Time the landed conditions must hold before landing is declared")
-P_Z_VEL_MAX = declare("LNDMC_Z_VEL_MAX", 0.3, 0.1, 2.0, "m/s", "Maximum vertical speed while landed")
-P_XY_VEL_MAX = declare("LNDMC_XY_VEL_MAX", 1.0, 0.1, 5.0, "m/s", "Maximum horizontal speed while landed")
+P_TRIG_TIME = param("LNDMC_TRIG_TIME", 1.0, 0.1, 10.0, "s", "Time the landed conditions must hold before landing is declared")
+P_Z_VEL_MAX = param("LNDMC_Z_VEL_MAX", 0.3, 0.1, 2.0, "m/s", "Maximum vertical speed while landed")
+P_XY_VEL_MAX = param("LNDMC_XY_VEL_MAX", 1.0, 0.1, 5.0, "m/s", "Maximum horizontal speed while landed")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    P_TRIG_TIME,
+    P_Z_VEL_MAX,
+    P_XY_VEL_MAX,
+)
 
 _DEFAULTS = {p.name: p.default for p in (P_TRIG_TIME, P_Z_VEL_MAX, P_XY_VEL_MAX)}
 TAKEOFF_HEIGHT_M = 0.3

@@ -15,20 +15,24 @@ from enum import Enum
 import numpy as np
 
 from autopilot.control.position_control import PositionSetpoint
-from autopilot.parameters import ParameterStore, ParamType, declare
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import VehicleEstimate
 
-declare("MIS_TAKEOFF_ALT", 2.5, 0.0, 100.0, "m", "Take-off altitude above home when none is given")
-declare("MPC_TKO_SPEED", 1.5, 0.5, 5.0, "m/s", "Take-off climb speed")
-declare("MPC_LAND_SPEED", 0.7, 0.2, 2.0, "m/s", "Landing descent speed (final phase)")
-declare("MPC_ACC_DOWN_MAX", 3.0, 2.0, 15.0, "m/s^2",
-        "Largest change per second of the descent speed setpoint when landing starts or slows")
-declare("MPC_LAND_ALT1", 5.0, 0.0, 50.0, "m", "Below this height above home, descend at MPC_LAND_SPEED")
-declare("MPC_XY_CRUISE", 3.0, 0.5, 20.0, "m/s", "Horizontal cruise speed of automatic moves")
-declare("MPC_ACC_HOR", 2.0, 0.5, 10.0, "m/s^2", "Horizontal acceleration of automatic moves")
-declare("RTL_RETURN_ALT", 10.0, 0.0, 150.0, "m", "Return altitude above home for return-to-launch")
-declare("RTL_LAND_DELAY", 0.0, -1.0, 300.0, "s", "Hover time over home before landing (-1: do not land)",
-        ParamType.REAL32)
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param("MIS_TAKEOFF_ALT", 2.5, 0.0, 100.0, "m", "Take-off altitude above home when none is given"),
+    param("MPC_TKO_SPEED", 1.5, 0.5, 5.0, "m/s", "Take-off climb speed"),
+    param("MPC_LAND_SPEED", 0.7, 0.2, 2.0, "m/s", "Landing descent speed (final phase)"),
+    param("MPC_ACC_DOWN_MAX", 3.0, 2.0, 15.0, "m/s^2",
+            "Largest change per second of the descent speed setpoint when landing starts or slows"),
+    param("MPC_LAND_ALT1", 5.0, 0.0, 50.0, "m", "Below this height above home, descend at MPC_LAND_SPEED"),
+    param("MPC_XY_CRUISE", 3.0, 0.5, 20.0, "m/s", "Horizontal cruise speed of automatic moves"),
+    param("MPC_ACC_HOR", 2.0, 0.5, 10.0, "m/s^2", "Horizontal acceleration of automatic moves"),
+    param("RTL_RETURN_ALT", 10.0, 0.0, 150.0, "m", "Return altitude above home for return-to-launch"),
+    param("RTL_LAND_DELAY", 0.0, -1.0, 300.0, "s", "Hover time over home before landing (-1: do not land)",
+            ParamType.REAL32),
+)
 
 ARRIVE_RADIUS_M = 0.3
 

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Callable
 
 from autopilot.parameters import ParamError, ParameterStore, ParamType
-from params.param_encoding import INT32, REAL32, is_integer_type
+from mavsim_core.param_encoding import INT32, REAL32, is_integer_type
 from params.param_file import (LineProblem, ParamEntry, ParamFileError, apply_in_passes, format_qgc,
                                read_param_file)
 

@@ -1,8 +1,10 @@
 """Parameter registry: every tunable value declared once, with type, range and unit.
 
-Modules declare their parameters with :func:`declare` next to the code that uses
-them (PX4 keeps a params file per module; ArduPilot an @Param block).  The
-MAVLink parameter service (``gcs_link``) sits on top of one :class:`ParameterStore`.
+Each module defines its parameters with :func:`param` next to the code that uses
+them, in a module-level ``PARAMS`` tuple (PX4 keeps a params file per module;
+ArduPilot an @Param block), and :mod:`autopilot.param_catalogue` lists those tuples
+explicitly: nothing is registered by importing a module.  The MAVLink parameter
+service sits on top of one :class:`ParameterStore` built from the catalogue.
 
 Names follow PX4 where PX4 has the same parameter.  Only INT32 and REAL32 exist,
 as in PX4.
@@ -18,18 +20,15 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Iterable
 
-
-class ParamType:
-    INT32 = "INT32"
-    REAL32 = "REAL32"
+from mavsim_core.param_encoding import ParamType
 
 
 @dataclass(frozen=True)
 class ParamDef:
     name: str
-    ptype: str  # ParamType.INT32 or ParamType.REAL32
+    ptype: ParamType
     default: float
     min: float
     max: float
@@ -44,31 +43,29 @@ class ParamDef:
             raise ValueError(f"{self.name}: default {self.default} outside [{self.min}, {self.max}]")
 
 
-_REGISTRY: dict[str, ParamDef] = {}
-
-
-def declare(
+def param(
     name: str,
     default: float,
     min: float,
     max: float,
     unit: str,
     description: str,
-    ptype: str = ParamType.REAL32,
+    ptype: ParamType = ParamType.REAL32,
     reboot_required: bool = False,
 ) -> ParamDef:
-    """Declare a parameter (idempotent for an identical declaration)."""
-    d = ParamDef(name, ptype, default, min, max, unit, description, reboot_required)
-    old = _REGISTRY.get(name)
-    if old is not None and old != d:
-        raise ValueError(f"parameter {name} declared twice with different definitions")
-    _REGISTRY[name] = d
-    return d
+    """A parameter definition (a plain value: nothing is registered; the catalogue lists it)."""
+    return ParamDef(name, ptype, default, min, max, unit, description, reboot_required)
 
 
-def registry() -> dict[str, ParamDef]:
-    """All declared parameters, by name."""
-    return dict(_REGISTRY)
+def definitions(params: Iterable[ParamDef]) -> dict[str, ParamDef]:
+    """Definitions by name; ValueError if a name comes twice with different definitions."""
+    out: dict[str, ParamDef] = {}
+    for d in params:
+        old = out.get(d.name)
+        if old is not None and old != d:
+            raise ValueError(f"parameter {d.name} declared twice with different definitions")
+        out[d.name] = d
+    return out
 
 
 class ParamError(ValueError):
@@ -125,8 +122,9 @@ class ParameterStore:
     declared ones, replaced by a vehicle's default set with :meth:`set_defaults`.
     """
 
-    def __init__(self, defs: dict[str, ParamDef] | None = None, rules: tuple[ParamRule, ...] = RULES) -> None:
-        self._defs = dict(sorted((defs if defs is not None else registry()).items()))
+    def __init__(self, defs: dict[str, ParamDef] | Iterable[ParamDef], rules: tuple[ParamRule, ...] = RULES) -> None:
+        by_name = defs if isinstance(defs, dict) else definitions(defs)
+        self._defs = dict(sorted(by_name.items()))
         self._defaults: dict[str, float] = {n: float(d.default) for n, d in self._defs.items()}
         self._values: dict[str, float] = dict(self._defaults)
         self._names = list(self._defs)

@@ -13,8 +13,8 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.hil_codec import MessageLayout, StreamParser
-from autopilot.socket_wait import SpinReceiver
+from mavsim_core.sim_api_codec import MessageLayout, StreamParser
+from mavsim_core.spin_receiver import SpinReceiver
 from autopilot.topics import BatteryState, GpsSample, ImuSample
 
 UINT16_MAX = 65535

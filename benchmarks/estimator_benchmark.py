@@ -37,7 +37,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from autopilot import quat  # noqa: E402
+from mavsim_core import quaternion as quat  # noqa: E402
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
 from gcs.stack import Stack  # noqa: E402

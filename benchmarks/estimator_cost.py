@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from autopilot.estimation.estimator import Estimator  # noqa: E402
 from autopilot.parameters import ParameterStore  # noqa: E402
 from autopilot.topics import GpsSample, ImuSample  # noqa: E402
+from autopilot.param_catalogue import default_store
 
 SECONDS = 60.0
 WARM_UP_S = 20.0  # converged before timing starts
@@ -39,7 +40,7 @@ def samples(n: int) -> list[ImuSample]:
 
 def measure(group: int, imus: list[ImuSample]) -> tuple[float, float]:
     """Mean µs per sample: (update_imu + update_gps, run_deferred)."""
-    params = ParameterStore()
+    params = default_store()
     params.set("SYS_MC_EST_GROUP", group)
     est = Estimator(params)
     est.defer_filters = True

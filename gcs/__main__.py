@@ -25,7 +25,9 @@ import time
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from . import modes, param_cli
+from mavsim_core import px4_modes as modes
+
+from . import param_cli
 from .client import (
     GPS_FIX_NAMES,
     CommandRefused,

@@ -25,9 +25,12 @@ from typing import Callable, Iterable
 
 from pymavlink import mavutil
 
-from params import param_encoding, param_file
+from mavsim_core import param_encoding
+from params import param_file
 
-from . import geo, modes
+from mavsim_core import px4_modes as modes
+
+from . import geo
 
 mavlink = mavutil.mavlink
 

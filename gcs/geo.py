@@ -8,7 +8,7 @@ R = 6378137 m (WGS-84 equatorial radius); altitude is AMSL metres, so
 
 from __future__ import annotations
 
-from autopilot.geodesy import geodetic_to_ned, ned_to_geodetic
+from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 
 
 def ned_to_global(

@@ -24,7 +24,7 @@ import sys
 import time
 from typing import TextIO
 
-from params.param_encoding import TYPE_NAMES, is_integer_type
+from mavsim_core.param_encoding import TYPE_NAMES, is_integer_type
 from params.param_file import (FORMATS, QGC, ParamEntry, ParamFileError, apply_in_passes, diff_params,
                                format_params, format_value, read_param_file, same_value)
 

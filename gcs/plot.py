@@ -82,7 +82,7 @@ def quat_to_euler_deg(w, x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _mode_changes(t_s: np.ndarray, main: np.ndarray, sub: np.ndarray) -> list[tuple[float, str]]:
-    from .modes import custom_mode_to_name, encode_custom_mode
+    from mavsim_core.px4_modes import custom_mode_to_name, encode_custom_mode
 
     out: list[tuple[float, str]] = []
     last = None
@@ -94,7 +94,7 @@ def _mode_changes(t_s: np.ndarray, main: np.ndarray, sub: np.ndarray) -> list[tu
 
 
 def load_fc_log(path: Path) -> FlightData:
-    from autopilot.npy_log import read_npy_log
+    from mavsim_core.npy_log import read_npy_log
 
     a = read_npy_log(path)
     if a.size == 0:
@@ -122,7 +122,7 @@ def load_truth_log(path: Path) -> Series:
     The simulator's height is that of the centre of mass above the ground plane; the
     estimator's origin is the vehicle as it stood at the first GPS fix, so both start at 0.
     """
-    from autopilot.npy_log import read_npy_log
+    from mavsim_core.npy_log import read_npy_log
 
     a = read_npy_log(path)
     if a.size == 0:
@@ -282,7 +282,7 @@ def find_truth(log: Path, t_range_s: tuple[float, float]) -> Path | None:
     me = _stem_time_instance(_stem(log))
     if me is None:
         return None
-    from autopilot.npy_log import read_npy_log
+    from mavsim_core.npy_log import read_npy_log
 
     best: tuple[float, Path] | None = None
     for cand in log.parent.glob("*" + TRUTH_SUFFIX):

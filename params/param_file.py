@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Mapping
 
-from params.param_encoding import REAL32, TYPE_NAMES, is_integer_type
+from mavsim_core.param_encoding import REAL32, TYPE_NAMES, is_integer_type
 
 QGC, MAVPROXY = "qgc", "mavproxy"
 FORMATS = (QGC, MAVPROXY)

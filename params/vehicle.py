@@ -17,9 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from mavsim_core.constants import GRAVITY_M_S2
 
 VEHICLE_DIR = Path(__file__).resolve().parent / "vehicles"
-GRAVITY_M_S2 = 9.80665
 
 
 class VehicleFileError(ValueError):

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from params.vehicle import VehicleSpec
-from sitl.frames import frd_to_flu
+from mavsim_core.frames import frd_to_flu
 
 AIR_DENSITY_KG_M3 = 1.225  # ISA sea level
 

@@ -28,14 +28,15 @@ from typing import Sequence
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.geodesy import ned_to_geodetic
-from autopilot.hil_codec import MessageLayout, StreamParser
-from autopilot.socket_wait import SpinReceiver
+from mavsim_core.geodesy import ned_to_geodetic
+from mavsim_core.sim_api_codec import MessageLayout, StreamParser
+from mavsim_core.spin_receiver import SpinReceiver
 from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer
 from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sensors import course_over_ground_deg
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
+from mavsim_core.constants import GRAVITY_M_S2
 
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
@@ -187,7 +188,7 @@ class LockstepServer:
     def _send_truth(self, t) -> None:
         lat, lon, alt = ned_to_geodetic(t.pos_ned_m, *self.sim.sensors.home)
         vn, ve, vd = t.vel_ned_m_s.tolist()
-        ax, ay, az = (t.accel_ned_m_s2 * (1000.0 / 9.80665)).tolist()  # mG
+        ax, ay, az = (t.accel_ned_m_s2 * (1000.0 / GRAVITY_M_S2)).tolist()  # mG
         msgs = [
             mavlink.MAVLink_hil_state_quaternion_message(
                 t.time_us, t.q_ned_frd.tolist(), *t.rate_frd_rad_s.tolist(),

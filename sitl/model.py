@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import mujoco
 
-from params.vehicle import GRAVITY_M_S2, VehicleSpec
-from sitl.frames import frd_to_flu
+from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from params.vehicle import VehicleSpec
+from mavsim_core.frames import frd_to_flu
 
 # One physics step per lockstep period (250 Hz).  MuJoCo's default contact time constant
 # (0.02 s) needs a step of at most 0.01 s; rotor lag is integrated exactly (sitl.rotors).
-PHYSICS_DT_S = 0.004
+PHYSICS_DT_S = LOCKSTEP_DT_S  # one MuJoCo step per lockstep period
 
 
 def _v(x) -> str:

@@ -40,16 +40,16 @@ from typing import Callable, Iterable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.gcs_link import StatustextChunker
-from autopilot.udp_endpoint import Address, UdpEndpoint
+from mavsim_core.statustext import StatustextChunker
+from mavsim_core.mavlink_udp import Address, UdpEndpoint
 from sitl.sim_params import SimParam, SimParamError, SimParameters
-from sitl.sim_settings import INT32, REAL32
+from mavsim_core.param_encoding import ParamType
 
 SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, the simulator component
 HEARTBEAT_PERIOD_S = 1.0
 MAX_DATAGRAMS_PER_POLL = 64  # a flood of requests cannot stall the simulation
 
-_MAV_PARAM_TYPE = {INT32: mavlink.MAV_PARAM_TYPE_INT32, REAL32: mavlink.MAV_PARAM_TYPE_REAL32}
+_MAV_PARAM_TYPE = {t: t.mav_type for t in ParamType}
 CAPABILITIES = (
     mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
     | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST

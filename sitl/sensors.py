@@ -77,11 +77,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from autopilot.geodesy import ned_to_geodetic
+from mavsim_core.constants import (LOCKSTEP_DT_US, MAGNETIC_MODEL_EPOCH_YEAR, SEA_LEVEL_PRESSURE_HPA,
+                                   SEA_LEVEL_TEMPERATURE_C, TEMPERATURE_LAPSE_K_M)
+from mavsim_core.geodesy import ned_to_geodetic
 from sitl.sim_settings import SensorSettings
 
-SEA_LEVEL_PRESSURE_HPA = 1013.25
-CALL_PERIOD_US = 4000  # the caller's period (sitl.simulation.LOCKSTEP_DT_S); fix times are rounded to it
+
+CALL_PERIOD_US = LOCKSTEP_DT_US  # the caller's period; fix times are rounded to it
 GPS_DRIFT_TAU_S = 60.0  # correlation time of the GPS wander
 GPS_VERTICAL_DRIFT_FACTOR = 1.5  # vertical wander RMS / horizontal
 GPS_MIN_ERROR_M = 0.01  # floor of the reported eph/epv
@@ -112,7 +114,7 @@ def _earth_field(lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float)
     return (r.x * 1e-5, r.y * 1e-5, r.z * 1e-5)  # nT -> gauss
 
 
-def earth_field_ned_gauss(lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float = 2026.9) -> np.ndarray:
+def earth_field_ned_gauss(lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float = MAGNETIC_MODEL_EPOCH_YEAR) -> np.ndarray:
     """Earth's magnetic field (gauss, NED) from the World Magnetic Model."""
     return np.array(_earth_field(float(lat_deg), float(lon_deg), float(alt_amsl_m), float(year)))
 
@@ -246,7 +248,7 @@ class SensorSuite:
             alt = self.home[2] - float(pos_ned_m[2])
             h = alt + drift + s.baro_noise_m * nb
             baro = self._baro_last = (SEA_LEVEL_PRESSURE_HPA * (1.0 - 2.25577e-5 * h) ** 5.25588,
-                                      15.0 - 0.0065 * alt)
+                                      SEA_LEVEL_TEMPERATURE_C - TEMPERATURE_LAPSE_K_M * alt)
         return ImuReading(accel, gyro, mag, baro[0], baro[1])
 
     # -- GPS -------------------------------------------------------------------------

@@ -18,7 +18,8 @@ import struct
 from dataclasses import dataclass
 from typing import Iterator, NamedTuple
 
-from sitl.sim_settings import INT32, REAL32, MotorSettings, SensorSettings, WindSettings, param_fields
+from mavsim_core.param_encoding import ParamType
+from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings, param_fields
 
 
 # INT32 limits stay within +-(2**23 - 1): the byte-wise encoding of such an integer read as
@@ -45,7 +46,7 @@ class SimParam:
 
     index: int  # 0-based position in the parameter list (PARAM_VALUE.param_index)
     name: str
-    type: str  # sim_settings.INT32 or sim_settings.REAL32
+    type: ParamType
     default: int | float
     min: float
     max: float
@@ -78,7 +79,7 @@ def _float32(x: float) -> float:
 
 def format_value(value: int | float, ptype: str) -> str:
     """A parameter value as people write it: integers plain, reals in %g."""
-    return str(int(value)) if ptype == INT32 else f"{value:g}"
+    return str(int(value)) if ptype == ParamType.INT32 else f"{value:g}"
 
 
 class SimParameters:
@@ -93,11 +94,11 @@ class SimParameters:
                 name = md["param"]
                 if name in self._by_name:
                     raise ValueError(f"parameter {name} declared twice (sitl.sim_settings)")
-                if md["type"] not in (INT32, REAL32):
+                if md["type"] not in (ParamType.INT32, ParamType.REAL32):
                     raise ValueError(f"parameter {name}: unsupported type {md['type']!r}")
-                if md["type"] == INT32 and not -INT32_FLOAT_SAFE <= md["min"] <= md["max"] <= INT32_FLOAT_SAFE:
+                if md["type"] == ParamType.INT32 and not -INT32_FLOAT_SAFE <= md["min"] <= md["max"] <= INT32_FLOAT_SAFE:
                     raise ValueError(f"parameter {name}: INT32 limits must lie within +-{INT32_FLOAT_SAFE}")
-                p = SimParam(len(self._params), name, md["type"], f.default, float(md["min"]), float(md["max"]),
+                p = SimParam(len(self._params), name, ParamType(md["type"]), f.default, float(md["min"]), float(md["max"]),
                              md["unit"], md["description"], owner, f.name)
                 self._params.append(p)
                 self._by_name[name] = p
@@ -141,7 +142,7 @@ class SimParameters:
         v = float(value)
         if not math.isfinite(v):
             raise SimParamError(name, f"value must be finite, not {v}")
-        if p.type == INT32 and v != math.floor(v):
+        if p.type == ParamType.INT32 and v != math.floor(v):
             raise SimParamError(name, f"{v:g} is not an integer (INT32 parameter)")
         if not p.min <= v <= p.max:
             # A limit sent as a float32 (0.1 -> 0.10000000149) is the limit, not outside it.
@@ -152,7 +153,7 @@ class SimParameters:
             else:
                 unit = f" {p.unit}" if p.unit else ""
                 raise SimParamError(name, f"{v:.8g} outside range [{p.min:g}, {p.max:g}]{unit}")
-        return int(v) if p.type == INT32 else v
+        return int(v) if p.type == ParamType.INT32 else v
 
     def set(self, name: str, value: object) -> int | float:
         """Validate and store ``value``; return the stored value.

@@ -15,12 +15,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-INT32 = "INT32"
-REAL32 = "REAL32"
+from mavsim_core.param_encoding import ParamType
 
 
 def sim_param(name: str, default: float, lo: float, hi: float, unit: str, description: str,
-              kind: str = REAL32):
+              kind: ParamType = ParamType.REAL32):
     """A dataclass field that is also the MAVLink parameter ``name``."""
     assert len(name) <= 16 and name.startswith("SIM_"), name
     return field(default=default, metadata={
@@ -80,18 +79,18 @@ class SensorSettings:
     mag_motor_z_gauss_a: float = sim_param("SIM_MAG_MOT_Z", 0.0, -0.1, 0.1, "gauss/A",
                                            "Interference per ampere, body z")
     mag_stuck: int = sim_param("SIM_MAG_STUCK", 0, 0, 1, "", "1: the magnetometer repeats its last reading",
-                               INT32)
+                               ParamType.INT32)
     # Barometer
     baro_noise_m: float = sim_param("SIM_BARO_RND", 0.05, 0.0, 10.0, "m", "Barometer white noise, as altitude")
     baro_drift_m_s: float = sim_param("SIM_BARO_DRIFT", 0.0, -1.0, 1.0, "m/s",
                                       "Barometer altitude drift rate (a slow pressure change)")
     baro_stuck: int = sim_param("SIM_BARO_STUCK", 0, 0, 1, "", "1: the barometer repeats its last reading",
-                                INT32)
+                                ParamType.INT32)
     # GPS
     gps_rate_hz: float = sim_param("SIM_GPS_HZ", 5.0, 1.0, 50.0, "Hz", "GPS fix rate")
     gps_lag_ms: int = sim_param("SIM_GPS_LAG_MS", 120, 0, 500, "ms",
                                 "GPS latency: a fix reports the vehicle's state this long before it is sent",
-                                INT32)
+                                ParamType.INT32)
     gps_noise_m: float = sim_param("SIM_GPS_NOISE", 0.1, 0.0, 20.0, "m", "GPS horizontal white noise, per axis")
     gps_vnoise_m: float = sim_param("SIM_GPS_VNOISE", 0.2, 0.0, 20.0, "m", "GPS vertical white noise")
     gps_vel_noise_m_s: float = sim_param("SIM_GPS_VELNOISE", 0.05, 0.0, 5.0, "m/s", "GPS velocity white noise")
@@ -100,7 +99,7 @@ class SensorSettings:
     gps_dropout_per_min: float = sim_param("SIM_GPS_DROP_RT", 0.0, 0.0, 60.0, "1/min",
                                            "Mean number of GPS outages (no fix) per minute")
     gps_dropout_s: float = sim_param("SIM_GPS_DROP_S", 1.0, 0.1, 60.0, "s", "Duration of one GPS outage")
-    gps_disable: int = sim_param("SIM_GPS_DISABLE", 0, 0, 1, "", "1: the GPS receiver sends nothing", INT32)
+    gps_disable: int = sim_param("SIM_GPS_DISABLE", 0, 0, 1, "", "1: the GPS receiver sends nothing", ParamType.INT32)
     gps_glitch_n_m: float = sim_param("SIM_GPS_GLITCH_N", 0.0, -1000.0, 1000.0, "m",
                                       "GPS position glitch: offset added to the reported position, North")
     gps_glitch_e_m: float = sim_param("SIM_GPS_GLITCH_E", 0.0, -1000.0, 1000.0, "m", "GPS glitch, East")
@@ -113,7 +112,7 @@ class MotorSettings:
 
     fail_motor: int = sim_param("SIM_ENGINE_FAIL", 0, 0, 12, "",
                                 "Motor (1-based, the vehicle file's order) running at SIM_ENGINE_MUL; 0 = none",
-                                INT32)
+                                ParamType.INT32)
     fail_efficiency: float = sim_param("SIM_ENGINE_MUL", 0.0, 0.0, 1.0, "",
                                        "Thrust multiplier of the failed motor (0 = stopped, 1 = healthy)")
 

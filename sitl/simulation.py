@@ -15,17 +15,17 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from params.vehicle import GRAVITY_M_S2, VehicleSpec
+from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from params.vehicle import VehicleSpec
 from sitl.aerodynamics import Aerodynamics
 from sitl.battery import Battery
-from sitl.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
+from mavsim_core.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
 from sitl.model import PHYSICS_DT_S, build_model
 from sitl.rotors import RotorModel
 from sitl.sensors import SensorSuite
 from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
 from sitl.wind import WindModel
 
-LOCKSTEP_DT_S = 0.004  # 250 Hz sensor and control rate
 
 
 @dataclass(frozen=True)

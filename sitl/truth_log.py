@@ -3,7 +3,7 @@
 Written from the simulator's lockstep loop every period (250 Hz of simulated time)
 from the same plain-float truth the sensor models read, while the flight controller
 reports itself armed (the HIL_ACTUATOR_CONTROLS mode flag) and ``POST_DISARM_S``
-after.  An append-only ``.npy`` of records (:mod:`autopilot.npy_log`), so
+after.  An append-only ``.npy`` of records (:mod:`mavsim_core.npy_log`), so
 ``np.load(path)["pos_d_m"]`` works and a killed simulator leaves a readable file.
 Times are the same simulated microseconds as the flight controller's log, so
 ``gcs plot`` pairs the two by time.  Columns (NED from the start point on the
@@ -21,8 +21,8 @@ import time
 from pathlib import Path
 from typing import Sequence
 
-from autopilot.flight_recorder import flight_stem
-from autopilot.npy_log import NpyLogWriter
+from mavsim_core.log_naming import flight_stem
+from mavsim_core.npy_log import NpyLogWriter
 
 SUFFIX = ".truth.npy"
 POST_DISARM_S = 1.0

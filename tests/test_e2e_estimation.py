@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from autopilot import quat
+from mavsim_core import quaternion as quat
 from gcs.client import VehicleClient, mavlink
 from gcs.sim_client import SimClient
 from gcs.stack import Stack

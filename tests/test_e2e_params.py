@@ -44,8 +44,9 @@ from autopilot.parameters import ParameterStore
 from gcs.client import GcsTimeout, ParamRefused, VehicleClient, mavlink
 from gcs.param_download import DownloadStats, download_parameters
 from gcs.stack import Stack
-from params.param_encoding import INT32, REAL32, raw_param_value
+from mavsim_core.param_encoding import INT32, REAL32, raw_param_value
 from params.param_file import QGC, parse_param_text, read_param_file
+from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 INSTANCE = 60
@@ -84,7 +85,7 @@ def client(stack):
 
 @pytest.fixture(scope="module")
 def declared():
-    return ParameterStore()
+    return default_store()
 
 
 def run_gcs(*args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:

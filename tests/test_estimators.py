@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 from pygeomag import GeoMag
 
-from autopilot import quat
+from mavsim_core import quaternion as quat
 from autopilot.estimation.estimator import Estimator
 from autopilot.parameters import ParameterStore
 from autopilot.topics import GpsSample, ImuSample
 import autopilot.flight_controller  # noqa: F401  (declares every parameter)
+from autopilot.param_catalogue import default_store
 
 G = 9.80665
 LAT0, LON0, ALT0 = 47.397742, 8.545594, 488.0
@@ -80,7 +81,7 @@ class Synthetic:
 
 
 def make(group: int = 2, **kw) -> Synthetic:
-    params = ParameterStore()
+    params = default_store()
     params.set("SYS_MC_EST_GROUP", group)
     return Synthetic(Estimator(params), **kw)
 
@@ -204,7 +205,7 @@ def test_gps_loss_keeps_height_and_invalidates_position():
 
 
 def test_estimator_choice_is_a_live_parameter():
-    params = ParameterStore()
+    params = default_store()
     est = Estimator(params)
     assert est.use_ekf
     params.set("SYS_MC_EST_GROUP", 1)

@@ -28,13 +28,14 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
-from autopilot import flight_log, flight_recorder, tlog  # noqa: E402
+from autopilot import flight_log, flight_recorder  # noqa: E402
+from mavsim_core import tlog  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
 from autopilot.gcs_link import GcsLink  # noqa: E402
-from autopilot.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
+from mavsim_core.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
 from autopilot.parameters import ParameterStore  # noqa: E402
-from autopilot.quat import from_euler  # noqa: E402
+from mavsim_core.quaternion import from_euler  # noqa: E402
 from autopilot.topics import (  # noqa: E402
     BatteryState,
     ControlSetpoints,
@@ -45,6 +46,7 @@ from gcs import plot  # noqa: E402
 from gcs.__main__ import main as gcs_main  # noqa: E402
 from params.vehicle import load_vehicle  # noqa: E402
 from sitl.truth_log import truth_log_fields  # noqa: E402
+from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -105,7 +107,7 @@ def test_sim_epoch_clock_keeps_simulated_intervals():
 
 
 def _flight_controller() -> FlightController:
-    return FlightController(load_vehicle("quad_x"), ParameterStore())
+    return FlightController(load_vehicle("quad_x"), default_store())
 
 
 def _fly(fc: FlightController, t_us: int) -> None:
@@ -201,7 +203,7 @@ def test_npy_log_survives_an_abrupt_kill(tmp_path):
     code = textwrap.dedent(f"""
         import os, signal, sys
         sys.path.insert(0, {str(ROOT)!r})
-        from autopilot.npy_log import NpyLogWriter
+        from mavsim_core.npy_log import NpyLogWriter
         w = NpyLogWriter({str(path)!r}, [("time_us", "q"), ("x", "f")], chunk_rows=10)
         for i in range(35):
             w.append(i * 4000, i * 0.5)
@@ -243,7 +245,7 @@ def _snapshot(control: ControlSetpoints | None) -> TelemetrySnapshot:
 
 class _Vehicle:
     def __init__(self, snap: TelemetrySnapshot) -> None:
-        self.params = ParameterStore()
+        self.params = default_store()
         self.snap = snap
 
     def snapshot(self) -> TelemetrySnapshot:

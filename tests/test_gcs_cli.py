@@ -20,11 +20,12 @@ from pathlib import Path
 
 import pytest
 
-from gcs import demo, geo, modes
+from gcs import demo, geo
+from mavsim_core import px4_modes as modes
 from gcs.__main__ import build_parser, main, resolve_url, status_line
 from gcs.client import GcsTimeout, VehicleClient
 from gcs.stack import Stack
-from params import param_encoding
+from mavsim_core import param_encoding
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -20,9 +20,10 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
-from autopilot.gcs_link import GcsLink, split_statustext  # noqa: E402
-from autopilot.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
-from autopilot.quat import to_euler  # noqa: E402
+from autopilot.gcs_link import GcsLink  # noqa: E402
+from mavsim_core.statustext import split_statustext  # noqa: E402
+from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
+from mavsim_core.quaternion import to_euler  # noqa: E402
 from autopilot.parameters import ParamDef, ParameterStore, ParamType  # noqa: E402
 from autopilot.topics import (  # noqa: E402
     BatteryState,
@@ -32,7 +33,7 @@ from autopilot.topics import (  # noqa: E402
     TelemetrySnapshot,
     VehicleEstimate,
 )
-from params.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
+from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
 
 ORIGIN = (47.397742, 8.545594, 488.0)
 CUSTOM_MODE_POSCTL = 3 << 16

@@ -7,7 +7,7 @@ import random
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.hil_codec import MessageLayout, StreamParser
+from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 
 FAST = (mavlink.MAVLink_hil_sensor_message, mavlink.MAVLink_hil_actuator_controls_message)
 

@@ -13,7 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from params.vehicle import GRAVITY_M_S2, load_vehicle
+from mavsim_core.constants import GRAVITY_M_S2
+from params.vehicle import load_vehicle
 from sitl.linearize import (
     INPUT_LABELS,
     STATE_LABELS,

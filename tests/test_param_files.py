@@ -28,11 +28,12 @@ from autopilot.param_storage import (ParamSaver, apply_entries, atomic_write_tex
 from autopilot.parameters import RULES, ParamDef, ParamError, ParameterStore, ParamRule, ParamType
 from gcs.__main__ import build_parser
 from gcs.param_cli import ProgressBar
-from params.param_encoding import INT32, REAL32
+from mavsim_core.param_encoding import INT32, REAL32
 from params.param_file import (MAVPROXY, QGC, ParamEntry, ParamFileError, apply_in_passes, detect_format,
                                diff_params, format_params, format_value, parse_param_text, read_param_file,
                                same_value)
 from params.vehicle import VEHICLE_DIR
+from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -53,7 +54,7 @@ def f32(x: float) -> float:
 
 @pytest.fixture
 def store():
-    return ParameterStore()
+    return default_store()
 
 
 # --------------------------------------------------------------------------- formats
@@ -248,10 +249,10 @@ def test_vehicle_default_files_exist_and_load():
     for toml in sorted(VEHICLE_DIR.glob("*.toml")):
         params_file = param_storage.vehicle_defaults_file(toml)
         assert params_file is not None, f"no default parameter set beside {toml.name}"
-        s = ParameterStore()
+        s = default_store()
         applied, messages = load_file(s, params_file, as_defaults=True)
         assert messages == [] and applied >= 1 and s.changed() == {}
-    s = ParameterStore()
+    s = default_store()
     load_file(s, VEHICLE_DIR / "firefly.params", as_defaults=True)
     assert s.get("SYS_AUTOSTART") == 6001  # PX4's generic hexacopter X airframe
 
@@ -291,7 +292,7 @@ def test_start_up_order_vehicle_defaults_then_saved_state_then_params_file(tmp_p
     state.write_text("1\t1\tMPC_XY_P\t1.3\t9\n1\t1\tMC_ROLL_P\t7\t9\n")
     extra = tmp_path / "extra.params"
     extra.write_text("MC_ROLL_P 8\n")
-    store = ParameterStore()
+    store = default_store()
     log: list[str] = []
     prepare_parameters(store, vehicle_toml=toml, state_path=state, params_path=extra, log=log.append)
     assert store.get("SYS_AUTOSTART") == 6001 and store.default("MPC_XY_P") == 1.1
@@ -301,7 +302,7 @@ def test_start_up_order_vehicle_defaults_then_saved_state_then_params_file(tmp_p
     assert any("saved parameters: 2 values" in line for line in log)
     assert any("parameter file: 1 values" in line for line in log)
     log.clear()
-    prepare_parameters(ParameterStore(), vehicle_toml=toml, state_path=tmp_path / "none.params", log=log.append)
+    prepare_parameters(default_store(), vehicle_toml=toml, state_path=tmp_path / "none.params", log=log.append)
     assert any("no saved parameters yet" in line for line in log)
 
 
@@ -344,7 +345,7 @@ def test_saver_writes_changes_at_once_then_at_most_once_per_interval(store, tmp_
         saver.close()  # writes what the interval held back
     assert saver.saves == 3
     assert set(read_param_file(path).values()) == {"MC_ROLL_P", "SYS_AUTOSTART"}
-    restored = ParameterStore()
+    restored = default_store()
     applied, messages = load_file(restored, path)
     assert applied == 2 and messages == [] and restored.get("SYS_AUTOSTART") == 4002
     assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left behind

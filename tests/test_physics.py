@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from autopilot import quat
+from mavsim_core import quaternion as quat
 from autopilot.mixer import Mixer
-from params.vehicle import GRAVITY_M_S2 as G
+from mavsim_core.constants import GRAVITY_M_S2 as G
 from params.vehicle import load_vehicle
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
 

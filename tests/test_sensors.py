@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.geodesy import geodetic_to_ned
+from mavsim_core.geodesy import geodetic_to_ned
 from sitl.sensors import SensorSuite, pressure_hpa_at
 from sitl.sim_settings import SensorSettings
 

@@ -29,7 +29,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
-from params.param_encoding import INT32, REAL32, raw_param_value  # noqa: E402
+from mavsim_core.param_encoding import INT32, REAL32, raw_param_value  # noqa: E402
 from sitl import __main__ as sitl_main  # noqa: E402
 from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer  # noqa: E402
 from sitl.scenario import EventSchedule, ScenarioError, ScenarioEvent, list_scenarios, load_scenario  # noqa: E402

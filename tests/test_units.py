@@ -14,19 +14,21 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import autopilot.flight_controller  # noqa: F401  (declares every parameter of the flight controller)
-from autopilot import quat
-from autopilot.control.position_control import GRAVITY_M_S2, PositionControl, PositionSetpoint, attitude_from_thrust
+from mavsim_core import quaternion as quat
+from mavsim_core.constants import GRAVITY_M_S2
+from autopilot.control.position_control import PositionControl, PositionSetpoint, attitude_from_thrust
 from autopilot.control.rate_control import RateControl
 from autopilot.estimation.mahony import MahonyFilter
-from autopilot.geodesy import geodetic_to_ned, ned_to_geodetic
+from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 from autopilot.land_detector import LandDetector, Landed
 from autopilot.mixer import Mixer
 from autopilot.parameters import ParamDef, ParamError, ParameterStore, ParamType
 from params.vehicle import VEHICLE_DIR, VehicleFileError, load_vehicle
-from sitl import frames
+from mavsim_core import frames
 from sitl.battery import Battery
 from sitl.rotors import RotorModel
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
+from autopilot.param_catalogue import default_store
 
 HOME = (47.397742, 8.545594, 488.0)
 QUAD_TOML = (VEHICLE_DIR / "quad_x.toml").read_text()
@@ -40,7 +42,7 @@ def quad():
 @pytest.fixture
 def params():
     # autopilot.flight_controller imports every module that declares parameters: the registry is complete.
-    return ParameterStore()
+    return default_store()
 
 
 def tilt_deg(q: np.ndarray) -> float:
@@ -501,7 +503,7 @@ def test_mahony_tracks_constant_yaw_rate():
 
 class LandRun:
     def __init__(self, trig_time_s: float = 1.0) -> None:
-        self.params = ParameterStore()
+        self.params = default_store()
         self.params.set("LNDMC_TRIG_TIME", trig_time_s)
         self.ld = LandDetector(self.params)
         self.ld.on_arm(0.0)

@@ -11,14 +11,18 @@ import math
 
 import numpy as np
 
-from autopilot.parameters import ParameterStore, declare
+from autopilot.parameters import ParamDef, ParameterStore, param
 
-declare("MC_ROLL_P", 6.5, 0.0, 12.0, "1/s", "Roll angle proportional gain")
-declare("MC_PITCH_P", 6.5, 0.0, 12.0, "1/s", "Pitch angle proportional gain")
-declare("MC_YAW_P", 2.8, 0.0, 5.0, "1/s", "Yaw angle proportional gain")
-declare("MC_ROLLRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum roll rate")
-declare("MC_PITCHRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum pitch rate")
-declare("MC_YAWRATE_MAX", 200.0, 0.0, 1800.0, "deg/s", "Maximum yaw rate")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param("MC_ROLL_P", 6.5, 0.0, 12.0, "1/s", "Roll angle proportional gain"),
+    param("MC_PITCH_P", 6.5, 0.0, 12.0, "1/s", "Pitch angle proportional gain"),
+    param("MC_YAW_P", 2.8, 0.0, 5.0, "1/s", "Yaw angle proportional gain"),
+    param("MC_ROLLRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum roll rate"),
+    param("MC_PITCHRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum pitch rate"),
+    param("MC_YAWRATE_MAX", 200.0, 0.0, 1800.0, "deg/s", "Maximum yaw rate"),
+)
 
 
 class AttitudeControl:

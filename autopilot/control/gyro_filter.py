@@ -20,11 +20,16 @@ import math
 
 from scipy.signal import butter
 
-from autopilot.parameters import ParameterStore, declare
+from autopilot.parameters import ParamDef, ParameterStore, param
 
 CONTROL_RATE_HZ = 250.0
-P_CUTOFF = declare("IMU_GYRO_CUTOFF", 30.0, 0.0, 1000.0, "Hz",
+P_CUTOFF = param("IMU_GYRO_CUTOFF", 30.0, 0.0, 1000.0, "Hz",
                    "Low-pass cutoff of the body rates the rate controller uses (0: no filter)")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    P_CUTOFF,
+)
 
 
 class GyroFilter:

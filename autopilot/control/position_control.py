@@ -16,32 +16,35 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.parameters import ParameterStore, declare
-from autopilot.quat import cross
+from autopilot.parameters import ParamDef, ParameterStore, param
+from mavsim_core.quaternion import cross
+from mavsim_core.constants import GRAVITY_M_S2
 
-GRAVITY_M_S2 = 9.80665
 
-declare("MPC_XY_P", 0.95, 0.0, 2.0, "1/s", "Horizontal position proportional gain")
-declare("MPC_Z_P", 1.0, 0.0, 2.0, "1/s", "Vertical position proportional gain")
-declare("MPC_XY_VEL_P_ACC", 2.2, 0.0, 10.0, "1/s", "Horizontal velocity proportional gain (acceleration per velocity error)")
-declare("MPC_XY_VEL_I_ACC", 0.8, 0.0, 10.0, "1/s^2", "Horizontal velocity integral gain")
-declare("MPC_XY_VEL_D_ACC", 0.2, 0.0, 2.0, "-", "Horizontal velocity derivative gain")
-declare("MPC_Z_VEL_P_ACC", 4.0, 0.0, 15.0, "1/s", "Vertical velocity proportional gain")
-declare("MPC_Z_VEL_I_ACC", 2.0, 0.0, 10.0, "1/s^2", "Vertical velocity integral gain")
-declare("MPC_Z_VEL_D_ACC", 0.0, 0.0, 2.0, "-", "Vertical velocity derivative gain")
-declare("MPC_XY_VEL_MAX", 5.0, 0.0, 20.0, "m/s", "Maximum horizontal velocity")
-declare("MPC_Z_VEL_MAX_UP", 3.0, 0.5, 8.0, "m/s", "Maximum ascent velocity")
-declare("MPC_Z_VEL_MAX_DN", 1.5, 0.5, 4.0, "m/s", "Maximum descent velocity")
-declare("MPC_TILTMAX_AIR", 35.0, 20.0, 89.0, "deg", "Maximum tilt in air")
-declare("MPC_THR_MIN", 0.12, 0.05, 0.5, "norm", "Minimum collective thrust in flight (fraction of maximum)")
-declare("MPC_THR_MAX", 1.0, 0.5, 1.0, "norm", "Maximum collective thrust (fraction of maximum)")
-declare("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp (seed 000 3.4)")
-declare("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp (seed 000 3.4)")
-declare("MPC_JERK_AUTO", 4.0, 1.0, 80.0, "m/s^3",
-        "Jerk limit of automatic moves: how fast their acceleration feed-forward may change")
-declare("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term (seed 000 3.4)")
-declare("MPC_VELD_LP", 5.0, 0.0, 10.0, "Hz",
-        "Low-pass cut-off of the velocity derivative (0 = unfiltered): GPS corrections step the velocity estimate")
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param("MPC_XY_P", 0.95, 0.0, 2.0, "1/s", "Horizontal position proportional gain"),
+    param("MPC_Z_P", 1.0, 0.0, 2.0, "1/s", "Vertical position proportional gain"),
+    param("MPC_XY_VEL_P_ACC", 2.2, 0.0, 10.0, "1/s", "Horizontal velocity proportional gain (acceleration per velocity error)"),
+    param("MPC_XY_VEL_I_ACC", 0.8, 0.0, 10.0, "1/s^2", "Horizontal velocity integral gain"),
+    param("MPC_XY_VEL_D_ACC", 0.2, 0.0, 2.0, "-", "Horizontal velocity derivative gain"),
+    param("MPC_Z_VEL_P_ACC", 4.0, 0.0, 15.0, "1/s", "Vertical velocity proportional gain"),
+    param("MPC_Z_VEL_I_ACC", 2.0, 0.0, 10.0, "1/s^2", "Vertical velocity integral gain"),
+    param("MPC_Z_VEL_D_ACC", 0.0, 0.0, 2.0, "-", "Vertical velocity derivative gain"),
+    param("MPC_XY_VEL_MAX", 5.0, 0.0, 20.0, "m/s", "Maximum horizontal velocity"),
+    param("MPC_Z_VEL_MAX_UP", 3.0, 0.5, 8.0, "m/s", "Maximum ascent velocity"),
+    param("MPC_Z_VEL_MAX_DN", 1.5, 0.5, 4.0, "m/s", "Maximum descent velocity"),
+    param("MPC_TILTMAX_AIR", 35.0, 20.0, 89.0, "deg", "Maximum tilt in air"),
+    param("MPC_THR_MIN", 0.12, 0.05, 0.5, "norm", "Minimum collective thrust in flight (fraction of maximum)"),
+    param("MPC_THR_MAX", 1.0, 0.5, 1.0, "norm", "Maximum collective thrust (fraction of maximum)"),
+    param("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp (seed 000 3.4)"),
+    param("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp (seed 000 3.4)"),
+    param("MPC_JERK_AUTO", 4.0, 1.0, 80.0, "m/s^3",
+            "Jerk limit of automatic moves: how fast their acceleration feed-forward may change"),
+    param("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term (seed 000 3.4)"),
+    param("MPC_VELD_LP", 5.0, 0.0, 10.0, "Hz",
+            "Low-pass cut-off of the velocity derivative (0 = unfiltered): GPS corrections step the velocity estimate"),
+)
 
 
 @dataclass(frozen=True, slots=True)

@@ -13,21 +13,25 @@ import math
 
 import numpy as np
 
-from autopilot.parameters import ParameterStore, declare
+from autopilot.parameters import ParamDef, ParameterStore, param
 
-declare("MC_ROLLRATE_P", 12.0, 0.0, 150.0, "1/s", "Roll rate P: angular acceleration (rad/s^2) per rad/s of error")
-declare("MC_ROLLRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Roll rate integral gain")
-declare("MC_ROLLRATE_D", 0.15, 0.0, 2.0, "-", "Roll rate derivative gain")
-declare("MC_PITCHRATE_P", 12.0, 0.0, 150.0, "1/s", "Pitch rate P: angular acceleration (rad/s^2) per rad/s of error")
-declare("MC_PITCHRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Pitch rate integral gain")
-declare("MC_PITCHRATE_D", 0.15, 0.0, 2.0, "-", "Pitch rate derivative gain")
-declare("MC_YAWRATE_P", 6.0, 0.0, 60.0, "1/s", "Yaw rate P: angular acceleration (rad/s^2) per rad/s of error")
-declare("MC_YAWRATE_I", 2.0, 0.0, 60.0, "1/s^2", "Yaw rate integral gain")
-declare("MC_YAWRATE_D", 0.0, 0.0, 2.0, "-", "Yaw rate derivative gain")
-declare("MC_RR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Roll rate integrator clamp")
-declare("MC_PR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Pitch rate integrator clamp")
-declare("MC_YR_INT_LIM", 3.0, 0.0, 50.0, "rad/s^2", "Yaw rate integrator clamp")
-declare("MC_RATE_D_LIM", 100.0, 0.0, 1000.0, "rad/s^2", "Clamp of the rate derivative term (seed 000 3.4)")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param("MC_ROLLRATE_P", 12.0, 0.0, 150.0, "1/s", "Roll rate P: angular acceleration (rad/s^2) per rad/s of error"),
+    param("MC_ROLLRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Roll rate integral gain"),
+    param("MC_ROLLRATE_D", 0.15, 0.0, 2.0, "-", "Roll rate derivative gain"),
+    param("MC_PITCHRATE_P", 12.0, 0.0, 150.0, "1/s", "Pitch rate P: angular acceleration (rad/s^2) per rad/s of error"),
+    param("MC_PITCHRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Pitch rate integral gain"),
+    param("MC_PITCHRATE_D", 0.15, 0.0, 2.0, "-", "Pitch rate derivative gain"),
+    param("MC_YAWRATE_P", 6.0, 0.0, 60.0, "1/s", "Yaw rate P: angular acceleration (rad/s^2) per rad/s of error"),
+    param("MC_YAWRATE_I", 2.0, 0.0, 60.0, "1/s^2", "Yaw rate integral gain"),
+    param("MC_YAWRATE_D", 0.0, 0.0, 2.0, "-", "Yaw rate derivative gain"),
+    param("MC_RR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Roll rate integrator clamp"),
+    param("MC_PR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Pitch rate integrator clamp"),
+    param("MC_YR_INT_LIM", 3.0, 0.0, 50.0, "rad/s^2", "Yaw rate integrator clamp"),
+    param("MC_RATE_D_LIM", 100.0, 0.0, 1000.0, "rad/s^2", "Clamp of the rate derivative term (seed 000 3.4)"),
+)
 
 _D_CUTOFF_HZ = 30.0
 

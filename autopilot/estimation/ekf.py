@@ -61,29 +61,46 @@ from collections import deque
 
 import numpy as np
 
-from autopilot import quat
-from autopilot.parameters import declare
+from mavsim_core import quaternion as quat
+from autopilot.parameters import ParamDef, param
+from mavsim_core.constants import GRAVITY_M_S2
 
-GRAVITY_M_S2 = 9.80665
 _G = np.array([0.0, 0.0, GRAVITY_M_S2])
 P, V, TH, BG, BA = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)
 N = 15
 _EYE3 = np.eye(3)
 
-P_GYR_NOISE = declare("EKF2_GYR_NOISE", 0.015, 0.0001, 0.1, "rad/s", "Rate gyro noise for covariance prediction")
-P_ACC_NOISE = declare("EKF2_ACC_NOISE", 0.35, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
-P_GYR_B_NOISE = declare("EKF2_GYR_B_NOISE", 0.001, 0.0, 0.01, "rad/s^2", "Process noise of the gyro bias")
-P_ACC_B_NOISE = declare("EKF2_ACC_B_NOISE", 0.003, 0.0, 0.01, "m/s^3", "Process noise of the accelerometer bias")
-P_GPS_P_NOISE = declare("EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)")
-P_GPS_V_NOISE = declare("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
-P_BARO_NOISE = declare("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
-P_HEAD_NOISE = declare("EKF2_HEAD_NOISE", 0.1, 0.01, 1.0, "rad", "Magnetometer heading measurement noise")
-P_GPS_P_GATE = declare("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS position (standard deviations)")
-P_GPS_V_GATE = declare("EKF2_GPS_V_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS velocity (standard deviations)")
-P_BARO_GATE = declare("EKF2_BARO_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of barometer height (standard deviations)")
-P_HDG_GATE = declare("EKF2_HDG_GATE", 2.6, 1.0, 20.0, "SD", "Innovation gate of magnetometer heading (standard deviations)")
-P_NOAID_NOISE = declare("EKF2_NOAID_NOISE", 10.0, 0.5, 50.0, "m",
+P_GYR_NOISE = param("EKF2_GYR_NOISE", 0.015, 0.0001, 0.1, "rad/s", "Rate gyro noise for covariance prediction")
+P_ACC_NOISE = param("EKF2_ACC_NOISE", 0.35, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
+P_GYR_B_NOISE = param("EKF2_GYR_B_NOISE", 0.001, 0.0, 0.01, "rad/s^2", "Process noise of the gyro bias")
+P_ACC_B_NOISE = param("EKF2_ACC_B_NOISE", 0.003, 0.0, 0.01, "m/s^3", "Process noise of the accelerometer bias")
+P_GPS_P_NOISE = param("EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)")
+P_GPS_V_NOISE = param("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
+P_BARO_NOISE = param("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
+P_HEAD_NOISE = param("EKF2_HEAD_NOISE", 0.1, 0.01, 1.0, "rad", "Magnetometer heading measurement noise")
+P_GPS_P_GATE = param("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS position (standard deviations)")
+P_GPS_V_GATE = param("EKF2_GPS_V_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS velocity (standard deviations)")
+P_BARO_GATE = param("EKF2_BARO_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of barometer height (standard deviations)")
+P_HDG_GATE = param("EKF2_HDG_GATE", 2.6, 1.0, 20.0, "SD", "Innovation gate of magnetometer heading (standard deviations)")
+P_NOAID_NOISE = param("EKF2_NOAID_NOISE", 10.0, 0.5, 50.0, "m",
                         "Noise of the constant-position pseudo-measurement fused when nothing aids the filter in flight")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    P_GYR_NOISE,
+    P_ACC_NOISE,
+    P_GYR_B_NOISE,
+    P_ACC_B_NOISE,
+    P_GPS_P_NOISE,
+    P_GPS_V_NOISE,
+    P_BARO_NOISE,
+    P_HEAD_NOISE,
+    P_GPS_P_GATE,
+    P_GPS_V_GATE,
+    P_BARO_GATE,
+    P_HDG_GATE,
+    P_NOAID_NOISE,
+)
 
 _FAKE_POS_NOISE_GROUND_M = 0.5  # at rest on the ground before the first fix
 _MIN_VAR = np.array([1e-6] * 6 + [1e-9] * 3 + [1e-12] * 6)

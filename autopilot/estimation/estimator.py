@@ -33,18 +33,18 @@ from collections import deque
 
 import numpy as np
 
-from autopilot import quat
+from mavsim_core import quaternion as quat
 from autopilot.estimation.ekf import (
     P_BARO_GATE, P_BARO_NOISE, P_GPS_P_GATE, P_GPS_P_NOISE, P_GPS_V_GATE, P_GPS_V_NOISE, P_HDG_GATE, P_HEAD_NOISE,
     P_NOAID_NOISE, ErrorStateEkf, nearest_state,
 )
 from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import P_GPS_DELAY, PositionVelocityFilter
-from autopilot.geodesy import geodetic_to_ned
-from autopilot.parameters import ParameterStore, ParamType, declare
+from mavsim_core.geodesy import geodetic_to_ned
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import EstimatorStatus, GpsSample, ImuSample, VehicleEstimate
+from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S, MAGNETIC_MODEL_EPOCH_YEAR
 
-GRAVITY_M_S2 = 9.80665
 _GRAVITY = np.array([0.0, 0.0, GRAVITY_M_S2])
 ALIGN_TIME_S = 3.0  # attitude must have run this long before it is trusted
 BARO_PERIOD_US = 20_000  # barometer fused (and the EKF predicted) at 50 Hz
@@ -67,9 +67,14 @@ MAG_STUCK_SAMPLES = 50  # identical readings in a row (0.2 s at 250 Hz): magneto
 MAG_REJECT_FAULT_S = 2.0  # heading failing its gate this long: magnetometer fault
 MAG_RECOVER_S = 5.0  # healthy this long: fused again
 
-P_EST_GROUP = declare("SYS_MC_EST_GROUP", 2, 1, 2, "",
+P_EST_GROUP = param("SYS_MC_EST_GROUP", 2, 1, 2, "",
                       "Estimator the controllers fly on: 1 = Mahony attitude + linear position filter, 2 = EKF",
                       ParamType.INT32)
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    P_EST_GROUP,
+)
 
 # ESTIMATOR_STATUS_FLAGS (MAVLink common).
 FLAG_ATTITUDE, FLAG_VEL_HORIZ, FLAG_VEL_VERT = 1, 2, 4
@@ -184,7 +189,7 @@ class Estimator:
         """One IMU sample (250 Hz): carry the attitude forward; every 20 ms run the filters."""
         if self._deferred_filters is not None or self._deferred_gps:
             self.run_deferred()  # never skipped, and always before this sample's increments
-        dt = 0.004 if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
+        dt = LOCKSTEP_DT_S if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
         self.last_imu_us = s.timestamp_us
         if not 0.0 < dt < 0.1 or not _finite(s.accel_frd_m_s2) or not _finite(s.gyro_frd_rad_s):
             return  # NaN never reaches the filters
@@ -455,7 +460,7 @@ class Estimator:
         """Magnetic declination and field strength at the origin, from the World Magnetic Model."""
         from pygeomag import GeoMag
 
-        res = GeoMag().calculate(glat=lat, glon=lon, alt=alt / 1000.0, time=2026.9)
+        res = GeoMag().calculate(glat=lat, glon=lon, alt=alt / 1000.0, time=MAGNETIC_MODEL_EPOCH_YEAR)
         self.declination_rad = d = math.radians(res.d)
         self.mag_strength_gauss = res.f / 1e5  # nT -> gauss
         self.attitude.declination_rad = d

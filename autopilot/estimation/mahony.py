@@ -13,14 +13,21 @@ import math
 
 import numpy as np
 
-from autopilot import quat
-from autopilot.parameters import declare
+from mavsim_core import quaternion as quat
+from autopilot.parameters import ParamDef, param
+from mavsim_core.constants import GRAVITY_M_S2
 
-P_KP = declare("ATT_MAHONY_KP", 0.5, 0.0, 20.0, "rad/s", "Mahony filter proportional gain (accelerometer and heading)")
-P_KI = declare("ATT_MAHONY_KI", 0.05, 0.0, 5.0, "rad/s^2", "Mahony filter integral gain (gyro bias learning)")
-P_KMAG = declare("ATT_MAHONY_KMAG", 0.5, 0.0, 20.0, "rad/s", "Mahony filter heading gain from the magnetometer")
+P_KP = param("ATT_MAHONY_KP", 0.5, 0.0, 20.0, "rad/s", "Mahony filter proportional gain (accelerometer and heading)")
+P_KI = param("ATT_MAHONY_KI", 0.05, 0.0, 5.0, "rad/s^2", "Mahony filter integral gain (gyro bias learning)")
+P_KMAG = param("ATT_MAHONY_KMAG", 0.5, 0.0, 20.0, "rad/s", "Mahony filter heading gain from the magnetometer")
 
-GRAVITY_M_S2 = 9.80665
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    P_KP,
+    P_KI,
+    P_KMAG,
+)
+
 HEADING_BIAS_MAX_ERR_RAD = math.radians(5.0)  # heading errors larger than this do not teach the gyro bias
 CORRECTION_EVERY = 5  # accelerometer/heading correction at 1/5 of the gyro rate (50 Hz at 250 Hz)
 

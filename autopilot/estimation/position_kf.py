@@ -17,14 +17,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from autopilot.parameters import declare
+from autopilot.parameters import ParamDef, param
 
 from autopilot.estimation.ekf import (  # noqa: E402  (shared with the EKF: one set of sensor noises)
     P_BARO_NOISE, P_GPS_P_GATE as P_GATE, P_GPS_P_NOISE, P_GPS_V_NOISE,
 )
 
-P_GPS_DELAY = declare("EKF2_GPS_DELAY", 110.0, 0.0, 300.0, "ms",
+P_GPS_DELAY = param("EKF2_GPS_DELAY", 110.0, 0.0, 300.0, "ms",
                       "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago")
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    P_GPS_DELAY,
+)
 ACC_NOISE_DENSITY = 0.35  # m/s^2/sqrt(s): acceleration process noise of this filter (not EKF2_ACC_NOISE's per-step form)
 
 _ACC_BIAS_RW = 0.002  # m/s^2 per sqrt(s), accelerometer bias random walk

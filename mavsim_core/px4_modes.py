@@ -1,17 +1,22 @@
-"""PX4 flight-mode names and their HEARTBEAT ``custom_mode`` encoding.
+"""PX4's flight modes: numbers, HEARTBEAT ``custom_mode`` encoding, flags and names.
 
 PX4 packs its mode as ``custom_mode = main_mode << 16 | sub_mode << 24``
 (``px4_custom_mode.h``).  Sub-modes are only meaningful for AUTO (main mode 4);
 for the other main modes the sub-mode byte is ignored when decoding.
 
-Canonical names are the short ones a pilot types (``LOITER``, ``MISSION``,
-``RTL``); PX4's own spellings (``AUTO.LOITER``, ``AUTO.RTL``, ...) and a few
-common aliases (``HOLD``, ``POSITION``, ...) are accepted, case-insensitively.
+:class:`Mode` is what the flight controller flies; the name table (:data:`MODES`,
+:func:`lookup_mode`) is what a ground station types.  Canonical names are the short
+ones a pilot types (``LOITER``, ``MISSION``, ``RTL``); PX4's own spellings
+(``AUTO.LOITER``, ``AUTO.RTL``, ...) and a few common aliases (``HOLD``,
+``POSITION``, ...) are accepted, case-insensitively.
 """
 
 from __future__ import annotations
 
+from enum import Enum
 from typing import NamedTuple
+
+from pymavlink.dialects.v20 import common as mavlink
 
 
 class Px4Mode(NamedTuple):
@@ -29,38 +34,65 @@ class Px4Mode(NamedTuple):
 
 
 # PX4 main modes (px4_custom_mode.h: PX4_CUSTOM_MAIN_MODE_*)
-MAIN_MANUAL = 1
-MAIN_ALTCTL = 2
-MAIN_POSCTL = 3
-MAIN_AUTO = 4
-MAIN_ACRO = 5
-MAIN_OFFBOARD = 6
-MAIN_STABILIZED = 7
+MAIN_MANUAL, MAIN_ALTCTL, MAIN_POSCTL, MAIN_AUTO, MAIN_ACRO, MAIN_OFFBOARD, MAIN_STABILIZED = 1, 2, 3, 4, 5, 6, 7
 
 # PX4 AUTO sub modes (PX4_CUSTOM_SUB_MODE_AUTO_*)
-SUB_AUTO_READY = 1
-SUB_AUTO_TAKEOFF = 2
-SUB_AUTO_LOITER = 3
-SUB_AUTO_MISSION = 4
-SUB_AUTO_RTL = 5
-SUB_AUTO_LAND = 6
+SUB_AUTO_READY, SUB_AUTO_TAKEOFF, SUB_AUTO_LOITER, SUB_AUTO_MISSION, SUB_AUTO_RTL, SUB_AUTO_LAND = 1, 2, 3, 4, 5, 6
 SUB_AUTO_PRECLAND = 9
 
-MODES: tuple[Px4Mode, ...] = (
-    Px4Mode("MANUAL", "MANUAL", MAIN_MANUAL, 0),
-    Px4Mode("ALTCTL", "ALTCTL", MAIN_ALTCTL, 0),
-    Px4Mode("POSCTL", "POSCTL", MAIN_POSCTL, 0),
-    Px4Mode("READY", "AUTO.READY", MAIN_AUTO, SUB_AUTO_READY),
-    Px4Mode("TAKEOFF", "AUTO.TAKEOFF", MAIN_AUTO, SUB_AUTO_TAKEOFF),
-    Px4Mode("LOITER", "AUTO.LOITER", MAIN_AUTO, SUB_AUTO_LOITER),
-    Px4Mode("MISSION", "AUTO.MISSION", MAIN_AUTO, SUB_AUTO_MISSION),
-    Px4Mode("RTL", "AUTO.RTL", MAIN_AUTO, SUB_AUTO_RTL),
-    Px4Mode("LAND", "AUTO.LAND", MAIN_AUTO, SUB_AUTO_LAND),
-    Px4Mode("PRECLAND", "AUTO.PRECLAND", MAIN_AUTO, SUB_AUTO_PRECLAND),
-    Px4Mode("ACRO", "ACRO", MAIN_ACRO, 0),
-    Px4Mode("OFFBOARD", "OFFBOARD", MAIN_OFFBOARD, 0),
-    Px4Mode("STABILIZED", "STABILIZED", MAIN_STABILIZED, 0),
-)
+
+class Mode(Enum):
+    """PX4's modes as (main, sub) numbers; the one mode table of the stack."""
+
+    MANUAL = (MAIN_MANUAL, 0)
+    ALTCTL = (MAIN_ALTCTL, 0)
+    POSCTL = (MAIN_POSCTL, 0)
+    AUTO_READY = (MAIN_AUTO, SUB_AUTO_READY)
+    AUTO_TAKEOFF = (MAIN_AUTO, SUB_AUTO_TAKEOFF)
+    AUTO_LOITER = (MAIN_AUTO, SUB_AUTO_LOITER)
+    AUTO_MISSION = (MAIN_AUTO, SUB_AUTO_MISSION)
+    AUTO_RTL = (MAIN_AUTO, SUB_AUTO_RTL)
+    AUTO_LAND = (MAIN_AUTO, SUB_AUTO_LAND)
+    AUTO_PRECLAND = (MAIN_AUTO, SUB_AUTO_PRECLAND)
+    ACRO = (MAIN_ACRO, 0)
+    OFFBOARD = (MAIN_OFFBOARD, 0)
+    STABILIZED = (MAIN_STABILIZED, 0)
+    @property
+    def custom_mode(self) -> int:
+        main, sub = self.value
+        return main << 16 | sub << 24
+
+    @property
+    def label(self) -> str:
+        return self.name.replace("AUTO_", "AUTO.")
+
+    @classmethod
+    def from_custom_mode(cls, custom_mode: int) -> "Mode | None":
+        main = (custom_mode >> 16) & 0xFF
+        sub = (custom_mode >> 24) & 0xFF
+        for m in cls:
+            if m.value == (main, sub):
+                return m
+        if main == 4 and sub == 0:  # PX4 treats AUTO without a sub-mode as AUTO.LOITER
+            return cls.AUTO_LOITER
+        return None
+
+    def base_mode_flags(self, armed: bool) -> int:
+        """MAV_MODE_FLAG bits as PX4 sets them for this mode."""
+        f = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
+        if armed:
+            f |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+        if self.value[0] in (1, 2, 3, 5, 7):
+            f |= mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+        if self.value[0] in (3, 4, 6):
+            f |= mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
+        if self.value[0] == 4:
+            f |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED
+        return f
+
+
+# Names a pilot types: the short name (LOITER), PX4's display name (AUTO.LOITER).
+MODES: tuple[Px4Mode, ...] = tuple(Px4Mode(m.name.removeprefix("AUTO_"), m.label, *m.value) for m in Mode)
 
 _ALIASES: dict[str, str] = {
     "HOLD": "LOITER",

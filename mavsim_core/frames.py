@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
+
+from mavsim_core.quaternion import mul
 
 # q_NED<-ENU: maps ENU vectors to NED (swap x/y, negate z): rotation of pi about (1,1,0)/sqrt2.
 _Q_NED_ENU = np.array([0.0, math.sqrt(0.5), math.sqrt(0.5), 0.0])
@@ -39,10 +40,7 @@ frd_to_flu = flu_to_frd
 
 def quat_enu_flu_to_ned_frd(q_enu_flu: np.ndarray) -> np.ndarray:
     """Attitude quaternion (w,x,y,z) FLU->ENU (MuJoCo) to FRD->NED (MAVLink)."""
-    tmp = np.empty(4)
-    out = np.empty(4)
-    mujoco.mju_mulQuat(tmp, _Q_NED_ENU, q_enu_flu)
-    mujoco.mju_mulQuat(out, tmp, _Q_FLU_FRD)
+    out = mul(mul(_Q_NED_ENU, q_enu_flu), _Q_FLU_FRD)
     if out[0] < 0:
         out = -out
     return out
@@ -50,11 +48,8 @@ def quat_enu_flu_to_ned_frd(q_enu_flu: np.ndarray) -> np.ndarray:
 
 def quat_ned_frd_to_enu_flu(q_ned_frd: np.ndarray) -> np.ndarray:
     """Inverse of :func:`quat_enu_flu_to_ned_frd`."""
-    tmp = np.empty(4)
-    out = np.empty(4)
     # q_enu_flu = q_enu_ned * q_ned_frd * q_frd_flu; both fixed rotations are their own inverse up to sign.
-    mujoco.mju_mulQuat(tmp, _Q_NED_ENU, q_ned_frd)
-    mujoco.mju_mulQuat(out, tmp, _Q_FLU_FRD)
+    out = mul(mul(_Q_NED_ENU, q_ned_frd), _Q_FLU_FRD)
     if out[0] < 0:
         out = -out
     return out

@@ -5,9 +5,10 @@ flight controller here) does not convert integers to float: it copies the
 integer's bytes into the field (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE),
 so an INT32 of 1 travels as the float 1.4e-45.
 
-One module for the three users: the flight controller's parameter service
-(``autopilot.gcs_link``), the simulator's (``sitl.param_server``) and the
-bundled ground station (``gcs.client``).
+One module for the three users: the flight controller's parameter service, the
+simulator's (``sitl.param_server``) and the bundled ground station (``gcs``).
+:class:`ParamType` is the one parameter-type enum of the stack: the two types a
+parameter of ours can have (PX4 has only these two as well).
 
 The exact form is the 4 little-endian wire bytes.  Helpers working on Python
 floats are provided too, but note that a Python float cannot keep every bit
@@ -19,9 +20,42 @@ sends and decodes the raw bytes (and so do the two parameter services).
 from __future__ import annotations
 
 import struct
+from enum import Enum
 
-# MAV_PARAM_TYPE
-UINT8, INT8, UINT16, INT16, UINT32, INT32, UINT64, INT64, REAL32, REAL64 = range(1, 11)
+from pymavlink.dialects.v20 import common as mavlink
+
+# MAV_PARAM_TYPE numbers, as the MAVLink spec (and pymavlink) defines them
+UINT8 = mavlink.MAV_PARAM_TYPE_UINT8
+INT8 = mavlink.MAV_PARAM_TYPE_INT8
+UINT16 = mavlink.MAV_PARAM_TYPE_UINT16
+INT16 = mavlink.MAV_PARAM_TYPE_INT16
+UINT32 = mavlink.MAV_PARAM_TYPE_UINT32
+INT32 = mavlink.MAV_PARAM_TYPE_INT32
+REAL32 = mavlink.MAV_PARAM_TYPE_REAL32
+
+
+class ParamType(str, Enum):
+    """A parameter's type: its name compares equal to the string (``ParamType.INT32 == "INT32"``)."""
+
+    INT32 = "INT32"
+    REAL32 = "REAL32"
+
+    def __str__(self) -> str:
+        return self.value
+
+    @property
+    def mav_type(self) -> int:
+        """The MAV_PARAM_TYPE number PARAM_VALUE carries for this type."""
+        return INT32 if self is ParamType.INT32 else REAL32
+
+    @classmethod
+    def from_mav_type(cls, mav_type: int) -> "ParamType":
+        """INT32 or REAL32 for their MAV_PARAM_TYPE numbers; ValueError for any other."""
+        if mav_type == INT32:
+            return cls.INT32
+        if mav_type == REAL32:
+            return cls.REAL32
+        raise ValueError(f"unsupported MAV_PARAM_TYPE {mav_type}")
 
 _INT_FORMATS: dict[int, str] = {UINT8: "<B", INT8: "<b", UINT16: "<H", INT16: "<h", UINT32: "<I", INT32: "<i"}
 

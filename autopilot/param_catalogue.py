@@ -1,0 +1,86 @@
+"""The flight controller's parameter catalogue: every module's ``PARAMS``, listed explicitly.
+
+Each module defines the parameters it reads next to its code (``PARAMS``, see
+:mod:`autopilot.parameters`); this list is the one place that says which modules' parameters
+the flight controller has.  ``docs/parameters.md`` is generated from it
+(``python -m autopilot.param_catalogue --markdown``) and a test keeps the two in sync.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from autopilot import commander, flight_controller, land_detector, navigator
+from autopilot.control import attitude_control, gyro_filter, position_control, rate_control
+from autopilot.estimation import ekf, estimator, mahony, position_kf
+from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions
+
+# Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
+_MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
+    rate_control.PARAMS,
+    attitude_control.PARAMS,
+    gyro_filter.PARAMS,
+    position_control.PARAMS,
+    flight_controller.PARAMS,
+    ekf.PARAMS,
+    position_kf.PARAMS,
+    mahony.PARAMS,
+    estimator.PARAMS,
+    navigator.PARAMS,
+    land_detector.PARAMS,
+    commander.PARAMS,
+)
+
+
+def catalogue() -> dict[str, ParamDef]:
+    """Every parameter of the flight controller, by name (ValueError on a conflicting duplicate)."""
+    return definitions(d for group in _MODULE_PARAMS for d in group)
+
+
+def default_store() -> ParameterStore:
+    """A parameter store holding the catalogue at its declared defaults, with the cross-parameter rules."""
+    return ParameterStore(catalogue(), RULES)
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+def markdown() -> str:
+    """The parameter reference (docs/parameters.md): name, type, default, range, unit, description."""
+    lines = [
+        "# Flight controller parameters",
+        "",
+        "Generated from the code by `python -m autopilot.param_catalogue --markdown > docs/parameters.md`;",
+        "`tests/test_param_catalogue.py` fails when this file and the code disagree.",
+        "Names are PX4's where PX4 has the same parameter. Integers travel byte-wise encoded",
+        "in PARAM_VALUE, as PX4 sends them.",
+        "",
+        "| name | type | default | min | max | unit | description |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, d in sorted(catalogue().items()):
+        reboot = " (applies at the next start)" if d.reboot_required else ""
+        lines.append(f"| `{name}` | {d.ptype} | {_fmt(d.default)} | {_fmt(d.min)} | {_fmt(d.max)} | "
+                     f"{d.unit} | {d.description.replace('|', '/')}{reboot} |")
+    lines += ["", "## Rules between parameters", "",
+              "A set that would break one of these is refused with a STATUSTEXT saying why.", ""]
+    lines += [f"- `{r.lhs} {r.op} {r.rhs}`: {r.why}" for r in RULES]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--markdown", action="store_true", help="print the Markdown parameter reference")
+    args = p.parse_args(argv)
+    if args.markdown:
+        sys.stdout.write(markdown())
+    else:
+        for name, d in sorted(catalogue().items()):
+            print(f"{name:16} {d.ptype:6} {_fmt(d.default):>8} [{_fmt(d.min)}, {_fmt(d.max)}] {d.unit}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
