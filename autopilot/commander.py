@@ -15,9 +15,14 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.control.position_control import PositionSetpoint
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
-from autopilot.land_detector import LandDetector, Landed
+from autopilot.navigation.land_detector import LandDetector, Landed
 from mavsim_core.px4_modes import Mode
-from autopilot.navigator import LandTask, MoveTask, ReturnTask
+from autopilot.navigation.flight_task import started
+from autopilot.navigation.goto import GotoTask
+from autopilot.navigation.land import LandTask
+from autopilot.navigation.loiter import LoiterTask
+from autopilot.navigation.rtl import ReturnTask
+from autopilot.navigation.takeoff import TakeoffTask
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (BatteryState, ControlSetpoints, GpsSample, HomePosition, LandedState, TelemetrySnapshot,
                               VehicleEstimate)
@@ -132,18 +137,18 @@ class Commander:
         if self.armed and self.in_air and not est.position_valid and self.mode is not Mode.AUTO_LAND:
             self.say(S.MAV_SEVERITY_CRITICAL, "Position estimate lost: landing")
             self._enter(Mode.AUTO_LAND)
-        if self.armed and self.mode is Mode.AUTO_TAKEOFF and isinstance(self.task, MoveTask) and self.task.arrived(now_us, est):
+        if self.armed and self.mode is Mode.AUTO_TAKEOFF and isinstance(self.task, TakeoffTask) and self.task.arrived(now_us, est):
             goal = self.task.goal
             self.say(S.MAV_SEVERITY_INFO, "Takeoff complete: holding")
             self.mode = Mode.AUTO_LOITER
-            self.task = MoveTask(goal, goal, self.task.yaw_rad, now_us, 1.0, 1.0)
+            self.task = started(LoiterTask(goal, self.task.yaw_rad), est, now_us)
         if not self.armed or self.task is None:
             self.setpoint = None
             return None
         if not self.in_air and self.mode is not Mode.AUTO_TAKEOFF:
             self.setpoint = None
             return None
-        self.setpoint = self.task.setpoint(now_us, est)
+        self.setpoint = self.task.update(est, now_us)
         return self.setpoint
 
     def _follow_reset(self, est: VehicleEstimate) -> None:
@@ -216,9 +221,8 @@ class Commander:
         return S.MAV_RESULT_ACCEPTED
 
     # -- modes ------------------------------------------------------------------------
-    def _hold_here(self) -> MoveTask:
-        e = self.est
-        return MoveTask(e.pos_ned_m, e.pos_ned_m, e.yaw_rad, self.now_us, 1.0, 1.0)
+    def _hold_here(self) -> LoiterTask:
+        return started(LoiterTask(), self.est, self.now_us)
 
     def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int:
         """Switch mode and start its task; refuse (with a reason) if it cannot run now."""
@@ -241,16 +245,15 @@ class Commander:
                 return S.MAV_RESULT_DENIED
             if takeoff_down_m is None:
                 takeoff_down_m = self.home.pos_ned_m[2] - self.params.get("MIS_TAKEOFF_ALT")
-            goal = np.array([e.pos_ned_m[0], e.pos_ned_m[1], takeoff_down_m])
-            self.task = MoveTask(e.pos_ned_m, goal, e.yaw_rad, self.now_us, self.params.get("MPC_TKO_SPEED"), 1.0)
+            self.task = started(TakeoffTask(takeoff_down_m, self.params), e, self.now_us)
             self.say(S.MAV_SEVERITY_INFO, f"Taking off to {self.home.pos_ned_m[2] - takeoff_down_m:.1f} m above home")
         elif mode in (Mode.AUTO_LOITER, Mode.POSCTL):
             if mode is not self.mode or self.task is None:
                 self.task = self._hold_here()
         elif mode is Mode.AUTO_LAND:
-            self.task = LandTask(e.pos_ned_m[:2], e.yaw_rad, self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params)
+            self.task = started(LandTask(self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params), e, self.now_us)
         elif mode is Mode.AUTO_RTL:
-            self.task = ReturnTask(self.now_us, e, self.home.pos_ned_m, self.params)
+            self.task = started(ReturnTask(self.home.pos_ned_m, self.params), e, self.now_us)
         if mode is not self.mode:
             self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
         self.mode = mode
@@ -343,7 +346,7 @@ class Commander:
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
         self.mode = Mode.AUTO_LOITER
-        self.task = MoveTask(start, goal, yaw, self.now_us, speed, self.params.get("MPC_ACC_HOR"))
+        self.task = started(GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us)
         return S.MAV_RESULT_ACCEPTED
 
     # -- telemetry --------------------------------------------------------------------

@@ -11,9 +11,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot import commander, flight_controller, land_detector, navigator
+from autopilot import commander, flight_controller
 from autopilot.control import attitude_control, gyro_filter, position_control, rate_control
 from autopilot.estimation import ekf, estimator, mahony, position_kf
+from autopilot.navigation import goto, land, land_detector, loiter, rtl, takeoff
 from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions
 
 # Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
@@ -27,7 +28,11 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     position_kf.PARAMS,
     mahony.PARAMS,
     estimator.PARAMS,
-    navigator.PARAMS,
+    takeoff.PARAMS,
+    loiter.PARAMS,
+    goto.PARAMS,
+    land.PARAMS,
+    rtl.PARAMS,
     land_detector.PARAMS,
     commander.PARAMS,
 )
