@@ -17,12 +17,7 @@ from autopilot.control.position_control import PositionSetpoint
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 from autopilot.navigation.land_detector import LandDetector, Landed
 from mavsim_core.px4_modes import Mode
-from autopilot.navigation.flight_task import started
-from autopilot.navigation.goto import GotoTask
-from autopilot.navigation.land import LandTask
-from autopilot.navigation.loiter import LoiterTask
-from autopilot.navigation.rtl import ReturnTask
-from autopilot.navigation.takeoff import TakeoffTask
+from autopilot.navigation import GotoTask, LandTask, LoiterTask, ReturnTask, TakeoffTask, started
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (BatteryState, ControlSetpoints, GpsSample, HomePosition, LandedState, TelemetrySnapshot,
                               VehicleEstimate)

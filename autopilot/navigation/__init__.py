@@ -19,3 +19,14 @@ come, each in its own file here behind the same interface: the landing state mac
 
 Nothing here reads a clock, opens a socket or speaks MAVLink: time is an input.
 """
+
+from autopilot.navigation.flight_task import FlightTask, started
+from autopilot.navigation.goto import GotoTask
+from autopilot.navigation.land import LandTask
+from autopilot.navigation.land_detector import LandDetector, Landed
+from autopilot.navigation.loiter import LoiterTask
+from autopilot.navigation.rtl import ReturnTask, RtlPhase
+from autopilot.navigation.takeoff import TakeoffTask
+
+__all__ = ["FlightTask", "GotoTask", "LandDetector", "LandTask", "Landed", "LoiterTask", "ReturnTask", "RtlPhase",
+           "TakeoffTask", "started"]
