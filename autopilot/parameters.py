@@ -22,7 +22,7 @@ import struct
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
-from mavsim_core.param_encoding import ParamType
+from mavsim_core.param_types import ParamType
 
 
 @dataclass(frozen=True)

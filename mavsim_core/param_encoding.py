@@ -7,8 +7,7 @@ so an INT32 of 1 travels as the float 1.4e-45.
 
 One module for the three users: the flight controller's parameter service, the
 simulator's (``sitl.param_server``) and the bundled ground station (``gcs``).
-:class:`ParamType` is the one parameter-type enum of the stack: the two types a
-parameter of ours can have (PX4 has only these two as well).
+:class:`ParamType` (:mod:`mavsim_core.param_types`) is the one parameter-type enum.
 
 The exact form is the 4 little-endian wire bytes.  Helpers working on Python
 floats are provided too, but note that a Python float cannot keep every bit
@@ -20,9 +19,10 @@ sends and decodes the raw bytes (and so do the two parameter services).
 from __future__ import annotations
 
 import struct
-from enum import Enum
 
 from pymavlink.dialects.v20 import common as mavlink
+
+from mavsim_core.param_types import ParamType
 
 # MAV_PARAM_TYPE numbers, as the MAVLink spec (and pymavlink) defines them
 UINT8 = mavlink.MAV_PARAM_TYPE_UINT8
@@ -33,29 +33,8 @@ UINT32 = mavlink.MAV_PARAM_TYPE_UINT32
 INT32 = mavlink.MAV_PARAM_TYPE_INT32
 REAL32 = mavlink.MAV_PARAM_TYPE_REAL32
 
+__all__ = ["ParamType"]  # re-exported: the encoding and the type travel together
 
-class ParamType(str, Enum):
-    """A parameter's type: its name compares equal to the string (``ParamType.INT32 == "INT32"``)."""
-
-    INT32 = "INT32"
-    REAL32 = "REAL32"
-
-    def __str__(self) -> str:
-        return self.value
-
-    @property
-    def mav_type(self) -> int:
-        """The MAV_PARAM_TYPE number PARAM_VALUE carries for this type."""
-        return INT32 if self is ParamType.INT32 else REAL32
-
-    @classmethod
-    def from_mav_type(cls, mav_type: int) -> "ParamType":
-        """INT32 or REAL32 for their MAV_PARAM_TYPE numbers; ValueError for any other."""
-        if mav_type == INT32:
-            return cls.INT32
-        if mav_type == REAL32:
-            return cls.REAL32
-        raise ValueError(f"unsupported MAV_PARAM_TYPE {mav_type}")
 
 _INT_FORMATS: dict[int, str] = {UINT8: "<B", INT8: "<b", UINT16: "<H", INT16: "<h", UINT32: "<I", INT32: "<i"}
 

@@ -18,7 +18,7 @@ import struct
 from dataclasses import dataclass
 from typing import Iterator, NamedTuple
 
-from mavsim_core.param_encoding import ParamType
+from mavsim_core.param_types import ParamType
 from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings, param_fields
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from mavsim_core.param_encoding import ParamType
+from mavsim_core.param_types import ParamType
 
 
 def sim_param(name: str, default: float, lo: float, hi: float, unit: str, description: str,
