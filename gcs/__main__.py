@@ -28,14 +28,9 @@ from pymavlink.dialects.v20 import common as mavlink
 from mavsim_core import px4_modes as modes
 
 from . import param_cli
-from .client import (
-    GPS_FIX_NAMES,
-    CommandRefused,
-    GcsError,
-    GcsTimeout,
-    ParamRefused,
-    VehicleClient,
-)
+from .client import VehicleClient
+from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
+from .plugins.telemetry import GPS_FIX_NAMES
 
 DEFAULT_GCS_PORT = 14550
 CONNECT_TIMEOUT_S = 10.0
