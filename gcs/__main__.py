@@ -121,8 +121,7 @@ class _Cli:
             # ask for the slow messages at once, then give the streams a moment so the line is complete
             for mid in (mavlink.MAVLINK_MSG_ID_HOME_POSITION, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
                         mavlink.MAVLINK_MSG_ID_BATTERY_STATUS):
-                c.conn.mav.command_long_send(c.target_system, c.target_component,
-                                             mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mid, 0, 0, 0, 0, 0, 0)
+                c.telemetry.request_message(mid)
             wanted = ("GLOBAL_POSITION_INT", "SYS_STATUS", "GPS_RAW_INT", "HOME_POSITION")
             try:
                 c.wait_until(lambda: all(c.latest(t) for t in wanted),

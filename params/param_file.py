@@ -11,8 +11,9 @@ Two text formats, told apart automatically on reading:
   carries no type: an integer-looking value is read as an int, others as floats.
 
 Everything here is pure (text in, records out) except :func:`read_param_file`,
-which only reads the file, and :func:`atomic_write_text`, which replaces one whole.  Values are plain numbers in the parameters' own
-units; REAL32 values are written with the fewest digits that give back the
+which only reads a file, and :func:`atomic_write_text`, which replaces one whole
+(a crash leaves the old or the new file).  Values are plain numbers in the
+parameters' own units; REAL32 values are written with the fewest digits that give back the
 same 32-bit float.  Problems are collected per line (:class:`LineProblem`)
 instead of raised, so a caller can apply the good lines and report the rest.
 """

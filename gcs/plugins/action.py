@@ -16,9 +16,9 @@ from typing import Callable
 
 from mavsim_core import px4_modes as modes
 
-from .. import geo
 from ..connection import Connection, mavlink
 from ..errors import CommandResult, GcsTimeout, command_name
+from ..geo import deg_to_e7, ned_to_global
 from .telemetry import Telemetry
 
 ARM_FORCE_MAGIC = 21196.0  # COMPONENT_ARM_DISARM param2: skip checks / force disarm
@@ -145,13 +145,13 @@ class Action:
         """DO_REPOSITION (as COMMAND_INT, MAV_FRAME_GLOBAL, degE7) with the change-mode flag: fly there and hold."""
         return self.command_int(
             mavlink.MAV_CMD_DO_REPOSITION, ground_speed_m_s, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0,
-            yaw_deg, geo.deg_to_e7(lat_deg), geo.deg_to_e7(lon_deg), alt_amsl_m,
+            yaw_deg, deg_to_e7(lat_deg), deg_to_e7(lon_deg), alt_amsl_m,
             frame=mavlink.MAV_FRAME_GLOBAL, timeout_s=timeout_s)
 
     def ned_to_global(self, north_m: float, east_m: float, down_rel_home_m: float) -> tuple[float, float, float]:
         """(lat deg, lon deg, alt AMSL m) of a NED point relative to home (waits for home)."""
         home = self.telemetry.wait_home()
-        return geo.ned_to_global(home.lat_deg, home.lon_deg, home.alt_amsl_m, north_m, east_m, down_rel_home_m)
+        return ned_to_global(home.lat_deg, home.lon_deg, home.alt_amsl_m, north_m, east_m, down_rel_home_m)
 
     def goto_ned(self, north_m: float, east_m: float, down_rel_home_m: float, *, ground_speed_m_s: float = -1.0,
                  yaw_deg: float = math.nan, timeout_s: float | None = None) -> CommandResult:

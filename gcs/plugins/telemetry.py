@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 from mavsim_core import px4_modes as modes
 
-from .. import geo
 from ..connection import Connection, mavlink
+from ..geo import e7_to_deg, global_to_ned
 
 MAV_SYS_STATUS_PREARM_CHECK = 0x10000000
 UINT16_UNKNOWN = 65535  # BATTERY_STATUS.voltages / SYS_STATUS.voltage_battery: no value
@@ -102,7 +102,7 @@ class Telemetry:
         gpi = self.link.latest("GLOBAL_POSITION_INT")
         if gpi is None:
             return None
-        return geo.e7_to_deg(gpi.lat), geo.e7_to_deg(gpi.lon), gpi.alt / 1000.0
+        return e7_to_deg(gpi.lat), e7_to_deg(gpi.lon), gpi.alt / 1000.0
 
     def position_ned(self) -> tuple[float, float, float] | None:
         """(north, east, down) m relative to home, or None until position and home are known.
@@ -114,7 +114,7 @@ class Telemetry:
         home = self.home()
         if pos is None or home is None:
             return None
-        n, e, _ = geo.global_to_ned(home.lat_deg, home.lon_deg, home.alt_amsl_m, *pos)
+        n, e, _ = global_to_ned(home.lat_deg, home.lon_deg, home.alt_amsl_m, *pos)
         return n, e, -self.relative_alt_m()
 
     def local_position_ned(self) -> tuple[float, float, float] | None:
@@ -164,7 +164,7 @@ class Telemetry:
         hp = self.link.latest("HOME_POSITION")
         if hp is None:
             return None
-        return Home(geo.e7_to_deg(hp.latitude), geo.e7_to_deg(hp.longitude), hp.altitude / 1000.0)
+        return Home(e7_to_deg(hp.latitude), e7_to_deg(hp.longitude), hp.altitude / 1000.0)
 
     def wait_home(self, timeout_s: float | None = None) -> Home:
         """The home position, waiting for (and if needed requesting) HOME_POSITION."""
