@@ -28,17 +28,15 @@ new complete file.
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 import threading
 from pathlib import Path
 from typing import Callable
 
 from autopilot.parameters import ParamError, ParameterStore, ParamType
 from mavsim_core.param_encoding import INT32, REAL32, is_integer_type
-from params.param_file import (LineProblem, ParamEntry, ParamFileError, apply_in_passes, format_qgc,
-                               read_param_file)
+from params.param_file import (LineProblem, ParamEntry, ParamFileError, apply_in_passes, atomic_write_text,
+                               format_qgc, read_param_file)
 
 MIN_SAVE_INTERVAL_S = 1.0  # wall seconds between two writes of the state file
 FC_COMPONENT_ID = 1  # entries of other components in a QGroundControl file are not ours
@@ -56,40 +54,6 @@ def vehicle_defaults_file(vehicle_toml: str | Path) -> Path | None:
     """The vehicle's default parameter set (``.params`` beside its ``.toml``), or None."""
     path = Path(vehicle_toml).with_suffix(".params")
     return path if path.exists() else None
-
-
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Replace ``path`` by ``text`` so that a crash at any point leaves the old or the new file, whole.
-
-    Writes a temporary file in the same directory, flushes it to the disk,
-    renames it over ``path`` (atomic on POSIX and Windows) and flushes the
-    directory entry (POSIX).  On error the temporary file is removed and the
-    old file is untouched.
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    try:
-        dir_fd = os.open(path.parent, os.O_RDONLY)
-    except OSError:
-        return  # not possible on this OS (Windows); the rename is still atomic
-    try:
-        os.fsync(dir_fd)
-    except OSError:
-        pass
-    finally:
-        os.close(dir_fd)
 
 
 def store_entries(store: ParameterStore, names: list[str] | None = None, sysid: int = 1) -> list[ParamEntry]:

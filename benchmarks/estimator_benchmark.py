@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from mavsim_core import quaternion as quat  # noqa: E402
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
-from gcs.stack import Stack  # noqa: E402
+from gcs.launcher import Stack  # noqa: E402
 
 ALT_M = 5.0
 SQUARE_M = 10.0

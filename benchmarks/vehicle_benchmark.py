@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
-from gcs.stack import Stack  # noqa: E402
+from gcs.launcher import Stack  # noqa: E402
 
 ALT_M = 5.0
 STEP_M = 10.0

@@ -28,14 +28,9 @@ from pymavlink.dialects.v20 import common as mavlink
 from mavsim_core import px4_modes as modes
 
 from . import param_cli
-from .client import (
-    GPS_FIX_NAMES,
-    CommandRefused,
-    GcsError,
-    GcsTimeout,
-    ParamRefused,
-    VehicleClient,
-)
+from .client import VehicleClient
+from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
+from .plugins.telemetry import GPS_FIX_NAMES
 
 DEFAULT_GCS_PORT = 14550
 CONNECT_TIMEOUT_S = 10.0
@@ -126,8 +121,7 @@ class _Cli:
             # ask for the slow messages at once, then give the streams a moment so the line is complete
             for mid in (mavlink.MAVLINK_MSG_ID_HOME_POSITION, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
                         mavlink.MAVLINK_MSG_ID_BATTERY_STATUS):
-                c.conn.mav.command_long_send(c.target_system, c.target_component,
-                                             mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mid, 0, 0, 0, 0, 0, 0)
+                c.telemetry.request_message(mid)
             wanted = ("GLOBAL_POSITION_INT", "SYS_STATUS", "GPS_RAW_INT", "HOME_POSITION")
             try:
                 c.wait_until(lambda: all(c.latest(t) for t in wanted),

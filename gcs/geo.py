@@ -1,23 +1,22 @@
-"""Flat-earth conversion between NED offsets and latitude/longitude/altitude.
+"""What the ground station needs on top of :mod:`mavsim_core.geodesy`.
 
-Good to centimetres over the few hundred metres a demo flies:
-``dlat = north / R`` and ``dlon = east / (R cos lat0)`` radians with
-R = 6378137 m (WGS-84 equatorial radius); altitude is AMSL metres, so
-``alt = alt0 - down``.
+The maths is the shared core's (the flat-earth mapping the flight controller
+uses, so targets and positions agree); here are only the ground station's
+argument order (reference first, as a home position is known first) and the
+MAVLink degE7 integers.  Degrees, metres; altitudes AMSL; ``down = alt0 - alt``.
 """
 
 from __future__ import annotations
 
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 
+DEG_E7 = 1e7  # MAVLink latitude/longitude integers: degrees * 1e7
+
 
 def ned_to_global(
     lat0_deg: float, lon0_deg: float, alt0_amsl_m: float, north_m: float, east_m: float, down_m: float
 ) -> tuple[float, float, float]:
-    """(lat deg, lon deg, alt AMSL m) of a point ``north/east/down`` metres from the reference.
-
-    The same mapping the flight controller uses (:mod:`autopilot.geodesy`), so targets agree.
-    """
+    """(lat deg, lon deg, alt AMSL m) of a point ``north/east/down`` metres from the reference."""
     return ned_to_geodetic((north_m, east_m, down_m), lat0_deg, lon0_deg, alt0_amsl_m)
 
 
@@ -31,7 +30,7 @@ def global_to_ned(
 
 def deg_to_e7(deg: float) -> int:
     """Degrees to MAVLink degE7 integer."""
-    return int(round(deg * 1e7))
+    return int(round(deg * DEG_E7))
 
 
 def e7_to_deg(value_e7: int) -> float:

@@ -25,11 +25,12 @@ import time
 from typing import TextIO
 
 from mavsim_core.param_encoding import TYPE_NAMES, is_integer_type
-from params.param_file import (FORMATS, QGC, ParamEntry, ParamFileError, apply_in_passes, diff_params,
-                               format_params, format_value, read_param_file, same_value)
+from params.param_file import (FORMATS, QGC, ParamEntry, ParamFileError, apply_in_passes, atomic_write_text,
+                               diff_params, format_params, format_value, read_param_file, same_value)
 
-from .client import ParamRefused, VehicleClient
-from .param_download import DownloadStats, ParamListError, VehicleParam, download_parameters
+from .client import VehicleClient
+from .errors import ParamListError, ParamRefused
+from .plugins.param import DownloadStats, VehicleParam, download_parameters
 
 EXIT_OK, EXIT_REFUSED = 0, 1
 DOWNLOAD_TIMEOUT_S = 30.0  # wall seconds for the full download unless --timeout is given
@@ -115,14 +116,14 @@ def run_param_command(client: VehicleClient, args: argparse.Namespace) -> int:
     try:
         if command == "get":
             value = client.param_get(args.name)
-            print(f"{args.name} = {_show(value, client._param_types.get(args.name))}")
+            print(f"{args.name} = {_show(value, client.param.type_of(args.name))}")
             return EXIT_OK
         if command == "set":
             value = args.value
             if value == int(value):
                 value = int(value)
             got = client.param_set(args.name, value)
-            print(f"{args.name} = {_show(got, client._param_types.get(args.name))}")
+            print(f"{args.name} = {_show(got, client.param.type_of(args.name))}")
             return EXIT_OK
         if command == "list":
             return _list(client, args)
@@ -160,9 +161,7 @@ def _save(client: VehicleClient, args: argparse.Namespace) -> int:
     if args.file == "-":
         sys.stdout.write(text)
         return EXIT_OK
-    from autopilot.param_storage import atomic_write_text  # a crash mid-save keeps the old file
-
-    try:
+    try:  # atomic: a crash mid-save keeps the old file
         atomic_write_text(args.file, text)
     except OSError as exc:
         _err(f"cannot write {args.file}: {exc.strerror or exc}")

@@ -11,8 +11,9 @@ Two text formats, told apart automatically on reading:
   carries no type: an integer-looking value is read as an int, others as floats.
 
 Everything here is pure (text in, records out) except :func:`read_param_file`,
-which only reads the file.  Values are plain numbers in the parameters' own
-units; REAL32 values are written with the fewest digits that give back the
+which only reads a file, and :func:`atomic_write_text`, which replaces one whole
+(a crash leaves the old or the new file).  Values are plain numbers in the
+parameters' own units; REAL32 values are written with the fewest digits that give back the
 same 32-bit float.  Problems are collected per line (:class:`LineProblem`)
 instead of raised, so a caller can apply the good lines and report the rest.
 """
@@ -20,8 +21,10 @@ instead of raised, so a caller can apply the good lines and report the rest.
 from __future__ import annotations
 
 import math
+import os
 import re
 import struct
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Mapping
@@ -336,3 +339,37 @@ def apply_in_passes(entries: Iterable[ParamEntry], apply: Callable[[ParamEntry],
             break
         pending = still
     return [(e, reasons[id(e)]) for e in pending]
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Replace ``path`` by ``text`` so that a crash at any point leaves the old or the new file, whole.
+
+    Writes a temporary file in the same directory, flushes it to the disk,
+    renames it over ``path`` (atomic on POSIX and Windows) and flushes the
+    directory entry (POSIX).  On error the temporary file is removed and the
+    old file is untouched.
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    try:
+        dir_fd = os.open(path.parent, os.O_RDONLY)
+    except OSError:
+        return  # not possible on this OS (Windows); the rename is still atomic
+    try:
+        os.fsync(dir_fd)
+    except OSError:
+        pass
+    finally:
+        os.close(dir_fd)

@@ -30,10 +30,11 @@ from pathlib import Path
 
 import pytest
 
-from gcs import demo, geo
-from gcs.client import GcsTimeout, ParamRefused, VehicleClient, mavlink
+from gcs import geo
+from gcs.client import VehicleClient, mavlink
+from gcs.errors import GcsTimeout, ParamRefused
+from gcs.launcher import Stack, StackError, demo
 from gcs.sim_client import SimClient
-from gcs.stack import Stack, StackError
 
 ROOT = Path(__file__).resolve().parent.parent
 INSTANCE_REALTIME = 91  # scenario (a): real-time stack, started and stopped by its test

@@ -45,7 +45,7 @@ import numpy as np
 import pytest
 
 from gcs.client import VehicleClient, mavlink
-from gcs.stack import Stack
+from gcs.launcher import Stack
 from params.vehicle import load_vehicle
 
 INSTANCE = 75

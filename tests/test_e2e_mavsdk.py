@@ -11,7 +11,7 @@ import asyncio
 
 import pytest
 
-from gcs.stack import Stack
+from gcs.launcher import Stack
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
 from mavsdk.autopilot import Autopilot  # noqa: E402

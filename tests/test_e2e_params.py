@@ -41,9 +41,10 @@ import pytest
 
 importlib.import_module("autopilot.flight_controller")  # declares every parameter
 from autopilot.parameters import ParameterStore
-from gcs.client import GcsTimeout, ParamRefused, VehicleClient, mavlink
-from gcs.param_download import DownloadStats, download_parameters
-from gcs.stack import Stack
+from gcs.client import VehicleClient, mavlink
+from gcs.errors import GcsTimeout, ParamRefused
+from gcs.launcher import Stack
+from gcs.plugins.param import DownloadStats, download_parameters
 from mavsim_core.param_encoding import INT32, REAL32, raw_param_value
 from params.param_file import QGC, parse_param_text, read_param_file
 from autopilot.param_catalogue import default_store

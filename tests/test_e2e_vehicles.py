@@ -16,7 +16,7 @@ import pytest
 
 from gcs.client import VehicleClient, mavlink
 from gcs.sim_client import SimClient
-from gcs.stack import Stack
+from gcs.launcher import Stack
 
 WAIT_S = 120.0
 ALT_M = 5.0

@@ -418,7 +418,7 @@ def test_gcs_plot_reports_a_bad_log(tmp_path, capsys):
 def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
     """Real sitl + autopilot (max speed): take off to 3 m, hover 3 s, land; read the logs; plot them."""
     from gcs.client import VehicleClient
-    from gcs.stack import Stack
+    from gcs.launcher import Stack
 
     wait_s, alt_m = 90.0, 3.0
     logs = tmp_path / "logs"

@@ -20,11 +20,12 @@ from pathlib import Path
 
 import pytest
 
-from gcs import demo, geo
+from gcs import geo
 from mavsim_core import px4_modes as modes
 from gcs.__main__ import build_parser, main, resolve_url, status_line
-from gcs.client import GcsTimeout, VehicleClient
-from gcs.stack import Stack
+from gcs.client import VehicleClient
+from gcs.errors import GcsTimeout
+from gcs.launcher import Stack, demo
 from mavsim_core import param_encoding
 
 ROOT = Path(__file__).resolve().parent.parent

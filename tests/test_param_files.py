@@ -521,7 +521,7 @@ class FakeVehicleLink:
 
 
 def test_download_re_reads_missing_indices_by_index():
-    from gcs.param_download import DownloadStats, download_parameters
+    from gcs.plugins.param import DownloadStats, download_parameters
 
     link = FakeVehicleLink(45, drop={3, 17, 44})
     progress: list[tuple[int, int]] = []
@@ -534,8 +534,8 @@ def test_download_re_reads_missing_indices_by_index():
 
 
 def test_download_times_out_naming_missing_indices_and_catches_inconsistency():
-    from gcs.client import GcsTimeout
-    from gcs.param_download import ParamListError, download_parameters
+    from gcs.errors import GcsTimeout, ParamListError
+    from gcs.plugins.param import download_parameters
 
     with pytest.raises(GcsTimeout, match="43 of 45 received, missing indices 3, 17"):
         download_parameters(FakeVehicleLink(45, drop={3, 17}, answer_reads=False), timeout_s=0.8)

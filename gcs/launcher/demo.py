@@ -24,7 +24,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from .client import CommandRefused, GcsError, GcsTimeout, StatusText, VehicleClient
+from ..client import VehicleClient
+from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
 from .stack import Stack, StackError
 
 ARRIVAL_RADIUS_M = 0.5

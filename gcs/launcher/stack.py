@@ -32,7 +32,7 @@ from collections import deque
 from pathlib import Path
 from typing import Sequence
 
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
+PROJECT_ROOT = Path(__file__).resolve().parents[2]  # the checkout: gcs/launcher/stack.py -> ../../..
 
 SITL_BASE_PORT = 4560
 GCS_BASE_PORT = 14550
