@@ -22,7 +22,7 @@ from autopilot.control.gyro_filter import GyroFilter
 from autopilot.control.position_control import PositionControl, attitude_from_thrust
 from autopilot.control.rate_control import RateControl
 from autopilot.estimation.estimator import Estimator
-from autopilot.mixer import Mixer
+from autopilot.control.mixer import Mixer
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import ControlSetpoints, GpsSample, ImuSample
 from params.vehicle import VehicleSpec

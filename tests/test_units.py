@@ -21,7 +21,7 @@ from autopilot.control.rate_control import RateControl
 from autopilot.estimation.mahony import MahonyFilter
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 from autopilot.land_detector import LandDetector, Landed
-from autopilot.mixer import Mixer
+from autopilot.control.mixer import Mixer
 from autopilot.parameters import ParamDef, ParamError, ParameterStore, ParamType
 from params.vehicle import VEHICLE_DIR, VehicleFileError, load_vehicle
 from mavsim_core import frames
