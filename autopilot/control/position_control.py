@@ -171,7 +171,8 @@ class PositionControl:
         else:
             self.d_filt[:] = d_raw
         d_term = np.minimum(np.maximum(self.d_filt, -g.vel_d_lim_m_s2), g.vel_d_lim_m_s2)
-        return self._vel_p * vel_err + self.vel_int + self._vel_d * d_term
+        acc: np.ndarray = self._vel_p * vel_err + self.vel_int + self._vel_d * d_term
+        return acc
 
     def _thrust(self, acc_sp: np.ndarray, vel_err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Thrust vector with hover feed-forward, T = m (a - g) in N, NED, within the thrust and tilt

@@ -99,7 +99,7 @@ class GpsFusion:
         """Velocity, then horizontal position against the EKF's state at ``then_us``; glitch and reset."""
         ekf = self.ekf
         pos_then, vel_then = ekf.state_at(then_us)
-        if pos_then is None:
+        if pos_then is None or vel_then is None:  # (both or neither)
             pos_then, vel_then = ekf.p, ekf.v
         vn = max(self._p(P_GPS_V_NOISE), 0.0)
         ekf.fuse_vector(3, vel, vel_then, vn * vn, self._p(P_GPS_V_GATE), "vel")
