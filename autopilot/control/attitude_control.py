@@ -33,7 +33,8 @@ class AttitudeControl:
         """New gains from the next update on."""
         self.gains = gains
         # (gain, limit) per axis as one tuple swapped in one assignment: update() reads one attribute.
-        self._k = tuple(zip(gains.p_per_s, gains.rate_max_rad_s))
+        (gx, gy, gz), (mx, my, mz) = gains.p_per_s, gains.rate_max_rad_s
+        self._k = ((gx, mx), (gy, my), (gz, mz))
 
     def update(self, q: np.ndarray, q_sp: np.ndarray) -> np.ndarray:
         """Rate setpoint (rad/s, FRD) that turns attitude q toward q_sp (both (w, x, y, z), FRD -> NED).
@@ -42,8 +43,10 @@ class AttitudeControl:
         w, x, y, z = q.tolist()
         sw, sx, sy, sz = q_sp.tolist()
         ew = w * sw + x * sx + y * sy + z * sz
-        e = (w * sx - x * sw - y * sz + z * sy,
-             w * sy + x * sz - y * sw - z * sx,
-             w * sz - x * sy + y * sx - z * sw)
+        ex = w * sx - x * sw - y * sz + z * sy
+        ey = w * sy + x * sz - y * sw - z * sx
+        ez = w * sz - x * sy + y * sx - z * sw
         k = 2.0 if ew >= 0 else -2.0
-        return np.array([min(max(k * ei * g, -m), m) for ei, (g, m) in zip(e, self._k)])
+        (gx, mx), (gy, my), (gz, mz) = self._k
+        return np.array([min(max(k * ex * gx, -mx), mx), min(max(k * ey * gy, -my), my),
+                         min(max(k * ez * gz, -mz), mz)])
