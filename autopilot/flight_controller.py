@@ -17,12 +17,10 @@ from pymavlink.dialects.v20 import common as S
 
 from mavsim_core import quaternion as quat
 from autopilot.commander import Commander
-from autopilot.control.attitude_control import AttitudeControl
-from autopilot.control.gyro_filter import GyroFilter
-from autopilot.control.position_control import PositionControl, attitude_from_thrust
-from autopilot.control.rate_control import RateControl
+from autopilot.control.gains_from_params import GainsFromParams
+from autopilot.control.position_control import attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
-from autopilot.mixer import Mixer
+from autopilot.control.mixer import Mixer
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import ControlSetpoints, GpsSample, ImuSample
 from params.vehicle import VehicleSpec
@@ -51,10 +49,13 @@ class FlightController:
         self.inertia = spec.inertia_kg_m2
         self.weight_n = spec.mass_kg * GRAVITY_M_S2
         self.mixer = Mixer(spec)
-        self.position_control = PositionControl(params, spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n)
-        self.attitude_control = AttitudeControl(params)
-        self.rate_control = RateControl(params)
-        self.gyro_filter = GyroFilter(params)
+        # The controllers take gain records; the one adapter builds them from the parameters and
+        # hands each controller new ones when its parameters change (live tuning).
+        self.gains = GainsFromParams(params)
+        self.position_control = self.gains.position_control(spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n)
+        self.attitude_control = self.gains.attitude_control()
+        self.rate_control = self.gains.rate_control()
+        self.gyro_filter = self.gains.gyro_filter()
         self.sat_pos = np.zeros(3, dtype=bool)
         self.sat_neg = np.zeros(3, dtype=bool)
         self.last_us: int | None = None
@@ -136,7 +137,7 @@ class FlightController:
             self.setpoint = None
             return
         self.setpoint = sp
-        self.thrust_vec = self.position_control.update(est.pos_ned_m, est.vel_ned_m_s, sp, dt)
+        self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt).thrust_ned_n
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 
     def _publish(self, commands: np.ndarray, thrust_n: float) -> None:

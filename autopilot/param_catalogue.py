@@ -12,17 +12,14 @@ import argparse
 import sys
 
 from autopilot import commander, flight_controller
-from autopilot.control import attitude_control, gyro_filter, position_control, rate_control
+from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.navigation import goto, land, land_detector, loiter, rtl, takeoff
 from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions
 
 # Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
 _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
-    rate_control.PARAMS,
-    attitude_control.PARAMS,
-    gyro_filter.PARAMS,
-    position_control.PARAMS,
+    gains_from_params.PARAMS,
     flight_controller.PARAMS,
     ekf.PARAMS,
     position_kf.PARAMS,

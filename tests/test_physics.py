@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from mavsim_core import quaternion as quat
-from autopilot.mixer import Mixer
+from autopilot.control.mixer import Mixer
 from mavsim_core.constants import GRAVITY_M_S2 as G
 from params.vehicle import load_vehicle
 from sitl.simulation import LOCKSTEP_DT_S, Simulation

@@ -16,12 +16,13 @@ from scipy.spatial.transform import Rotation
 import autopilot.flight_controller  # noqa: F401  (declares every parameter of the flight controller)
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
-from autopilot.control.position_control import PositionControl, PositionSetpoint, attitude_from_thrust
-from autopilot.control.rate_control import RateControl
+from autopilot.control.gains_from_params import position_control_from_params as PositionControl
+from autopilot.control.position_control import PositionSetpoint, attitude_from_thrust
+from autopilot.control.gains_from_params import rate_control_from_params as RateControl
 from autopilot.estimation.mahony import MahonyFilter
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 from autopilot.navigation.land_detector import LandDetector, Landed
-from autopilot.mixer import Mixer
+from autopilot.control.mixer import Mixer
 from autopilot.parameters import ParamDef, ParamError, ParameterStore, ParamType
 from params.vehicle import VEHICLE_DIR, VehicleFileError, load_vehicle
 from mavsim_core import frames

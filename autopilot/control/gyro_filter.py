@@ -17,42 +17,48 @@ Rates in rad/s, FRD.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
+import numpy as np
 from scipy.signal import butter
 
-from autopilot.parameters import ParamDef, ParameterStore, param
+from mavsim_core.constants import LOCKSTEP_DT_S
 
-CONTROL_RATE_HZ = 250.0
-P_CUTOFF = param("IMU_GYRO_CUTOFF", 30.0, 0.0, 1000.0, "Hz",
-                   "Low-pass cutoff of the body rates the rate controller uses (0: no filter)")
+CONTROL_RATE_HZ = 1.0 / LOCKSTEP_DT_S  # 250 Hz: one sample per lockstep period
 
-# The parameters this module reads (listed in autopilot/param_catalogue.py).
-PARAMS: tuple[ParamDef, ...] = (
-    P_CUTOFF,
-)
+
+@dataclass(frozen=True, slots=True)
+class GyroFilterSettings:
+    """The filter's design: cutoff (Hz; 0, or at or above 0.45 x the sample rate: no filter)."""
+
+    cutoff_hz: float
+    sample_rate_hz: float = CONTROL_RATE_HZ
 
 
 class GyroFilter:
-    def __init__(self, params: ParameterStore | None = None, sample_rate_hz: float = CONTROL_RATE_HZ) -> None:
-        self.params = params
-        self.fs = sample_rate_hz
-        self._design(P_CUTOFF.default if params is None else params.get(P_CUTOFF.name))
-        if params is not None:
-            params.subscribe(lambda name, value: self._design(value) if name == P_CUTOFF.name else None)
+    def __init__(self, settings: GyroFilterSettings) -> None:
+        self.set_gains(settings)
+
+    def set_gains(self, settings: GyroFilterSettings) -> None:
+        """A new design; the filter restarts settled on the next sample."""
+        self.settings = settings
+        self.fs = settings.sample_rate_hz
+        self._design(settings.cutoff_hz)
 
     def _design(self, cutoff_hz: float) -> None:
         """Coefficients for a cutoff; 0, or one at or above 0.45 x the sample rate, passes rates through."""
         self.cutoff_hz = cutoff_hz
         self._state: list[float] | None = None  # per axis: the two delay states, flat
+        self._coef: tuple[float, float, float, float, float] | None = None
         if cutoff_hz <= 0.0 or cutoff_hz >= 0.45 * self.fs:
-            self._coef = None
             return
         b, a = butter(2, cutoff_hz, fs=self.fs)
         self._coef = (float(b[0]), float(b[1]), float(b[2]), float(a[1]), float(a[2]))
 
-    def apply(self, rate) -> list[float]:
-        """One sample (3 rates, rad/s) in, the filtered rates out (runs at 250 Hz: written out per axis)."""
-        x0, x1, x2 = rate.tolist() if hasattr(rate, "tolist") else rate
+    def apply(self, rate: np.ndarray | Sequence[float]) -> list[float]:
+        """One sample (3 rates, rad/s, FRD) in, the filtered rates out (runs at 250 Hz: written out per axis)."""
+        x0, x1, x2 = rate.tolist() if isinstance(rate, np.ndarray) else rate
         coef = self._coef
         if coef is None or not math.isfinite(x0 + x1 + x2):
             return [x0, x1, x2]  # NaN never enters the filter's state; the rate controller rejects it

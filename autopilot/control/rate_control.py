@@ -3,56 +3,48 @@
 alpha_sp = P e + I integral(e) + D d(-rate)/dt, per FRD axis, in rad/s^2; the
 caller turns it into torque with the vehicle's inertia (tau = J alpha), so gains
 carry over between airframes.  Seed 000 section 3.4's clamps: the integrator is
-limited to MC_*R_INT_LIM and stops growing on an axis the mixer reports
-saturated in the same direction.  NaN inputs never reach the integrator.
+limited to :attr:`RateGains.int_lim_rad_s2` and stops growing on an axis the mixer
+reports saturated in the same direction.  NaN inputs never reach the integrator.
+
+Pure: the gains arrive as a :class:`RateGains` record (from parameters, see
+:mod:`autopilot.control.gains_from_params`); no I/O, no clock, ``dt`` is an input.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.parameters import ParamDef, ParameterStore, param
-
-
-# The parameters this module reads (listed in autopilot/param_catalogue.py).
-PARAMS: tuple[ParamDef, ...] = (
-    param("MC_ROLLRATE_P", 12.0, 0.0, 150.0, "1/s", "Roll rate P: angular acceleration (rad/s^2) per rad/s of error"),
-    param("MC_ROLLRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Roll rate integral gain"),
-    param("MC_ROLLRATE_D", 0.15, 0.0, 2.0, "-", "Roll rate derivative gain"),
-    param("MC_PITCHRATE_P", 12.0, 0.0, 150.0, "1/s", "Pitch rate P: angular acceleration (rad/s^2) per rad/s of error"),
-    param("MC_PITCHRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Pitch rate integral gain"),
-    param("MC_PITCHRATE_D", 0.15, 0.0, 2.0, "-", "Pitch rate derivative gain"),
-    param("MC_YAWRATE_P", 6.0, 0.0, 60.0, "1/s", "Yaw rate P: angular acceleration (rad/s^2) per rad/s of error"),
-    param("MC_YAWRATE_I", 2.0, 0.0, 60.0, "1/s^2", "Yaw rate integral gain"),
-    param("MC_YAWRATE_D", 0.0, 0.0, 2.0, "-", "Yaw rate derivative gain"),
-    param("MC_RR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Roll rate integrator clamp"),
-    param("MC_PR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Pitch rate integrator clamp"),
-    param("MC_YR_INT_LIM", 3.0, 0.0, 50.0, "rad/s^2", "Yaw rate integrator clamp"),
-    param("MC_RATE_D_LIM", 100.0, 0.0, 1000.0, "rad/s^2", "Clamp of the rate derivative term (seed 000 3.4)"),
-)
+Axes3 = tuple[float, float, float]  # roll, pitch, yaw (FRD x, y, z)
 
 _D_CUTOFF_HZ = 30.0
 
 
+@dataclass(frozen=True, slots=True)
+class RateGains:
+    """Gains of the body-rate PID, per axis (roll, pitch, yaw; FRD)."""
+
+    p_per_s: Axes3  # angular acceleration (rad/s^2) per rad/s of rate error
+    i_per_s2: Axes3  # integrator growth (rad/s^2 per s) per rad/s of rate error
+    d_unitless: Axes3  # angular acceleration (rad/s^2) per rad/s^2 of (filtered) angular acceleration: no unit
+    int_lim_rad_s2: Axes3  # integrator clamp
+    d_lim_rad_s2: float  # clamp of the derivative term, every axis
+
+
 class RateControl:
-    def __init__(self, params: ParameterStore) -> None:
-        self.params = params
+    def __init__(self, gains: RateGains) -> None:
         self.integral = [0.0, 0.0, 0.0]  # rad/s^2
         self.prev_rate: list[float] | None = None
         self.d_filtered = [0.0, 0.0, 0.0]
-        self._load()
-        params.subscribe(lambda name, value: self._load() if name.startswith("MC_") else None)
+        self.set_gains(gains)
 
-    def _load(self) -> None:
-        g = self.params.get
-        axes = ("ROLL", "PITCH", "YAW")
-        self.p = [g(f"MC_{a}RATE_P") for a in axes]
-        self.i = [g(f"MC_{a}RATE_I") for a in axes]
-        self.d = [g(f"MC_{a}RATE_D") for a in axes]
-        self.int_lim = [g("MC_RR_INT_LIM"), g("MC_PR_INT_LIM"), g("MC_YR_INT_LIM")]
-        self.d_lim = g("MC_RATE_D_LIM")
+    def set_gains(self, gains: RateGains) -> None:
+        """New gains from the next update on (the integrator keeps its value, clamped by the new limit then)."""
+        self.gains = gains
+        # One tuple, swapped in one assignment: update() unpacks it once (no per-axis attribute lookups).
+        self._k = (gains.p_per_s, gains.i_per_s2, gains.d_unitless, gains.int_lim_rad_s2, gains.d_lim_rad_s2)
 
     def reset(self) -> None:
         self.integral = [0.0, 0.0, 0.0]
@@ -62,7 +54,7 @@ class RateControl:
     def update(self, rate: np.ndarray, rate_sp: np.ndarray, dt: float,
                sat_pos: np.ndarray | None = None, sat_neg: np.ndarray | None = None,
                integrate: bool = True) -> np.ndarray:
-        """Angular acceleration setpoint (rad/s^2, FRD).
+        """Angular acceleration setpoint (rad/s^2, FRD) from the body rate and its setpoint (rad/s, FRD).
 
         ``sat_pos``/``sat_neg``: per axis, the mixer could not deliver more
         positive / negative torque last step; the integrator does not grow that way.
@@ -71,6 +63,7 @@ class RateControl:
         err = [float(rate_sp[i]) - float(rate[i]) for i in range(3)]
         if not math.isfinite(err[0] + err[1] + err[2]):
             return np.zeros(3)  # NaN never reaches the integrator
+        p, ki, kd, int_lim, lim = self._k
         if self.prev_rate is not None and dt > 0:
             a = dt / (dt + 1.0 / (2 * math.pi * _D_CUTOFF_HZ))
             for i in range(3):
@@ -78,13 +71,12 @@ class RateControl:
                 self.d_filtered[i] += a * (raw - self.d_filtered[i])
         self.prev_rate = [float(rate[0]), float(rate[1]), float(rate[2])]
         out = [0.0, 0.0, 0.0]
-        lim = self.d_lim
         for i in range(3):
-            d_term = min(max(self.d[i] * self.d_filtered[i], -lim), lim)
-            out[i] = self.p[i] * err[i] + self.integral[i] + d_term
+            d_term = min(max(kd[i] * self.d_filtered[i], -lim), lim)
+            out[i] = p[i] * err[i] + self.integral[i] + d_term
             if integrate and dt > 0:
-                grow = self.i[i] * err[i] * dt
+                grow = ki[i] * err[i] * dt
                 if (grow > 0 and sat_pos is not None and sat_pos[i]) or (grow < 0 and sat_neg is not None and sat_neg[i]):
                     grow = 0.0
-                self.integral[i] = min(max(self.integral[i] + grow, -self.int_lim[i]), self.int_lim[i])
+                self.integral[i] = min(max(self.integral[i] + grow, -int_lim[i]), int_lim[i])
         return np.array(out)

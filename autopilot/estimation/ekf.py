@@ -331,9 +331,6 @@ class ErrorStateEkf:
     def vertical_pos_std_m(self) -> float:
         return math.sqrt(self.cov[2, 2])
 
-    def horizontal_vel_std_m_s(self) -> float:
-        return math.sqrt(max(self.cov[3, 3], self.cov[4, 4]))
-
     def tilt_std_rad(self) -> float:
         return math.sqrt(max(self.cov[6, 6], self.cov[7, 7]))
 

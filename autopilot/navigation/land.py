@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from autopilot.control import position_control
+from autopilot.control import gains_from_params
 from autopilot.navigation.flight_task import PositionSetpoint, defined_in
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import VehicleEstimate
@@ -34,7 +34,7 @@ PARAMS: tuple[ParamDef, ...] = (
     P_LAND_SPEED,
     P_ACC_DOWN_MAX,
     P_LAND_ALT1,
-    defined_in(position_control.PARAMS, "MPC_Z_VEL_MAX_DN"),
+    defined_in(gains_from_params.POSITION_PARAMS, "MPC_Z_VEL_MAX_DN"),
 )
 
 

@@ -15,7 +15,7 @@ from enum import Enum
 
 import numpy as np
 
-from autopilot.control import position_control
+from autopilot.control import gains_from_params
 from autopilot.navigation import goto
 from autopilot.navigation.flight_task import PositionSetpoint, defined_in
 from autopilot.navigation.goto import GotoTask
@@ -35,7 +35,7 @@ PARAMS: tuple[ParamDef, ...] = (
     P_LAND_DELAY,
     goto.P_XY_CRUISE,
     goto.P_ACC_HOR,
-    defined_in(position_control.PARAMS, "MPC_Z_VEL_MAX_UP"),
+    defined_in(gains_from_params.POSITION_PARAMS, "MPC_Z_VEL_MAX_UP"),
 )
 
 VERTICAL_SPEED_FRAC = 0.7  # vertical legs fly at this fraction of MPC_Z_VEL_MAX_UP

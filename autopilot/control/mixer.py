@@ -19,10 +19,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-from params.vehicle import VehicleSpec
+
+class RotorGeometry(Protocol):
+    """What the mixer needs of a vehicle (:class:`params.vehicle.VehicleSpec` has it)."""
+
+    @property
+    def max_thrust_per_rotor_n(self) -> float: ...
+
+    def effectiveness_matrix(self) -> np.ndarray:
+        """4 x n: roll, pitch, yaw torque (N m, FRD) and collective thrust (N) per unit rotor thrust (N)."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,7 +49,7 @@ class Mixer:
     floats: with 4-8 rotors that is several times faster than numpy's per-call cost,
     and this runs at the IMU rate."""
 
-    def __init__(self, spec: VehicleSpec) -> None:
+    def __init__(self, spec: RotorGeometry) -> None:
         self.b = spec.effectiveness_matrix()
         self.b_pinv = np.linalg.pinv(self.b)
         self.t_max = spec.max_thrust_per_rotor_n
@@ -91,4 +101,5 @@ class Mixer:
 
     def wrench(self, thrusts_n: np.ndarray) -> np.ndarray:
         """(roll, pitch, yaw torque, collective thrust) produced by rotor thrusts."""
-        return self.b @ thrusts_n
+        wrench: np.ndarray = self.b @ thrusts_n
+        return wrench
