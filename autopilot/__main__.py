@@ -74,9 +74,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"autopilot: {exc}", file=sys.stderr)
         return 2
     from autopilot.flight_controller import FlightController
-    from autopilot.gcs_link import GcsLink
+    from autopilot.mavlink.link import GcsLink
     from autopilot.param_catalogue import default_store
-    from autopilot.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
+    from autopilot.mavlink.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
 
     params = default_store()
     saver = _prepare_parameters(params, args, spec.name)

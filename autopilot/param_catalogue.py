@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot import commander, flight_controller, land_detector, navigator
+from autopilot import flight_controller, land_detector, navigator
+from autopilot.commander import commander
 from autopilot.control import attitude_control, gyro_filter, position_control, rate_control
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions

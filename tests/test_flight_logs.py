@@ -32,7 +32,7 @@ from autopilot import flight_log, flight_recorder  # noqa: E402
 from mavsim_core import tlog  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
-from autopilot.gcs_link import GcsLink  # noqa: E402
+from autopilot.mavlink.link import GcsLink  # noqa: E402
 from mavsim_core.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
 from autopilot.parameters import ParameterStore  # noqa: E402
 from mavsim_core.quaternion import from_euler  # noqa: E402

@@ -40,7 +40,7 @@ from autopilot.parameters import ParamError, ParamType
 from autopilot.topics import TelemetrySnapshot
 from mavsim_core.mavlink_udp import UdpEndpoint
 from mavsim_core.statustext import StatustextChunker
-from autopilot.vehicle_interface import VehicleInterface
+from autopilot.mavlink.vehicle_interface import VehicleInterface
 from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes, raw_param_value
 
 log = logging.getLogger(__name__)
