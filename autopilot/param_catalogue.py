@@ -12,7 +12,7 @@ import argparse
 import sys
 
 from autopilot import flight_controller, land_detector, navigator
-from autopilot.commander import commander
+from autopilot.commander import commander, health
 from autopilot.control import attitude_control, gyro_filter, position_control, rate_control
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions
@@ -31,6 +31,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     navigator.PARAMS,
     land_detector.PARAMS,
     commander.PARAMS,
+    health.PARAMS,
 )
 
 
