@@ -73,7 +73,7 @@ class Commander:
         self.gps_ok = False
         self.home: HomePosition | None = None
         self.battery = BatteryState(float("nan"), -1.0, -1.0)
-        self.land = LandDetector(params)
+        self.land_detector = LandDetector(params)
         self.task = None
         self.events: list[tuple[int, str]] = []
         self.setpoint: PositionSetpoint | None = None
@@ -94,7 +94,7 @@ class Commander:
         armed = self.armed
         return CommanderStatus(
             timestamp_us=self.now_us, mav_type=self.mav_type, armed=armed, mode=self.mode,
-            landed_state=self.landed_state(), in_air=self.in_air, ground_contact=self.land.ground_contact,
+            landed_state=self.landed_state(), in_air=self.in_air, ground_contact=self.land_detector.ground_contact,
             home=self.home, estimate=self.est, gps=self.gps, gps_ok=self.gps_ok, battery=self.battery,
             battery_warning=health.battery_warning(self.battery.remaining_frac, self.params),
             prearm_failures=() if armed else tuple(self.prearm_failures()),
@@ -118,7 +118,7 @@ class Commander:
 
     @property
     def in_air(self) -> bool:
-        return self.land.state is Landed.IN_AIR
+        return self.land_detector.state is Landed.IN_AIR
 
     # -- periodic -----------------------------------------------------------------------
     def update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool,
@@ -144,8 +144,8 @@ class Commander:
             self._set_home(est)  # first valid position; set again at arming, as PX4 does
         if est.reset_count != self._reset_count:
             self._follow_reset(est)
-        before = self.land.state
-        state = self.land.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), actuators.thrust_frac_of_hover)
+        before = self.land_detector.state
+        state = self.land_detector.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), actuators.thrust_frac_of_hover)
         if state is not before and self.armed:
             self.say(S.MAV_SEVERITY_INFO, "Takeoff detected" if state is Landed.IN_AIR else "Landing detected")
             if state is Landed.ON_GROUND and self.mode in (Mode.AUTO_LAND, Mode.AUTO_RTL):
@@ -182,8 +182,8 @@ class Commander:
 
     def _auto_disarm(self, now_us: int) -> None:
         p = self.params
-        if self.land.state is Landed.ON_GROUND:
-            since = self.land.landed_since_us
+        if self.land_detector.state is Landed.ON_GROUND:
+            since = self.land_detector.landed_since_us
             limit = p.get("COM_DISARM_LAND")
             if since is not None and since > self.armed_at_us and limit >= 0 and now_us - since >= limit * 1e6:
                 self._disarm("landed")
@@ -213,8 +213,8 @@ class Commander:
             self._set_home(self.est)
         self.armed = True
         self.armed_at_us = self.now_us
-        self.land.on_arm(float(self.est.pos_ned_m[2]))
-        self.land.landed_since_us = self.now_us
+        self.land_detector.on_arm(float(self.est.pos_ned_m[2]))
+        self.land_detector.landed_since_us = self.now_us
         self.task = None
         if self.mode not in (Mode.AUTO_TAKEOFF, Mode.POSCTL):
             self.mode = Mode.AUTO_LOITER
@@ -369,7 +369,7 @@ class Commander:
 
     # -- status -------------------------------------------------------------------------
     def landed_state(self) -> LandedState:
-        if not self.armed or self.land.state is Landed.ON_GROUND:
+        if not self.armed or self.land_detector.state is Landed.ON_GROUND:
             if self.armed and self.mode is Mode.AUTO_TAKEOFF and self.task is not None:
                 return LandedState.TAKEOFF
             return LandedState.ON_GROUND
