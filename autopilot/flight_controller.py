@@ -65,7 +65,8 @@ class FlightController:
         self.last_us: int | None = None
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
         self.rate_sp = np.zeros(3)
-        self.actuators: ActuatorStatus = NO_ACTUATORS  # published after every step
+        self._outputs: tuple[int, tuple[float, ...], float] = (0, (), 0.0)  # the latest step's, for `actuators`
+        self._actuators: ActuatorStatus | None = NO_ACTUATORS
         self.setpoint = None
         self.last_outer_us: int | None = None
         self._gps_pending: GpsSample | None = None  # the latest fix, for the next outer loop
@@ -145,10 +146,24 @@ class FlightController:
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 
     def _publish(self, commands: np.ndarray, thrust_n: float) -> None:
-        """The step's outputs as the ActuatorStatus record the commander, the log and the telemetry read."""
-        self.actuators = ActuatorStatus(
-            self.last_us or 0, tuple(commands.tolist()), thrust_n,
-            thrust_n / (len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n), thrust_n / self.weight_n)
+        """Keep the step's outputs; the :attr:`actuators` record is built when first read, after the
+        commands have gone out (off the lockstep's critical path)."""
+        self._outputs = (self.last_us or 0, tuple(commands.tolist()), thrust_n)
+        self._actuators = None
+
+    @property
+    def actuators(self) -> ActuatorStatus:
+        """What the latest step sent to the motors (the record the commander, the log and the telemetry read)."""
+        if self._actuators is None:
+            time_us, motors, thrust_n = self._outputs
+            max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
+            self._actuators = ActuatorStatus(time_us, motors, thrust_n, thrust_n / max_thrust_n, thrust_n / self.weight_n)
+        return self._actuators
+
+    @actuators.setter
+    def actuators(self, record: ActuatorStatus) -> None:
+        """Publish a record in place of the latest step's (tests that pretend a flight)."""
+        self._actuators = record
 
     # -- telemetry (read-only view of the controllers' setpoints) --------------------------------
     def control_setpoints(self) -> ControlSetpoints | None:
