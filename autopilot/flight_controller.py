@@ -157,7 +157,8 @@ class FlightController:
         if self._actuators is None:
             time_us, motors, thrust_n = self._outputs
             max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
-            self._actuators = ActuatorStatus(time_us, motors, thrust_n, thrust_n / max_thrust_n, thrust_n / self.weight_n)
+            self._actuators = ActuatorStatus(time_us, motors, thrust_n, thrust_n / max_thrust_n,
+                                             thrust_n / self.weight_n)
         return self._actuators
 
     @actuators.setter

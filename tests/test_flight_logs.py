@@ -152,7 +152,8 @@ def test_recorder_one_tlog_per_arming_with_prearm_traffic_and_no_duplicates(tmp_
     for k in range(1, 400):
         fc.last_us = 2_000_000 + 4000 * k
         if k == 100:
-            fc.commander.status = replace(fc.commander.status, armed=False)  # disarm at 2.4 s; the files close 1 s later
+            # disarm at 2.4 s; the files close 1 s later
+            fc.commander.status = replace(fc.commander.status, armed=False)
         rec.on_step()
     assert not rec.active
     fc.commander.status = replace(fc.commander.status, armed=True)

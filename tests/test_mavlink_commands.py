@@ -77,7 +77,8 @@ def test_command_int_coordinates():
                                               -1.0, 0.0, 0.0, math.nan, 473977420, 85455940, 510.5)
     p = commands.command_int_params(msg)
     assert p[4] == pytest.approx(47.397742) and p[5] == pytest.approx(8.545594) and p[6] == 510.5
-    local = mavlink.MAVLink_command_int_message(1, 1, mavlink.MAV_FRAME_LOCAL_NED, 0, 0, 0, 0, 0, 0, 0, 125000, -5000, 3)
+    local = mavlink.MAVLink_command_int_message(1, 1, mavlink.MAV_FRAME_LOCAL_NED, 0, 0, 0, 0, 0, 0, 0,
+                                                125000, -5000, 3)
     assert commands.command_int_params(local)[4:6] == pytest.approx((12.5, -0.5))
     unused = mavlink.MAVLink_command_int_message(1, 1, mavlink.MAV_FRAME_GLOBAL_INT, 0, 0, 0, 0, 0, 0, 0,
                                                  2**31 - 1, 2**31 - 1, 0)

@@ -76,7 +76,8 @@ def test_heartbeat_px4_identity_and_custom_mode():
     hb = _build(mavlink.MAVLINK_MSG_ID_HEARTBEAT, _snapshot())
     assert hb.autopilot == mavlink.MAV_AUTOPILOT_PX4 and hb.type == mavlink.MAV_TYPE_HEXAROTOR
     assert hb.custom_mode == 4 << 16 | 3 << 24  # AUTO (4), LOITER (3)
-    assert hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED and hb.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    assert hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    assert hb.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
     assert hb.system_status == mavlink.MAV_STATE_ACTIVE and hb.mavlink_version == 3
 
 
@@ -216,9 +217,9 @@ def test_estimator_status():
 
 
 def test_autopilot_version():
-    v = _wire(telemetry.autopilot_version(flight_sw_version=telemetry.DEFAULT_FLIGHT_SW_VERSION, middleware_sw_version=0,
-                                          os_sw_version=0, board_version=0, flight_custom_version=b"mavsim",
-                                          vendor_id=0, product_id=0, uid=42))
+    v = _wire(telemetry.autopilot_version(
+        flight_sw_version=telemetry.DEFAULT_FLIGHT_SW_VERSION, middleware_sw_version=0, os_sw_version=0,
+        board_version=0, flight_custom_version=b"mavsim", vendor_id=0, product_id=0, uid=42))
     assert v.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
     assert v.flight_sw_version >> 24 == 1 and (v.flight_sw_version >> 16) & 0xFF == 14  # PX4 1.14
     assert bytes(v.flight_custom_version) == b"mavsim\x00\x00" and v.uid == 42

@@ -122,7 +122,8 @@ class Commander:
 
     # -- periodic -----------------------------------------------------------------------
     def update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool,
-               actuators: ActuatorStatus = NO_ACTUATORS, estimator_checks: tuple[str, ...] = ()) -> PositionSetpoint | None:
+               actuators: ActuatorStatus = NO_ACTUATORS,
+               estimator_checks: tuple[str, ...] = ()) -> PositionSetpoint | None:
         """Advance the state machines and publish the status; return the position setpoint, or None for
         motors idle/off.
 

@@ -139,8 +139,12 @@ class GcsLink:
         self._statustext = StatustextChunker()
         self._params = ParamService(vehicle.params, self.send_statustext, self._broadcast)
         self._tap: Callable[[int, str, bool, bytes], None] | None = None
-        # Message type -> handler; handlers marked "for us" only see messages addressed to this system and component.
-        self._handlers: dict[str, Handler] = {
+        self._handlers = self._message_handlers()
+
+    def _message_handlers(self) -> dict[str, Handler]:
+        """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
+        component."""
+        handlers: dict[str, Handler] = {
             "HEARTBEAT": lambda ep, msg: None,  # the sender is registered as a peer, nothing else
             "PING": lambda ep, msg: None,
             "COMMAND_LONG": self._for_us(lambda ep, msg: self._run_command(
@@ -153,7 +157,8 @@ class GcsLink:
             "PARAM_SET": self._for_us(self._params.on_set),
             "TIMESYNC": self._on_timesync,
         }
-        self._handlers.update({name: self._for_us(h) for name, h in mission_protocol.HANDLERS.items()})
+        handlers.update({name: self._for_us(h) for name, h in mission_protocol.HANDLERS.items()})
+        return handlers
 
     # ------------------------------------------------------------------ public API
 
