@@ -74,9 +74,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"autopilot: {exc}", file=sys.stderr)
         return 2
     from autopilot.flight_controller import FlightController
-    from autopilot.gcs_link import GcsLink
+    from autopilot.mavlink.link import GcsLink
+    from autopilot.mavlink.vehicle_interface import FlightControllerVehicle
     from autopilot.param_catalogue import default_store
-    from autopilot.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
+    from autopilot.mavlink.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
 
     params = default_store()
     saver = _prepare_parameters(params, args, spec.name)
@@ -84,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     fc = FlightController(spec, params)
     try:
-        link = GcsLink(fc.commander, instance=args.instance, sysid=args.sysid, compid=1,
+        link = GcsLink(FlightControllerVehicle(fc), instance=args.instance, sysid=args.sysid, compid=1,
                        gcs_port=args.gcs_port, api_port=args.api_port)
     except OSError as exc:
         print(f"autopilot: cannot open the ground-station UDP ports: {exc}", file=sys.stderr)
@@ -123,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
                     commands = fc.step(imu, gps)
                     gps = None
                     now_us = imu.timestamp_us
-                    sim.send_actuators(now_us, commands, fc.commander.armed)
+                    sim.send_actuators(now_us, commands, fc.commander.status.armed)
                     if recorder is not None:
                         recorder.on_step()
                     # While the simulator steps its physics: the outer loops, and in another
@@ -134,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
                 elif t == "HIL_GPS":
                     gps = gps_from_msg(m)
                 elif t == "BATTERY_STATUS":
-                    fc.commander.battery = battery_from_msg(m)
+                    fc.commander.set_battery(battery_from_msg(m))
     except KeyboardInterrupt:
         pass
     finally:

@@ -8,6 +8,12 @@ attitude in between) and the 50 Hz outer loops (commander, navigator, position
 control), whose results the inner loops use from the next period on.  The process loop
 (``autopilot.__main__``) calls ``after_step`` after sending the motor commands,
 so that work overlaps the simulator's physics step instead of delaying it.
+
+The parts exchange frozen records (:mod:`autopilot.topics`), not attribute writes: the
+flight controller publishes ``actuators`` (:class:`ActuatorStatus`) after every step and
+hands the estimate, its own outputs and the estimator's pre-arm failures to
+:meth:`Commander.update`; the commander publishes ``commander.status``
+(:class:`CommanderStatus`), which the loops here, the flight log and the telemetry read.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from autopilot.control.position_control import attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
 from autopilot.control.mixer import Mixer
 from autopilot.parameters import ParamDef, ParameterStore, param
-from autopilot.topics import ControlSetpoints, GpsSample, ImuSample
+from autopilot.topics import NO_ACTUATORS, ActuatorStatus, ControlSetpoints, GpsSample, ImuSample
 from params.vehicle import VehicleSpec
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 
@@ -45,7 +51,6 @@ class FlightController:
         self.estimator = Estimator(params)
         self.estimator.defer_filters = True  # its 50 Hz work runs in after_step, off the critical path
         self.commander = Commander(params, spec.mav_type)
-        self.commander.estimator = self.estimator
         self.inertia = spec.inertia_kg_m2
         self.weight_n = spec.mass_kg * GRAVITY_M_S2
         self.mixer = Mixer(spec)
@@ -61,12 +66,12 @@ class FlightController:
         self.last_us: int | None = None
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
         self.rate_sp = np.zeros(3)
-        self.thrust_n = 0.0
+        self._outputs: tuple[int, tuple[float, ...], float] = (0, (), 0.0)  # the latest step's, for `actuators`
+        self._actuators: ActuatorStatus | None = NO_ACTUATORS
         self.setpoint = None
         self.last_outer_us: int | None = None
         self._gps_pending: GpsSample | None = None  # the latest fix, for the next outer loop
         self._outer_slot: int | None = None  # the 20 ms slot the outer loops last ran in
-        self.commander.control_setpoints = self.control_setpoints  # ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -83,12 +88,12 @@ class FlightController:
         if gps is not None:
             self.estimator.update_gps(gps)
         rate = self.gyro_filter.apply(self.estimator.rate_frd)  # every sample, so its state stays current
-        cmd = self.commander
         self._gps_pending = gps or self._gps_pending
         if self.last_outer_us is None:
             self.after_step()
+        status = self.commander.status
         n = len(self.spec.rotors)
-        if not cmd.armed:
+        if not status.armed:
             self._reset_controllers()
             self._publish(np.zeros(n), 0.0)
             return np.zeros(n)
@@ -101,7 +106,7 @@ class FlightController:
         q = self.estimator.q
         self.rate_sp = self.attitude_control.update(q, self.q_sp)
         alpha = self.rate_control.update(rate, self.rate_sp, dt, self.sat_pos, self.sat_neg,
-                                         integrate=not cmd.land.ground_contact)
+                                         integrate=not status.ground_contact)
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
         body_up = -self.estimator.r_ned_frd[:, 2]
         thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
@@ -130,10 +135,11 @@ class FlightController:
         for severity, text in estimator.events:
             self.commander.say(getattr(S, "MAV_SEVERITY_" + severity), text)
         estimator.events.clear()
-        estimator.set_in_air(self.commander.in_air)
+        estimator.set_in_air(self.commander.status.in_air)
         est = estimator.estimate()
-        sp = self.commander.update(now, est, gps, estimator.gps_ok(now))
-        if sp is None or not est.attitude_valid or not self.commander.armed:
+        checks = tuple(estimator.prearm_failures()) if estimator.use_ekf and not self.commander.status.armed else ()
+        sp = self.commander.update(now, est, gps, estimator.gps_ok(now), self.actuators, checks)
+        if sp is None or not est.attitude_valid or not self.commander.status.armed:
             self.setpoint = None
             return
         self.setpoint = sp
@@ -141,16 +147,31 @@ class FlightController:
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 
     def _publish(self, commands: np.ndarray, thrust_n: float) -> None:
-        self.thrust_n = thrust_n
-        self.commander.thrust_frac_of_hover = thrust_n / self.weight_n
-        self.commander.throttle_frac = thrust_n / (len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n)
-        self.commander.motor_outputs = tuple(commands.tolist())
+        """Keep the step's outputs; the :attr:`actuators` record is built when first read, after the
+        commands have gone out (off the lockstep's critical path)."""
+        self._outputs = (self.last_us or 0, tuple(commands.tolist()), thrust_n)
+        self._actuators = None
+
+    @property
+    def actuators(self) -> ActuatorStatus:
+        """What the latest step sent to the motors (the record the commander, the log and the telemetry read)."""
+        if self._actuators is None:
+            time_us, motors, thrust_n = self._outputs
+            max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
+            self._actuators = ActuatorStatus(time_us, motors, thrust_n, thrust_n / max_thrust_n,
+                                             thrust_n / self.weight_n)
+        return self._actuators
+
+    @actuators.setter
+    def actuators(self, record: ActuatorStatus) -> None:
+        """Publish a record in place of the latest step's (tests that pretend a flight)."""
+        self._actuators = record
 
     # -- telemetry (read-only view of the controllers' setpoints) --------------------------------
     def control_setpoints(self) -> ControlSetpoints | None:
         """The setpoints the cascade is flying now, or None while it is not (disarmed, idle on the ground)."""
         sp = self.setpoint
-        if sp is None or not self.commander.armed:
+        if sp is None or not self.commander.status.armed:
             return None
         pc = self.position_control
         max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n

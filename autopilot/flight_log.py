@@ -24,8 +24,9 @@ rate_{p,q,r}_rad_s         body rates, bias-corrected
 motor_0 ... motor_{N-1}    motor commands 0..1
 =========================  ===================================================================
 
-The values are read from the controllers' and the estimator's attributes after each
-step; nothing in them changes.
+The values are read after each step from the records the flight controller and the
+commander publish (``fc.actuators``, ``fc.commander.status``) and from the controllers'
+and the estimator's attributes; nothing in them changes.
 """
 
 from __future__ import annotations
@@ -80,12 +81,13 @@ class FlightLogWriter:
             return
         self._count = 0
         fc = self.fc
-        cmd = fc.commander
+        status = fc.commander.status
+        actuators = fc.actuators
         est = fc.estimator
-        main_mode, sub_mode = cmd.mode.value
-        row = [fc.last_us or 0, cmd.armed, main_mode, sub_mode]  # .tolist(): far cheaper than numpy scalars
+        main_mode, sub_mode = status.mode.value
+        row = [fc.last_us or 0, status.armed, main_mode, sub_mode]  # .tolist(): far cheaper than numpy scalars
         sp = fc.setpoint
-        if sp is not None and cmd.armed:
+        if sp is not None and status.armed:
             pc = fc.position_control
             row += sp.pos_ned_m.tolist()
             row += pc.vel_sp.tolist()
@@ -101,8 +103,8 @@ class FlightLogWriter:
                 row.append(math.nan)
         else:
             row += _NO_SETPOINT
-        row.append(cmd.throttle_frac)
-        e = cmd.est  # the estimate the outer loops used (position, velocity: 50 Hz)
+        row.append(actuators.throttle_frac)
+        e = status.estimate  # the estimate the outer loops used (position, velocity: 50 Hz)
         if e is not None:
             row += e.pos_ned_m.tolist()
             row += e.vel_ned_m_s.tolist()
@@ -111,7 +113,7 @@ class FlightLogWriter:
         q = getattr(est, "q", None)  # the selected filter's attitude, updated every step
         row += (q if q is not None else est.attitude.q).tolist()
         row += est.rate_frd.tolist()
-        row += (cmd.motor_outputs or self._idle_motors)[: self.n_motors]
+        row += (actuators.motor_outputs or self._idle_motors)[: self.n_motors]
         self.writer.append(*row)
 
     def flush(self) -> None:

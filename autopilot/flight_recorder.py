@@ -65,7 +65,7 @@ class FlightRecorder:
 
     # -- inputs ---------------------------------------------------------------------
     def tap(self, now_us: int, endpoint: str, sent: bool, packet: bytes) -> None:
-        """GcsLink traffic tap (see :meth:`autopilot.gcs_link.GcsLink.set_traffic_tap`)."""
+        """GcsLink traffic tap (see :meth:`autopilot.mavlink.link.GcsLink.set_traffic_tap`)."""
         if self.disabled:
             return
         try:
@@ -92,7 +92,7 @@ class FlightRecorder:
             return
         try:
             now = self.fc.last_us or 0
-            armed = self.fc.commander.armed
+            armed = self.fc.commander.status.armed
             if armed and (self._flog is None or self._close_at_us is not None):
                 self._close()  # re-armed during the tail of the previous flight: a new flight
                 self._open(now)

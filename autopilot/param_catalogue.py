@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot import commander, flight_controller
+from autopilot import flight_controller
+from autopilot.commander import commander, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.navigation import goto, land, land_detector, loiter, rtl, takeoff
@@ -32,6 +33,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     rtl.PARAMS,
     land_detector.PARAMS,
     commander.PARAMS,
+    health.PARAMS,
 )
 
 

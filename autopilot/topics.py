@@ -12,6 +12,8 @@ from enum import IntEnum
 
 import numpy as np
 
+from mavsim_core.px4_modes import Mode
+
 
 @dataclass(frozen=True, slots=True)
 class ImuSample:
@@ -119,6 +121,60 @@ class BatteryState:
     consumed_mah: float = -1.0  # charge drawn since start, mAh; -1 unknown
 
 
+class BatteryWarning(IntEnum):
+    """The commander's battery warning level (PX4's battery_status.warning), from BAT_*_THR."""
+
+    NONE = 0
+    LOW = 1  # remaining below BAT_LOW_THR
+    CRITICAL = 2  # below BAT_CRIT_THR
+    EMERGENCY = 3  # below BAT_EMERGEN_THR
+
+
+@dataclass(frozen=True, slots=True)
+class ActuatorStatus:
+    """What the flight controller sent to the motors this step (PX4's actuator_outputs).
+
+    Published by the flight controller after every control step; read by the commander
+    (land detector), the telemetry and the flight log.
+    """
+
+    timestamp_us: int
+    motor_outputs: tuple[float, ...]  # motor commands 0..1, one per rotor; () before the first step
+    thrust_n: float  # collective thrust the mixer delivers, N
+    throttle_frac: float  # the same as a fraction of the maximum collective thrust, 0..1
+    thrust_frac_of_hover: float  # the same as a fraction of the vehicle's weight
+
+
+NO_ACTUATORS = ActuatorStatus(0, (), 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class CommanderStatus:
+    """What the commander decided (PX4's vehicle_status, vehicle_land_detected and home_position).
+
+    Published by the commander at the end of each update and after every command, mode
+    change or battery reading; read by the flight controller (armed, ground contact, in
+    air), the flight log, the process loop and the ground-station telemetry.
+    ``estimate`` and ``gps`` are the inputs of the commander's latest update.
+    """
+
+    timestamp_us: int
+    mav_type: int  # MAV_TYPE of the airframe
+    armed: bool
+    mode: Mode
+    landed_state: LandedState
+    in_air: bool  # the land detector says flying
+    ground_contact: bool  # on the ground, or landing conditions holding: integrators stop
+    home: HomePosition | None
+    estimate: VehicleEstimate | None
+    gps: GpsSample | None
+    gps_ok: bool  # a recent GPS fix
+    battery: BatteryState
+    battery_warning: BatteryWarning
+    prearm_failures: tuple[str, ...]  # why arming would be refused now (empty while armed)
+    position_setpoint_ned_m: np.ndarray | None  # the active flight task's, None when not flying one
+
+
 @dataclass(frozen=True, slots=True)
 class ControlSetpoints:
     """What the controllers are aiming at (ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED).
@@ -162,3 +218,4 @@ class TelemetrySnapshot:
     motor_outputs: tuple[float, ...] = field(default=())
     control: ControlSetpoints | None = None  # None while the controllers are not flying
     estimator_status: EstimatorStatus | None = None
+    battery_warning: BatteryWarning = BatteryWarning.NONE

@@ -1,6 +1,6 @@
 """One UDP socket of a MAVLink component, as PX4's UDP links behave.
 
-Shared by the flight controller's ground-station link (:mod:`autopilot.gcs_link`) and the
+Shared by the flight controller's ground-station link (:mod:`autopilot.mavlink.link`) and the
 simulator's ``SIM_*`` parameter service (:mod:`sitl.param_server`):
 
 * bound, non-blocking; a port already in use is an ``OSError`` that names it;

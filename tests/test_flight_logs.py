@@ -19,6 +19,7 @@ import sys
 import textwrap
 import time
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,7 @@ from autopilot import flight_log, flight_recorder  # noqa: E402
 from mavsim_core import tlog  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
-from autopilot.gcs_link import GcsLink  # noqa: E402
+from autopilot.mavlink.link import GcsLink  # noqa: E402
 from mavsim_core.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
 from autopilot.parameters import ParameterStore  # noqa: E402
 from mavsim_core.quaternion import from_euler  # noqa: E402
@@ -113,14 +114,14 @@ def _flight_controller() -> FlightController:
 def _fly(fc: FlightController, t_us: int) -> None:
     """Pretend the cascade is flying at t_us (setpoints in place, armed)."""
     fc.last_us = t_us
-    fc.commander.armed = True
+    fc.commander.status = replace(fc.commander.status, armed=True)
     fc.setpoint = PositionSetpoint(np.array([1.0, 2.0, -5.0]), np.zeros(3), 0.5)
     fc.position_control.vel_sp = np.array([0.1, 0.2, -0.3])
     fc.position_control.acc_sp = np.array([0.0, 0.1, -0.2])
     fc.q_sp = from_euler(0.05, -0.02, 0.5)
     fc.rate_sp = np.array([0.3, -0.1, 0.05])
     fc.thrust_vec = np.array([0.0, 0.0, -13.7])
-    fc.commander.motor_outputs = (0.5, 0.55, 0.6, 0.65)
+    fc.actuators = replace(fc.actuators, motor_outputs=(0.5, 0.55, 0.6, 0.65))
 
 
 def test_recorder_one_tlog_per_arming_with_prearm_traffic_and_no_duplicates(tmp_path):
@@ -151,10 +152,11 @@ def test_recorder_one_tlog_per_arming_with_prearm_traffic_and_no_duplicates(tmp_
     for k in range(1, 400):
         fc.last_us = 2_000_000 + 4000 * k
         if k == 100:
-            fc.commander.armed = False  # disarm at 2.4 s; the files close 1 s later
+            # disarm at 2.4 s; the files close 1 s later
+            fc.commander.status = replace(fc.commander.status, armed=False)
         rec.on_step()
     assert not rec.active
-    fc.commander.armed = True
+    fc.commander.status = replace(fc.commander.status, armed=True)
     fc.last_us = 4_000_000
     rec.on_step()  # a second arming: a second pair of files
     rec.close()

@@ -20,7 +20,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
-from autopilot.gcs_link import GcsLink  # noqa: E402
+from autopilot.mavlink.link import GcsLink  # noqa: E402
 from mavsim_core.statustext import split_statustext  # noqa: E402
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
 from mavsim_core.quaternion import to_euler  # noqa: E402

@@ -1,26 +1,34 @@
 """Commander: arming, modes, commands and the flight task that is active.
 
-Implements :class:`autopilot.vehicle_interface.VehicleInterface` for the
-ground-station link.  Every refusal says why in a STATUSTEXT.  Time is the
-simulated time of the latest sensor sample; nothing here reads a clock.
+Its typed command methods (:meth:`Commander.arm`, ``disarm``, ``takeoff``, ``land``,
+``return_to_launch``, ``set_mode``, ``reposition``) are what the MAVLink command table
+(:mod:`autopilot.mavlink.commands`) calls; each returns a MAV_RESULT.  Every refusal
+says why in a STATUSTEXT (:meth:`Commander.pop_events`).  After each update, command
+and battery reading the commander publishes a frozen
+:class:`~autopilot.topics.CommanderStatus` (``commander.status``) that the flight
+controller, the flight log and the telemetry read; nobody writes into it.
+
+Positions are NED metres from the estimator origin, altitudes AMSL or above home as
+named.  Time is the simulated time of the latest sensor sample; nothing here reads a
+clock.
 """
 
 from __future__ import annotations
 
-import math
-from typing import Callable
+import functools
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.commander import health, prearm_checks
 from autopilot.control.position_control import PositionSetpoint
 from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
 from autopilot.navigation.land_detector import LandDetector, Landed
 from mavsim_core.px4_modes import Mode
 from autopilot.navigation import GotoTask, LandTask, LoiterTask, ReturnTask, TakeoffTask, started
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
-from autopilot.topics import (BatteryState, ControlSetpoints, GpsSample, HomePosition, LandedState, TelemetrySnapshot,
-                              VehicleEstimate)
+from autopilot.topics import (NO_ACTUATORS, ActuatorStatus, BatteryState, CommanderStatus, GpsSample, HomePosition,
+                              LandedState, VehicleEstimate)
 
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
@@ -34,25 +42,25 @@ PARAMS: tuple[ParamDef, ...] = (
 # Modes this flight controller can fly today (no RC input yet: POSCTL holds position).
 AVAILABLE = {Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_RTL, Mode.AUTO_LAND}
 
-S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_CMD_* constants
-FORCE_MAGIC = 21196
-SENSORS_PRESENT = (
-    S.MAV_SYS_STATUS_SENSOR_3D_GYRO | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL | S.MAV_SYS_STATUS_SENSOR_3D_MAG
-    | S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE | S.MAV_SYS_STATUS_SENSOR_GPS
-    | S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-    | S.MAV_SYS_STATUS_SENSOR_YAW_POSITION | S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
-    | S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL | S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-    | S.MAV_SYS_STATUS_AHRS | S.MAV_SYS_STATUS_SENSOR_BATTERY | S.MAV_SYS_STATUS_PREARM_CHECK
-)
+S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
+REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
 
 
-def _int_param(x: float, default: int = 0) -> int:
-    """A command parameter as an integer; NaN or infinite ("unused", as MAVSDK sends) gives default."""
-    return int(x) if math.isfinite(x) else default
+def _publishes(method):
+    """A command method after which the commander publishes its status, whatever the result."""
+    @functools.wraps(method)
+    def wrapper(self: "Commander", *args, **kwargs) -> int:
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            self._publish()
+    return wrapper
 
 
 class Commander:
+    """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
+
     def __init__(self, params: ParameterStore, mav_type_name: str) -> None:
         self.params = params
         self.mav_type = MAV_TYPES.get(mav_type_name, S.MAV_TYPE_QUADROTOR)
@@ -65,17 +73,13 @@ class Commander:
         self.gps_ok = False
         self.home: HomePosition | None = None
         self.battery = BatteryState(float("nan"), -1.0, -1.0)
-        self.land = LandDetector(params)
+        self.land_detector = LandDetector(params)
         self.task = None
         self.events: list[tuple[int, str]] = []
-        self.throttle_frac = 0.0
-        self.thrust_frac_of_hover = 0.0
-        self.motor_outputs: tuple[float, ...] = ()
         self.setpoint: PositionSetpoint | None = None
-        # Telemetry of the controllers' setpoints (set by the FlightController that owns this commander).
-        self.control_setpoints: Callable[[], ControlSetpoints | None] | None = None
-        self.estimator = None  # autopilot.estimation.estimator.Estimator, set by the FlightController
+        self.estimator_checks: tuple[str, ...] = ()  # the estimator's own pre-arm failures, latest update
         self._reset_count = 0
+        self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
     def say(self, severity: int, text: str) -> None:
@@ -85,44 +89,64 @@ class Commander:
         out, self.events = self.events, []
         return out
 
+    # -- status -----------------------------------------------------------------------
+    def _make_status(self) -> CommanderStatus:
+        armed = self.armed
+        return CommanderStatus(
+            timestamp_us=self.now_us, mav_type=self.mav_type, armed=armed, mode=self.mode,
+            landed_state=self.landed_state(), in_air=self.in_air, ground_contact=self.land_detector.ground_contact,
+            home=self.home, estimate=self.est, gps=self.gps, gps_ok=self.gps_ok, battery=self.battery,
+            battery_warning=health.battery_warning(self.battery.remaining_frac, self.params),
+            prearm_failures=() if armed else tuple(self.prearm_failures()),
+            position_setpoint_ned_m=None if self.setpoint is None else self.setpoint.pos_ned_m,
+        )
+
+    def _publish(self) -> None:
+        self.status = self._make_status()
+
+    def set_battery(self, battery: BatteryState) -> None:
+        """A new battery reading (the simulator's BATTERY_STATUS, 5 Hz)."""
+        self.battery = battery
+        self._publish()
+
     # -- checks ---------------------------------------------------------------------
     def prearm_failures(self) -> list[str]:
-        e = self.est
-        out = []
-        if e is None or not e.attitude_valid:
-            out.append("attitude estimate not ready")
-        if self.gps is None or self.gps.fix_type < 3:
-            out.append("no 3D GPS fix")
-        if e is None or not e.position_valid:
-            out.append("position estimate not ready")
-        if self.estimator is not None and self.estimator.use_ekf:
-            out.extend(self.estimator.prearm_failures())
-        if self.home is None:
-            out.append("home position not set")
-        if e is not None and e.attitude_valid:
-            tilt = math.degrees(math.acos(max(-1.0, min(1.0, math.cos(e.roll_rad) * math.cos(e.pitch_rad)))))
-            if tilt > self.params.get("COM_ARM_TILT_MAX"):
-                out.append(f"vehicle not level ({tilt:.0f} deg)")
-        if 0 <= self.battery.remaining_frac < 0.15:
-            out.append(f"battery low ({self.battery.remaining_frac:.0%})")
-        return out
+        """Why arming would be refused now (:mod:`autopilot.commander.prearm_checks`)."""
+        p = self.params
+        return prearm_checks.prearm_failures(self.est, self.gps, self.home, self.battery, self.estimator_checks,
+                                             p.get("COM_ARM_TILT_MAX"), p.get("BAT_LOW_THR"))
 
     @property
     def in_air(self) -> bool:
-        return self.land.state is Landed.IN_AIR
+        return self.land_detector.state is Landed.IN_AIR
 
     # -- periodic -----------------------------------------------------------------------
-    def update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool) -> PositionSetpoint | None:
-        """Advance the state machines; return the position setpoint, or None for motors idle/off."""
+    def update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool,
+               actuators: ActuatorStatus = NO_ACTUATORS,
+               estimator_checks: tuple[str, ...] = ()) -> PositionSetpoint | None:
+        """Advance the state machines and publish the status; return the position setpoint, or None for
+        motors idle/off.
+
+        ``actuators``: the flight controller's latest outputs (the land detector reads the thrust);
+        ``estimator_checks``: the estimator's own pre-arm failures (empty when it has none to report).
+        """
+        try:
+            return self._update(now_us, est, gps, gps_ok, actuators, estimator_checks)
+        finally:
+            self._publish()
+
+    def _update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool,
+                actuators: ActuatorStatus, estimator_checks: tuple[str, ...]) -> PositionSetpoint | None:
         self.now_us, self.est, self.gps_ok = now_us, est, gps_ok
+        self.estimator_checks = estimator_checks
         if gps is not None:
             self.gps = gps
         if self.home is None and est.position_valid:
             self._set_home(est)  # first valid position; set again at arming, as PX4 does
         if est.reset_count != self._reset_count:
             self._follow_reset(est)
-        before = self.land.state
-        state = self.land.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), self.thrust_frac_of_hover)
+        before = self.land_detector.state
+        state = self.land_detector.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), actuators.thrust_frac_of_hover)
         if state is not before and self.armed:
             self.say(S.MAV_SEVERITY_INFO, "Takeoff detected" if state is Landed.IN_AIR else "Landing detected")
             if state is Landed.ON_GROUND and self.mode in (Mode.AUTO_LAND, Mode.AUTO_RTL):
@@ -159,8 +183,8 @@ class Commander:
 
     def _auto_disarm(self, now_us: int) -> None:
         p = self.params
-        if self.land.state is Landed.ON_GROUND:
-            since = self.land.landed_since_us
+        if self.land_detector.state is Landed.ON_GROUND:
+            since = self.land_detector.landed_since_us
             limit = p.get("COM_DISARM_LAND")
             if since is not None and since > self.armed_at_us and limit >= 0 and now_us - since >= limit * 1e6:
                 self._disarm("landed")
@@ -190,8 +214,8 @@ class Commander:
             self._set_home(self.est)
         self.armed = True
         self.armed_at_us = self.now_us
-        self.land.on_arm(float(self.est.pos_ned_m[2]))
-        self.land.landed_since_us = self.now_us
+        self.land_detector.on_arm(float(self.est.pos_ned_m[2]))
+        self.land_detector.landed_since_us = self.now_us
         self.task = None
         if self.mode not in (Mode.AUTO_TAKEOFF, Mode.POSCTL):
             self.mode = Mode.AUTO_LOITER
@@ -203,10 +227,17 @@ class Commander:
         self.task = None
         self.say(S.MAV_SEVERITY_INFO, f"Disarmed ({why})")
 
-    def _cmd_arm(self, p: tuple[float, ...]) -> int:
-        force = _int_param(p[1]) == FORCE_MAGIC
-        if p[0] >= 0.5:
-            return self._arm(force)
+    @_publishes
+    def arm(self, force: bool = False) -> int:
+        """Arm (``force``: whatever the pre-arm checks say); armed in AUTO_TAKEOFF on the ground, take off."""
+        result = self._arm(force)
+        if result == S.MAV_RESULT_ACCEPTED and self.armed and self.mode is Mode.AUTO_TAKEOFF and not self.in_air:
+            return self._takeoff(None)
+        return result
+
+    @_publishes
+    def disarm(self, force: bool = False) -> int:
+        """Disarm; refused in the air unless ``force``."""
         if not self.armed:
             return S.MAV_RESULT_ACCEPTED
         if self.in_air and not force:
@@ -254,14 +285,10 @@ class Commander:
         self.mode = mode
         return S.MAV_RESULT_ACCEPTED
 
-    def handle_set_mode(self, base_mode: int, custom_mode: int) -> int:
-        if not base_mode & S.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Mode change denied: only custom (PX4) modes are supported")
-            return S.MAV_RESULT_DENIED
-        mode = Mode.from_custom_mode(custom_mode)
-        if mode is None:
-            self.say(S.MAV_SEVERITY_CRITICAL, f"Mode change denied: unknown custom mode {custom_mode:#x}")
-            return S.MAV_RESULT_DENIED
+    @_publishes
+    def set_mode(self, mode: Mode) -> int:
+        """Switch to ``mode`` (SET_MODE, DO_SET_MODE): armed, its task starts now or the switch is refused;
+        disarmed, an available mode is accepted and acts once armed, as in PX4."""
         if mode is self.mode:
             return S.MAV_RESULT_ACCEPTED
         if self.armed or mode not in AVAILABLE:
@@ -272,48 +299,44 @@ class Commander:
         return S.MAV_RESULT_ACCEPTED
 
     # -- commands -----------------------------------------------------------------------
-    def handle_command(self, command: int, p: tuple[float, ...], frame: int) -> int:
-        if command == S.MAV_CMD_COMPONENT_ARM_DISARM:
-            result = self._cmd_arm(p)
-            if result == S.MAV_RESULT_ACCEPTED and self.armed and self.mode is Mode.AUTO_TAKEOFF and not self.in_air:
-                return self._takeoff((0,) * 6 + (math.nan,))
-            return result
-        if command == S.MAV_CMD_NAV_TAKEOFF:
-            return self._takeoff(p)
-        if command == S.MAV_CMD_NAV_LAND:
-            if not self.armed:
-                self.say(S.MAV_SEVERITY_CRITICAL, "Land denied: vehicle not armed")
-                return S.MAV_RESULT_DENIED
-            return self._enter(Mode.AUTO_LAND)
-        if command == S.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            if not self.armed:
-                self.say(S.MAV_SEVERITY_CRITICAL, "Return denied: vehicle not armed")
-                return S.MAV_RESULT_DENIED
-            return self._enter(Mode.AUTO_RTL)
-        if command == S.MAV_CMD_DO_SET_MODE:
-            return self.handle_set_mode(_int_param(p[0]), _int_param(p[1]) << 16 | _int_param(p[2]) << 24)
-        if command == S.MAV_CMD_DO_REPOSITION:
-            return self._reposition(p)
-        return S.MAV_RESULT_UNSUPPORTED
+    @_publishes
+    def takeoff(self, rel_alt_m: float | None = None) -> int:
+        """Take off to ``rel_alt_m`` above home (None: MIS_TAKEOFF_ALT; at least 1 m)."""
+        return self._takeoff(rel_alt_m)
 
-    def _takeoff(self, p: tuple[float, ...]) -> int:
+    @_publishes
+    def land(self) -> int:
+        """Land where the vehicle is (AUTO.LAND)."""
+        if not self.armed:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Land denied: vehicle not armed")
+            return S.MAV_RESULT_DENIED
+        return self._enter(Mode.AUTO_LAND)
+
+    @_publishes
+    def return_to_launch(self) -> int:
+        """Return home and land (AUTO.RTL)."""
+        if not self.armed:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Return denied: vehicle not armed")
+            return S.MAV_RESULT_DENIED
+        return self._enter(Mode.AUTO_RTL)
+
+    def _takeoff(self, rel_alt_m: float | None) -> int:
         if self.home is None or self.est is None:
             self.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: no home position")
             return S.MAV_RESULT_DENIED
-        alt = p[6]
-        home_alt = self.home.alt_amsl_m
-        if not math.isfinite(alt):
-            rel = self.params.get("MIS_TAKEOFF_ALT")
-        elif alt < home_alt:
-            # MAVProxy's "takeoff 5" sends 5: a value below home is read as metres above home.
-            rel = alt
-            self.say(S.MAV_SEVERITY_INFO, f"Takeoff altitude {alt:g} m is below home: using {alt:g} m above home")
-        else:
-            rel = alt - home_alt
+        rel = self.params.get("MIS_TAKEOFF_ALT") if rel_alt_m is None else rel_alt_m
         rel = max(rel, 1.0)
         return self._enter(Mode.AUTO_TAKEOFF, self.home.pos_ned_m[2] - rel)
 
-    def _reposition(self, p: tuple[float, ...]) -> int:
+    @_publishes
+    def reposition(self, lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None,
+                   yaw_rad: float | None, speed_m_s: float | None) -> int:
+        """Fly to a point and hold there (AUTO.LOITER), along a straight line from the current setpoint.
+
+        None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw;
+        speed None: MPC_XY_CRUISE.  Refused when not flying, without a position estimate, for
+        an impossible latitude/longitude or a target more than REPOSITION_MAX_M away.
+        """
         e = self.est
         if not (self.armed and self.in_air) or e is None:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: vehicle not flying")
@@ -321,22 +344,21 @@ class Commander:
         if not e.position_valid:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: no position estimate")
             return S.MAV_RESULT_DENIED
-        lat, lon, alt = p[4], p[5], p[6]
-        if not (math.isfinite(lat) and math.isfinite(lon)) or (lat == 0 and lon == 0):
+        if lat_deg is None or lon_deg is None:
             goal = e.pos_ned_m.copy()
         else:
-            if abs(lat) > 90 or abs(lon) > 180:
+            if abs(lat_deg) > 90 or abs(lon_deg) > 180:
                 self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: latitude/longitude out of range")
                 return S.MAV_RESULT_DENIED
-            goal = geodetic_to_ned(lat, lon, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)
+            goal = geodetic_to_ned(lat_deg, lon_deg, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)
             goal[2] = e.pos_ned_m[2]
-        if math.isfinite(alt):
-            goal[2] = e.origin_alt_amsl_m - alt
-        if np.linalg.norm(goal - e.pos_ned_m) > 1000.0:
+        if alt_amsl_m is not None:
+            goal[2] = e.origin_alt_amsl_m - alt_amsl_m
+        if np.linalg.norm(goal - e.pos_ned_m) > REPOSITION_MAX_M:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: target more than 1 km away")
             return S.MAV_RESULT_DENIED
-        yaw = e.yaw_rad if not math.isfinite(p[3]) else math.radians(p[3])
-        speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else self.params.get("MPC_XY_CRUISE")
+        yaw = e.yaw_rad if yaw_rad is None else yaw_rad
+        speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
         start = self.setpoint.pos_ned_m if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m)) else e.pos_ned_m
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
@@ -344,9 +366,9 @@ class Commander:
         self.task = started(GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us)
         return S.MAV_RESULT_ACCEPTED
 
-    # -- telemetry --------------------------------------------------------------------
+    # -- status -------------------------------------------------------------------------
     def landed_state(self) -> LandedState:
-        if not self.armed or self.land.state is Landed.ON_GROUND:
+        if not self.armed or self.land_detector.state is Landed.ON_GROUND:
             if self.armed and self.mode is Mode.AUTO_TAKEOFF and self.task is not None:
                 return LandedState.TAKEOFF
             return LandedState.ON_GROUND
@@ -356,42 +378,3 @@ class Commander:
                                            self.task.phase.value == "land"):
             return LandedState.LANDING
         return LandedState.IN_AIR
-
-    def snapshot(self) -> TelemetrySnapshot:
-        e = self.est
-        health = SENSORS_PRESENT
-        if e is None or not e.attitude_valid:
-            health &= ~(S.MAV_SYS_STATUS_AHRS | S.MAV_SYS_STATUS_SENSOR_3D_GYRO | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL)
-        if not self.gps_ok:
-            health &= ~S.MAV_SYS_STATUS_SENSOR_GPS
-        if e is None or not e.position_valid:
-            health &= ~S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-        est_status = None
-        if self.estimator is not None:
-            est_status = self.estimator.status()
-            if est_status.mag_fault:
-                health &= ~S.MAV_SYS_STATUS_SENSOR_3D_MAG
-            if est_status.gps_glitch:
-                health &= ~S.MAV_SYS_STATUS_SENSOR_GPS
-            if self.estimator.use_ekf and not est_status.flags & 1:
-                health &= ~S.MAV_SYS_STATUS_AHRS
-        prearm_ok = not self.armed and not self.prearm_failures()
-        if not prearm_ok and not self.armed:
-            health &= ~S.MAV_SYS_STATUS_PREARM_CHECK
-        if e is None:
-            status = S.MAV_STATE_BOOT
-        elif self.armed:
-            status = S.MAV_STATE_ACTIVE
-        else:
-            status = S.MAV_STATE_STANDBY
-        return TelemetrySnapshot(
-            timestamp_us=self.now_us, mav_type=self.mav_type, armed=self.armed,
-            base_mode=self.mode.base_mode_flags(self.armed), custom_mode=self.mode.custom_mode,
-            system_status=status, landed_state=self.landed_state(), estimate=e, gps=self.gps, home=self.home,
-            battery=self.battery, throttle_frac=self.throttle_frac, sensors_present=SENSORS_PRESENT,
-            sensors_enabled=SENSORS_PRESENT, sensors_health=health, prearm_ok=prearm_ok or self.armed,
-            position_setpoint_ned_m=None if self.setpoint is None else self.setpoint.pos_ned_m,
-            motor_outputs=self.motor_outputs,
-            control=self.control_setpoints() if self.control_setpoints is not None else None,
-            estimator_status=est_status,
-        )

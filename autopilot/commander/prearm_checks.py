@@ -1,0 +1,63 @@
+"""Pre-arm checks: pure functions of the vehicle's state returning why arming is refused.
+
+Each check returns its failure reasons (short lower-case phrases, joined into the
+"Arming denied: ..." STATUSTEXT); an empty list means "ready".  The order of
+:func:`prearm_failures` is the order a ground station shows them in.  Units: degrees
+for the tilt (as COM_ARM_TILT_MAX), fractions of capacity for the battery (as BAT_LOW_THR).
+"""
+
+from __future__ import annotations
+
+import math
+
+from autopilot.topics import BatteryState, GpsSample, HomePosition, VehicleEstimate
+
+
+def tilt_deg(roll_rad: float, pitch_rad: float) -> float:
+    """Angle between the body z axis and the vertical, degrees."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, math.cos(roll_rad) * math.cos(pitch_rad)))))
+
+
+def attitude_check(est: VehicleEstimate | None) -> list[str]:
+    return [] if est is not None and est.attitude_valid else ["attitude estimate not ready"]
+
+
+def gps_check(gps: GpsSample | None) -> list[str]:
+    return [] if gps is not None and gps.fix_type >= 3 else ["no 3D GPS fix"]
+
+
+def position_check(est: VehicleEstimate | None) -> list[str]:
+    return [] if est is not None and est.position_valid else ["position estimate not ready"]
+
+
+def home_check(home: HomePosition | None) -> list[str]:
+    return [] if home is not None else ["home position not set"]
+
+
+def level_check(est: VehicleEstimate | None, tilt_max_deg: float) -> list[str]:
+    """The vehicle stands level within ``tilt_max_deg`` (COM_ARM_TILT_MAX); not judged without an attitude."""
+    if est is None or not est.attitude_valid:
+        return []
+    tilt = tilt_deg(est.roll_rad, est.pitch_rad)
+    return [f"vehicle not level ({tilt:.0f} deg)"] if tilt > tilt_max_deg else []
+
+
+def battery_check(battery: BatteryState, low_thr: float) -> list[str]:
+    """Remaining charge at least ``low_thr`` (BAT_LOW_THR, fraction); an unknown charge (< 0) passes."""
+    remaining = battery.remaining_frac
+    return [f"battery low ({remaining:.0%})"] if 0 <= remaining < low_thr else []
+
+
+def prearm_failures(
+    est: VehicleEstimate | None,
+    gps: GpsSample | None,
+    home: HomePosition | None,
+    battery: BatteryState,
+    estimator_failures: tuple[str, ...] | list[str],
+    tilt_max_deg: float,
+    battery_low_thr: float,
+) -> list[str]:
+    """Every reason arming would be refused now; ``estimator_failures`` are the EKF's own (empty when
+    another filter flies)."""
+    return (attitude_check(est) + gps_check(gps) + position_check(est) + list(estimator_failures)
+            + home_check(home) + level_check(est, tilt_max_deg) + battery_check(battery, battery_low_thr))

@@ -1,0 +1,101 @@
+"""One UDP endpoint of the ground-station link: socket and peers, encoder, send batching, streams.
+
+The socket, the peers (whoever talks to the endpoint becomes a destination) and the
+parsing of received datagrams are :class:`mavsim_core.mavlink_udp.UdpEndpoint`'s.  This
+class adds what the link keeps per endpoint: a MAVLink encoder, the packets of one link
+iteration held and sent several per datagram (up to MAX_DATAGRAM_BYTES, as PX4's UDP
+links buffer theirs), the telemetry streams with their intervals (µs of simulated time),
+the position in a parameter list being served, and the traffic tap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from mavsim_core.mavlink_udp import UdpEndpoint
+
+MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
+
+
+@dataclass(slots=True)
+class Stream:
+    """One telemetry stream of an endpoint (simulated µs)."""
+
+    interval_us: int  # <= 0: disabled
+    next_due_us: int
+
+
+class LinkEndpoint(UdpEndpoint):
+    """One UDP socket (:class:`UdpEndpoint`) with its encoder, send batching and streams."""
+
+    def __init__(
+        self,
+        name: str,
+        bind: tuple[str, int],
+        default_dest: tuple[str, int],
+        sysid: int,
+        compid: int,
+        default_intervals_us: dict[int, int],
+    ) -> None:
+        super().__init__(f"gcs_link {name}", bind, default_dest, sysid, compid)
+        self.name = name
+        self.mav = mavlink.MAVLink(self, sysid, compid)  # encoder: writes through self.write
+        self.default_intervals_us = default_intervals_us
+        self.streams = {mid: Stream(iv, 0) for mid, iv in default_intervals_us.items()}
+        self.next_due_us = 0  # earliest next_due_us of the enabled streams
+        self.param_cursor: int | None = None  # next index of a PARAM_REQUEST_LIST being served
+        self.tap: Callable[[bytes], None] | None = None  # sees every packet sent (GcsLink.set_traffic_tap)
+        self._batch: list[bytes] | None = None  # packets held for one datagram (begin_batch .. flush)
+
+    # -- sending
+    def write(self, data: bytes) -> None:
+        """File-like sink for the encoder: the packet joins the open batch, or goes out as a datagram."""
+        if self.tap is not None:
+            self.tap(data)
+        if self._batch is not None:
+            self._batch.append(data)
+        else:
+            self.send_datagram(data)
+
+    def begin_batch(self) -> None:
+        """Hold the packets sent from now until :meth:`flush` (one link iteration)."""
+        self._batch = []
+
+    def flush(self) -> None:
+        """The held packets, several per datagram (up to MAX_DATAGRAM_BYTES), as PX4's UDP link sends them."""
+        batch, self._batch = self._batch, None
+        if not batch:
+            return
+        out, size = [], 0
+        for packet in batch:
+            if out and size + len(packet) > MAX_DATAGRAM_BYTES:
+                self.send_datagram(b"".join(out))
+                out, size = [], 0
+            out.append(packet)
+            size += len(packet)
+        self.send_datagram(b"".join(out))
+
+    def send(self, msg: mavlink.MAVLink_message) -> None:
+        self.mav.send(msg)
+
+    # -- streams
+    def refresh_next_due(self) -> None:
+        due = [s.next_due_us for s in self.streams.values() if s.interval_us > 0]
+        self.next_due_us = min(due) if due else 2**63
+
+    def set_interval(self, msg_id: int, interval_us: int, now_us: int) -> int:
+        """MAV_CMD_SET_MESSAGE_INTERVAL on this endpoint: -1 disable, 0 default, > 0 µs; a MAV_RESULT."""
+        stream = self.streams.get(msg_id)
+        if stream is None:
+            return mavlink.MAV_RESULT_UNSUPPORTED
+        if interval_us == 0:
+            interval_us = self.default_intervals_us[msg_id]
+        elif interval_us < -1:
+            return mavlink.MAV_RESULT_DENIED
+        stream.interval_us = interval_us
+        stream.next_due_us = now_us  # first one at the next update
+        self.refresh_next_due()
+        return mavlink.MAV_RESULT_ACCEPTED

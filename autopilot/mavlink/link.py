@@ -1,0 +1,355 @@
+"""Ground-station side of the flight controller: MAVLink over UDP, as PX4 SITL does it.
+
+Two UDP endpoints, offset by the instance number like PX4's ``-i``:
+
+* "gcs": bound to 0.0.0.0:(local_gcs_port + i), telemetry to 127.0.0.1:(gcs_port + i)
+  (QGroundControl listens on 14550);
+* "api": bound to 0.0.0.0:(local_api_port + i), telemetry to 127.0.0.1:(api_port + i)
+  (MAVSDK listens on 14540).
+
+Whoever talks to an endpoint becomes (also) a destination of it, so replies reach
+clients on any port.  The link has no flight logic: telemetry comes from
+:meth:`VehicleInterface.snapshot` through the pure builders of
+:mod:`autopilot.mavlink.telemetry`, commands go through the one command table
+(:mod:`autopilot.mavlink.commands`) to the link itself or to the vehicle, parameters
+are served by :mod:`autopilot.mavlink.param_service` from ``vehicle.params``, missions
+by :mod:`autopilot.mavlink.mission_protocol`.  The link itself keeps the sockets
+(:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and
+requests, AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT and the traffic tap.
+
+What one :meth:`GcsLink.update` sends to a destination goes out packed into as few
+datagrams as fit MAX_DATAGRAM_BYTES, as PX4's UDP links buffer theirs: one system
+call per update instead of one per message.  Replies outside an update go out at once.
+
+Time: :meth:`GcsLink.update` receives the SIMULATED time (lockstep, microseconds).
+Stream intervals are measured in it; this module never reads the wall clock.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Callable
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.mavlink import commands, mission_protocol, telemetry
+from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.mavlink.param_service import ParamService
+from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION, DEFAULT_STREAM_RATES_HZ
+from autopilot.mavlink.vehicle_interface import VehicleInterface
+from autopilot.topics import TelemetrySnapshot
+from mavsim_core.statustext import StatustextChunker
+
+log = logging.getLogger(__name__)
+
+RX_DATAGRAMS_PER_UPDATE = 2  # recvfrom calls per socket and update() at most
+
+Handler = Callable[[LinkEndpoint, mavlink.MAVLink_message], None]
+
+
+class _EndpointCommands:
+    """The link's own commands (:class:`commands.LinkCommands`) on the endpoint a command came in on."""
+
+    def __init__(self, link: "GcsLink", ep: LinkEndpoint) -> None:
+        self.link, self.ep = link, ep
+
+    def set_message_interval(self, msg_id: int, interval_us: int) -> int:
+        return self.ep.set_interval(msg_id, interval_us, self.link._now_us)
+
+    def request_message(self, msg_id: int, param2: float) -> int:
+        return self.link._request_message(self.ep, msg_id, param2)
+
+    def send_autopilot_version(self) -> int:
+        self.ep.send(self.link._autopilot_version())
+        return mavlink.MAV_RESULT_ACCEPTED
+
+
+class GcsLink:
+    """MAVLink ground-station link of the flight controller (PX4 SITL identity and ports).
+
+    Construct it once, call :meth:`update` every control iteration with the simulated
+    time, :meth:`close` at exit.  Counters: ``rx_errors`` (damaged input, failed
+    handlers), ``rx_messages`` (good messages handled), ``tx_errors`` (failed sends).
+    """
+
+    def __init__(
+        self,
+        vehicle: VehicleInterface,
+        instance: int = 0,
+        sysid: int = 1,
+        compid: int = 1,
+        gcs_port: int = 14550,
+        api_port: int = 14540,
+        local_gcs_port: int = 18570,
+        local_api_port: int = 14580,
+        *,
+        remote_host: str = "127.0.0.1",
+        bind_host: str = "0.0.0.0",
+        stream_rates_hz: dict[int, float] | None = None,
+        flight_sw_version: int = DEFAULT_FLIGHT_SW_VERSION,
+        middleware_sw_version: int = 0,
+        os_sw_version: int = 0,
+        board_version: int = 0,
+        flight_custom_version: bytes = b"mavsim\x00\x00",
+        vendor_id: int = 0,
+        product_id: int = 0,
+        uid: int | None = None,
+    ) -> None:
+        """
+        ``stream_rates_hz``: message id -> rate (Hz of simulated time) for the streams on
+        both endpoints, replacing :data:`DEFAULT_STREAM_RATES_HZ` entries (0 disables).
+        The AUTOPILOT_VERSION fields are reported as given; ``uid`` defaults to a
+        non-zero value derived from instance and sysid.
+        """
+        self.vehicle = vehicle
+        self.sysid = sysid
+        self.compid = compid
+        self.instance = instance
+        rates = dict(DEFAULT_STREAM_RATES_HZ)
+        unknown = set(stream_rates_hz or {}) - set(rates)
+        if unknown:
+            raise ValueError(f"gcs_link cannot stream message ids {sorted(unknown)}; streams: {sorted(rates)}")
+        rates.update(stream_rates_hz or {})
+        intervals = {mid: (int(round(1e6 / hz)) if hz > 0 else -1) for mid, hz in rates.items()}
+        self._endpoints: list[LinkEndpoint] = []
+        try:
+            for name, local, remote in (("gcs", local_gcs_port, gcs_port), ("api", local_api_port, api_port)):
+                self._endpoints.append(
+                    LinkEndpoint(name, (bind_host, local + instance), (remote_host, remote + instance), sysid, compid,
+                                 intervals)
+                )
+        except OSError:
+            self.close()
+            raise
+        self._version = dict(
+            flight_sw_version=flight_sw_version, middleware_sw_version=middleware_sw_version,
+            os_sw_version=os_sw_version, board_version=board_version, flight_custom_version=flight_custom_version,
+            vendor_id=vendor_id, product_id=product_id,
+            uid=uid if uid is not None else (0x4D415653 << 32) | (instance << 8) | sysid,
+        )  # fmt: skip
+        self.rx_errors = 0
+        self.rx_messages = 0
+        self.tx_build_errors = 0  # stream messages that could not be built (bug in a snapshot?)
+        self._build_failures: set[int] = set()
+        self._now_us = 0
+        self._snap: TelemetrySnapshot | None = None
+        self._snap_valid = False  # _snap belongs to the current update()
+        self._built: dict[int, mavlink.MAVLink_message | None] = {}  # stream messages of the current update()
+        self._home_key: tuple[float, float, float] | None = None
+        self._statustext = StatustextChunker()
+        self._params = ParamService(vehicle.params, self.send_statustext, self._broadcast)
+        self._tap: Callable[[int, str, bool, bytes], None] | None = None
+        self._handlers = self._message_handlers()
+
+    def _message_handlers(self) -> dict[str, Handler]:
+        """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
+        component."""
+        handlers: dict[str, Handler] = {
+            "HEARTBEAT": lambda ep, msg: None,  # the sender is registered as a peer, nothing else
+            "PING": lambda ep, msg: None,
+            "COMMAND_LONG": self._for_us(lambda ep, msg: self._run_command(
+                ep, msg, commands.command_long_params(msg), mavlink.MAV_FRAME_GLOBAL)),
+            "COMMAND_INT": self._for_us(lambda ep, msg: self._run_command(
+                ep, msg, commands.command_int_params(msg), msg.frame)),
+            "SET_MODE": self._on_set_mode,
+            "PARAM_REQUEST_LIST": self._for_us(self._params.on_request_list),
+            "PARAM_REQUEST_READ": self._for_us(self._params.on_request_read),
+            "PARAM_SET": self._for_us(self._params.on_set),
+            "TIMESYNC": self._on_timesync,
+        }
+        handlers.update({name: self._for_us(h) for name, h in mission_protocol.HANDLERS.items()})
+        return handlers
+
+    # ------------------------------------------------------------------ public API
+
+    @property
+    def tx_errors(self) -> int:
+        return sum(ep.tx_errors for ep in self._endpoints)
+
+    def set_traffic_tap(self, tap: Callable[[int, str, bool, bytes], None] | None) -> None:
+        """Hand every packet the link sends or receives to ``tap(now_us, endpoint, sent, packet)`` (a .tlog).
+
+        ``now_us`` is the simulated time of the current update; ``endpoint`` is "gcs" or "api";
+        received packets are the good MAVLink messages from other systems.  None removes the tap.
+        """
+        self._tap = tap
+        for ep in self._endpoints:
+            ep.tap = None if tap is None else (lambda data, name=ep.name: tap(self._now_us, name, True, data))
+
+    def update(self, now_us: int) -> None:
+        """One link iteration at simulated time ``now_us`` (µs): receive, answer, stream."""
+        if now_us < self._now_us:  # simulated clock restarted: restart the schedules
+            for ep in self._endpoints:
+                for s in ep.streams.values():
+                    s.next_due_us = now_us
+                ep.refresh_next_due()
+        self._now_us = now_us
+        self._snap_valid = False
+        self._built.clear()
+        for ep in self._endpoints:
+            ep.begin_batch()
+        try:
+            self._update(now_us)
+        finally:
+            for ep in self._endpoints:
+                ep.flush()
+
+    def _update(self, now_us: int) -> None:
+        for ep in self._endpoints:
+            for _ in range(RX_DATAGRAMS_PER_UPDATE):
+                got = ep.recv()
+                if got is None:
+                    break
+                self._handle_datagram(ep, *got)
+        self._params.update(self._endpoints)
+        events = self.vehicle.pop_events()
+        for severity, text in events:
+            self.send_statustext(severity, text)
+        for ep in self._endpoints:
+            if now_us >= ep.next_due_us:
+                self._send_due_streams(ep, now_us)
+
+    def send_statustext(self, severity: int, text: str, endpoint: str | None = None) -> None:
+        """Send a STATUSTEXT (MAV_SEVERITY) on both endpoints or the named one, chunked past 50 bytes."""
+        for msg in self._statustext.messages(severity, text):
+            for ep in self._endpoints:
+                if endpoint is None or ep.name == endpoint:
+                    ep.send(msg)
+
+    def close(self) -> None:
+        """Close both sockets (idempotent)."""
+        if hasattr(self, "_params"):
+            self._params.closed = True
+        for ep in self._endpoints:
+            ep.close()
+
+    # ------------------------------------------------------------------ receiving
+
+    def _handle_datagram(self, ep: LinkEndpoint, data: bytes, addr: tuple[str, int]) -> None:
+        msgs, damaged = ep.incoming(data, addr)
+        self.rx_errors += damaged
+        for msg in msgs:
+            mtype = msg.get_type()
+            if self._tap is not None:
+                self._tap(self._now_us, ep.name, False, bytes(msg.get_msgbuf()))
+            handler = self._handlers.get(mtype)
+            if handler is None:
+                continue
+            self.rx_messages += 1
+            try:
+                handler(ep, msg)
+            except Exception:
+                self.rx_errors += 1
+                log.exception("gcs_link %s: error handling %s from %s", ep.name, mtype, addr)
+
+    def _for_us(self, handler: Handler) -> Handler:
+        """The handler, called only for messages addressed to our system (or broadcast) and component (or all)."""
+        def checked(ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+            if msg.target_system in (0, self.sysid) and msg.target_component in (0, self.compid):
+                handler(ep, msg)
+        return checked
+
+    def _run_command(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, params: commands.Params,
+                     frame: int) -> None:
+        """Execute a command through the command table and send exactly one COMMAND_ACK."""
+        command = msg.command
+        try:
+            result = commands.run(command, params, frame, _EndpointCommands(self, ep), self.vehicle)
+        except Exception:
+            log.exception("gcs_link: command %d failed", command)
+            result = mavlink.MAV_RESULT_FAILED
+        self._ack(ep, msg, command, result)
+
+    def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int) -> None:
+        ep.send(mavlink.MAVLink_command_ack_message(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def _request_message(self, ep: LinkEndpoint, mid: int, param2: float) -> int:
+        """MAV_CMD_REQUEST_MESSAGE: send the message once on this endpoint."""
+        if mid == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            ep.send(self._autopilot_version())
+            return mavlink.MAV_RESULT_ACCEPTED
+        if mid == mavlink.MAVLINK_MSG_ID_PARAM_VALUE:
+            return self._params.request_message(ep, param2)
+        builder = telemetry.BUILDERS.get(mid)
+        if builder is None:
+            return mavlink.MAV_RESULT_UNSUPPORTED
+        msg = builder(self._snapshot(), self._now_us)
+        if msg is None:  # e.g. HOME_POSITION before home is set
+            return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+        ep.send(msg)
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _on_set_mode(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        if msg.target_system not in (0, self.sysid):
+            return
+        try:
+            result = int(self.vehicle.handle_set_mode(msg.base_mode, msg.custom_mode))
+        except Exception:
+            log.exception("gcs_link: SET_MODE failed")
+            result = mavlink.MAV_RESULT_FAILED
+        self._ack(ep, msg, mavlink.MAVLINK_MSG_ID_SET_MODE, result)
+
+    def _on_timesync(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        """Answer a request (tc1 == 0) with our clock in ns, echoing ts1."""
+        if msg.tc1 == 0:
+            ep.send(mavlink.MAVLink_timesync_message(self._now_us * 1000, msg.ts1))
+
+    # ------------------------------------------------------------------ sending
+
+    def _broadcast(self, msg: mavlink.MAVLink_message) -> None:
+        for ep in self._endpoints:
+            ep.send(msg)
+
+    def _autopilot_version(self) -> mavlink.MAVLink_message:
+        return telemetry.autopilot_version(**self._version)
+
+    def _snapshot(self) -> TelemetrySnapshot:
+        """The vehicle's snapshot, fetched at most once per update()."""
+        if not self._snap_valid:
+            self._snap = self.vehicle.snapshot()
+            self._snap_valid = True
+            self._check_home(self._snap)
+        return self._snap
+
+    def _check_home(self, snap: TelemetrySnapshot) -> None:
+        """A new or moved home goes out at once, not at the next 0.5 Hz slot."""
+        home = snap.home
+        key = None if home is None else (home.lat_deg, home.lon_deg, home.alt_amsl_m)
+        if key == self._home_key:
+            return
+        self._home_key = key
+        if key is None:
+            return
+        for ep in self._endpoints:
+            stream = ep.streams.get(mavlink.MAVLINK_MSG_ID_HOME_POSITION)
+            if stream is not None and stream.interval_us > 0:
+                stream.next_due_us = min(stream.next_due_us, self._now_us)
+                ep.next_due_us = min(ep.next_due_us, self._now_us)
+
+    def _send_due_streams(self, ep: LinkEndpoint, now_us: int) -> None:
+        for mid, stream in ep.streams.items():
+            if stream.interval_us <= 0 or now_us < stream.next_due_us:
+                continue
+            stream.next_due_us += stream.interval_us
+            if stream.next_due_us <= now_us:  # fell behind (first call, time jump): no bursts
+                stream.next_due_us = now_us + stream.interval_us
+            msg = self._build(mid, now_us)
+            if msg is not None:
+                ep.send(msg)
+        ep.refresh_next_due()
+
+    def _build(self, mid: int, now_us: int) -> mavlink.MAVLink_message | None:
+        """A stream message from the current snapshot, or None if there is nothing to report.
+
+        Built once per update() and packed for each endpoint that streams it."""
+        if mid in self._built:
+            return self._built[mid]
+        try:
+            msg = self._built[mid] = telemetry.BUILDERS[mid](self._snapshot(), now_us)
+            return msg
+        except Exception:
+            if mid not in self._build_failures:  # one report per message, not one per iteration
+                self._build_failures.add(mid)
+                log.exception("gcs_link: cannot build message %d", mid)
+            self.tx_build_errors += 1
+            return None

@@ -1,0 +1,139 @@
+"""The MAVLink parameter protocol on top of the flight controller's :class:`ParameterStore`.
+
+PARAM_REQUEST_LIST (served PARAM_BURST values per link update), PARAM_REQUEST_READ (by
+name or index), PARAM_SET (set, then the value is broadcast: the new one, or the old one
+with a STATUSTEXT saying why the set was refused), and every accepted change made
+elsewhere (a parameter file, another ground station) broadcast at the next update.
+
+Values travel byte-wise encoded, as PX4 sends them (:mod:`mavsim_core.param_encoding`):
+an INT32's 4 bytes are copied into the float field, never converted.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from typing import Callable
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.parameters import ParamError, ParameterStore
+from mavsim_core.param_encoding import ParamType, decode_param_bytes, encode_param_bytes, raw_param_value
+
+PARAM_BURST = 20  # PARAM_VALUEs sent per update() while a list request is being served
+
+
+class _ParamValueMessage(mavlink.MAVLink_param_value_message):
+    """PARAM_VALUE whose param_value travels as 4 exact bytes (byte-wise encoding).
+
+    Going through a Python float would turn int32 values that look like signalling
+    NaNs into different integers.
+    """
+
+    def __init__(self, name: str, raw4: bytes, mav_param_type: int, count: int, index: int) -> None:
+        super().__init__(name.encode("ascii"), struct.unpack("<f", raw4)[0], mav_param_type, count, index)
+        self._raw4 = raw4
+
+    def pack(self, mav: mavlink.MAVLink, force_mavlink1: bool = False) -> bytes:
+        payload = self.unpacker.pack(0.0, self.param_count, self.param_index, self._param_id_raw, self.param_type)
+        return self._pack(mav, self.crc_extra, self._raw4 + payload[4:], force_mavlink1=force_mavlink1)
+
+
+def param_type_name(mav_param_type: int) -> str:
+    """MAV_PARAM_TYPE number -> ParamType-style name ("INT32", "REAL32", "UINT8", ...)."""
+    try:
+        return ParamType.from_mav_type(mav_param_type).value
+    except ValueError:
+        entry = mavlink.enums["MAV_PARAM_TYPE"].get(mav_param_type)
+        return entry.name.removeprefix("MAV_PARAM_TYPE_") if entry else f"type {mav_param_type}"
+
+
+def param_value(store: ParameterStore, name: str) -> mavlink.MAVLink_message:
+    """PARAM_VALUE with the current value of ``name`` (byte-wise encoded)."""
+    mav_type = ParamType(store.definition(name).ptype).mav_type
+    raw = encode_param_bytes(store.get(name), mav_type)
+    return _ParamValueMessage(name, raw, mav_type, len(store), store.index(name))
+
+
+class ParamService:
+    """Serves one :class:`ParameterStore` on the link's endpoints.
+
+    ``statustext(severity, text, endpoint_name)`` reports refusals to the asking endpoint;
+    ``broadcast(msg)`` sends on every endpoint.  Messages reach the handlers only when
+    addressed to this system and component (the link checks).
+    """
+
+    def __init__(self, store: ParameterStore, statustext: Callable[[int, str, str | None], None],
+                 broadcast: Callable[[mavlink.MAVLink_message], None]) -> None:
+        self.store = store
+        self._statustext = statustext
+        self._broadcast = broadcast
+        self._changed: dict[str, None] = {}  # ordered set of names to broadcast
+        self.closed = False
+        store.subscribe(self._on_param_changed)
+
+    def _on_param_changed(self, name: str, value: float) -> None:
+        """ParameterStore listener: every accepted change is broadcast at the next update."""
+        if not self.closed:
+            self._changed[name] = None
+
+    def update(self, endpoints: list[LinkEndpoint]) -> None:
+        """Once per link update: broadcast changed values, continue list requests (PARAM_BURST each)."""
+        if self._changed:
+            for name in list(self._changed)[:PARAM_BURST]:
+                del self._changed[name]
+                self._broadcast(param_value(self.store, name))
+        for ep in endpoints:
+            if ep.param_cursor is not None:
+                self._send_burst(ep)
+
+    def _send_burst(self, ep: LinkEndpoint) -> None:
+        names = self.store.names()
+        start = ep.param_cursor or 0
+        stop = min(start + PARAM_BURST, len(names))
+        for name in names[start:stop]:
+            ep.send(param_value(self.store, name))
+        ep.param_cursor = stop if stop < len(names) else None
+
+    # -- messages
+    def on_request_list(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        ep.param_cursor = 0  # (re)start; update() sends PARAM_BURST at a time
+
+    def on_request_read(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        store = self.store
+        if msg.param_index >= 0:
+            if msg.param_index >= len(store):
+                self._statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter index {msg.param_index}", ep.name)
+                return
+            name = store.name_at(msg.param_index)
+        else:
+            name = msg.param_id
+            if name not in store:
+                self._statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter {name}", ep.name)
+                return
+        ep.send(param_value(store, name))
+
+    def on_set(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        """Set, then broadcast the value: the new one (via the store listener) or, if refused, the old one."""
+        store = self.store
+        name = msg.param_id
+        if name not in store:
+            self._statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter {name}", ep.name)
+            return
+        try:
+            value = decode_param_bytes(raw_param_value(msg), msg.param_type)
+        except ValueError:  # an 8-byte type: refused by the store's type check below
+            value = math.nan
+        try:
+            store.set(name, value, param_type_name(msg.param_type))
+        except ParamError as e:
+            self._broadcast(param_value(store, name))
+            self._statustext(mavlink.MAV_SEVERITY_ERROR, str(e), ep.name)
+
+    def request_message(self, ep: LinkEndpoint, index: float) -> int:
+        """MAV_CMD_REQUEST_MESSAGE for PARAM_VALUE: the parameter at ``index`` (param2); a MAV_RESULT."""
+        if not (math.isfinite(index) and 0 <= index < len(self.store)):
+            return mavlink.MAV_RESULT_DENIED
+        ep.send(param_value(self.store, self.store.name_at(int(index))))
+        return mavlink.MAV_RESULT_ACCEPTED

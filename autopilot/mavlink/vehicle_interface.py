@@ -1,0 +1,104 @@
+"""What the ground-station link needs from the flight controller, and its implementation.
+
+The link (:mod:`autopilot.mavlink.link`) talks MAVLink to a :class:`VehicleInterface`;
+keeping it a Protocol lets the link be tested with nothing flying and keeps the link
+free of flight logic.  :class:`FlightControllerVehicle` implements it for a
+:class:`~autopilot.flight_controller.FlightController`: telemetry is gathered from the
+frozen records the parts publish (:func:`telemetry_snapshot`), commands run through the
+command table (:mod:`autopilot.mavlink.commands`) on the commander's typed methods.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.commander import health
+from autopilot.mavlink import commands
+from autopilot.parameters import ParameterStore
+from autopilot.topics import ActuatorStatus, CommanderStatus, ControlSetpoints, EstimatorStatus, TelemetrySnapshot
+
+if TYPE_CHECKING:
+    from autopilot.flight_controller import FlightController
+
+
+class VehicleInterface(Protocol):
+    params: ParameterStore
+
+    def snapshot(self) -> TelemetrySnapshot:
+        """Current state for telemetry (cheap; called once per link update)."""
+
+    def handle_command(self, command: int, params: tuple[float, ...], frame: int) -> int:
+        """Run a COMMAND_LONG/COMMAND_INT and return its MAV_RESULT.
+
+        ``params`` are the seven float parameters (for COMMAND_INT, params 5 and 6
+        are already converted from degE7 to degrees).  A refusal queues a STATUSTEXT
+        saying why (see :meth:`pop_events`).  Unknown commands return
+        MAV_RESULT_UNSUPPORTED.  Commands handled by the link itself
+        (REQUEST_MESSAGE, SET_MESSAGE_INTERVAL, REQUEST_AUTOPILOT_CAPABILITIES) never
+        reach this method.
+        """
+
+    def handle_set_mode(self, base_mode: int, custom_mode: int) -> int:
+        """SET_MODE message or MAV_CMD_DO_SET_MODE: return MAV_RESULT."""
+
+    def pop_events(self) -> list[tuple[int, str]]:
+        """STATUSTEXT events (severity, text) queued since the last call."""
+
+
+def telemetry_snapshot(
+    status: CommanderStatus,
+    actuators: ActuatorStatus,
+    control: ControlSetpoints | None,
+    estimator_status: EstimatorStatus | None,
+    ekf_in_use: bool,
+) -> TelemetrySnapshot:
+    """Everything the link reports, from the records of the commander, the controllers and the estimator.
+
+    MAV_STATE: BOOT before the first estimate, ACTIVE armed, STANDBY disarmed; PX4's base_mode
+    flags and custom_mode of the commander's mode; SYS_STATUS bits by :mod:`autopilot.commander.health`.
+    """
+    armed = status.armed
+    prearm_ok = armed or not status.prearm_failures
+    if status.estimate is None:
+        system_status = mavlink.MAV_STATE_BOOT
+    elif armed:
+        system_status = mavlink.MAV_STATE_ACTIVE
+    else:
+        system_status = mavlink.MAV_STATE_STANDBY
+    sensors = health.SENSORS_PRESENT
+    return TelemetrySnapshot(
+        timestamp_us=status.timestamp_us, mav_type=status.mav_type, armed=armed,
+        base_mode=status.mode.base_mode_flags(armed), custom_mode=status.mode.custom_mode,
+        system_status=system_status, landed_state=status.landed_state, estimate=status.estimate, gps=status.gps,
+        home=status.home, battery=status.battery, throttle_frac=actuators.throttle_frac, sensors_present=sensors,
+        sensors_enabled=sensors,
+        sensors_health=health.sensors_health(status.estimate, status.gps_ok, estimator_status, ekf_in_use, prearm_ok),
+        prearm_ok=prearm_ok, position_setpoint_ned_m=status.position_setpoint_ned_m,
+        motor_outputs=actuators.motor_outputs, control=control, estimator_status=estimator_status,
+        battery_warning=status.battery_warning,
+    )  # fmt: skip
+
+
+class FlightControllerVehicle:
+    """:class:`VehicleInterface` of a running :class:`~autopilot.flight_controller.FlightController`."""
+
+    def __init__(self, fc: "FlightController") -> None:
+        self.fc = fc
+        self.params = fc.params
+
+    def snapshot(self) -> TelemetrySnapshot:
+        fc = self.fc
+        estimator = fc.estimator
+        return telemetry_snapshot(fc.commander.status, fc.actuators, fc.control_setpoints(), estimator.status(),
+                                  estimator.use_ekf)
+
+    def handle_command(self, command: int, params: tuple[float, ...], frame: int) -> int:
+        return commands.handle_vehicle_command(self.fc.commander, command, params, frame)
+
+    def handle_set_mode(self, base_mode: int, custom_mode: int) -> int:
+        return commands.handle_set_mode(self.fc.commander, base_mode, custom_mode)
+
+    def pop_events(self) -> list[tuple[int, str]]:
+        return self.fc.commander.pop_events()
