@@ -1,11 +1,9 @@
 """Flight logs and plots: the setpoint streams, the .tlog, the control-rate log, ``gcs plot``.
 
-Unit tests write files in pytest's tmp_path; one GcsLink test uses UDP on instance 68;
-the end-to-end test flies the real processes (``Stack``, instance 67) and reads the
-logs they leave.  Instances 65-69 are this file's.  Not 65: its API port 14605 is the
-flight controller's local API port (14580 + I) of instance 25, the estimator benchmark's.
-The simulator's UDP truth is off (``--truth-port 0``): 14560 + 67 = 14627 is a port of
-test_gcs_link's instance 47, and the test reads the truth from the simulator's log.
+Unit tests write files in pytest's tmp_path; one GcsLink test uses UDP on its own instance;
+the end-to-end test (marked ``e2e``) flies the real processes (``Stack``) on another and reads
+the logs they leave.  Both instances are this file's in tests/instances.py.  The simulator's
+UDP truth is off (``--truth-port 0``): the test reads the truth from the simulator's log.
 """
 
 from __future__ import annotations
@@ -50,8 +48,11 @@ from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-LINK_INSTANCE = 68  # GcsLink binds UDP 14648, 18638; the client 14618
-E2E_INSTANCE = 67  # TCP 4627; the flight controller binds UDP 14647, 18637; the client 14607
+
+from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+
+LINK_INSTANCE = instance("test_flight_logs", "link")  # GcsLink binds UDP 14580+I, 18570+I; the client 14550+I
+E2E_INSTANCE = instance("test_flight_logs", "e2e")  # TCP 4560+I; the flight controller binds UDP 14580+I, 18570+I
 EPOCH0_US = 1_750_000_000_000_000  # 2025-06-15, a plausible wall-clock anchor
 
 
@@ -415,6 +416,7 @@ def test_gcs_plot_reports_a_bad_log(tmp_path, capsys):
 # --------------------------------------------------------------------------- end to end
 
 
+@pytest.mark.e2e
 def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
     """Real sitl + autopilot (max speed): take off to 3 m, hover 3 s, land; read the logs; plot them."""
     from gcs.client import VehicleClient

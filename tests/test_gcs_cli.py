@@ -29,6 +29,11 @@ from mavsim_core import param_encoding
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+
+NOBODY = instance("test_gcs_cli", "nobody")  # an instance no test starts: UDP 14550 + NOBODY stays silent
+DEMO_INSTANCE = instance("test_gcs_cli", "demo")
+
 
 def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -157,13 +162,11 @@ def test_cli_parsing():
 
 
 def test_unknown_mode_exits_1_without_connecting(capsys):
-    assert main(["--instance", "99", "--timeout", "0.2", "mode", "GUIDED"]) == 1
+    assert main(["--instance", str(NOBODY), "--timeout", "0.2", "mode", "GUIDED"]) == 1
     assert "unknown mode 'GUIDED'" in capsys.readouterr().err
 
 
 # --------------------------------------------------------------------------- nothing answering
-
-NOBODY = 99  # an instance nothing else uses (see tests/test_e2e_flight.py): UDP 14649 stays silent
 
 
 def test_arm_without_vehicle_times_out_with_exit_2(capsys):
@@ -209,11 +212,12 @@ def test_stack_ports_and_commands():
     assert Stack().speed == "max"
 
 
+@pytest.mark.e2e
 def test_demo_reports_dead_flight_controller_with_log_tail(capsys):
     """The real simulator starts; the flight controller cannot: the demo says which and why."""
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
-        rc = demo.main(["--instance", "97", "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"])
+        rc = demo.main(["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"])
     finally:
         signal.signal(signal.SIGTERM, sigterm)
     err = capsys.readouterr().err
