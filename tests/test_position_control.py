@@ -1,0 +1,61 @@
+"""Position control (autopilot.control.position_control): hover feed-forward, thrust, tilt limit.
+
+No sockets, no processes, no clocks.  (From tests/test_units.py, split by subject.)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.control.position_control import PositionControl, PositionSetpoint, attitude_from_thrust
+from mavsim_core import quaternion as quat
+from mavsim_core.constants import GRAVITY_M_S2
+
+
+def make_position_control(params, quad) -> PositionControl:
+    return PositionControl(params, quad.mass_kg, len(quad.rotors) * quad.max_thrust_per_rotor_n)
+
+
+def test_position_control_hover_feed_forward_at_zero_error(params, quad):
+    pc = make_position_control(params, quad)
+    here = np.array([3.0, -2.0, -5.0])
+    sp = PositionSetpoint(here.copy(), np.zeros(3), 0.3)
+    for _ in range(20):
+        thrust = pc.update(here, np.zeros(3), sp, 0.02)
+        assert thrust == pytest.approx([0.0, 0.0, -quad.mass_kg * GRAVITY_M_S2])
+
+
+def test_position_control_thrust_is_mass_times_acceleration_minus_gravity(params, quad):
+    pc = make_position_control(params, quad)
+    sp = PositionSetpoint(np.array([1.0, 0.5, -5.3]), np.zeros(3), 0.0)
+    thrust = pc.update(np.array([0.0, 0.0, -5.0]), np.zeros(3), sp, 0.02)
+    assert thrust == pytest.approx(quad.mass_kg * (pc.acc_sp - np.array([0.0, 0.0, GRAVITY_M_S2])))
+    assert thrust[0] > 0 and thrust[1] > 0 and -thrust[2] > quad.mass_kg * GRAVITY_M_S2  # toward the goal, climbing
+
+
+def test_position_control_respects_tilt_limit(params, quad):
+    pc = make_position_control(params, quad)
+    for tilt_max in (35.0, 20.0):
+        params.set("MPC_TILTMAX_AIR", tilt_max)
+        pc.reset()
+        sp = PositionSetpoint(np.array([200.0, -100.0, -5.0]), np.zeros(3), 0.0)
+        for _ in range(100):
+            thrust = pc.update(np.array([0.0, 0.0, -5.0]), np.zeros(3), sp, 0.02)
+            tilt = math.degrees(math.atan2(math.hypot(thrust[0], thrust[1]), -thrust[2]))
+            assert tilt <= tilt_max + 1e-6
+        assert tilt == pytest.approx(tilt_max)
+        assert math.atan2(thrust[1], thrust[0]) == pytest.approx(math.atan2(-100.0, 200.0))  # toward the goal
+        assert np.linalg.norm(thrust) <= len(quad.rotors) * quad.max_thrust_per_rotor_n + 1e-9
+
+
+def test_attitude_from_thrust_points_body_down_against_thrust():
+    thrust = np.array([2.0, -1.0, -13.0])
+    for yaw in (0.0, 1.0, -2.5):
+        r = attitude_from_thrust(thrust, yaw)
+        assert r.T @ r == pytest.approx(np.eye(3), abs=1e-12)
+        assert -r[:, 2] == pytest.approx(thrust / np.linalg.norm(thrust))
+        level_yaw = quat.to_euler(quat.from_matrix(attitude_from_thrust(np.array([0.0, 0.0, -10.0]), yaw)))
+        assert level_yaw == pytest.approx((0.0, 0.0, yaw))
