@@ -71,3 +71,40 @@ def test_wxyz_xyzw_helpers_against_scipy():
             Rotation.from_quat(q, scalar_first=True).as_matrix())
     yaw90 = frames.xyzw_to_wxyz(Rotation.from_euler("z", 90, degrees=True).as_quat())
     assert yaw90 == pytest.approx([math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)])
+
+
+# ENU <-> NED swaps x/y and negates z; FLU <-> FRD negates y and z.  Both are their own inverse.
+P_NED_ENU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+P_FLU_FRD = np.diag([1.0, -1.0, -1.0])
+
+
+def test_vector_conversions_are_the_fixed_matrices_and_their_own_inverse():
+    rng = np.random.default_rng(3)
+    for v in rng.standard_normal((100, 3)) * 10:
+        assert frames.enu_to_ned(v) == pytest.approx(P_NED_ENU @ v)
+        assert frames.ned_to_enu(v) == pytest.approx(P_NED_ENU @ v)
+        assert frames.flu_to_frd(v) == pytest.approx(P_FLU_FRD @ v)
+        assert frames.enu_to_ned(frames.ned_to_enu(v)) == pytest.approx(v)
+        assert frames.flu_to_frd(frames.frd_to_flu(v)) == pytest.approx(v)
+
+
+def test_attitude_conversion_both_ways_is_the_matrix_product():
+    """R_ned_frd = P_ned_enu R_enu_flu P_flu_frd, starting from either side, and back again."""
+    for q_enu in random_quats(100, seed=4):
+        q_ned = frames.quat_enu_flu_to_ned_frd(q_enu)
+        assert quat.to_matrix(q_ned) == pytest.approx(P_NED_ENU @ quat.to_matrix(q_enu) @ P_FLU_FRD, abs=1e-12)
+    for q_ned in random_quats(100, seed=5):
+        q_enu = frames.quat_ned_frd_to_enu_flu(q_ned)
+        assert q_enu[0] >= 0 and np.linalg.norm(q_enu) == pytest.approx(1.0)
+        assert quat.to_matrix(q_enu) == pytest.approx(P_NED_ENU @ quat.to_matrix(q_ned) @ P_FLU_FRD, abs=1e-12)
+        again = frames.quat_enu_flu_to_ned_frd(q_enu)
+        assert abs(float(np.dot(again, q_ned))) == pytest.approx(1.0)
+
+
+def test_heading_east_of_north_is_90_deg_minus_mujoco_yaw():
+    for yaw_enu_deg in (-170.0, -90.0, -30.0, 0.0, 45.0, 90.0, 135.0, 179.0):
+        half = math.radians(yaw_enu_deg) / 2
+        q_enu = np.array([math.cos(half), 0.0, 0.0, math.sin(half)])  # yaw about ENU up, body level
+        roll, pitch, yaw = quat.to_euler(frames.quat_enu_flu_to_ned_frd(q_enu))
+        assert (roll, pitch) == pytest.approx((0.0, 0.0), abs=1e-12)
+        assert quat.wrap_pi(yaw - math.radians(90.0 - yaw_enu_deg)) == pytest.approx(0.0, abs=1e-12)
