@@ -18,7 +18,7 @@ from gcs.client import VehicleClient, mavlink
 from gcs.sim_client import SimClient
 from gcs.stack import Stack
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_estimation", "quad_x")

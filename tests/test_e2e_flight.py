@@ -34,7 +34,7 @@ from gcs.stack import Stack, StackError
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE_REALTIME = instance("test_e2e_flight", "realtime")  # scenario (a): real-time stack, started and stopped

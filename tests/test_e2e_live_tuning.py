@@ -48,7 +48,7 @@ from gcs.client import VehicleClient, mavlink
 from gcs.stack import Stack
 from params.vehicle import load_vehicle
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_live_tuning", "stack")
@@ -178,8 +178,9 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
     print(describe(f"P={high_p:g}, second half", high_2))
     print(describe(f"restored, {SKIP_S:g}-{SETTLE_S:g} s after", restored))
     print(f"ratios to baseline: fast rollspeed {high['rate_fast'] / base['rate_fast']:.2f} x "
-          f"(halves {high_1['rate_fast'] / base['rate_fast']:.2f}, {high_2['rate_fast'] / base['rate_fast']:.2f}), per setpoint {high['gain'] / base['gain']:.2f} x, "
-          f"motors {high['motor_fast'] / base['motor_fast']:.2f} x; restored {restored['rate_fast'] / base['rate_fast']:.2f} x")
+          f"(halves {high_1['rate_fast'] / base['rate_fast']:.2f}, {high_2['rate_fast'] / base['rate_fast']:.2f}), "
+          f"per setpoint {high['gain'] / base['gain']:.2f} x, motors {high['motor_fast'] / base['motor_fast']:.2f} x; "
+          f"restored {restored['rate_fast'] / base['rate_fast']:.2f} x")
 
     assert rate_hz > 40.0, f"ATTITUDE came at {rate_hz:.1f} Hz"
     # the raised gain makes the roll rate oscillate ...

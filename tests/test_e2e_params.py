@@ -50,7 +50,7 @@ from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_params", "stack")

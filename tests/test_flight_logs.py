@@ -49,7 +49,7 @@ from autopilot.param_catalogue import default_store
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 LINK_INSTANCE = instance("test_flight_logs", "link")  # GcsLink binds UDP 14580+I, 18570+I; the client 14550+I
 E2E_INSTANCE = instance("test_flight_logs", "e2e")  # TCP 4560+I; the flight controller binds UDP 14580+I, 18570+I
@@ -303,12 +303,14 @@ def test_link_streams_attitude_and_position_targets():
         assert at.thrust == pytest.approx(0.57)
         pt = next(m for m in got if m.get_type() == "POSITION_TARGET_LOCAL_NED")
         assert pt.coordinate_frame == mavlink.MAV_FRAME_LOCAL_NED
-        assert pt.type_mask == mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+        assert pt.type_mask == (mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE
+                                | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
         assert (pt.x, pt.y) == (1.0, 2.0) and math.isnan(pt.z)
         assert (pt.vx, pt.vy, pt.vz) == pytest.approx((0.1, 0.2, -0.5))
         assert (pt.afx, pt.afy, pt.afz) == pytest.approx((0.0, 0.3, -0.1)) and pt.yaw == pytest.approx(1.0)
         so = next(m for m in got if m.get_type() == "SERVO_OUTPUT_RAW")
-        assert (so.servo1_raw, so.servo2_raw, so.servo3_raw, so.servo4_raw, so.servo5_raw) == (1500, 1600, 1000, 2000, 0)
+        servos = (so.servo1_raw, so.servo2_raw, so.servo3_raw, so.servo4_raw, so.servo5_raw)
+        assert servos == (1500, 1600, 1000, 2000, 0)
 
         # SET_MESSAGE_INTERVAL works for them as for every stream: 50 Hz, then off.
         client.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
@@ -389,7 +391,8 @@ def test_gcs_plot_tlog(tmp_path):
         msgs = [mavlink.MAVLink_attitude_message(ms, 0.09, 0.01, 0.0, 0, 0, 0),
                 mavlink.MAVLink_attitude_target_message(ms, 0, q, 0, 0, 0, 0.5),
                 mavlink.MAVLink_local_position_ned_message(ms + 10, 0.0, 0.0, -min(ms / 1000.0, 3.0), 0, 0, 0),
-                mavlink.MAVLink_position_target_local_ned_message(ms + 10, 1, 0, 0.0, 0.0, -3.0, 0, 0, 0, 0, 0, 0, 0, 0),
+                mavlink.MAVLink_position_target_local_ned_message(ms + 10, 1, 0, 0.0, 0.0, -3.0,
+                                                                  0, 0, 0, 0, 0, 0, 0, 0),
                 mavlink.MAVLink_servo_output_raw_message(ms * 1000, 0, 1500, 1500, 1500, 1500, 0, 0, 0, 0)]
         if k % 20 == 0:
             msgs.append(mavlink.MAVLink_heartbeat_message(2, 12, 129, 4 << 16 | 3 << 24, 4, 3))

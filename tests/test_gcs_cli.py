@@ -29,7 +29,7 @@ from mavsim_core import param_encoding
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 NOBODY = instance("test_gcs_cli", "nobody")  # an instance no test starts: UDP 14550 + NOBODY stays silent
 DEMO_INSTANCE = instance("test_gcs_cli", "demo")
@@ -105,7 +105,8 @@ def test_real32_and_small_int_types():
         raw = param_encoding.encode_param_bytes(value, param_encoding.REAL32)
         as_float32 = struct.unpack("<f", struct.pack("<f", value))[0]
         assert param_encoding.decode_param_bytes(raw, param_encoding.REAL32) == as_float32
-    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(-5, param_encoding.INT8), param_encoding.INT8) == -5
+    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(-5, param_encoding.INT8),
+                                             param_encoding.INT8) == -5
     assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(60000, param_encoding.UINT16),
                                              param_encoding.UINT16) == 60000
     with pytest.raises(ValueError):
@@ -217,7 +218,8 @@ def test_demo_reports_dead_flight_controller_with_log_tail(capsys):
     """The real simulator starts; the flight controller cannot: the demo says which and why."""
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
-        rc = demo.main(["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"])
+        rc = demo.main(["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module",
+                        "--ready-timeout", "60"])
     finally:
         signal.signal(signal.SIGTERM, sigterm)
     err = capsys.readouterr().err

@@ -35,7 +35,7 @@ from autopilot.topics import (  # noqa: E402
 )
 from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 # This file's ten instances: GcsLink binds UDP 14580+I and 18570+I, its clients 14540+I and 14550+I.
 LINK = [instance("test_gcs_link", f"link{k}") for k in range(10)]
@@ -230,7 +230,8 @@ def test_to_euler():
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
+    q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+         cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
     assert to_euler(q) == pytest.approx((roll, pitch, yaw))
 
 
@@ -392,7 +393,8 @@ def test_request_message_and_capabilities(make_harness):
     command_long(c, mavlink.MAV_CMD_REQUEST_MESSAGE, 9999)
     got = h.pump(0.02)["gcs"]
     assert len(of_type(got, "AUTOPILOT_VERSION")) == 1
-    assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES)] == [mavlink.MAV_RESULT_ACCEPTED]
+    capabilities = acks(got, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES)
+    assert [a.result for a in capabilities] == [mavlink.MAV_RESULT_ACCEPTED]
     assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE)] == [
         mavlink.MAV_RESULT_ACCEPTED,
         mavlink.MAV_RESULT_UNSUPPORTED,
@@ -457,7 +459,8 @@ def test_timesync_and_empty_mission(make_harness):
     assert ts.ts1 == 123456789 and 0 < ts.tc1 <= h.t_us * 1000
     (count,) = of_type(got, "MISSION_COUNT")
     assert (count.count, count.mission_type, count.target_system) == (0, mavlink.MAV_MISSION_TYPE_FENCE, GCS_SYS)
-    assert [a.type for a in of_type(got, "MISSION_ACK")] == [mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_UNSUPPORTED]
+    assert [a.type for a in of_type(got, "MISSION_ACK")] == [mavlink.MAV_MISSION_ACCEPTED,
+                                                             mavlink.MAV_MISSION_UNSUPPORTED]
 
 
 # --------------------------------------------------------------------------- parameters
@@ -493,7 +496,8 @@ class RawParamSet(mavlink.MAVLink_param_set_message):
         self.raw4 = raw4
 
     def pack(self, mav, force_mavlink1=False):
-        payload = self.unpacker.pack(0.0, self.target_system, self.target_component, self._param_id_raw, self.param_type)
+        payload = self.unpacker.pack(0.0, self.target_system, self.target_component, self._param_id_raw,
+                                     self.param_type)
         return self._pack(mav, self.crc_extra, self.raw4 + payload[4:], force_mavlink1=force_mavlink1)
 
 
@@ -650,7 +654,8 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
     battery = BatteryState(voltage_v=math.nan, current_a=math.nan, remaining_frac=math.nan)
     from dataclasses import replace
 
-    h = make_harness(LINK[7], StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery, throttle_frac=math.nan)))
+    h = make_harness(LINK[7], StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery,
+                                                           throttle_frac=math.nan)))
     h.client("gcs")
     got = h.pump(2.0)["gcs"]
     assert h.link.tx_build_errors == 0

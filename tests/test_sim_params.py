@@ -39,7 +39,7 @@ from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings, param
 ROOT = Path(__file__).resolve().parent.parent
 GCS_SYS, GCS_COMP = 255, 190
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+from instances import instance  # tests/instances.py: every test's instance numbers
 
 SITL_INSTANCE = instance("test_sim_params", "sitl")
 
