@@ -108,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     if len(eerr):
         print(f"estimator position error vs truth, RMS: horizontal {rms(np.hypot(eerr[:, 0], eerr[:, 1])):.3f} m, "
               f"vertical {rms(eerr[:, 2]):.3f} m")
-    print(f"real-time factor: hover {hover_rtf:.1f}x, whole flight (take-off, hover, square, landing) {flight_rtf:.1f}x")
+    print(f"real-time factor: hover {hover_rtf:.1f}x, "
+          f"whole flight (take-off, hover, square, landing) {flight_rtf:.1f}x")
     print(f"landing error from the take-off point: {land_err:.2f} m")
     return 0
 

@@ -53,7 +53,11 @@ def hover_errors(truth: SimClient, client: VehicleClient, target: np.ndarray, se
     client.pump(0.05)
     t0 = truth.latest().time_ms
     est: list[tuple[float, float, float]] = []
-    listener = (lambda m: est.append((m.x, m.y, m.z)) if m.get_type() == "LOCAL_POSITION_NED" else None)
+
+    def listener(m) -> None:
+        if m.get_type() == "LOCAL_POSITION_NED":
+            est.append((m.x, m.y, m.z))
+
     client.add_listener(listener)
     wall0 = time.monotonic()
     while truth.latest().time_ms - t0 < seconds * 1000:
@@ -159,7 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     for r in results:
         s = r["step"]
         print(f"{r['vehicle']:9} {r['calm_h']:6.3f}m {r['calm_v']:6.3f}m {r['wind_h']:6.3f}m {r['wind_v']:6.3f}m "
-              f"{r['wind_max_h']:7.3f}m {s['rise_s']:5.2f}s {s['overshoot_pct']:8.1f}% {s['settle_s']:6.2f}s {s['final_err_m']:5.2f}m "
+              f"{r['wind_max_h']:7.3f}m {s['rise_s']:5.2f}s {s['overshoot_pct']:8.1f}% {s['settle_s']:6.2f}s "
+              f"{s['final_err_m']:5.2f}m "
               f"{r['rtf_wind']:7.1f}x {r['rtf_flight']:6.1f}x")
         print(f"{'':9} flight controller's own tracking (estimate - setpoint), horizontal RMS: "
               f"calm {r['calm_ctrl_h']:.3f} m, wind {r['wind_ctrl_h']:.3f} m")

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import struct
 from pathlib import Path
-from typing import Sequence
+from typing import BinaryIO, Sequence
 
 import numpy as np
 
@@ -60,7 +60,7 @@ class NpyLogWriter:
         self._pack_into = self._struct.pack_into
         self._n = 0  # rows in the chunk buffer
         self.rows_written = 0
-        self._f = open(self.path, "wb")
+        self._f: BinaryIO | None = open(self.path, "wb")  # None once closed
         self._f.write(_header(self.dtype, 0))
         self._f.flush()
 

@@ -16,7 +16,14 @@ from __future__ import annotations
 from enum import Enum
 from typing import NamedTuple
 
-from pymavlink.dialects.v20 import common as mavlink
+# MAV_MODE_FLAG bits (MAVLink common.xml), written out so that the flight tasks and the
+# topics that carry a Mode import no MAVLink library (tests/test_core_modes.py checks them).
+MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
+MAV_MODE_FLAG_AUTO_ENABLED = 4
+MAV_MODE_FLAG_GUIDED_ENABLED = 8
+MAV_MODE_FLAG_STABILIZE_ENABLED = 16
+MAV_MODE_FLAG_MANUAL_INPUT_ENABLED = 64
+MAV_MODE_FLAG_SAFETY_ARMED = 128
 
 
 class Px4Mode(NamedTuple):
@@ -79,15 +86,15 @@ class Mode(Enum):
 
     def base_mode_flags(self, armed: bool) -> int:
         """MAV_MODE_FLAG bits as PX4 sets them for this mode."""
-        f = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
+        f = MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | MAV_MODE_FLAG_STABILIZE_ENABLED
         if armed:
-            f |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+            f |= MAV_MODE_FLAG_SAFETY_ARMED
         if self.value[0] in (1, 2, 3, 5, 7):
-            f |= mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+            f |= MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
         if self.value[0] in (3, 4, 6):
-            f |= mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
+            f |= MAV_MODE_FLAG_GUIDED_ENABLED
         if self.value[0] == 4:
-            f |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED
+            f |= MAV_MODE_FLAG_AUTO_ENABLED
         return f
 
 

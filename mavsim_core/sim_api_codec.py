@@ -33,7 +33,7 @@ _CRC = struct.Struct("<H")
 class MessageLayout:
     """Wire layout of one MAVLink message class, precomputed from pymavlink's definition."""
 
-    def __init__(self, cls: type) -> None:
+    def __init__(self, cls: type[mavlink.MAVLink_message]) -> None:
         self.cls = cls
         self.msgid = cls.id
         self.crc_extra = bytes([cls.crc_extra])
@@ -87,7 +87,7 @@ class StreamParser:
     to get damaged bytes back as BAD_DATA).  Packets come back in the order they arrived.
     """
 
-    def __init__(self, mav: mavlink.MAVLink, fast: Iterable[type]) -> None:
+    def __init__(self, mav: mavlink.MAVLink, fast: Iterable[type[mavlink.MAVLink_message]]) -> None:
         self.mav = mav
         self.layouts = {cls.id: MessageLayout(cls) for cls in fast}
         self._buf = bytearray()  # the start of a packet waiting for its remaining bytes

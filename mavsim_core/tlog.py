@@ -18,6 +18,7 @@ from __future__ import annotations
 import struct
 import time
 from pathlib import Path
+from typing import BinaryIO
 
 SUFFIX = ".tlog"
 MAVLINK2_STX = 0xFD
@@ -53,7 +54,7 @@ class TlogWriter:
 
     def __init__(self, path: str | Path, flush_every_us: int = 500_000) -> None:
         self.path = Path(path)
-        self._f = open(self.path, "wb")
+        self._f: BinaryIO | None = open(self.path, "wb")  # None once closed
         self.flush_every_us = flush_every_us
         self._last_flush_us: int | None = None
         self.packets = 0

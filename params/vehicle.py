@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
 from mavsim_core.constants import GRAVITY_M_S2
 
 VEHICLE_DIR = Path(__file__).resolve().parent / "vehicles"

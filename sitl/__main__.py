@@ -53,7 +53,8 @@ def parse_param_assignment(text: str) -> tuple[str, int | float]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="sitl", description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)")
+    p = argparse.ArgumentParser(prog="sitl",
+                                description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)")
     p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
     p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
     p.add_argument("--instance", "-i", type=int, default=0, help="offsets every port, like PX4's -i")

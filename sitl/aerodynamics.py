@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import math
 
-from params.vehicle import VehicleSpec
 from mavsim_core.frames import frd_to_flu
+from params.vehicle import VehicleSpec
 
 AIR_DENSITY_KG_M3 = 1.225  # ISA sea level
 

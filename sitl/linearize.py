@@ -51,11 +51,10 @@ import mujoco
 import numpy as np
 
 from mavsim_core import quaternion as quat
-
 from mavsim_core.constants import GRAVITY_M_S2
+from mavsim_core.frames import enu_to_ned, flu_to_frd, frd_to_flu, ned_to_enu, quat_ned_frd_to_enu_flu
 from params.vehicle import VehicleSpec
 from sitl.aerodynamics import Aerodynamics
-from mavsim_core.frames import enu_to_ned, flu_to_frd, frd_to_flu, ned_to_enu, quat_ned_frd_to_enu_flu
 from sitl.model import build_model
 
 STATE_LABELS = ("x_n", "y_n", "z_n", "u", "v", "w", "phi", "theta", "psi", "p", "q", "r")

@@ -28,6 +28,7 @@ from typing import Sequence
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
@@ -36,7 +37,6 @@ from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sensors import course_over_ground_deg
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
-from mavsim_core.constants import GRAVITY_M_S2
 
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz

@@ -13,8 +13,8 @@ from __future__ import annotations
 import mujoco
 
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
-from params.vehicle import VehicleSpec
 from mavsim_core.frames import frd_to_flu
+from params.vehicle import VehicleSpec
 
 # One physics step per lockstep period (250 Hz).  MuJoCo's default contact time constant
 # (0.02 s) needs a step of at most 0.01 s; rotor lag is integrated exactly (sitl.rotors).

@@ -40,10 +40,10 @@ from typing import Callable, Iterable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from mavsim_core.statustext import StatustextChunker
 from mavsim_core.mavlink_udp import Address, UdpEndpoint
-from sitl.sim_params import SimParam, SimParamError, SimParameters
 from mavsim_core.param_types import ParamType
+from mavsim_core.statustext import StatustextChunker
+from sitl.sim_params import SimParam, SimParamError, SimParameters
 
 SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, the simulator component
 HEARTBEAT_PERIOD_S = 1.0

@@ -51,7 +51,8 @@ class RotorModel:
             self._alpha_down = 1.0 - math.exp(-dt_s / self.tau_down_s)
             self._alpha_dt = dt_s
         up, down = self._alpha_up, self._alpha_down
-        self.speeds = [w + (up if c > w else down) * (c - w) for w, c in zip(self.speeds, self.commanded_speed(commands))]
+        self.speeds = [w + (up if c > w else down) * (c - w)
+                       for w, c in zip(self.speeds, self.commanded_speed(commands))]
         k = self.k_thrust
         return [k * w * w for w in self.speeds]
 

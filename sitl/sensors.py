@@ -77,11 +77,15 @@ from functools import lru_cache
 
 import numpy as np
 
-from mavsim_core.constants import (LOCKSTEP_DT_US, MAGNETIC_MODEL_EPOCH_YEAR, SEA_LEVEL_PRESSURE_HPA,
-                                   SEA_LEVEL_TEMPERATURE_C, TEMPERATURE_LAPSE_K_M)
+from mavsim_core.constants import (
+    LOCKSTEP_DT_US,
+    MAGNETIC_MODEL_EPOCH_YEAR,
+    SEA_LEVEL_PRESSURE_HPA,
+    SEA_LEVEL_TEMPERATURE_C,
+    TEMPERATURE_LAPSE_K_M,
+)
 from mavsim_core.geodesy import ned_to_geodetic
 from sitl.sim_settings import SensorSettings
-
 
 CALL_PERIOD_US = LOCKSTEP_DT_US  # the caller's period; fix times are rounded to it
 GPS_DRIFT_TAU_S = 60.0  # correlation time of the GPS wander
@@ -114,7 +118,8 @@ def _earth_field(lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float)
     return (r.x * 1e-5, r.y * 1e-5, r.z * 1e-5)  # nT -> gauss
 
 
-def earth_field_ned_gauss(lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float = MAGNETIC_MODEL_EPOCH_YEAR) -> np.ndarray:
+def earth_field_ned_gauss(lat_deg: float, lon_deg: float, alt_amsl_m: float,
+                          year: float = MAGNETIC_MODEL_EPOCH_YEAR) -> np.ndarray:
     """Earth's magnetic field (gauss, NED) from the World Magnetic Model."""
     return np.array(_earth_field(float(lat_deg), float(lon_deg), float(alt_amsl_m), float(year)))
 
@@ -198,12 +203,6 @@ class SensorSuite:
         sd, z, w = self.settings.gyro_bias_sd, self._gyr_z0, self._gyr_walk
         return (sd * z[0] + w[0], sd * z[1] + w[1], sd * z[2] + w[2])
 
-    @property
-    def gps_drift_ned_m(self) -> Vec3:
-        """The wandering part of the GPS position error (m, NED) in the latest fix."""
-        sd, z = self.settings.gps_drift_m, self._gm
-        return (sd * z[0], sd * z[1], GPS_VERTICAL_DRIFT_FACTOR * sd * z[2])
-
     # -- IMU, magnetometer, barometer ----------------------------------------------
     def imu(self, specific_force_frd, rate_frd, r_ned_frd, pos_ned_m, dt_s: float,
             current_a: float = 0.0) -> ImuReading:
@@ -236,9 +235,12 @@ class SensorSuite:
                 r_ned_frd.tolist() if type(r_ned_frd) is np.ndarray else r_ned_frd)
             bn, be, bd = self._field
             sig = s.mag_noise_gauss
-            mag = (r00 * bn + r10 * be + r20 * bd + s.mag_offset_x_gauss + current_a * s.mag_motor_x_gauss_a + sig * nm0,
-                   r01 * bn + r11 * be + r21 * bd + s.mag_offset_y_gauss + current_a * s.mag_motor_y_gauss_a + sig * nm1,
-                   r02 * bn + r12 * be + r22 * bd + s.mag_offset_z_gauss + current_a * s.mag_motor_z_gauss_a + sig * nm2)
+            mag = (r00 * bn + r10 * be + r20 * bd + s.mag_offset_x_gauss
+                   + current_a * s.mag_motor_x_gauss_a + sig * nm0,
+                   r01 * bn + r11 * be + r21 * bd + s.mag_offset_y_gauss
+                   + current_a * s.mag_motor_y_gauss_a + sig * nm1,
+                   r02 * bn + r12 * be + r22 * bd + s.mag_offset_z_gauss
+                   + current_a * s.mag_motor_z_gauss_a + sig * nm2)
             self._mag_last = mag
 
         # barometer

@@ -21,7 +21,6 @@ from typing import Iterator, NamedTuple
 from mavsim_core.param_types import ParamType
 from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings, param_fields
 
-
 # INT32 limits stay within +-(2**23 - 1): the byte-wise encoding of such an integer read as
 # a float32 is never a signalling NaN, so it survives a Python float exactly (sitl.param_server).
 INT32_FLOAT_SAFE = 2**23 - 1
@@ -96,10 +95,11 @@ class SimParameters:
                     raise ValueError(f"parameter {name} declared twice (sitl.sim_settings)")
                 if md["type"] not in (ParamType.INT32, ParamType.REAL32):
                     raise ValueError(f"parameter {name}: unsupported type {md['type']!r}")
-                if md["type"] == ParamType.INT32 and not -INT32_FLOAT_SAFE <= md["min"] <= md["max"] <= INT32_FLOAT_SAFE:
+                if (md["type"] == ParamType.INT32
+                        and not -INT32_FLOAT_SAFE <= md["min"] <= md["max"] <= INT32_FLOAT_SAFE):
                     raise ValueError(f"parameter {name}: INT32 limits must lie within +-{INT32_FLOAT_SAFE}")
-                p = SimParam(len(self._params), name, ParamType(md["type"]), f.default, float(md["min"]), float(md["max"]),
-                             md["unit"], md["description"], owner, f.name)
+                p = SimParam(len(self._params), name, ParamType(md["type"]), f.default,
+                             float(md["min"]), float(md["max"]), md["unit"], md["description"], owner, f.name)
                 self._params.append(p)
                 self._by_name[name] = p
 

@@ -16,16 +16,15 @@ import mujoco
 import numpy as np
 
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from mavsim_core.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
 from params.vehicle import VehicleSpec
 from sitl.aerodynamics import Aerodynamics
 from sitl.battery import Battery
-from mavsim_core.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
 from sitl.model import PHYSICS_DT_S, build_model
 from sitl.rotors import RotorModel
 from sitl.sensors import SensorSuite
 from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
 from sitl.wind import WindModel
-
 
 
 @dataclass(frozen=True)
@@ -160,7 +159,8 @@ class Simulation:
         accel_ned = r @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
         return Truth(
             time_us=self.time_us,
-            pos_ned_m=enu_to_ned(np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1], d.qpos[2]])),
+            pos_ned_m=enu_to_ned(np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1],
+                                           d.qpos[2]])),
             vel_ned_m_s=enu_to_ned(d.qvel[0:3]),
             accel_ned_m_s2=accel_ned,
             q_ned_frd=q,

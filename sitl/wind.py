@@ -179,10 +179,6 @@ class WindModel:
         """The wind returned by the last step (m/s, NED)."""
         return self._vel
 
-    @property
-    def gust_active(self) -> bool:
-        return self._gust_active
-
     def trigger_gust(self) -> None:
         """Start a gust now (amplitude SIM_GUST_SPD, duration SIM_GUST_DUR); it replaces any current gust."""
         s = self.settings

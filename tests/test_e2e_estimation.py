@@ -3,7 +3,7 @@
 Real ``sitl`` and ``autopilot`` processes (``--speed max``, the simulator's default
 sensor errors), a client on the API port and :class:`gcs.sim_client.SimClient`
 for ground truth and the ``SIM_*`` failures.  Durations are simulated seconds.
-Instances 70 and 71 collide with no other test.
+Its instance is in the one table of tests/instances.py.
 """
 
 from __future__ import annotations
@@ -18,6 +18,10 @@ from gcs.client import VehicleClient, mavlink
 from gcs.sim_client import SimClient
 from gcs.launcher import Stack
 
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_estimation", "quad_x")
 WAIT_S = 120.0
 ALT_M = 5.0
 
@@ -38,7 +42,7 @@ def horizontal_from(truth: SimClient, point) -> float:
 
 @pytest.fixture(scope="module")
 def flying():
-    with Stack(instance=70, vehicle="quad_x") as stack, SimClient(14560 + 70) as truth, \
+    with Stack(instance=INSTANCE, vehicle="quad_x") as stack, SimClient(14560 + INSTANCE) as truth, \
             VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
         client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000).check()
         take_off(client, truth)

@@ -1,7 +1,7 @@
 """End-to-end: the real simulator and flight controller, flown over real sockets.
 
 Every test here starts the real ``sitl`` and ``autopilot`` processes (through
-:class:`gcs.stack.Stack`) and talks MAVLink to the flight controller the way a
+:class:`gcs.launcher.Stack`) and talks MAVLink to the flight controller the way a
 ground station does: :class:`gcs.client.VehicleClient` (pymavlink underneath) on
 the API port, a second client on the ground-station port, the ``gcs`` CLI as a
 subprocess.  Ground truth comes from the simulator's own UDP channel
@@ -13,11 +13,8 @@ flight scenario starts and ends landed and disarmed.  Durations the vehicle must
 hold are simulated seconds (its clock); wall-clock values are only "give up
 waiting" timeouts.
 
-Instances: instance I uses TCP 4560+I and UDP 14540+I, 14550+I, 14560+I (truth), and
-the flight controller binds UDP 14580+I and 18570+I.  Instances 0-9 (people) and
-40-49 (test_gcs_link) cover UDP 14540-14609, 14620-14629 and 18570-18619, so
-instances 11-13 would collide with people's ports (14551 is instance 1's
-QGroundControl port); 91-93 collide with nothing.
+Instances: this file's three, from the one table in tests/instances.py (which says
+which ports an instance uses and checks that no two tests' instances share one).
 """
 
 from __future__ import annotations
@@ -37,9 +34,13 @@ from gcs.launcher import Stack, StackError, demo
 from gcs.sim_client import SimClient
 
 ROOT = Path(__file__).resolve().parent.parent
-INSTANCE_REALTIME = 91  # scenario (a): real-time stack, started and stopped by its test
-INSTANCE = 92  # the shared max-speed stack
-INSTANCE_DEMO = 93  # flight-demo starts its own stack
+
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE_REALTIME = instance("test_e2e_flight", "realtime")  # scenario (a): real-time stack, started and stopped
+INSTANCE = instance("test_e2e_flight", "shared")  # the shared max-speed stack
+INSTANCE_DEMO = instance("test_e2e_flight", "demo")  # flight-demo starts its own stack
 
 WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
 ON_GROUND, IN_AIR, LANDING = (mavlink.MAV_LANDED_STATE_ON_GROUND, mavlink.MAV_LANDED_STATE_IN_AIR,

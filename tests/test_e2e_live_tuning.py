@@ -1,8 +1,8 @@
 """End-to-end: live tuning of the roll-rate gain in a hover (issue 5).
 
-A real ``sitl`` + ``autopilot`` stack (instance 75, ``--speed max``, default seed) and a
-:class:`VehicleClient` on the flight controller's ground-station socket (``udpout`` to
-18570 + 75, so no fixed port is bound here).  The test does what someone tuning with
+A real ``sitl`` + ``autopilot`` stack (its instance from tests/instances.py, ``--speed max``,
+default seed) and a :class:`VehicleClient` on the flight controller's ground-station socket
+(``udpout`` to 18570 + instance, so no fixed port is bound here).  The test does what someone tuning with
 a ground station does.  It asks for ATTITUDE, ATTITUDE_TARGET and SERVO_OUTPUT_RAW at
 250 Hz with MAV_CMD_SET_MESSAGE_INTERVAL (the link sends at most at its own update
 rate, 50 Hz of simulated time, and the received rate is printed).  It hovers at 5 m,
@@ -48,7 +48,10 @@ from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
 from params.vehicle import load_vehicle
 
-INSTANCE = 75
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_live_tuning", "stack")
 FC_GCS_URL = f"udpout:127.0.0.1:{18570 + INSTANCE}"  # the flight controller's ground-station socket
 WAIT_S = 60.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
 ALT_M = 5.0
@@ -175,8 +178,9 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
     print(describe(f"P={high_p:g}, second half", high_2))
     print(describe(f"restored, {SKIP_S:g}-{SETTLE_S:g} s after", restored))
     print(f"ratios to baseline: fast rollspeed {high['rate_fast'] / base['rate_fast']:.2f} x "
-          f"(halves {high_1['rate_fast'] / base['rate_fast']:.2f}, {high_2['rate_fast'] / base['rate_fast']:.2f}), per setpoint {high['gain'] / base['gain']:.2f} x, "
-          f"motors {high['motor_fast'] / base['motor_fast']:.2f} x; restored {restored['rate_fast'] / base['rate_fast']:.2f} x")
+          f"(halves {high_1['rate_fast'] / base['rate_fast']:.2f}, {high_2['rate_fast'] / base['rate_fast']:.2f}), "
+          f"per setpoint {high['gain'] / base['gain']:.2f} x, motors {high['motor_fast'] / base['motor_fast']:.2f} x; "
+          f"restored {restored['rate_fast'] / base['rate_fast']:.2f} x")
 
     assert rate_hz > 40.0, f"ATTITUDE came at {rate_hz:.1f} Hz"
     # the raised gain makes the roll rate oscillate ...

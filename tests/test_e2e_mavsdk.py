@@ -19,7 +19,10 @@ from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 
-INSTANCE = 94
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_mavsdk", "stack")
 
 
 async def _until(predicate, timeout_s: float, what: str, period_s: float = 0.2):

@@ -1,6 +1,6 @@
 """End-to-end: the parameter service of the real flight controller, over real sockets.
 
-One max-speed stack (module scope, instance 60) started with ``--state-dir`` and
+One max-speed stack (module scope, instance from tests/instances.py) started with ``--state-dir`` and
 ``--params``; it is never armed.  The clients:
 
 * a :class:`VehicleClient` (pymavlink);
@@ -50,7 +50,11 @@ from params.param_file import QGC, parse_param_text, read_param_file
 from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
-INSTANCE = 60
+
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_params", "stack")
 FC_GCS_URL = f"udpout:127.0.0.1:{18570 + INSTANCE}"  # the flight controller's ground-station socket
 FC_API_PORT = 14580 + INSTANCE  # its API socket
 WAIT_S = 30.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
@@ -90,7 +94,7 @@ def declared():
 
 
 def run_gcs(*args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
-    """``python -m gcs --url udpout:127.0.0.1:18630 ...``."""
+    """``python -m gcs --url udpout:127.0.0.1:<18570 + INSTANCE> ...``."""
     cmd = [sys.executable, "-m", "gcs", "--url", FC_GCS_URL, *args]
     return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout_s)
 

@@ -1,10 +1,10 @@
 """End-to-end: both vehicles of the source documents fly from their files, in wind, with failures.
 
-The real ``sitl`` and ``autopilot`` processes (``gcs.stack.Stack``, ``--speed max``),
+The real ``sitl`` and ``autopilot`` processes (``gcs.launcher.Stack``, ``--speed max``),
 a ground-station client on the API port, and :class:`gcs.sim_client.SimClient` on
 the simulator's own port (ground truth, and the ``SIM_*`` parameters a user sets
 from MAVProxy).  Durations are simulated seconds; wall-clock values are only
-"give up waiting" timeouts.  Instances 95 and 96 collide with no other test.
+"give up waiting" timeouts.  Instances: tests/instances.py.
 """
 
 from __future__ import annotations
@@ -18,6 +18,11 @@ from gcs.client import VehicleClient, mavlink
 from gcs.sim_client import SimClient
 from gcs.launcher import Stack
 
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE_FIREFLY = instance("test_e2e_vehicles", "firefly")
+INSTANCE_WINDY = instance("test_e2e_vehicles", "windy")
 WAIT_S = 120.0
 ALT_M = 5.0
 
@@ -55,7 +60,7 @@ def land(client: VehicleClient) -> None:
 
 @pytest.fixture(scope="module")
 def firefly():
-    with Stack(instance=95, vehicle="firefly") as stack, SimClient(14560 + 95) as truth, \
+    with Stack(instance=INSTANCE_FIREFLY, vehicle="firefly") as stack, SimClient(14560 + INSTANCE_FIREFLY) as truth, \
             VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
         yield client, truth
 
@@ -179,8 +184,8 @@ def collect(client: VehicleClient, kind: str, seconds: float) -> list:
 def test_quad_holds_position_in_the_windy_scenario():
     """The seed-000 quadcopter started with ``sitl --scenario windy`` (5 m/s from the West,
     1 m/s turbulence, 2 m/s gusts)."""
-    with Stack(instance=96, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack, \
-            SimClient(14560 + 96) as truth, \
+    with Stack(instance=INSTANCE_WINDY, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack, \
+            SimClient(14560 + INSTANCE_WINDY) as truth, \
             VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
         point = take_off(client, truth)
         assert truth.get("SIM_WIND_SPD") == 5.0

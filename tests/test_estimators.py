@@ -46,7 +46,8 @@ class Synthetic:
         self.acc = np.zeros(3)  # NED kinematic m/s^2
         self.gyro_bias = np.array(gyro_bias, dtype=float)
         self.accel_bias = np.array(accel_bias, dtype=float)
-        self.gyro_noise, self.accel_noise, self.mag_noise, self.gps_noise = gyro_noise, accel_noise, mag_noise, gps_noise
+        self.gyro_noise, self.accel_noise = gyro_noise, accel_noise
+        self.mag_noise, self.gps_noise = mag_noise, gps_noise
         self.gps_offset = np.zeros(3)  # a glitch
         self.gps_on = True
         self.mag_override: np.ndarray | None = None

@@ -1,11 +1,9 @@
 """Flight logs and plots: the setpoint streams, the .tlog, the control-rate log, ``gcs plot``.
 
-Unit tests write files in pytest's tmp_path; one GcsLink test uses UDP on instance 68;
-the end-to-end test flies the real processes (``Stack``, instance 67) and reads the
-logs they leave.  Instances 65-69 are this file's.  Not 65: its API port 14605 is the
-flight controller's local API port (14580 + I) of instance 25, the estimator benchmark's.
-The simulator's UDP truth is off (``--truth-port 0``): 14560 + 67 = 14627 is a port of
-test_gcs_link's instance 47, and the test reads the truth from the simulator's log.
+Unit tests write files in pytest's tmp_path; one GcsLink test uses UDP on its own instance;
+the end-to-end test (marked ``e2e``) flies the real processes (``Stack``) on another and reads
+the logs they leave.  Both instances are this file's in tests/instances.py.  The simulator's
+UDP truth is off (``--truth-port 0``): the test reads the truth from the simulator's log.
 """
 
 from __future__ import annotations
@@ -51,8 +49,11 @@ from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-LINK_INSTANCE = 68  # GcsLink binds UDP 14648, 18638; the client 14618
-E2E_INSTANCE = 67  # TCP 4627; the flight controller binds UDP 14647, 18637; the client 14607
+
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+LINK_INSTANCE = instance("test_flight_logs", "link")  # GcsLink binds UDP 14580+I, 18570+I; the client 14550+I
+E2E_INSTANCE = instance("test_flight_logs", "e2e")  # TCP 4560+I; the flight controller binds UDP 14580+I, 18570+I
 EPOCH0_US = 1_750_000_000_000_000  # 2025-06-15, a plausible wall-clock anchor
 
 
@@ -304,12 +305,14 @@ def test_link_streams_attitude_and_position_targets():
         assert at.thrust == pytest.approx(0.57)
         pt = next(m for m in got if m.get_type() == "POSITION_TARGET_LOCAL_NED")
         assert pt.coordinate_frame == mavlink.MAV_FRAME_LOCAL_NED
-        assert pt.type_mask == mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+        assert pt.type_mask == (mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE
+                                | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
         assert (pt.x, pt.y) == (1.0, 2.0) and math.isnan(pt.z)
         assert (pt.vx, pt.vy, pt.vz) == pytest.approx((0.1, 0.2, -0.5))
         assert (pt.afx, pt.afy, pt.afz) == pytest.approx((0.0, 0.3, -0.1)) and pt.yaw == pytest.approx(1.0)
         so = next(m for m in got if m.get_type() == "SERVO_OUTPUT_RAW")
-        assert (so.servo1_raw, so.servo2_raw, so.servo3_raw, so.servo4_raw, so.servo5_raw) == (1500, 1600, 1000, 2000, 0)
+        servos = (so.servo1_raw, so.servo2_raw, so.servo3_raw, so.servo4_raw, so.servo5_raw)
+        assert servos == (1500, 1600, 1000, 2000, 0)
 
         # SET_MESSAGE_INTERVAL works for them as for every stream: 50 Hz, then off.
         client.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
@@ -390,7 +393,8 @@ def test_gcs_plot_tlog(tmp_path):
         msgs = [mavlink.MAVLink_attitude_message(ms, 0.09, 0.01, 0.0, 0, 0, 0),
                 mavlink.MAVLink_attitude_target_message(ms, 0, q, 0, 0, 0, 0.5),
                 mavlink.MAVLink_local_position_ned_message(ms + 10, 0.0, 0.0, -min(ms / 1000.0, 3.0), 0, 0, 0),
-                mavlink.MAVLink_position_target_local_ned_message(ms + 10, 1, 0, 0.0, 0.0, -3.0, 0, 0, 0, 0, 0, 0, 0, 0),
+                mavlink.MAVLink_position_target_local_ned_message(ms + 10, 1, 0, 0.0, 0.0, -3.0,
+                                                                  0, 0, 0, 0, 0, 0, 0, 0),
                 mavlink.MAVLink_servo_output_raw_message(ms * 1000, 0, 1500, 1500, 1500, 1500, 0, 0, 0, 0)]
         if k % 20 == 0:
             msgs.append(mavlink.MAVLink_heartbeat_message(2, 12, 129, 4 << 16 | 3 << 24, 4, 3))
@@ -417,6 +421,7 @@ def test_gcs_plot_reports_a_bad_log(tmp_path, capsys):
 # --------------------------------------------------------------------------- end to end
 
 
+@pytest.mark.e2e
 def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
     """Real sitl + autopilot (max speed): take off to 3 m, hover 3 s, land; read the logs; plot them."""
     from gcs.client import VehicleClient

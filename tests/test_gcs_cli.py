@@ -30,6 +30,11 @@ from mavsim_core import param_encoding
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+NOBODY = instance("test_gcs_cli", "nobody")  # an instance no test starts: UDP 14550 + NOBODY stays silent
+DEMO_INSTANCE = instance("test_gcs_cli", "demo")
+
 
 def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -101,7 +106,8 @@ def test_real32_and_small_int_types():
         raw = param_encoding.encode_param_bytes(value, param_encoding.REAL32)
         as_float32 = struct.unpack("<f", struct.pack("<f", value))[0]
         assert param_encoding.decode_param_bytes(raw, param_encoding.REAL32) == as_float32
-    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(-5, param_encoding.INT8), param_encoding.INT8) == -5
+    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(-5, param_encoding.INT8),
+                                             param_encoding.INT8) == -5
     assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(60000, param_encoding.UINT16),
                                              param_encoding.UINT16) == 60000
     with pytest.raises(ValueError):
@@ -158,13 +164,11 @@ def test_cli_parsing():
 
 
 def test_unknown_mode_exits_1_without_connecting(capsys):
-    assert main(["--instance", "99", "--timeout", "0.2", "mode", "GUIDED"]) == 1
+    assert main(["--instance", str(NOBODY), "--timeout", "0.2", "mode", "GUIDED"]) == 1
     assert "unknown mode 'GUIDED'" in capsys.readouterr().err
 
 
 # --------------------------------------------------------------------------- nothing answering
-
-NOBODY = 99  # an instance nothing else uses (see tests/test_e2e_flight.py): UDP 14649 stays silent
 
 
 def test_arm_without_vehicle_times_out_with_exit_2(capsys):
@@ -210,11 +214,13 @@ def test_stack_ports_and_commands():
     assert Stack().speed == "max"
 
 
+@pytest.mark.e2e
 def test_demo_reports_dead_flight_controller_with_log_tail(capsys):
     """The real simulator starts; the flight controller cannot: the demo says which and why."""
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
-        rc = demo.main(["--instance", "97", "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"])
+        rc = demo.main(["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module",
+                        "--ready-timeout", "60"])
     finally:
         signal.signal(signal.SIGTERM, sigterm)
     err = capsys.readouterr().err

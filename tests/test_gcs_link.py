@@ -1,8 +1,8 @@
-"""Tests of autopilot.gcs_link against a real pymavlink client over loopback UDP.
+"""Tests of autopilot.mavlink (GcsLink) against a real pymavlink client over loopback UDP.
 
 The link runs on simulated time: every test pumps ``link.update(t_us)`` itself and
-drains the client sockets after each call.  Instances 40-49 keep the ports clear of
-other tests.
+drains the client sockets after each call.  Its ten instances (tests/instances.py) keep
+the ports clear of other tests.
 """
 
 from __future__ import annotations
@@ -35,6 +35,10 @@ from autopilot.topics import (  # noqa: E402
 )
 from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
 
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+# This file's ten instances: GcsLink binds UDP 14580+I and 18570+I, its clients 14540+I and 14550+I.
+LINK = [instance("test_gcs_link", f"link{k}") for k in range(10)]
 ORIGIN = (47.397742, 8.545594, 488.0)
 CUSTOM_MODE_POSCTL = 3 << 16
 BASE_MODE = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
@@ -226,7 +230,8 @@ def test_to_euler():
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
+    q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+         cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
     assert to_euler(q) == pytest.approx((roll, pitch, yaw))
 
 
@@ -252,7 +257,7 @@ def test_param_value_encoding():
 
 
 def test_heartbeat_identifies_as_px4(make_harness):
-    h = make_harness(40)
+    h = make_harness(LINK[0])
     c = h.client("gcs")
     got = h.pump(0.1)["gcs"]
     hb = of_type(got, "HEARTBEAT")
@@ -270,7 +275,7 @@ def test_heartbeat_identifies_as_px4(make_harness):
 
 
 def test_streams_rates_in_simulated_time_and_content(make_harness):
-    h = make_harness(41)
+    h = make_harness(LINK[1])
     h.client("gcs")
     got = h.pump(10.0)["gcs"]
     expected_hz = {
@@ -318,7 +323,7 @@ def test_streams_rates_in_simulated_time_and_content(make_harness):
 
 
 def test_no_estimate_no_attitude_or_position(make_harness):
-    h = make_harness(42, StubVehicle(snapshot=make_snapshot(with_estimate=False)))
+    h = make_harness(LINK[2], StubVehicle(snapshot=make_snapshot(with_estimate=False)))
     c = h.connect("gcs")
     got = h.pump(3.0)["gcs"]
     types = {m.get_type() for m in got}
@@ -330,7 +335,7 @@ def test_no_estimate_no_attitude_or_position(make_harness):
 
 
 def test_set_message_interval(make_harness):
-    h = make_harness(43)
+    h = make_harness(LINK[3])
     c = h.connect("gcs")
     command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000)  # 50 Hz
     command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, -1)
@@ -353,7 +358,7 @@ def test_set_message_interval(make_harness):
 
 
 def test_interval_applies_to_its_endpoint_only(make_harness):
-    h = make_harness(44)
+    h = make_harness(LINK[4])
     gcs = h.connect("gcs")
     h.connect("api")
     command_long(gcs, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, -1)
@@ -364,7 +369,7 @@ def test_interval_applies_to_its_endpoint_only(make_harness):
 
 
 def test_request_message_and_capabilities(make_harness):
-    h = make_harness(45)
+    h = make_harness(LINK[5])
     c = h.connect("gcs")
     command_long(c, mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
     got = h.pump(0.1)["gcs"]
@@ -388,7 +393,8 @@ def test_request_message_and_capabilities(make_harness):
     command_long(c, mavlink.MAV_CMD_REQUEST_MESSAGE, 9999)
     got = h.pump(0.02)["gcs"]
     assert len(of_type(got, "AUTOPILOT_VERSION")) == 1
-    assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES)] == [mavlink.MAV_RESULT_ACCEPTED]
+    capabilities = acks(got, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES)
+    assert [a.result for a in capabilities] == [mavlink.MAV_RESULT_ACCEPTED]
     assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE)] == [
         mavlink.MAV_RESULT_ACCEPTED,
         mavlink.MAV_RESULT_UNSUPPORTED,
@@ -401,7 +407,7 @@ def test_request_message_and_capabilities(make_harness):
 
 
 def test_unknown_command_goes_to_vehicle_and_is_unsupported(make_harness):
-    h = make_harness(46)
+    h = make_harness(LINK[6])
     c = h.connect("gcs")
     command_long(c, 31010, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0)
     command_long(c, 31011, target_system=2)  # another vehicle: ignored
@@ -416,7 +422,7 @@ def test_unknown_command_goes_to_vehicle_and_is_unsupported(make_harness):
 
 
 def test_command_int_global_frame_converted_to_degrees(make_harness):
-    h = make_harness(47)
+    h = make_harness(LINK[7])
     h.vehicle.results[mavlink.MAV_CMD_DO_REPOSITION] = mavlink.MAV_RESULT_ACCEPTED
     c = h.connect("gcs")
     c.mav.command_int_send(
@@ -432,7 +438,7 @@ def test_command_int_global_frame_converted_to_degrees(make_harness):
 
 
 def test_set_mode_message_acked_with_id_11(make_harness):
-    h = make_harness(48)
+    h = make_harness(LINK[8])
     c = h.connect("gcs")
     c.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4 << 16 | 3 << 24)
     c.mav.set_mode_send(7, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 2 << 16)  # not us
@@ -442,7 +448,7 @@ def test_set_mode_message_acked_with_id_11(make_harness):
 
 
 def test_timesync_and_empty_mission(make_harness):
-    h = make_harness(49)
+    h = make_harness(LINK[9])
     c = h.connect("gcs")
     c.mav.timesync_send(0, 123456789)
     c.mav.mission_request_list_send(1, 1, mavlink.MAV_MISSION_TYPE_FENCE)
@@ -453,14 +459,15 @@ def test_timesync_and_empty_mission(make_harness):
     assert ts.ts1 == 123456789 and 0 < ts.tc1 <= h.t_us * 1000
     (count,) = of_type(got, "MISSION_COUNT")
     assert (count.count, count.mission_type, count.target_system) == (0, mavlink.MAV_MISSION_TYPE_FENCE, GCS_SYS)
-    assert [a.type for a in of_type(got, "MISSION_ACK")] == [mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_UNSUPPORTED]
+    assert [a.type for a in of_type(got, "MISSION_ACK")] == [mavlink.MAV_MISSION_ACCEPTED,
+                                                             mavlink.MAV_MISSION_UNSUPPORTED]
 
 
 # --------------------------------------------------------------------------- parameters
 
 
 def test_full_parameter_list(make_harness):
-    h = make_harness(40, StubVehicle(params=make_params(extra=400)))
+    h = make_harness(LINK[0], StubVehicle(params=make_params(extra=400)))
     c = h.connect("gcs")
     store = h.vehicle.params
     start = time.monotonic()
@@ -489,12 +496,13 @@ class RawParamSet(mavlink.MAVLink_param_set_message):
         self.raw4 = raw4
 
     def pack(self, mav, force_mavlink1=False):
-        payload = self.unpacker.pack(0.0, self.target_system, self.target_component, self._param_id_raw, self.param_type)
+        payload = self.unpacker.pack(0.0, self.target_system, self.target_component, self._param_id_raw,
+                                     self.param_type)
         return self._pack(mav, self.crc_extra, self.raw4 + payload[4:], force_mavlink1=force_mavlink1)
 
 
 def test_int32_bytewise_round_trip(make_harness):
-    h = make_harness(41)
+    h = make_harness(LINK[1])
     c = h.connect("gcs")
     c.mav.param_request_read_send(1, 1, b"SYS_AUTOSTART", -1)
     got = of_type(h.pump(0.02)["gcs"], "PARAM_VALUE")
@@ -521,7 +529,7 @@ def test_int32_bytewise_round_trip(make_harness):
 
 
 def test_param_set_refused_echoes_old_value(make_harness):
-    h = make_harness(42)
+    h = make_harness(LINK[2])
     c = h.connect("gcs")
     c.mav.param_set_send(1, 1, b"MPC_XY_P", 5.0, mavlink.MAV_PARAM_TYPE_REAL32)  # out of range
     got = h.pump(0.02)["gcs"]
@@ -548,7 +556,7 @@ def test_param_set_refused_echoes_old_value(make_harness):
 
 
 def test_param_change_from_elsewhere_is_broadcast(make_harness):
-    h = make_harness(43)
+    h = make_harness(LINK[3])
     h.connect("gcs")
     h.connect("api")
     h.vehicle.params.set("MPC_XY_P", 1.25)
@@ -562,7 +570,7 @@ def test_param_change_from_elsewhere_is_broadcast(make_harness):
 
 
 def test_garbage_does_not_break_the_link(make_harness):
-    h = make_harness(44)
+    h = make_harness(LINK[4])
     c = h.connect("gcs")
     good = mavlink.MAVLink(None, GCS_SYS, GCS_COMP).command_long_encode(
         1, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0
@@ -590,7 +598,7 @@ def test_garbage_does_not_break_the_link(make_harness):
 
 
 def test_both_endpoints_and_peers_get_telemetry(make_harness):
-    h = make_harness(45)
+    h = make_harness(LINK[5])
     h.client("gcs")
     h.client("api")
     got = h.pump(1.5)
@@ -618,7 +626,7 @@ def test_both_endpoints_and_peers_get_telemetry(make_harness):
 
 
 def test_long_statustext_arrives_in_chunks(make_harness):
-    h = make_harness(46)
+    h = make_harness(LINK[6])
     h.connect("gcs")
     h.connect("api")
     text = "".join(chr(ord("a") + i % 26) for i in range(120))
@@ -646,7 +654,8 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
     battery = BatteryState(voltage_v=math.nan, current_a=math.nan, remaining_frac=math.nan)
     from dataclasses import replace
 
-    h = make_harness(47, StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery, throttle_frac=math.nan)))
+    h = make_harness(LINK[7], StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery,
+                                                           throttle_frac=math.nan)))
     h.client("gcs")
     got = h.pump(2.0)["gcs"]
     assert h.link.tx_build_errors == 0
@@ -663,4 +672,4 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
 
 def test_stream_rates_option_is_checked():
     with pytest.raises(ValueError, match="cannot stream"):
-        GcsLink(StubVehicle(), instance=48, stream_rates_hz={mavlink.MAVLINK_MSG_ID_HIGHRES_IMU: 50.0})
+        GcsLink(StubVehicle(), instance=LINK[8], stream_rates_hz={mavlink.MAVLINK_MSG_ID_HIGHRES_IMU: 50.0})

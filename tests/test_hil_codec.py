@@ -76,5 +76,6 @@ def test_stream_parser_matches_pymavlink_on_split_mixed_and_damaged_streams():
     assert len(good) > 400
     for a, b in zip([m for m in got if m.get_type() != "BAD_DATA"], good):
         assert a.to_dict() == b.to_dict()
-        assert (a.get_srcSystem(), a.get_srcComponent(), a.get_seq()) == (b.get_srcSystem(), b.get_srcComponent(), b.get_seq())
+        assert (a.get_srcSystem(), a.get_srcComponent(), a.get_seq()) == (b.get_srcSystem(), b.get_srcComponent(),
+                                                                         b.get_seq())
     assert any(m.get_type() == "BAD_DATA" for m in got)  # the damage is reported, as pymavlink does

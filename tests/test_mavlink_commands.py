@@ -2,8 +2,8 @@
 
 The table's vehicle rows run on a real commander; the last test sends every command of
 the table, and one it does not know, to a real :class:`GcsLink` serving a real (idle)
-flight controller over loopback UDP (instance 53: binds UDP 14633 and 18623, the client
-14603), and checks that each gets exactly one COMMAND_ACK with a MAV_RESULT.
+flight controller over loopback UDP (instance from tests/instances.py; the client listens on
+14550 + instance), and checks that each gets exactly one COMMAND_ACK with a MAV_RESULT.
 """
 
 from __future__ import annotations
@@ -26,7 +26,9 @@ from autopilot.mavlink.vehicle_interface import FlightControllerVehicle  # noqa:
 from autopilot.param_catalogue import default_store  # noqa: E402
 from params.vehicle import load_vehicle  # noqa: E402
 
-INSTANCE = 53
+from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
+
+INSTANCE = instance("test_mavlink_commands", "link")
 MAV_RESULTS = set(mavlink.enums["MAV_RESULT"]) - {mavlink.MAV_RESULT_ENUM_END}
 UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nothing here implements it
 

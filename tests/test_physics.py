@@ -147,7 +147,8 @@ def test_rolling_moment_matches_eq_4_13(name):
     v_a = 5.0  # along body x (facing North), FRD and FLU agree on x
     m_roll = w_sum * spec.rolling_moment_k_r * v_a  # about +x, eq (4.13)
     z_rotor_up = -spec.rotors[0].position_frd_m[2]  # rotors above the CoM
-    m_pitch_flu = z_rotor_up * w_sum * spec.rotor_drag_k_d * v_a  # r x F_d: drag at the rotors pitches the nose... (FLU y)
+    # r x F_d: drag at the rotors pitches the nose... (FLU y)
+    m_pitch_flu = z_rotor_up * w_sum * spec.rotor_drag_k_d * v_a
     alpha = t.rate_frd_rad_s / LOCKSTEP_DT_S
     assert alpha[0] == pytest.approx(m_roll / spec.inertia_kg_m2[0], rel=0.05)
     assert alpha[1] == pytest.approx(-m_pitch_flu / spec.inertia_kg_m2[1], rel=0.05)  # FRD y = -FLU y

@@ -299,6 +299,7 @@ def test_reproducible_for_a_seed_and_gps_settings_do_not_disturb_the_imu():
 
     assert record(suite(seed=21)) == record(suite(seed=21))
     imu_a = [r for r in record(suite(seed=21)) if hasattr(r, "accel_frd_m_s2")]
-    imu_b = [r for r in record(suite(seed=21, gps_dropout_per_min=30.0, gps_noise_m=2.0)) if hasattr(r, "accel_frd_m_s2")]
+    imu_b = [r for r in record(suite(seed=21, gps_dropout_per_min=30.0, gps_noise_m=2.0))
+             if hasattr(r, "accel_frd_m_s2")]
     assert imu_a == imu_b
     assert record(suite(seed=21)) != record(suite(seed=22))

@@ -5,8 +5,8 @@
   a pymavlink client (``udpin``) is its default peer.  The test drives ``poll()`` itself
   with a fake wall clock, so nothing depends on timing (deadlines only stop a broken
   test from hanging).
-* One test starts the real ``sitl`` process (instance 57), which serves its
-  parameters while it waits for a flight controller.
+* One test (marked ``e2e``) starts the real ``sitl`` process (its instance from
+  tests/instances.py), which serves its parameters while it waits for a flight controller.
 """
 
 from __future__ import annotations
@@ -38,6 +38,10 @@ from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings, param
 
 ROOT = Path(__file__).resolve().parent.parent
 GCS_SYS, GCS_COMP = 255, 190
+
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+SITL_INSTANCE = instance("test_sim_params", "sitl")
 
 
 def make_params() -> tuple[SimParameters, WindSettings, SensorSettings, MotorSettings]:
@@ -530,8 +534,9 @@ def test_peers_are_remembered_and_send_reaches_everyone(h):
 # --------------------------------------------------------------------------- the real process
 
 
+@pytest.mark.e2e
 def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(tmp_path):
-    instance = 57
+    instance = SITL_INSTANCE
     port = 14560 + instance
     client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYS, source_component=GCS_COMP)
     log_path = tmp_path / "sitl.log"

@@ -1,0 +1,65 @@
+"""The instance numbers of every test that binds ports: one table, checked collision-free.
+
+Instance I (PX4's ``-i``) uses these ports (gcs/launcher/stack.py, autopilot/__main__.py, sitl/__main__.py):
+
+- TCP 4560+I: the simulator link (sitl listens, autopilot connects);
+- UDP 14560+I: the simulator's own MAVLink component (truth, SIM_* parameters), bound by its client;
+- UDP 14580+I and 18570+I: the flight controller's API and ground-station sockets;
+- UDP 14540+I and 14550+I: where API clients (MAVSDK) and ground stations listen.
+
+So instances I and J collide when |I - J| is 10, 20, 30 or 40 (14540+I = 14550+J, 14560+J or
+14580+J, ...), or 0.  The suite runs files in parallel (pytest-xdist, ``--dist loadfile``), and
+a file's tests share a worker, so a file may reuse its own numbers in turn but never another
+file's.  The table also keeps clear of people's instances (0-9: ``flight-demo``, QGroundControl
+on 14550) and of the benchmarks' defaults (benchmarks/*.py), so a suite run next to either
+binds nothing they bind.
+
+Numbers: units 0-9 of the decades 70, 120 and 170.  Within one unit digit, 70, 120 and 170 are
+50 apart, and from people's 0-9 and the benchmarks' 20-25 they are 45 or more apart, so no
+pair differs by 10-40.  ``tests/test_instances.py`` checks all of it.  Instances above 99 are
+as valid as any: ``--instance`` only offsets ports (the highest here, 18570+179, is far below
+the OS's ephemeral range, where ``bind(("127.0.0.1", 0))`` ports of other tests come from).
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+
+PEOPLE = tuple(range(10))  # what someone runs by hand while the suite runs
+BENCHMARKS = (20, 21, 22, 25)  # flight_benchmark 20, vehicle_benchmark 21+ (one per vehicle), estimator 25
+
+INSTANCES: dict[str, dict[str, int]] = {
+    "test_e2e_estimation": {"quad_x": 70},
+    "test_e2e_flight": {"realtime": 71, "shared": 72, "demo": 73},
+    "test_e2e_mavsdk": {"stack": 74},
+    "test_e2e_vehicles": {"firefly": 75, "windy": 76},
+    "test_e2e_live_tuning": {"stack": 77},
+    "test_e2e_params": {"stack": 78},
+    "test_flight_logs": {"e2e": 79, "link": 170},
+    "test_sim_params": {"sitl": 171},
+    "test_gcs_cli": {"nobody": 172, "demo": 173},
+    "test_mavlink_commands": {"link": 174},  # "nobody": a ground-station port nothing sends to
+    # GcsLink on real UDP sockets, one instance per test (no stack running)
+    "test_gcs_link": {f"link{k}": 120 + k for k in range(10)},
+}
+
+
+def instance(test_file: str, role: str) -> int:
+    """The instance number of ``role`` in ``test_file`` (its module name, e.g. ``"test_e2e_flight"``)."""
+    return INSTANCES[test_file][role]
+
+
+def ports(i: int) -> set[tuple[str, int]]:
+    """Every (protocol, port) that instance ``i`` binds, itself or through its clients."""
+    return {("tcp", 4560 + i), ("udp", 14540 + i), ("udp", 14550 + i), ("udp", 14560 + i),
+            ("udp", 14580 + i), ("udp", 18570 + i)}
+
+
+def all_instances() -> list[tuple[str, str, int]]:
+    """(test file, role, instance) of every entry of the table."""
+    return [(f, role, i) for f, roles in INSTANCES.items() for role, i in roles.items()]
+
+
+def collisions(numbers: list[int]) -> list[tuple[int, int, set[tuple[str, int]]]]:
+    """Pairs of (distinct positions in) ``numbers`` that share a port, with the ports shared."""
+    return [(a, b, ports(a) & ports(b)) for a, b in combinations(numbers, 2) if ports(a) & ports(b)]
