@@ -27,15 +27,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--api-port", type=int, default=14540, help="UDP port of APIs such as MAVSDK (+instance)")
     p.add_argument("--sysid", type=int, default=1, help="MAVLink system id")
     # -- parameters (autopilot/param_storage.py)
-    p.add_argument("--params", metavar="FILE",
-                   help="apply a parameter file at start-up (QGroundControl's tab-separated format or MAVProxy's "
-                        "NAME VALUE); bad lines are reported and skipped")
-    p.add_argument("--state-dir", metavar="DIR",
-                   help="save changed parameters in DIR/<vehicle>-<instance>.params and load them at start-up "
-                        "(default: nothing saved, every run starts from the defaults)")
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="apply a parameter file at start-up (QGroundControl's tab-separated format or MAVProxy's "
+        "NAME VALUE); bad lines are reported and skipped",
+    )
+    p.add_argument(
+        "--state-dir",
+        metavar="DIR",
+        help="save changed parameters in DIR/<vehicle>-<instance>.params and load them at start-up "
+        "(default: nothing saved, every run starts from the defaults)",
+    )
     # -- flight logs (autopilot/flight_recorder.py)
-    p.add_argument("--log-dir", default="logs", metavar="DIR",
-                   help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs)")
+    p.add_argument(
+        "--log-dir",
+        default="logs",
+        metavar="DIR",
+        help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs)",
+    )
     p.add_argument("--no-log", action="store_true", help="write no flight logs")
     return p
 
@@ -55,8 +65,13 @@ def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str):
             print(f"autopilot: cannot create the state directory {args.state_dir}: {exc}", file=sys.stderr)
             return False
         state_path = state_file(args.state_dir, vehicle_name, args.instance)
-    prepare_parameters(params, vehicle_toml=vehicle_path(args.vehicle), state_path=state_path,
-                       params_path=args.params, log=lambda text: print(text, flush=True))
+    prepare_parameters(
+        params,
+        vehicle_toml=vehicle_path(args.vehicle),
+        state_path=state_path,
+        params_path=args.params,
+        log=lambda text: print(text, flush=True),
+    )
     if state_path is None:
         return None
     print(f"[autopilot] parameter changes are saved to {state_path}", flush=True)
@@ -75,9 +90,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from autopilot.flight_controller import FlightController
     from autopilot.mavlink.link import GcsLink
+    from autopilot.mavlink.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
     from autopilot.mavlink.vehicle_interface import FlightControllerVehicle
     from autopilot.param_catalogue import default_store
-    from autopilot.mavlink.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
 
     params = default_store()
     saver = _prepare_parameters(params, args, spec.name)
@@ -85,8 +100,14 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     fc = FlightController(spec, params)
     try:
-        link = GcsLink(FlightControllerVehicle(fc), instance=args.instance, sysid=args.sysid, compid=1,
-                       gcs_port=args.gcs_port, api_port=args.api_port)
+        link = GcsLink(
+            FlightControllerVehicle(fc),
+            instance=args.instance,
+            sysid=args.sysid,
+            compid=1,
+            gcs_port=args.gcs_port,
+            api_port=args.api_port,
+        )
     except OSError as exc:
         print(f"autopilot: cannot open the ground-station UDP ports: {exc}", file=sys.stderr)
         return 2
@@ -94,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     recorder = None
     if not args.no_log:
         from autopilot.flight_recorder import FlightRecorder
+
         try:
             recorder = FlightRecorder(args.log_dir, fc, instance=args.instance)
             link.set_traffic_tap(recorder.tap)
@@ -101,8 +123,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"autopilot: cannot write flight logs to {args.log_dir}: {exc}; flying without logs", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the logs like Ctrl-C
     sim = SimLink(args.sim_host, args.sim_port + args.instance, args.sysid)
-    print(f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
-          f"{args.gcs_port + args.instance} and {args.api_port + args.instance}", flush=True)
+    print(
+        f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
+        f"{args.gcs_port + args.instance} and {args.api_port + args.instance}",
+        flush=True,
+    )
     now_us = 0
     try:
         sim.connect(on_wait=lambda: link.update(now_us))

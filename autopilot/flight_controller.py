@@ -21,16 +21,16 @@ from __future__ import annotations
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
-from mavsim_core import quaternion as quat
 from autopilot.commander import Commander
 from autopilot.control.gains_from_params import GainsFromParams
+from autopilot.control.mixer import Mixer
 from autopilot.control.position_control import attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
-from autopilot.control.mixer import Mixer
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import NO_ACTUATORS, ActuatorStatus, ControlSetpoints, GpsSample, ImuSample
-from params.vehicle import VehicleSpec
+from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from params.vehicle import VehicleSpec
 
 OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 Hz
 # ... in the 4 ms period 1 of each 20 ms: the estimator's filters run after period 0 and the
@@ -57,7 +57,9 @@ class FlightController:
         # The controllers take gain records; the one adapter builds them from the parameters and
         # hands each controller new ones when its parameters change (live tuning).
         self.gains = GainsFromParams(params)
-        self.position_control = self.gains.position_control(spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n)
+        self.position_control = self.gains.position_control(
+            spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n
+        )
         self.attitude_control = self.gains.attitude_control()
         self.rate_control = self.gains.rate_control()
         self.gyro_filter = self.gains.gyro_filter()
@@ -105,8 +107,9 @@ class FlightController:
         # Inner loops at the IMU rate, on the selected estimator's latest attitude.
         q = self.estimator.q
         self.rate_sp = self.attitude_control.update(q, self.q_sp)
-        alpha = self.rate_control.update(rate, self.rate_sp, dt, self.sat_pos, self.sat_neg,
-                                         integrate=not status.ground_contact)
+        alpha = self.rate_control.update(
+            rate, self.rate_sp, dt, self.sat_pos, self.sat_neg, integrate=not status.ground_contact
+        )
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
         body_up = -self.estimator.r_ned_frd[:, 2]
         thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
@@ -158,8 +161,9 @@ class FlightController:
         if self._actuators is None:
             time_us, motors, thrust_n = self._outputs
             max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
-            self._actuators = ActuatorStatus(time_us, motors, thrust_n, thrust_n / max_thrust_n,
-                                             thrust_n / self.weight_n)
+            self._actuators = ActuatorStatus(
+                time_us, motors, thrust_n, thrust_n / max_thrust_n, thrust_n / self.weight_n
+            )
         return self._actuators
 
     @actuators.setter
@@ -178,7 +182,12 @@ class FlightController:
         thrust_vec = getattr(self, "thrust_vec", None)
         thrust_frac = float(np.linalg.norm(thrust_vec)) / max_thrust_n if thrust_vec is not None else 0.0
         return ControlSetpoints(
-            timestamp_us=self.last_us or 0, pos_ned_m=sp.pos_ned_m.copy(), vel_ned_m_s=pc.vel_sp.copy(),
-            acc_ned_m_s2=pc.acc_sp.copy(), yaw_rad=sp.yaw_rad, q_sp_wxyz=self.q_sp.copy(),
-            rate_sp_frd_rad_s=self.rate_sp.copy(), thrust_frac=thrust_frac,
+            timestamp_us=self.last_us or 0,
+            pos_ned_m=sp.pos_ned_m.copy(),
+            vel_ned_m_s=pc.vel_sp.copy(),
+            acc_ned_m_s2=pc.acc_sp.copy(),
+            yaw_rad=sp.yaw_rad,
+            q_sp_wxyz=self.q_sp.copy(),
+            rate_sp_frd_rad_s=self.rate_sp.copy(),
+            thrust_frac=thrust_frac,
         )

@@ -39,13 +39,40 @@ from mavsim_core.npy_log import NpyLogWriter
 SUFFIX = ".fc.npy"
 
 _SETPOINT_FIELDS = (
-    "pos_sp_n_m", "pos_sp_e_m", "pos_sp_d_m", "vel_sp_n_m_s", "vel_sp_e_m_s", "vel_sp_d_m_s",
-    "acc_sp_n_m_s2", "acc_sp_e_m_s2", "acc_sp_d_m_s2", "yaw_sp_rad", "q_sp_w", "q_sp_x", "q_sp_y", "q_sp_z",
-    "rate_sp_p_rad_s", "rate_sp_q_rad_s", "rate_sp_r_rad_s", "thrust_sp",
+    "pos_sp_n_m",
+    "pos_sp_e_m",
+    "pos_sp_d_m",
+    "vel_sp_n_m_s",
+    "vel_sp_e_m_s",
+    "vel_sp_d_m_s",
+    "acc_sp_n_m_s2",
+    "acc_sp_e_m_s2",
+    "acc_sp_d_m_s2",
+    "yaw_sp_rad",
+    "q_sp_w",
+    "q_sp_x",
+    "q_sp_y",
+    "q_sp_z",
+    "rate_sp_p_rad_s",
+    "rate_sp_q_rad_s",
+    "rate_sp_r_rad_s",
+    "thrust_sp",
 )
 _ESTIMATE_FIELDS = (
-    "thrust", "pos_n_m", "pos_e_m", "pos_d_m", "vel_n_m_s", "vel_e_m_s", "vel_d_m_s",
-    "q_w", "q_x", "q_y", "q_z", "rate_p_rad_s", "rate_q_rad_s", "rate_r_rad_s",
+    "thrust",
+    "pos_n_m",
+    "pos_e_m",
+    "pos_d_m",
+    "vel_n_m_s",
+    "vel_e_m_s",
+    "vel_d_m_s",
+    "q_w",
+    "q_x",
+    "q_y",
+    "q_z",
+    "rate_p_rad_s",
+    "rate_q_rad_s",
+    "rate_r_rad_s",
 )
 _NO_SETPOINT = (math.nan,) * len(_SETPOINT_FIELDS)
 _NO_POS_VEL = (math.nan,) * 6
@@ -53,9 +80,11 @@ _NO_POS_VEL = (math.nan,) * 6
 
 def flight_log_fields(n_motors: int) -> list[tuple[str, str]]:
     """(name, struct code) of every column, for a vehicle with ``n_motors`` rotors."""
-    return ([("time_us", "q"), ("armed", "B"), ("main_mode", "B"), ("sub_mode", "B")]
-            + [(name, "f") for name in _SETPOINT_FIELDS + _ESTIMATE_FIELDS]
-            + [(f"motor_{i}", "f") for i in range(n_motors)])
+    return (
+        [("time_us", "q"), ("armed", "B"), ("main_mode", "B"), ("sub_mode", "B")]
+        + [(name, "f") for name in _SETPOINT_FIELDS + _ESTIMATE_FIELDS]
+        + [(f"motor_{i}", "f") for i in range(n_motors)]
+    )
 
 
 class FlightLogWriter:

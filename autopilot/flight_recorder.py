@@ -33,6 +33,8 @@ from mavsim_core.log_naming import flight_stem
 PREARM_S = 10.0  # simulated seconds of link traffic before arming kept in the flight's tlog
 PREARM_MAX_PACKETS = 20_000  # bound on that buffer whatever the clock does
 POST_DISARM_S = 1.0  # simulated seconds logged after disarming (the disarm ack, heartbeats)
+
+
 def _say(text: str) -> None:
     print(f"[autopilot] {text}", flush=True)
 
@@ -44,8 +46,15 @@ class FlightRecorder:
     after every ``FlightController.step``; :meth:`close` at exit.
     """
 
-    def __init__(self, log_dir: str | Path, fc, instance: int = 0, every: int = 1,
-                 say: Callable[[str], None] = _say, epoch_s: Callable[[], float] = time.time) -> None:
+    def __init__(
+        self,
+        log_dir: str | Path,
+        fc,
+        instance: int = 0,
+        every: int = 1,
+        say: Callable[[str], None] = _say,
+        epoch_s: Callable[[], float] = time.time,
+    ) -> None:
         self.log_dir = Path(log_dir)
         self.fc = fc
         self.instance = instance

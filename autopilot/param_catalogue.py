@@ -66,10 +66,17 @@ def markdown() -> str:
     ]
     for name, d in sorted(catalogue().items()):
         reboot = " (applies at the next start)" if d.reboot_required else ""
-        lines.append(f"| `{name}` | {d.ptype} | {_fmt(d.default)} | {_fmt(d.min)} | {_fmt(d.max)} | "
-                     f"{d.unit} | {d.description.replace('|', '/')}{reboot} |")
-    lines += ["", "## Rules between parameters", "",
-              "A set that would break one of these is refused with a STATUSTEXT saying why.", ""]
+        lines.append(
+            f"| `{name}` | {d.ptype} | {_fmt(d.default)} | {_fmt(d.min)} | {_fmt(d.max)} | "
+            f"{d.unit} | {d.description.replace('|', '/')}{reboot} |"
+        )
+    lines += [
+        "",
+        "## Rules between parameters",
+        "",
+        "A set that would break one of these is refused with a STATUSTEXT saying why.",
+        "",
+    ]
     lines += [f"- `{r.lhs} {r.op} {r.rhs}`: {r.why}" for r in RULES]
     return "\n".join(lines) + "\n"
 

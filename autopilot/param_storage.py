@@ -35,8 +35,15 @@ from typing import Callable
 
 from autopilot.parameters import ParamError, ParameterStore, ParamType
 from mavsim_core.param_encoding import INT32, REAL32, is_integer_type
-from params.param_file import (LineProblem, ParamEntry, ParamFileError, apply_in_passes, atomic_write_text,
-                               format_qgc, read_param_file)
+from params.param_file import (
+    LineProblem,
+    ParamEntry,
+    ParamFileError,
+    apply_in_passes,
+    atomic_write_text,
+    format_qgc,
+    read_param_file,
+)
 
 MIN_SAVE_INTERVAL_S = 1.0  # wall seconds between two writes of the state file
 FC_COMPONENT_ID = 1  # entries of other components in a QGroundControl file are not ours
@@ -76,8 +83,11 @@ def apply_entries(store: ParameterStore, entries: list[ParamEntry]) -> tuple[int
     mine = []
     for e in entries:
         if e.compid != FC_COMPONENT_ID:
-            problems.append(LineProblem(e.line, f"{e.name}: component {e.compid}, not the flight controller "
-                                                f"({FC_COMPONENT_ID}); ignored"))
+            problems.append(
+                LineProblem(
+                    e.line, f"{e.name}: component {e.compid}, not the flight controller ({FC_COMPONENT_ID}); ignored"
+                )
+            )
         else:
             mine.append(e)
 
@@ -127,9 +137,16 @@ class ParamSaver:
     through ``report`` (stderr by default) and retried at the next change.
     """
 
-    def __init__(self, store: ParameterStore, path: str | Path, *, vehicle_name: str = "",
-                 min_interval_s: float = MIN_SAVE_INTERVAL_S, initial_save: bool = False,
-                 report: Callable[[str], None] | None = None) -> None:
+    def __init__(
+        self,
+        store: ParameterStore,
+        path: str | Path,
+        *,
+        vehicle_name: str = "",
+        min_interval_s: float = MIN_SAVE_INTERVAL_S,
+        initial_save: bool = False,
+        report: Callable[[str], None] | None = None,
+    ) -> None:
         self.store = store
         self.path = Path(path)
         self.vehicle_name = vehicle_name
@@ -166,8 +183,10 @@ class ParamSaver:
         with self._lock:
             changes = self._changes
             changed = self.store.changed()
-            header = (f"Parameters of {self.vehicle_name or 'the vehicle'} changed from its defaults\n"
-                      "saved by the autopilot and loaded at its start-up")
+            header = (
+                f"Parameters of {self.vehicle_name or 'the vehicle'} changed from its defaults\n"
+                "saved by the autopilot and loaded at its start-up"
+            )
             text = format_qgc(store_entries(self.store, list(changed)), header)
             try:
                 atomic_write_text(self.path, text)
@@ -187,17 +206,25 @@ class ParamSaver:
             self.save()
 
 
-def prepare_parameters(store: ParameterStore, *, vehicle_toml: str | Path | None = None,
-                       state_path: str | Path | None = None, params_path: str | Path | None = None,
-                       log: Callable[[str], None] = print) -> None:
+def prepare_parameters(
+    store: ParameterStore,
+    *,
+    vehicle_toml: str | Path | None = None,
+    state_path: str | Path | None = None,
+    params_path: str | Path | None = None,
+    log: Callable[[str], None] = print,
+) -> None:
     """Fill the store at start-up from the vehicle defaults, the saved state and ``--params`` (in that order).
 
     Every problem is logged (with file and line) and skipped; nothing here stops
     the flight controller from starting.
     """
     defaults = vehicle_defaults_file(vehicle_toml) if vehicle_toml is not None else None
-    sources = [(defaults, "vehicle defaults", True), (state_path, "saved parameters", False),
-               (params_path, "parameter file", False)]
+    sources = [
+        (defaults, "vehicle defaults", True),
+        (state_path, "saved parameters", False),
+        (params_path, "parameter file", False),
+    ]
     for path, what, as_defaults in sources:
         if path is None:
             continue

@@ -137,8 +137,9 @@ class ParameterStore:
         self._listeners: list[Callable[[str, float], None]] = []
         for r in self._rules:
             if not r.holds(self._values[r.lhs], self._values[r.rhs]):
-                raise ValueError(f"declared defaults break the rule {r}: "
-                                 f"{self._values[r.lhs]:g} vs {self._values[r.rhs]:g}")
+                raise ValueError(
+                    f"declared defaults break the rule {r}: {self._values[r.lhs]:g} vs {self._values[r.rhs]:g}"
+                )
 
     def __len__(self) -> int:
         return len(self._names)

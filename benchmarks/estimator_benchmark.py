@@ -37,16 +37,22 @@ from pymavlink.dialects.v20 import common as mavlink
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from mavsim_core import quaternion as quat  # noqa: E402
 from gcs.client import VehicleClient  # noqa: E402
-from gcs.sim_client import SimClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
+from gcs.sim_client import SimClient  # noqa: E402
+from mavsim_core import quaternion as quat  # noqa: E402
 
 ALT_M = 5.0
 SQUARE_M = 10.0
 HOVER_S = 20.0
-WIND = {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 270.0, "SIM_WIND_TURB": 1.0,
-        "SIM_GUST_SPD": 2.0, "SIM_GUST_DUR": 2.0, "SIM_GUST_INT": 10.0}
+WIND = {
+    "SIM_WIND_SPD": 5.0,
+    "SIM_WIND_DIR": 270.0,
+    "SIM_WIND_TURB": 1.0,
+    "SIM_GUST_SPD": 2.0,
+    "SIM_GUST_DUR": 2.0,
+    "SIM_GUST_INT": 10.0,
+}
 EARTH_RADIUS_M = 6_378_137.0
 ESTIMATORS = {2: "EKF", 1: "Mahony"}
 
@@ -57,8 +63,9 @@ def _truth_at(truth: SimClient, time_ms: int):
     if st is None:
         return None
     dt = (time_ms - st.time_usec / 1000.0) / 1000.0
-    q = quat.integrate(np.array(st.attitude_quaternion, dtype=float),
-                       np.array([st.rollspeed, st.pitchspeed, st.yawspeed]), dt)
+    q = quat.integrate(
+        np.array(st.attitude_quaternion, dtype=float), np.array([st.rollspeed, st.pitchspeed, st.yawspeed]), dt
+    )
     vel = np.array([st.vx, st.vy, st.vz]) / 100.0
     lat = st.lat / 1e7 + math.degrees(vel[0] * dt / EARTH_RADIUS_M)
     lon = st.lon / 1e7 + math.degrees(vel[1] * dt / (EARTH_RADIUS_M * math.cos(math.radians(st.lat / 1e7))))
@@ -108,13 +115,23 @@ def errors(rec: Recorder, truth: SimClient, home_truth_alt_m: float) -> dict:
     def rms(a):
         return float(np.sqrt(np.mean(np.square(a)))) if a else float("nan")
 
-    return {"rp_deg": math.degrees(rms(d_att)), "yaw_deg": math.degrees(rms(d_yaw)), "h_m": rms(d_h),
-            "v_m": rms(d_v), "vel_h": rms(d_vh), "vel_v": rms(d_vv), "n_att": len(d_att) // 2, "n_pos": len(d_h)}
+    return {
+        "rp_deg": math.degrees(rms(d_att)),
+        "yaw_deg": math.degrees(rms(d_yaw)),
+        "h_m": rms(d_h),
+        "v_m": rms(d_v),
+        "vel_h": rms(d_vh),
+        "vel_v": rms(d_vv),
+        "n_att": len(d_att) // 2,
+        "n_pos": len(d_h),
+    }
 
 
 def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str] = ()) -> dict:
-    with Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, flight_logs=False) as stack, \
-            SimClient(14560 + instance) as truth:
+    with (
+        Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, flight_logs=False) as stack,
+        SimClient(14560 + instance) as truth,
+    ):
         c = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
         c.param_set("SYS_MC_EST_GROUP", group)
         for item in fc_params:
@@ -156,30 +173,54 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--vehicle", default="quad_x")
     ap.add_argument("--instance", type=int, default=25)
-    ap.add_argument("--estimators", type=int, nargs="+", default=[2, 1], choices=[1, 2],
-                    help="SYS_MC_EST_GROUP values to fly (2 = EKF, 1 = Mahony)")
-    ap.add_argument("--fc-param", action="append", default=[], metavar="NAME=VALUE",
-                    help="a flight-controller parameter set before take-off (e.g. ATT_MAHONY_KP=0.5), repeatable")
+    ap.add_argument(
+        "--estimators",
+        type=int,
+        nargs="+",
+        default=[2, 1],
+        choices=[1, 2],
+        help="SYS_MC_EST_GROUP values to fly (2 = EKF, 1 = Mahony)",
+    )
+    ap.add_argument(
+        "--fc-param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a flight-controller parameter set before take-off (e.g. ATT_MAHONY_KP=0.5), repeatable",
+    )
     args = ap.parse_args(argv)
-    print(f"{args.vehicle}: take-off to {ALT_M:.0f} m, {SQUARE_M:.0f} m square, {HOVER_S:.0f} s hover in "
-          f"{WIND['SIM_WIND_SPD']:.0f} m/s wind with gusts, landing; RMS of estimate - truth while airborne")
-    print(f"{'estimator':9} {'seed':>4} {'roll/pitch':>10} {'yaw':>6} {'pos h':>7} {'pos v':>7} "
-          f"{'vel h':>8} {'vel v':>8} {'RTF':>6}")
+    print(
+        f"{args.vehicle}: take-off to {ALT_M:.0f} m, {SQUARE_M:.0f} m square, {HOVER_S:.0f} s hover in "
+        f"{WIND['SIM_WIND_SPD']:.0f} m/s wind with gusts, landing; RMS of estimate - truth while airborne"
+    )
+    print(
+        f"{'estimator':9} {'seed':>4} {'roll/pitch':>10} {'yaw':>6} {'pos h':>7} {'pos v':>7} "
+        f"{'vel h':>8} {'vel v':>8} {'RTF':>6}"
+    )
     summary: dict[int, list[dict]] = {g: [] for g in args.estimators}
     for seed in args.seeds:
         for g in args.estimators:
             r = fly(args.vehicle, args.instance, seed, g, args.fc_param)
             summary[g].append(r)
-            print(f"{ESTIMATORS[g]:9} {seed:4d} {r['rp_deg']:9.3f}° {r['yaw_deg']:5.2f}° {r['h_m']:6.3f}m "
-                  f"{r['v_m']:6.3f}m {r['vel_h']:5.3f}m/s {r['vel_v']:5.3f}m/s {r['rtf']:5.1f}x", flush=True)
+            print(
+                f"{ESTIMATORS[g]:9} {seed:4d} {r['rp_deg']:9.3f}° {r['yaw_deg']:5.2f}° {r['h_m']:6.3f}m "
+                f"{r['v_m']:6.3f}m {r['vel_h']:5.3f}m/s {r['vel_v']:5.3f}m/s {r['rtf']:5.1f}x",
+                flush=True,
+            )
     for g, rs in summary.items():
+
         def agg(k):
             return float(np.sqrt(np.mean([r[k] ** 2 for r in rs])))
-        print(f"{ESTIMATORS[g]:9} {'all':>4} {agg('rp_deg'):9.3f}° {agg('yaw_deg'):5.2f}° {agg('h_m'):6.3f}m "
-              f"{agg('v_m'):6.3f}m {agg('vel_h'):5.3f}m/s {agg('vel_v'):5.3f}m/s "
-              f"{np.mean([r['rtf'] for r in rs]):5.1f}x")
-    print("targets (issue 4, default sensor errors): roll/pitch <= 0.5 deg, yaw <= 2 deg, "
-          "horizontal <= 0.5 m, vertical <= 0.3 m")
+
+        print(
+            f"{ESTIMATORS[g]:9} {'all':>4} {agg('rp_deg'):9.3f}° {agg('yaw_deg'):5.2f}° {agg('h_m'):6.3f}m "
+            f"{agg('v_m'):6.3f}m {agg('vel_h'):5.3f}m/s {agg('vel_v'):5.3f}m/s "
+            f"{np.mean([r['rtf'] for r in rs]):5.1f}x"
+        )
+    print(
+        "targets (issue 4, default sensor errors): roll/pitch <= 0.5 deg, yaw <= 2 deg, "
+        "horizontal <= 0.5 m, vertical <= 0.3 m"
+    )
     return 0
 
 

@@ -22,9 +22,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from autopilot.estimation.estimator import Estimator  # noqa: E402
-from autopilot.parameters import ParameterStore  # noqa: E402
-from autopilot.topics import GpsSample, ImuSample  # noqa: E402
 from autopilot.param_catalogue import default_store
+from autopilot.topics import GpsSample, ImuSample  # noqa: E402
 
 SECONDS = 60.0
 WARM_UP_S = 20.0  # converged before timing starts
@@ -34,8 +33,18 @@ PERIOD_US = 4000
 def samples(n: int) -> list[ImuSample]:
     rng = np.random.default_rng(0)
     mag = np.array([0.21, 0.0, 0.43])
-    return [ImuSample((k + 1) * PERIOD_US, np.array([0.0, 0.0, -9.80665]) + rng.normal(0, 0.02, 3),
-                      rng.normal(0, 0.002, 3), mag + rng.normal(0, 0.003, 3), 955.0, 20.0, 0) for k in range(n)]
+    return [
+        ImuSample(
+            (k + 1) * PERIOD_US,
+            np.array([0.0, 0.0, -9.80665]) + rng.normal(0, 0.02, 3),
+            rng.normal(0, 0.002, 3),
+            mag + rng.normal(0, 0.003, 3),
+            955.0,
+            20.0,
+            0,
+        )
+        for k in range(n)
+    ]
 
 
 def measure(group: int, imus: list[ImuSample]) -> tuple[float, float]:
@@ -47,8 +56,11 @@ def measure(group: int, imus: list[ImuSample]) -> tuple[float, float]:
     critical = deferred = 0.0
     warm = int(WARM_UP_S * 1e6 / PERIOD_US)
     for k, imu in enumerate(imus):
-        gps = (GpsSample(imu.timestamp_us, 3, 47.397742, 8.545594, 488.0, np.zeros(3), 0.1, 0.2, 10)
-               if k % 50 == 0 else None)
+        gps = (
+            GpsSample(imu.timestamp_us, 3, 47.397742, 8.545594, 488.0, np.zeros(3), 0.1, 0.2, 10)
+            if k % 50 == 0
+            else None
+        )
         t0 = time.perf_counter()
         est.update_imu(imu)
         if gps is not None:
@@ -68,9 +80,11 @@ def main() -> int:
     print(f"estimators, mean per 4 ms IMU sample over {SECONDS - WARM_UP_S:.0f} s (in-process, this machine)")
     for group, name in ((2, "EKF selected"), (1, "Mahony selected")):
         critical, deferred = measure(group, imus)
-        print(f"SYS_MC_EST_GROUP={group} ({name:15}): {critical:5.1f} us before the motor commands "
-              f"(output predictor, IMU sums), {deferred:5.1f} us after them (the 50 Hz filter run, GPS "
-              f"fusion), {critical + deferred:5.1f} us in all")
+        print(
+            f"SYS_MC_EST_GROUP={group} ({name:15}): {critical:5.1f} us before the motor commands "
+            f"(output predictor, IMU sums), {deferred:5.1f} us after them (the 50 Hz filter run, GPS "
+            f"fusion), {critical + deferred:5.1f} us in all"
+        )
     return 0
 
 

@@ -103,13 +103,18 @@ def main(argv: list[str] | None = None) -> int:
         client.close()
 
     print(f"vehicle {args.vehicle}, hover {args.hover:.0f} s at {ALT_M:.0f} m, {len(err)} truth samples (50 Hz)")
-    print(f"hover error vs truth, RMS: horizontal {rms(np.hypot(err[:, 0], err[:, 1])):.3f} m, "
-          f"vertical {rms(err[:, 2]):.3f} m (max horizontal {np.hypot(err[:, 0], err[:, 1]).max():.3f} m)")
+    print(
+        f"hover error vs truth, RMS: horizontal {rms(np.hypot(err[:, 0], err[:, 1])):.3f} m, "
+        f"vertical {rms(err[:, 2]):.3f} m (max horizontal {np.hypot(err[:, 0], err[:, 1]).max():.3f} m)"
+    )
     if len(eerr):
-        print(f"estimator position error vs truth, RMS: horizontal {rms(np.hypot(eerr[:, 0], eerr[:, 1])):.3f} m, "
-              f"vertical {rms(eerr[:, 2]):.3f} m")
-    print(f"real-time factor: hover {hover_rtf:.1f}x, "
-          f"whole flight (take-off, hover, square, landing) {flight_rtf:.1f}x")
+        print(
+            f"estimator position error vs truth, RMS: horizontal {rms(np.hypot(eerr[:, 0], eerr[:, 1])):.3f} m, "
+            f"vertical {rms(eerr[:, 2]):.3f} m"
+        )
+    print(
+        f"real-time factor: hover {hover_rtf:.1f}x, whole flight (take-off, hover, square, landing) {flight_rtf:.1f}x"
+    )
     print(f"landing error from the take-off point: {land_err:.2f} m")
     return 0
 

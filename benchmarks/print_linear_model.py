@@ -44,16 +44,20 @@ def main() -> None:
     lm = linearize_hover(spec, include_aero=args.aero, yaw_rad=yaw)
     ana = seed_hover_model(spec, yaw_rad=yaw, include_aero=args.aero)
     inertia = ", ".join(f"{j:.6g}" for j in spec.inertia_kg_m2)
-    print(f"{spec.name}: m = {spec.mass_kg:.6g} kg, J = diag({inertia}) kg m^2, "
-          f"yaw {args.yaw_deg:g} deg, aero {'on' if args.aero else 'off'}, "
-          f"hover thrust {lm.hover_thrusts_n[0]:.4f} N x {len(spec.rotors)}")
+    print(
+        f"{spec.name}: m = {spec.mass_kg:.6g} kg, J = diag({inertia}) kg m^2, "
+        f"yaw {args.yaw_deg:g} deg, aero {'on' if args.aero else 'off'}, "
+        f"hover thrust {lm.hover_thrusts_n[0]:.4f} N x {len(spec.rotors)}"
+    )
     print("\nA (x_dot = A x + B u)")
     print(table(lm.A, lm.state_labels, lm.state_labels))
     print("\nB")
     print(table(lm.B, lm.state_labels, lm.input_labels))
-    print(f"\nmax |A - A_seed| = {np.max(np.abs(lm.A - ana.A)):.2e}, "
-          f"max |B - B_seed| = {np.max(np.abs(lm.B - ana.B)):.2e}, "
-          f"|f(x_e, u_e)| = {lm.equilibrium_residual:.1e}")
+    print(
+        f"\nmax |A - A_seed| = {np.max(np.abs(lm.A - ana.A)):.2e}, "
+        f"max |B - B_seed| = {np.max(np.abs(lm.B - ana.B)):.2e}, "
+        f"|f(x_e, u_e)| = {lm.equilibrium_residual:.1e}"
+    )
     eig = np.linalg.eigvals(lm.A)
     print("eigenvalues of A:", np.array2string(np.sort_complex(eig), precision=4, suppress_small=True))
     print("rank of [B AB ... A^11 B]:", np.linalg.matrix_rank(lm.controllability_matrix()))

@@ -32,13 +32,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gcs.client import VehicleClient  # noqa: E402
-from gcs.sim_client import SimClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
+from gcs.sim_client import SimClient  # noqa: E402
 
 ALT_M = 5.0
 STEP_M = 10.0
-WIND = {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 270.0, "SIM_WIND_TURB": 1.0,
-        "SIM_GUST_SPD": 2.0, "SIM_GUST_DUR": 2.0, "SIM_GUST_INT": 10.0}
+WIND = {
+    "SIM_WIND_SPD": 5.0,
+    "SIM_WIND_DIR": 270.0,
+    "SIM_WIND_TURB": 1.0,
+    "SIM_GUST_SPD": 2.0,
+    "SIM_GUST_DUR": 2.0,
+    "SIM_GUST_INT": 10.0,
+}
 
 
 def rms(a) -> float:
@@ -46,8 +52,9 @@ def rms(a) -> float:
     return float(np.sqrt(np.mean(a * a))) if len(a) else float("nan")
 
 
-def hover_errors(truth: SimClient, client: VehicleClient, target: np.ndarray, seconds: float,
-                 target_est: np.ndarray | None = None):
+def hover_errors(
+    truth: SimClient, client: VehicleClient, target: np.ndarray, seconds: float, target_est: np.ndarray | None = None
+):
     """Truth minus target over ``seconds`` of simulated time, the real-time factor, and the
     flight controller's own tracking error (its estimate minus ``target_est``, its frame)."""
     client.pump(0.05)
@@ -91,18 +98,27 @@ def step_response(truth: SimClient, client: VehicleClient, start: np.ndarray, se
     k = max(1, int(round(1.0 / np.median(np.diff(t))))) if len(t) > 1 else 1
     smooth = np.convolve(north, np.ones(k) / k, mode="same")
     outside = np.abs(smooth - step_m) > 0.1
-    outside[-k // 2:] = outside[-k // 2 - 1]  # the edge of the window has no full average
-    settle = t[np.nonzero(outside)[0][-1] + 1] if outside.any() and outside.nonzero()[0][-1] + 1 < len(t) else (
-        float("nan") if outside[-1] else t[0])
-    return {"rise_s": t90 - t10, "overshoot_pct": max(0.0, (north.max() - step_m) / step_m * 100),
-            "settle_s": settle, "final_err_m": abs(north[-1] - step_m)}
+    outside[-k // 2 :] = outside[-k // 2 - 1]  # the edge of the window has no full average
+    settle = (
+        t[np.nonzero(outside)[0][-1] + 1]
+        if outside.any() and outside.nonzero()[0][-1] + 1 < len(t)
+        else (float("nan") if outside[-1] else t[0])
+    )
+    return {
+        "rise_s": t90 - t10,
+        "overshoot_pct": max(0.0, (north.max() - step_m) / step_m * 100),
+        "settle_s": settle,
+        "final_err_m": abs(north[-1] - step_m),
+    }
 
 
 def fly(vehicle: str, instance: int, hover_s: float, seed: int, sim_params: list[str], fc_params: list[str]) -> dict:
     out: dict = {"vehicle": vehicle}
     extra = [a for p in sim_params for a in ("--param", p)]
-    with Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, extra_sitl_args=extra) as stack, \
-            SimClient(14560 + instance) as truth:
+    with (
+        Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, extra_sitl_args=extra) as stack,
+        SimClient(14560 + instance) as truth,
+    ):
         client = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
         client.wait_until(client.prearm_ok, 120, "ready to arm")
         truth.wait_connected()
@@ -146,30 +162,52 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--instance", type=int, default=21)
     ap.add_argument("--hover", type=float, default=30.0, help="each hover, simulated seconds")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--sim-param", action="append", default=[], metavar="NAME=VALUE",
-                    help="a SIM_* setting for the whole run (e.g. SIM_GPS_DRIFT=0), repeatable")
-    ap.add_argument("--fc-param", action="append", default=[], metavar="NAME=VALUE",
-                    help="a flight-controller parameter set before take-off (e.g. MPC_XY_P=1.2), repeatable")
+    ap.add_argument(
+        "--sim-param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a SIM_* setting for the whole run (e.g. SIM_GPS_DRIFT=0), repeatable",
+    )
+    ap.add_argument(
+        "--fc-param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a flight-controller parameter set before take-off (e.g. MPC_XY_P=1.2), repeatable",
+    )
     args = ap.parse_args(argv)
-    results = [fly(v, args.instance + i, args.hover, args.seed, args.sim_param, args.fc_param)
-               for i, v in enumerate(args.vehicles)]
+    results = [
+        fly(v, args.instance + i, args.hover, args.seed, args.sim_param, args.fc_param)
+        for i, v in enumerate(args.vehicles)
+    ]
     if args.sim_param or args.fc_param:
         print("settings: " + " ".join(args.sim_param + args.fc_param))
-    print(f"hover {args.hover:.0f} s at {ALT_M:.0f} m; wind {WIND['SIM_WIND_SPD']:.0f} m/s from 270 deg, "
-          f"turbulence {WIND['SIM_WIND_TURB']:.0f} m/s RMS, gusts {WIND['SIM_GUST_SPD']:.0f} m/s every "
-          f"~{WIND['SIM_GUST_INT']:.0f} s; errors = truth - setpoint, RMS")
-    print(f"{'vehicle':9} {'calm h':>7} {'calm v':>7} {'wind h':>7} {'wind v':>7} {'wind max':>8} "
-          f"{'rise':>6} {'overshoot':>9} {'settle':>7} {'final':>6} {'RTF wind':>8} {'RTF all':>7}")
+    print(
+        f"hover {args.hover:.0f} s at {ALT_M:.0f} m; wind {WIND['SIM_WIND_SPD']:.0f} m/s from 270 deg, "
+        f"turbulence {WIND['SIM_WIND_TURB']:.0f} m/s RMS, gusts {WIND['SIM_GUST_SPD']:.0f} m/s every "
+        f"~{WIND['SIM_GUST_INT']:.0f} s; errors = truth - setpoint, RMS"
+    )
+    print(
+        f"{'vehicle':9} {'calm h':>7} {'calm v':>7} {'wind h':>7} {'wind v':>7} {'wind max':>8} "
+        f"{'rise':>6} {'overshoot':>9} {'settle':>7} {'final':>6} {'RTF wind':>8} {'RTF all':>7}"
+    )
     for r in results:
         s = r["step"]
-        print(f"{r['vehicle']:9} {r['calm_h']:6.3f}m {r['calm_v']:6.3f}m {r['wind_h']:6.3f}m {r['wind_v']:6.3f}m "
-              f"{r['wind_max_h']:7.3f}m {s['rise_s']:5.2f}s {s['overshoot_pct']:8.1f}% {s['settle_s']:6.2f}s "
-              f"{s['final_err_m']:5.2f}m "
-              f"{r['rtf_wind']:7.1f}x {r['rtf_flight']:6.1f}x")
-        print(f"{'':9} flight controller's own tracking (estimate - setpoint), horizontal RMS: "
-              f"calm {r['calm_ctrl_h']:.3f} m, wind {r['wind_ctrl_h']:.3f} m")
-    print("step: 10 m North via DO_REPOSITION; rise 10-90 %, settle = from the command until the 1 s moving "
-          "average stays within 0.1 m of the target; final = error at 25 s")
+        print(
+            f"{r['vehicle']:9} {r['calm_h']:6.3f}m {r['calm_v']:6.3f}m {r['wind_h']:6.3f}m {r['wind_v']:6.3f}m "
+            f"{r['wind_max_h']:7.3f}m {s['rise_s']:5.2f}s {s['overshoot_pct']:8.1f}% {s['settle_s']:6.2f}s "
+            f"{s['final_err_m']:5.2f}m "
+            f"{r['rtf_wind']:7.1f}x {r['rtf_flight']:6.1f}x"
+        )
+        print(
+            f"{'':9} flight controller's own tracking (estimate - setpoint), horizontal RMS: "
+            f"calm {r['calm_ctrl_h']:.3f} m, wind {r['wind_ctrl_h']:.3f} m"
+        )
+    print(
+        "step: 10 m North via DO_REPOSITION; rise 10-90 %, settle = from the command until the 1 s moving "
+        "average stays within 0.1 m of the target; final = error at 25 s"
+    )
     return 0
 
 

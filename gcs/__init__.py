@@ -27,7 +27,19 @@ from .plugins.param import VehicleParam
 from .plugins.telemetry import Home
 
 __all__ = [
-    "CommandRefused", "CommandResult", "Connection", "GcsError", "GcsTimeout", "Home", "ParamListError",
-    "ParamRefused", "StatusText", "VehicleClient", "VehicleParam",
-    "UnknownModeError", "custom_mode_to_name", "lookup_mode", "name_to_custom_mode",
+    "CommandRefused",
+    "CommandResult",
+    "Connection",
+    "GcsError",
+    "GcsTimeout",
+    "Home",
+    "ParamListError",
+    "ParamRefused",
+    "StatusText",
+    "VehicleClient",
+    "VehicleParam",
+    "UnknownModeError",
+    "custom_mode_to_name",
+    "lookup_mode",
+    "name_to_custom_mode",
 ]

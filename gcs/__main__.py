@@ -58,15 +58,27 @@ def _positive(text: str) -> float:
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of the ``gcs`` command."""
     parser = argparse.ArgumentParser(
-        prog="gcs", description="Command a PX4-like vehicle over MAVLink.",
-        epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.")
-    parser.add_argument("--url", default=None,
-                        help=f"pymavlink connection string (default udpin:0.0.0.0:{DEFAULT_GCS_PORT} + instance)")
-    parser.add_argument("--instance", type=int, default=0, metavar="N",
-                        help="vehicle instance: adds N to the default port (ignored with --url)")
-    parser.add_argument("--timeout", type=_positive, default=None, metavar="S",
-                        help="wall seconds to wait at each step (heartbeat, acknowledgement, effect); "
-                             "default: per step")
+        prog="gcs",
+        description="Command a PX4-like vehicle over MAVLink.",
+        epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.",
+    )
+    parser.add_argument(
+        "--url", default=None, help=f"pymavlink connection string (default udpin:0.0.0.0:{DEFAULT_GCS_PORT} + instance)"
+    )
+    parser.add_argument(
+        "--instance",
+        type=int,
+        default=0,
+        metavar="N",
+        help="vehicle instance: adds N to the default port (ignored with --url)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=_positive,
+        default=None,
+        metavar="S",
+        help="wall seconds to wait at each step (heartbeat, acknowledgement, effect); default: per step",
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("status", help="print mode, arming, position, speed, battery and GPS once a second")
@@ -77,22 +89,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="force (param2 = 21196): disarms even in flight")
 
     p = sub.add_parser("takeoff", help="take off to ALT metres above home and wait until there")
-    p.add_argument("alt", nargs="?", type=_altitude, default=math.nan, metavar="ALT",
-                   help="metres above home (default / nan: the vehicle's MIS_TAKEOFF_ALT)")
+    p.add_argument(
+        "alt",
+        nargs="?",
+        type=_altitude,
+        default=math.nan,
+        metavar="ALT",
+        help="metres above home (default / nan: the vehicle's MIS_TAKEOFF_ALT)",
+    )
     p.add_argument("--arm", action="store_true", help="arm first if disarmed")
 
     sub.add_parser("land", help="land where the vehicle is and wait until landed and disarmed")
     sub.add_parser("rtl", help="return to launch and wait until landed and disarmed")
 
     p = sub.add_parser("mode", help="switch flight mode and wait until the heartbeat shows it")
-    p.add_argument("name", metavar="NAME", help="one of " + ", ".join(modes.mode_names())
-                   + " (PX4 spellings such as AUTO.LOITER and HOLD accepted; case-insensitive)")
+    p.add_argument(
+        "name",
+        metavar="NAME",
+        help="one of "
+        + ", ".join(modes.mode_names())
+        + " (PX4 spellings such as AUTO.LOITER and HOLD accepted; case-insensitive)",
+    )
 
     param_cli.add_param_parser(sub)
     # -- gcs plot (gcs/plot.py): figures from a flight log, no vehicle needed
     from . import plot
-    plot.add_arguments(sub.add_parser("plot", help="write PNG figures (setpoint vs estimate vs truth, motors) "
-                                                   "of a flight log (.fc.npy or .tlog)"))
+
+    plot.add_arguments(
+        sub.add_parser(
+            "plot", help="write PNG figures (setpoint vs estimate vs truth, motors) of a flight log (.fc.npy or .tlog)"
+        )
+    )
     return parser
 
 
@@ -119,13 +146,15 @@ class _Cli:
         c = self.client
         if self.args.once:
             # ask for the slow messages at once, then give the streams a moment so the line is complete
-            for mid in (mavlink.MAVLINK_MSG_ID_HOME_POSITION, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
-                        mavlink.MAVLINK_MSG_ID_BATTERY_STATUS):
+            for mid in (
+                mavlink.MAVLINK_MSG_ID_HOME_POSITION,
+                mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
+                mavlink.MAVLINK_MSG_ID_BATTERY_STATUS,
+            ):
                 c.telemetry.request_message(mid)
             wanted = ("GLOBAL_POSITION_INT", "SYS_STATUS", "GPS_RAW_INT", "HOME_POSITION")
             try:
-                c.wait_until(lambda: all(c.latest(t) for t in wanted),
-                             min(self.args.timeout or 3.0, 3.0), "telemetry")
+                c.wait_until(lambda: all(c.latest(t) for t in wanted), min(self.args.timeout or 3.0, 3.0), "telemetry")
             except GcsTimeout:
                 pass
             print(status_line(c), flush=True)
@@ -182,8 +211,12 @@ class _Cli:
             print("note: the vehicle is disarmed; it will not climb until armed (use --arm)", file=sys.stderr)
         c.takeoff(alt_amsl).check()
         what = f"takeoff to {target:g} m above home" if target is not None else "takeoff (climb to stop)"
-        print(f"taking off: target {target:g} m above home" if target is not None else
-              "taking off to the vehicle's MIS_TAKEOFF_ALT", flush=True)
+        print(
+            f"taking off: target {target:g} m above home"
+            if target is not None
+            else "taking off to the vehicle's MIS_TAKEOFF_ALT",
+            flush=True,
+        )
         c.wait_until(lambda: c.takeoff_done(target), timeout, what)
         print(f"at {c.relative_alt_m():.2f} m above home (mode {c.mode_name()})")
         return EXIT_OK
@@ -224,9 +257,11 @@ def status_line(client: VehicleClient) -> str:
     """One human-readable line of vehicle state (what ``gcs status`` prints)."""
     c = client
     t = c.sim_time_s()
-    fields = [f"t {t:8.2f} s" if t is not None else "t      ? s",
-              f"{c.mode_name() or '?':<10}",
-              "ARMED   " if c.armed() else "disarmed"]
+    fields = [
+        f"t {t:8.2f} s" if t is not None else "t      ? s",
+        f"{c.mode_name() or '?':<10}",
+        "ARMED   " if c.armed() else "disarmed",
+    ]
     pos = c.position_ned()
     if pos is not None:
         fields.append(f"N {pos[0]:7.2f} E {pos[1]:7.2f} alt {-pos[2]:6.2f} m")
@@ -237,8 +272,9 @@ def status_line(client: VehicleClient) -> str:
     gs = c.ground_speed_m_s()
     fields.append(f"gs {gs:4.1f} m/s" if gs is not None else "gs ? m/s")
     volts, pct = c.battery()
-    fields.append("batt " + (f"{volts:.1f} V" if volts is not None else "? V") + " "
-                  + (f"{pct}%" if pct is not None else "?%"))
+    fields.append(
+        "batt " + (f"{volts:.1f} V" if volts is not None else "? V") + " " + (f"{pct}%" if pct is not None else "?%")
+    )
     gps = c.gps()
     fields.append(f"GPS {GPS_FIX_NAMES.get(gps[0], gps[0])} {gps[1]} sats" if gps is not None else "GPS ?")
     if not c.prearm_ok() and not c.armed() and c.latest("SYS_STATUS") is not None:
@@ -254,6 +290,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "plot":
         from . import plot
+
         return plot.run(args)
     if args.command == "mode":
         try:
@@ -267,8 +304,16 @@ def main(argv: list[str] | None = None) -> int:
         client = VehicleClient(url, timeout_s=args.timeout or CONNECT_TIMEOUT_S)
         client.timeout_s = args.timeout or ACK_TIMEOUT_S
         cli = _Cli(client, args)
-        handler = {"status": cli.status, "arm": cli.arm, "disarm": cli.disarm, "takeoff": cli.takeoff,
-                   "land": cli.land, "rtl": cli.rtl, "mode": cli.mode, "param": cli.param}[args.command]
+        handler = {
+            "status": cli.status,
+            "arm": cli.arm,
+            "disarm": cli.disarm,
+            "takeoff": cli.takeoff,
+            "land": cli.land,
+            "rtl": cli.rtl,
+            "mode": cli.mode,
+            "param": cli.param,
+        }[args.command]
         return handler()
     except CommandRefused as exc:
         res = exc.result

@@ -54,9 +54,16 @@ class VehicleClient(Connection):
         on_statustext: Callable[[StatusText], None] | None = None,
         heartbeat_period_s: float = 1.0,
     ) -> None:
-        super().__init__(url, timeout_s, target_system=target_system, target_component=target_component,
-                         wait_heartbeat=wait_heartbeat, idle=idle, on_statustext=on_statustext,
-                         heartbeat_period_s=heartbeat_period_s)
+        super().__init__(
+            url,
+            timeout_s,
+            target_system=target_system,
+            target_component=target_component,
+            wait_heartbeat=wait_heartbeat,
+            idle=idle,
+            on_statustext=on_statustext,
+            heartbeat_period_s=heartbeat_period_s,
+        )
         self.telemetry = Telemetry(self)
         self.action = Action(self, self.telemetry)
         self.param = Param(self)
@@ -150,17 +157,39 @@ class VehicleClient(Connection):
 
     # ----------------------------------------------------------------- action
 
-    def command_long(self, command: int, *params: float, timeout_s: float | None = None,
-                     retries: int = 3, timeout: float | None = None) -> CommandResult:
+    def command_long(
+        self,
+        command: int,
+        *params: float,
+        timeout_s: float | None = None,
+        retries: int = 3,
+        timeout: float | None = None,
+    ) -> CommandResult:
         """COMMAND_LONG until its COMMAND_ACK (:meth:`Action.command_long`)."""
         return self.action.command_long(command, *params, timeout_s=timeout_s, retries=retries, timeout=timeout)
 
-    def command_int(self, command: int, *params: float, frame: int = mavlink.MAV_FRAME_GLOBAL,
-                    timeout_s: float | None = None, retries: int = 3, timeout: float | None = None,
-                    current: int = 0, autocontinue: int = 0) -> CommandResult:
+    def command_int(
+        self,
+        command: int,
+        *params: float,
+        frame: int = mavlink.MAV_FRAME_GLOBAL,
+        timeout_s: float | None = None,
+        retries: int = 3,
+        timeout: float | None = None,
+        current: int = 0,
+        autocontinue: int = 0,
+    ) -> CommandResult:
         """COMMAND_INT until its COMMAND_ACK (:meth:`Action.command_int`)."""
-        return self.action.command_int(command, *params, frame=frame, timeout_s=timeout_s, retries=retries,
-                                       timeout=timeout, current=current, autocontinue=autocontinue)
+        return self.action.command_int(
+            command,
+            *params,
+            frame=frame,
+            timeout_s=timeout_s,
+            retries=retries,
+            timeout=timeout,
+            current=current,
+            autocontinue=autocontinue,
+        )
 
     def arm(self, force: bool = False, timeout_s: float | None = None) -> CommandResult:
         """Arm (:meth:`Action.arm`)."""
@@ -190,21 +219,39 @@ class VehicleClient(Connection):
         """NAV_RETURN_TO_LAUNCH (:meth:`Action.return_to_launch`)."""
         return self.action.return_to_launch(timeout_s)
 
-    def goto_global(self, lat_deg: float, lon_deg: float, alt_amsl_m: float, *, ground_speed_m_s: float = -1.0,
-                    yaw_deg: float = math.nan, timeout_s: float | None = None) -> CommandResult:
+    def goto_global(
+        self,
+        lat_deg: float,
+        lon_deg: float,
+        alt_amsl_m: float,
+        *,
+        ground_speed_m_s: float = -1.0,
+        yaw_deg: float = math.nan,
+        timeout_s: float | None = None,
+    ) -> CommandResult:
         """DO_REPOSITION to (lat, lon, alt AMSL) (:meth:`Action.goto_global`)."""
-        return self.action.goto_global(lat_deg, lon_deg, alt_amsl_m, ground_speed_m_s=ground_speed_m_s,
-                                       yaw_deg=yaw_deg, timeout_s=timeout_s)
+        return self.action.goto_global(
+            lat_deg, lon_deg, alt_amsl_m, ground_speed_m_s=ground_speed_m_s, yaw_deg=yaw_deg, timeout_s=timeout_s
+        )
 
     def ned_to_global(self, north_m: float, east_m: float, down_rel_home_m: float) -> tuple[float, float, float]:
         """(lat, lon, alt AMSL) of a NED point from home (:meth:`Action.ned_to_global`)."""
         return self.action.ned_to_global(north_m, east_m, down_rel_home_m)
 
-    def goto_ned(self, north_m: float, east_m: float, down_rel_home_m: float, *, ground_speed_m_s: float = -1.0,
-                 yaw_deg: float = math.nan, timeout_s: float | None = None) -> CommandResult:
+    def goto_ned(
+        self,
+        north_m: float,
+        east_m: float,
+        down_rel_home_m: float,
+        *,
+        ground_speed_m_s: float = -1.0,
+        yaw_deg: float = math.nan,
+        timeout_s: float | None = None,
+    ) -> CommandResult:
         """Fly to metres NED from home and hold (:meth:`Action.goto_ned`)."""
-        return self.action.goto_ned(north_m, east_m, down_rel_home_m, ground_speed_m_s=ground_speed_m_s,
-                                    yaw_deg=yaw_deg, timeout_s=timeout_s)
+        return self.action.goto_ned(
+            north_m, east_m, down_rel_home_m, ground_speed_m_s=ground_speed_m_s, yaw_deg=yaw_deg, timeout_s=timeout_s
+        )
 
     # ----------------------------------------------------------------- param
 
@@ -212,12 +259,19 @@ class VehicleClient(Connection):
         """Read a parameter (:meth:`Param.get`)."""
         return self.param.get(name, timeout_s, retries)
 
-    def param_set(self, name: str, value: float | int, param_type: int | None = None,
-                  timeout_s: float | None = None, retries: int = 3) -> int | float:
+    def param_set(
+        self,
+        name: str,
+        value: float | int,
+        param_type: int | None = None,
+        timeout_s: float | None = None,
+        retries: int = 3,
+    ) -> int | float:
         """Set a parameter; the value the vehicle echoes (:meth:`Param.set`)."""
         return self.param.set(name, value, param_type, timeout_s, retries)
 
-    def param_list(self, progress: Callable[[int, int], None] | None = None,
-                   timeout_s: float | None = None) -> list[VehicleParam]:
+    def param_list(
+        self, progress: Callable[[int, int], None] | None = None, timeout_s: float | None = None
+    ) -> list[VehicleParam]:
         """Every parameter in index order (:meth:`Param.get_all`)."""
         return self.param.get_all(progress, timeout_s)

@@ -120,8 +120,7 @@ class Connection:
         self.wait_until(
             lambda: "HEARTBEAT" in self._latest,
             timeout_s,
-            f"a heartbeat from the vehicle (sysid {self.target_system}, compid {self.target_component}) "
-            f"on {self.url}",
+            f"a heartbeat from the vehicle (sysid {self.target_system}, compid {self.target_component}) on {self.url}",
             describe=False,
         )
 
@@ -156,8 +155,12 @@ class Connection:
             msg = self.conn.recv_match(blocking=False)
         return out
 
-    def recv(self, types: str | Iterable[str], timeout_s: float | None = None,
-             condition: Callable[[object], bool] | None = None):
+    def recv(
+        self,
+        types: str | Iterable[str],
+        timeout_s: float | None = None,
+        condition: Callable[[object], bool] | None = None,
+    ):
         """The next message of the given type(s) from the vehicle (meeting ``condition``), or None."""
         wanted = {types} if isinstance(types, str) else set(types)
         deadline = time.monotonic() + self._timeout(timeout_s)
@@ -173,7 +176,7 @@ class Connection:
             batch = self.pump(min(PUMP_TIMEOUT_S, max(deadline - time.monotonic(), 0.0)))
             for i, msg in enumerate(batch):
                 if fits(msg):
-                    self._pending.extend(batch[i + 1:])
+                    self._pending.extend(batch[i + 1 :])
                     return msg
             if time.monotonic() >= deadline:
                 return None
@@ -224,8 +227,9 @@ class Connection:
         now = time.monotonic()
         if now - self._last_gcs_heartbeat >= self.heartbeat_period_s:
             self._last_gcs_heartbeat = now
-            self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
-                                         mavlink.MAV_STATE_ACTIVE)
+            self.conn.mav.heartbeat_send(
+                mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE
+            )
 
     def _timeout(self, timeout_s: float | None) -> float:
         """``timeout_s``, or the connection's default timeout if None (wall seconds)."""
@@ -233,8 +237,14 @@ class Connection:
 
     # ----------------------------------------------------------------- waiting
 
-    def wait_until(self, predicate: Callable[[], object], timeout_s: float | None = None,
-                   what: str = "a condition", *, describe: bool = True):
+    def wait_until(
+        self,
+        predicate: Callable[[], object],
+        timeout_s: float | None = None,
+        what: str = "a condition",
+        *,
+        describe: bool = True,
+    ):
         """Pump messages until ``predicate()`` is truthy; return its value.
 
         Raises :class:`GcsTimeout` after ``timeout_s`` wall seconds (default:
@@ -257,8 +267,9 @@ class Connection:
         """Wait until ``duration_s`` seconds of *vehicle* (simulated) time have passed; return the end time."""
         self.wait_until(lambda: self.sim_time_s() is not None, timeout_s, "vehicle time")
         end = self.sim_time_s() + duration_s
-        self.wait_until(lambda: self.sim_time_s() >= end, timeout_s,
-                        what or f"{duration_s:g} s of vehicle time to pass")
+        self.wait_until(
+            lambda: self.sim_time_s() >= end, timeout_s, what or f"{duration_s:g} s of vehicle time to pass"
+        )
         return self.sim_time_s()
 
     def reason_since(self, texts_before: int, grace_s: float = 0.5) -> str | None:
@@ -269,8 +280,7 @@ class Connection:
         """
         if len(self.statustexts) == texts_before:
             try:
-                self.wait_until(lambda: len(self.statustexts) > texts_before, grace_s, "a reason",
-                                describe=False)
+                self.wait_until(lambda: len(self.statustexts) > texts_before, grace_s, "a reason", describe=False)
             except GcsTimeout:
                 return None
         return self.statustexts[-1].text

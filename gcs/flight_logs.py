@@ -38,8 +38,15 @@ from mavsim_core.px4_modes import custom_mode_to_name, decode_custom_mode, encod
 FC_SUFFIX, TRUTH_SUFFIX, TLOG_SUFFIX = ".fc.npy", ".truth.npy", ".tlog"
 VEHICLE_SYSID, VEHICLE_COMPID = 1, 1
 TRUTH_MATCH_S = 120.0  # a truth log's name time within this of the log's (wall clock at arming)
-TLOG_KINDS = ("ATTITUDE", "ATTITUDE_TARGET", "LOCAL_POSITION_NED", "POSITION_TARGET_LOCAL_NED",
-              "SERVO_OUTPUT_RAW", "ACTUATOR_OUTPUT_STATUS", "HEARTBEAT")
+TLOG_KINDS = (
+    "ATTITUDE",
+    "ATTITUDE_TARGET",
+    "LOCAL_POSITION_NED",
+    "POSITION_TARGET_LOCAL_NED",
+    "SERVO_OUTPUT_RAW",
+    "ACTUATOR_OUTPUT_STATUS",
+    "HEARTBEAT",
+)
 SERVO_CHANNELS = 16
 PWM_MIN_US, PWM_RANGE_US = 1000.0, 1000.0  # SERVO_OUTPUT_RAW: 1000..2000 us is motor 0..1
 
@@ -104,10 +111,21 @@ def load_fc_log(path: Path) -> FlightData:
     motors = sorted((n for n in a.dtype.names if n.startswith("motor_")), key=lambda n: int(n.split("_")[1]))
     return FlightData(
         name=path.name,
-        setpoint=Series(t, dict(alt_m=-f("pos_sp_d_m"), n_m=f("pos_sp_n_m"), e_m=f("pos_sp_e_m"),
-                                roll_deg=roll_sp, pitch_deg=pitch_sp, yaw_deg=yaw_sp)),
-        estimate=Series(t, dict(alt_m=-f("pos_d_m"), n_m=f("pos_n_m"), e_m=f("pos_e_m"),
-                                roll_deg=roll, pitch_deg=pitch, yaw_deg=yaw)),
+        setpoint=Series(
+            t,
+            dict(
+                alt_m=-f("pos_sp_d_m"),
+                n_m=f("pos_sp_n_m"),
+                e_m=f("pos_sp_e_m"),
+                roll_deg=roll_sp,
+                pitch_deg=pitch_sp,
+                yaw_deg=yaw_sp,
+            ),
+        ),
+        estimate=Series(
+            t,
+            dict(alt_m=-f("pos_d_m"), n_m=f("pos_n_m"), e_m=f("pos_e_m"), roll_deg=roll, pitch_deg=pitch, yaw_deg=yaw),
+        ),
         motors=Series(t, {n: f(n) for n in motors}) if motors else None,
         modes=_mode_changes(t, (encode_custom_mode(m, s) for m, s in zip(a["main_mode"], a["sub_mode"]))),
         source="flight controller log (250 Hz)",
@@ -125,9 +143,17 @@ def load_truth_log(path: Path) -> Series:
         raise FlightLogError(f"{path}: the truth log holds no rows")
     f = lambda name: a[name].astype(float)  # noqa: E731
     alt = -f("pos_d_m")
-    return Series(a["time_us"] / 1e6, dict(alt_m=alt - alt[0], n_m=f("pos_n_m"), e_m=f("pos_e_m"),
-                                           roll_deg=np.degrees(f("roll_rad")), pitch_deg=np.degrees(f("pitch_rad")),
-                                           yaw_deg=np.degrees(f("yaw_rad"))))
+    return Series(
+        a["time_us"] / 1e6,
+        dict(
+            alt_m=alt - alt[0],
+            n_m=f("pos_n_m"),
+            e_m=f("pos_e_m"),
+            roll_deg=np.degrees(f("roll_rad")),
+            pitch_deg=np.degrees(f("pitch_rad")),
+            yaw_deg=np.degrees(f("yaw_rad")),
+        ),
+    )
 
 
 # --------------------------------------------------------------------------- tlogs
@@ -322,8 +348,10 @@ def load(log: Path, truth: Path | None = None, find: bool = True) -> FlightData:
     if log.name.endswith(FC_SUFFIX):
         data = load_fc_log(log)
     elif log.name.endswith(TRUTH_SUFFIX):
-        raise FlightLogError(f"{log}: this is the simulator's truth log; give the flight's .fc.npy or .tlog "
-                             "(the truth log is found beside it, or pass --truth)")
+        raise FlightLogError(
+            f"{log}: this is the simulator's truth log; give the flight's .fc.npy or .tlog "
+            "(the truth log is found beside it, or pass --truth)"
+        )
     else:
         data = load_tlog(log)
     series = [s for s in (data.estimate, data.setpoint) if s is not None and s.t_s.size]

@@ -25,8 +25,19 @@ import time
 from typing import TextIO
 
 from mavsim_core.param_encoding import TYPE_NAMES, is_integer_type
-from params.param_file import (FORMATS, QGC, ParamEntry, ParamFileError, apply_in_passes, atomic_write_text,
-                               diff_params, format_params, format_value, read_param_file, same_value)
+from params.param_file import (
+    FORMATS,
+    QGC,
+    ParamEntry,
+    ParamFileError,
+    apply_in_passes,
+    atomic_write_text,
+    diff_params,
+    format_params,
+    format_value,
+    read_param_file,
+    same_value,
+)
 
 from .client import VehicleClient
 from .errors import ParamListError, ParamRefused
@@ -49,8 +60,12 @@ def add_param_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument("value", type=float)
     s = psub.add_parser("save", help="download every parameter and write them to FILE ('-': stdout)")
     s.add_argument("file", metavar="FILE")
-    s.add_argument("--format", choices=FORMATS, default=QGC,
-                   help="qgc: QGroundControl's tab-separated file (default); mavproxy: NAME VALUE lines")
+    s.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=QGC,
+        help="qgc: QGroundControl's tab-separated file (default); mavproxy: NAME VALUE lines",
+    )
     s = psub.add_parser("load", help="set every parameter of FILE whose value differs on the vehicle")
     s.add_argument("file", metavar="FILE")
     s = psub.add_parser("diff", help="print the parameters of FILE whose values differ on the vehicle")
@@ -153,10 +168,12 @@ def _list(client: VehicleClient, args: argparse.Namespace) -> int:
 
 def _save(client: VehicleClient, args: argparse.Namespace) -> int:
     params = _download(client, args)
-    entries = [ParamEntry(p.name, p.value, p.mav_type, 0, client.target_system, client.target_component)
-               for p in params]
-    header = (f"Onboard parameters for Vehicle {client.target_system}\n\n"
-              f"Saved by gcs param save ({len(entries)} parameters)")
+    entries = [
+        ParamEntry(p.name, p.value, p.mav_type, 0, client.target_system, client.target_component) for p in params
+    ]
+    header = (
+        f"Onboard parameters for Vehicle {client.target_system}\n\nSaved by gcs param save ({len(entries)} parameters)"
+    )
     text = format_params(entries, args.format, header)
     if args.file == "-":
         sys.stdout.write(text)
@@ -189,8 +206,9 @@ def _typed(entry: ParamEntry, vp: VehicleParam) -> int | float:
     """The file's value in the vehicle's type; ValueError saying why it does not fit."""
     if entry.mav_type is not None and entry.mav_type != vp.mav_type:
         have = TYPE_NAMES.get(entry.mav_type, str(entry.mav_type))
-        raise ValueError(f"{entry.name} is {TYPE_NAMES.get(vp.mav_type, vp.mav_type)} on the vehicle, "
-                         f"{have} in the file")
+        raise ValueError(
+            f"{entry.name} is {TYPE_NAMES.get(vp.mav_type, vp.mav_type)} on the vehicle, {have} in the file"
+        )
     if is_integer_type(vp.mav_type):
         if float(entry.value) != int(entry.value):
             raise ValueError(f"{entry.name} is an integer on the vehicle, {entry.value} is not")
@@ -228,8 +246,9 @@ def _load(client: VehicleClient, args: argparse.Namespace) -> int:
     for e, reason in refused:
         _err(f"{args.file}, line {e.line}: {e.name} refused: {reason}")
     failures += len(refused)
-    print(f"loaded {args.file}: {len(to_set) - len(refused)} set, {unchanged} unchanged, "
-          f"{failures} refused or unreadable")
+    print(
+        f"loaded {args.file}: {len(to_set) - len(refused)} set, {unchanged} unchanged, {failures} refused or unreadable"
+    )
     return EXIT_REFUSED if failures else EXIT_OK
 
 
@@ -247,4 +266,3 @@ def _diff(client: VehicleClient, args: argparse.Namespace) -> int:
         print(f"{d.name:<16} {_show(d.ours, mav_type):>14} {vehicle:>14}")
     print(f"{len(diffs)} of {len(ours)} parameters differ", file=sys.stderr)
     return EXIT_REFUSED if failures else EXIT_OK
-

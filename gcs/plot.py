@@ -79,8 +79,17 @@ def _mark_modes(ax, data: FlightData, labels: bool) -> None:
     for t, name in data.modes:
         ax.axvline(t, color="0.6", lw=0.6, ls=":")
         if labels:
-            ax.text(t, 1.0, " " + name, transform=ax.get_xaxis_transform(), fontsize=7, rotation=90,
-                    va="top", ha="left", color="0.35")
+            ax.text(
+                t,
+                1.0,
+                " " + name,
+                transform=ax.get_xaxis_transform(),
+                fontsize=7,
+                rotation=90,
+                va="top",
+                ha="left",
+                color="0.35",
+            )
 
 
 def _legend(ax) -> None:
@@ -140,8 +149,9 @@ def _error_panel(ax, data: FlightData, key: str, label: str, wrap: bool = False)
 
 def _fig_attitude(plt, data: FlightData):
     fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
-    for ax, (key, label) in zip(axes, (("roll_deg", "roll, deg"), ("pitch_deg", "pitch, deg"),
-                                       ("yaw_deg", "yaw, deg"))):
+    for ax, (key, label) in zip(
+        axes, (("roll_deg", "roll, deg"), ("pitch_deg", "pitch, deg"), ("yaw_deg", "yaw, deg"))
+    ):
         _plot_quantity(ax, data, key, label, wrap=key == "yaw_deg")
         _mark_modes(ax, data, labels=ax is axes[0])
     _legend(axes[0])
@@ -179,13 +189,19 @@ def _fig_position(plt, data: FlightData):
 
 def _fig_errors(plt, data: FlightData):
     fig, axes = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
-    rows = (("alt_m", "altitude, m", False), ("roll_deg", "roll, deg", False), ("pitch_deg", "pitch, deg", False),
-            ("yaw_deg", "yaw, deg", True), ("n_m", "north, m", False))
+    rows = (
+        ("alt_m", "altitude, m", False),
+        ("roll_deg", "roll, deg", False),
+        ("pitch_deg", "pitch, deg", False),
+        ("yaw_deg", "yaw, deg", True),
+        ("n_m", "north, m", False),
+    )
     for ax, (key, label, wrap) in zip(axes, rows):
         _error_panel(ax, data, key, label + " error", wrap)
         _mark_modes(ax, data, labels=False)
-    axes[0].set_title("Errors (seed 000 style): setpoint - estimate" +
-                      (", estimate - truth" if data.truth is not None else ""))
+    axes[0].set_title(
+        "Errors (seed 000 style): setpoint - estimate" + (", estimate - truth" if data.truth is not None else "")
+    )
     axes[-1].set_xlabel("simulated time, s")
     return fig
 
@@ -217,8 +233,14 @@ def _fig_overview(plt, data: FlightData):
     first = fig.add_subplot(gs[0, 0])
     axes = [first] + [fig.add_subplot(gs[r, c], sharex=first) for r, c in ((1, 0), (2, 0), (0, 1), (1, 1), (2, 1))]
     ax_motors = fig.add_subplot(gs[3, :], sharex=first)
-    rows = (("alt_m", "altitude, m", False), ("roll_deg", "roll, deg", False), ("pitch_deg", "pitch, deg", False),
-            ("n_m", "north, m", False), ("e_m", "east, m", False), ("yaw_deg", "yaw, deg", True))
+    rows = (
+        ("alt_m", "altitude, m", False),
+        ("roll_deg", "roll, deg", False),
+        ("pitch_deg", "pitch, deg", False),
+        ("n_m", "north, m", False),
+        ("e_m", "east, m", False),
+        ("yaw_deg", "yaw, deg", True),
+    )
     for ax, (key, label, wrap) in zip(axes, rows):
         _plot_quantity(ax, data, key, label, wrap)
         _mark_modes(ax, data, labels=ax is first)
@@ -231,8 +253,14 @@ def _fig_overview(plt, data: FlightData):
     return fig
 
 
-_BUILDERS = {"overview": _fig_overview, "altitude": _fig_altitude, "attitude": _fig_attitude,
-             "position": _fig_position, "errors": _fig_errors, "motors": _fig_motors}
+_BUILDERS = {
+    "overview": _fig_overview,
+    "altitude": _fig_altitude,
+    "attitude": _fig_attitude,
+    "position": _fig_position,
+    "errors": _fig_errors,
+    "motors": _fig_motors,
+}
 
 
 def write_figures(data: FlightData, out_dir: Path, dpi: int = 100) -> list[Path]:
@@ -262,8 +290,12 @@ def write_figures(data: FlightData, out_dir: Path, dpi: int = 100) -> list[Path]
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("log", metavar="LOG", help="a .fc.npy or .tlog flight log, or a directory (its newest flight)")
     p.add_argument("--out", metavar="DIR", default=None, help="where to write the PNGs (default <log>_plots)")
-    p.add_argument("--truth", metavar="FILE", default=None,
-                   help="the simulator's .truth.npy of the flight (default: found beside the log)")
+    p.add_argument(
+        "--truth",
+        metavar="FILE",
+        default=None,
+        help="the simulator's .truth.npy of the flight (default: found beside the log)",
+    )
     p.add_argument("--no-truth", action="store_true", help="do not look for the simulator's log")
     p.add_argument("--dpi", type=int, default=100, help="resolution of the PNGs (default 100)")
 

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
-
 SIM_COMPONENT_ID = 51
 
 
@@ -72,7 +71,8 @@ class SimClient:
                 if kind == "LOCAL_POSITION_NED":
                     with self.lock:
                         self.positions[msg.time_boot_ms] = TruthSample(
-                            msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz))
+                            msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz)
+                        )
                 elif kind == "HIL_STATE_QUATERNION":
                     with self.lock:
                         self.latest_state = msg

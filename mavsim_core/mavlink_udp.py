@@ -96,7 +96,7 @@ class UdpEndpoint:
             self._parser = self._new_parser()
             return [], 1
         if p.buf_len() > 0:  # the end of the datagram is a packet cut short
-            msgs.append(mavlink.MAVLink_bad_data(p.buf[p.buf_index:], "truncated packet"))
+            msgs.append(mavlink.MAVLink_bad_data(p.buf[p.buf_index :], "truncated packet"))
             self._parser = self._new_parser()
         good, bad = [], 0
         for msg in msgs:

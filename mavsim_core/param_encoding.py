@@ -38,8 +38,15 @@ __all__ = ["ParamType"]  # re-exported: the encoding and the type travel togethe
 
 _INT_FORMATS: dict[int, str] = {UINT8: "<B", INT8: "<b", UINT16: "<H", INT16: "<h", UINT32: "<I", INT32: "<i"}
 
-TYPE_NAMES: dict[int, str] = {UINT8: "UINT8", INT8: "INT8", UINT16: "UINT16", INT16: "INT16",
-                              UINT32: "UINT32", INT32: "INT32", REAL32: "REAL32"}
+TYPE_NAMES: dict[int, str] = {
+    UINT8: "UINT8",
+    INT8: "INT8",
+    UINT16: "UINT16",
+    INT16: "INT16",
+    UINT32: "UINT32",
+    INT32: "INT32",
+    REAL32: "REAL32",
+}
 
 
 def is_integer_type(param_type: int) -> bool:
@@ -96,5 +103,5 @@ def raw_param_value(msg) -> bytes:
     if buf:
         header_len = 10 if buf[0] == 0xFD else 6
         payload_len = buf[1]
-        return bytes(buf[header_len:header_len + min(4, payload_len)]).ljust(4, b"\0")
+        return bytes(buf[header_len : header_len + min(4, payload_len)]).ljust(4, b"\0")
     return struct.pack("<f", msg.param_value)

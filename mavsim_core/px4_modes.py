@@ -64,6 +64,7 @@ class Mode(Enum):
     ACRO = (MAIN_ACRO, 0)
     OFFBOARD = (MAIN_OFFBOARD, 0)
     STABILIZED = (MAIN_STABILIZED, 0)
+
     @property
     def custom_mode(self) -> int:
         main, sub = self.value

@@ -27,12 +27,14 @@ def mul(a: Quat, b: Quat) -> np.ndarray:
     """Hamilton product a * b."""
     aw, ax, ay, az = _floats(a)
     bw, bx, by, bz = _floats(b)
-    return np.array((
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ))
+    return np.array(
+        (
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        )
+    )
 
 
 def to_matrix(q: Quat) -> np.ndarray:
@@ -40,11 +42,13 @@ def to_matrix(q: Quat) -> np.ndarray:
     w, x, y, z = _floats(q)
     ww, xx, yy, zz = w * w, x * x, y * y, z * z
     wx, wy, wz, xy, xz, yz = w * x, w * y, w * z, x * y, x * z, y * z
-    return np.array((
-        (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy)),
-        (2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx)),
-        (2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz),
-    ))
+    return np.array(
+        (
+            (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy)),
+            (2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx)),
+            (2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz),
+        )
+    )
 
 
 def from_matrix(r: np.ndarray) -> np.ndarray:
@@ -103,12 +107,14 @@ def from_euler(roll: float, pitch: float, yaw: float) -> np.ndarray:
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return np.array([
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ])
+    return np.array(
+        [
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        ]
+    )
 
 
 def cross(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray) -> np.ndarray:

@@ -49,11 +49,11 @@ class MessageLayout:
 
     def decode(self, packet: bytes | bytearray, plen: int) -> mavlink.MAVLink_message:
         """The message of a whole packet whose CRC has been checked."""
-        payload = bytes(packet[HEADER_LEN:HEADER_LEN + plen])
+        payload = bytes(packet[HEADER_LEN : HEADER_LEN + plen])
         if plen < self.size:
             payload += bytes(self.size - plen)  # MAVLink 2 trims trailing zero bytes
-        t = self.struct.unpack(payload[:self.size])
-        values = [t[i] if n == 0 else list(t[i:i + n]) for i, n in self.fields]
+        t = self.struct.unpack(payload[: self.size])
+        values = [t[i] if n == 0 else list(t[i : i + n]) for i, n in self.fields]
         msg = self.cls(*values)
         msg._header = mavlink.MAVLink_header(self.msgid, 0, packet[3], plen, packet[4], packet[5], packet[6])
         msg._msgbuf = bytearray(packet)
@@ -71,8 +71,9 @@ class MessageLayout:
         plen = len(payload)
         while plen > 1 and payload[plen - 1] == 0:
             plen -= 1
-        head = _HEADER.pack(STX_V2, plen, 0, 0, mav.seq, mav.srcSystem, mav.srcComponent,
-                            self.msgid & 0xFFFF, self.msgid >> 16)
+        head = _HEADER.pack(
+            STX_V2, plen, 0, 0, mav.seq, mav.srcSystem, mav.srcComponent, self.msgid & 0xFFFF, self.msgid >> 16
+        )
         body = head[1:] + payload[:plen]
         crc = mavlink.x25crc(body + self.crc_extra).crc
         mav.seq = (mav.seq + 1) % 256
@@ -117,7 +118,7 @@ class StreamParser:
                 i = end
                 continue
             crc = _CRC.unpack_from(buf, end - CRC_LEN)[0]
-            if mavlink.x25crc(bytes(buf[i + 1:end - CRC_LEN]) + layout.crc_extra).crc != crc:
+            if mavlink.x25crc(bytes(buf[i + 1 : end - CRC_LEN]) + layout.crc_extra).crc != crc:
                 slow_from = i  # damaged: pymavlink resynchronises and reports it
                 break
             out.append(layout.decode(buf[i:end], plen))

@@ -42,7 +42,7 @@ def packet_id_and_payload(packet: bytes) -> tuple[int, bytes] | None:
     if len(packet) < MAVLINK2_HEADER_LEN or packet[0] != MAVLINK2_STX:
         return None
     msgid = packet[7] | packet[8] << 8 | packet[9] << 16
-    return msgid, bytes(packet[MAVLINK2_HEADER_LEN:MAVLINK2_HEADER_LEN + packet[1]])
+    return msgid, bytes(packet[MAVLINK2_HEADER_LEN : MAVLINK2_HEADER_LEN + packet[1]])
 
 
 class TlogWriter:

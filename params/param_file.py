@@ -190,8 +190,10 @@ def parse_param_text(text: str, source: str = "<text>", fmt: str | None = None) 
     """
     fmt = fmt or detect_format(text)
     if fmt is None:
-        raise ParamFileError(f"{source}: no parameter line found (expected QGroundControl's "
-                             "'SYSID<TAB>COMPID<TAB>NAME<TAB>VALUE<TAB>TYPE' or MAVProxy's 'NAME VALUE')")
+        raise ParamFileError(
+            f"{source}: no parameter line found (expected QGroundControl's "
+            "'SYSID<TAB>COMPID<TAB>NAME<TAB>VALUE<TAB>TYPE' or MAVProxy's 'NAME VALUE')"
+        )
     if fmt not in FORMATS:
         raise ParamFileError(f"unknown parameter file format {fmt!r} (known: {', '.join(FORMATS)})")
     out = ParamFile(fmt, source=source)
@@ -296,8 +298,12 @@ def format_params(entries: Iterable[ParamEntry], fmt: str = QGC, header: str = "
 # --------------------------------------------------------------------------- comparing and applying
 
 
-def diff_params(ours: Mapping[str, int | float], theirs: Mapping[str, int | float],
-                types: Mapping[str, int] | None = None, only_ours: bool = False) -> list[ParamDiff]:
+def diff_params(
+    ours: Mapping[str, int | float],
+    theirs: Mapping[str, int | float],
+    types: Mapping[str, int] | None = None,
+    only_ours: bool = False,
+) -> list[ParamDiff]:
     """Names whose values differ, in name order (see :func:`same_value`; ``types`` gives MAV_PARAM_TYPEs).
 
     A name missing on one side is a difference with None there; with
@@ -314,9 +320,11 @@ def diff_params(ours: Mapping[str, int | float], theirs: Mapping[str, int | floa
     return out
 
 
-def apply_in_passes(entries: Iterable[ParamEntry], apply: Callable[[ParamEntry], object],
-                    refused: type[BaseException] | tuple[type[BaseException], ...] = ValueError,
-                    ) -> list[tuple[ParamEntry, str]]:
+def apply_in_passes(
+    entries: Iterable[ParamEntry],
+    apply: Callable[[ParamEntry], object],
+    refused: type[BaseException] | tuple[type[BaseException], ...] = ValueError,
+) -> list[tuple[ParamEntry, str]]:
     """Apply each entry with ``apply``; retry the refused ones while others succeed.
 
     Cross-parameter rules can refuse a value that becomes valid once another

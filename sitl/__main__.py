@@ -53,29 +53,50 @@ def parse_param_assignment(text: str) -> tuple[str, int | float]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="sitl",
-                                description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)")
+    p = argparse.ArgumentParser(
+        prog="sitl", description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)"
+    )
     p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
     p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
     p.add_argument("--instance", "-i", type=int, default=0, help="offsets every port, like PX4's -i")
     p.add_argument("--port", type=int, default=4560, help="TCP port the flight controller connects to (+instance)")
     p.add_argument("--truth-port", type=int, default=14560, help="UDP port for ground truth (+instance); 0 disables")
     p.add_argument("--truth-host", default="127.0.0.1")
-    p.add_argument("--truth-local-port", type=int, default=0,
-                   help="local UDP port of the simulator's MAVLink component (truth, SIM_* parameters), "
-                        "+instance; 0 = chosen by the OS")
+    p.add_argument(
+        "--truth-local-port",
+        type=int,
+        default=0,
+        help="local UDP port of the simulator's MAVLink component (truth, SIM_* parameters), "
+        "+instance; 0 = chosen by the OS",
+    )
     p.add_argument("--home", type=parse_home, default=DEFAULT_HOME, help="LAT,LON,ALT of the start point")
     p.add_argument("--seed", type=int, default=0, help="random seed of the sensor noise")
     p.add_argument("--duration", type=float, default=None, help="stop after this many simulated seconds")
-    p.add_argument("--scenario", metavar="NAME|FILE",
-                   help=f"SIM_* parameters and timed events from a TOML file or a shipped scenario "
-                        f"({', '.join(list_scenarios())})")
-    p.add_argument("--param", metavar="NAME=VALUE", type=parse_param_assignment, action="append", default=[],
-                   help="set a SIM_* parameter at start-up (repeatable; applied after --scenario)")
-    p.add_argument("--list-params", action="store_true",
-                   help="print the SIM_* parameters (with --scenario/--param applied) and exit")
-    p.add_argument("--log-dir", metavar="DIR", default=None,
-                   help="write a ground-truth log (.truth.npy) per arming here (default: none)")
+    p.add_argument(
+        "--scenario",
+        metavar="NAME|FILE",
+        help=f"SIM_* parameters and timed events from a TOML file or a shipped scenario "
+        f"({', '.join(list_scenarios())})",
+    )
+    p.add_argument(
+        "--param",
+        metavar="NAME=VALUE",
+        type=parse_param_assignment,
+        action="append",
+        default=[],
+        help="set a SIM_* parameter at start-up (repeatable; applied after --scenario)",
+    )
+    p.add_argument(
+        "--list-params",
+        action="store_true",
+        help="print the SIM_* parameters (with --scenario/--param applied) and exit",
+    )
+    p.add_argument(
+        "--log-dir",
+        metavar="DIR",
+        default=None,
+        help="write a ground-truth log (.truth.npy) per arming here (default: none)",
+    )
     return p
 
 
@@ -118,29 +139,48 @@ def main(argv: list[str] | None = None) -> int:
     truth = (args.truth_host, args.truth_port + args.instance) if args.truth_port else None
     truth_bind = ("0.0.0.0", args.truth_local_port + args.instance if args.truth_local_port else 0)
     try:
-        server = LockstepServer(sim, args.port + args.instance, truth, args.speed, truth_bind=truth_bind,
-                                events=scenario.events if scenario else ())
+        server = LockstepServer(
+            sim,
+            args.port + args.instance,
+            truth,
+            args.speed,
+            truth_bind=truth_bind,
+            events=scenario.events if scenario else (),
+        )
     except OSError as exc:
         print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
         return 2
     if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
         from sitl.truth_log import TruthRecorder
+
         try:
             server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance)
         except OSError as exc:
             print(f"sitl: cannot write ground-truth logs to {args.log_dir}: {exc}", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
     speed = "max" if args.speed is None else f"{args.speed:g}x"
-    print(f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
-          f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}", file=sys.stderr, flush=True)
+    print(
+        f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
+        f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}",
+        file=sys.stderr,
+        flush=True,
+    )
     if scenario is not None:
         about = f": {scenario.description}" if scenario.description else ""
-        print(f"[sitl] scenario {scenario.name}{about} ({len(scenario.parameters)} parameters, "
-              f"{len(scenario.events)} events)", file=sys.stderr, flush=True)
+        print(
+            f"[sitl] scenario {scenario.name}{about} ({len(scenario.parameters)} parameters, "
+            f"{len(scenario.events)} events)",
+            file=sys.stderr,
+            flush=True,
+        )
     if server.param_server is not None:
         port = server.param_server.local_address[1]
-        print(f"[sitl] SIM_* parameters and ground truth: MAVLink sysid 1 compid 51 on UDP port {port}, "
-              f"sending to {truth[0]}:{truth[1]}", file=sys.stderr, flush=True)
+        print(
+            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid 1 compid 51 on UDP port {port}, "
+            f"sending to {truth[0]}:{truth[1]}",
+            file=sys.stderr,
+            flush=True,
+        )
     try:
         server.run(args.duration)
     except KeyboardInterrupt:

@@ -22,8 +22,14 @@ def cell_ocv_v(soc: float) -> float:
 
 
 class Battery:
-    def __init__(self, cells: int = 4, capacity_mah: float = 5000.0, internal_resistance_ohm: float = 0.02,
-                 efficiency: float = 0.7, idle_current_a: float = 0.5) -> None:
+    def __init__(
+        self,
+        cells: int = 4,
+        capacity_mah: float = 5000.0,
+        internal_resistance_ohm: float = 0.02,
+        efficiency: float = 0.7,
+        idle_current_a: float = 0.5,
+    ) -> None:
         self.cells = cells
         self.capacity_as = capacity_mah * 3.6
         self.r_ohm = internal_resistance_ohm

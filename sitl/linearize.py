@@ -114,11 +114,13 @@ def euler_rate_matrix(phi: float, theta: float) -> np.ndarray:
     """W of seed eqs (4.6)-(4.7): (phi_dot, theta_dot, psi_dot) = W (p, q, r)."""
     sf, cf = math.sin(phi), math.cos(phi)
     ct, tt = math.cos(theta), math.tan(theta)
-    return np.array([
-        [1.0, sf * tt, cf * tt],
-        [0.0, cf, -sf],
-        [0.0, sf / ct, cf / ct],
-    ])
+    return np.array(
+        [
+            [1.0, sf * tt, cf * tt],
+            [0.0, cf, -sf],
+            [0.0, sf / ct, cf / ct],
+        ]
+    )
 
 
 def _quat_to_mat(q_wxyz: np.ndarray) -> np.ndarray:
@@ -212,9 +214,13 @@ def _default_steps(spec: VehicleSpec) -> tuple[np.ndarray, np.ndarray]:
     return x_eps, u_eps
 
 
-def linearize_hover(spec: VehicleSpec, include_aero: bool = False, yaw_rad: float = 0.0,
-                    eps: float | tuple[np.ndarray, np.ndarray] | None = None,
-                    model: mujoco.MjModel | None = None) -> LinearModel:
+def linearize_hover(
+    spec: VehicleSpec,
+    include_aero: bool = False,
+    yaw_rad: float = 0.0,
+    eps: float | tuple[np.ndarray, np.ndarray] | None = None,
+    model: mujoco.MjModel | None = None,
+) -> LinearModel:
     """A, B, C of seed eqs (4.17)-(4.19) from the simulator's own dynamics, by central differences.
 
     ``include_aero`` adds rotor drag (4.12), rolling moment (4.13) and body drag of
@@ -247,8 +253,14 @@ def linearize_hover(spec: VehicleSpec, include_aero: bool = False, yaw_rad: floa
         du[j] = u_eps[j]
         b[:, j] = (f(x_e, u_e + du) - f(x_e, u_e - du)) / (2 * u_eps[j])
     return LinearModel(
-        A=a, B=b, C=_output_matrix(), yaw_rad=yaw_rad, include_aero=include_aero, source="mujoco",
-        mass_kg=spec.mass_kg, inertia_kg_m2=tuple(float(i) for i in spec.inertia_kg_m2),
+        A=a,
+        B=b,
+        C=_output_matrix(),
+        yaw_rad=yaw_rad,
+        include_aero=include_aero,
+        source="mujoco",
+        mass_kg=spec.mass_kg,
+        inertia_kg_m2=tuple(float(i) for i in spec.inertia_kg_m2),
         hover_thrusts_n=tuple(float(t) for t in f.thrust_e_n),
         equilibrium_residual=float(np.max(np.abs(f(x_e, u_e)))),
     )
@@ -367,6 +379,13 @@ def seed_hover_model(spec: VehicleSpec, yaw_rad: float = 0.0, include_aero: bool
     b[Q, 2] = 1.0 / jy
     b[R, 3] = 1.0 / jz
     return LinearModel(
-        A=a, B=b, C=_output_matrix(), yaw_rad=yaw_rad, include_aero=include_aero, source="seed",
-        mass_kg=m, inertia_kg_m2=(jx, jy, jz), hover_thrusts_n=tuple(float(t) for t in hover_thrusts_n(spec)),
+        A=a,
+        B=b,
+        C=_output_matrix(),
+        yaw_rad=yaw_rad,
+        include_aero=include_aero,
+        source="seed",
+        mass_kg=m,
+        inertia_kg_m2=(jx, jy, jz),
+        hover_thrusts_n=tuple(float(t) for t in hover_thrusts_n(spec)),
     )

@@ -66,8 +66,16 @@ class LockstepServer:
     ``events``: scenario events, applied when simulated time reaches them.
     """
 
-    def __init__(self, sim: Simulation, port: int, truth_addr: tuple[str, int] | None, speed: float | None,
-                 *, truth_bind: tuple[str, int] = ("0.0.0.0", 0), events: Sequence[ScenarioEvent] = ()) -> None:
+    def __init__(
+        self,
+        sim: Simulation,
+        port: int,
+        truth_addr: tuple[str, int] | None,
+        speed: float | None,
+        *,
+        truth_bind: tuple[str, int] = ("0.0.0.0", 0),
+        events: Sequence[ScenarioEvent] = (),
+    ) -> None:
         self.sim = sim
         self.port = port
         self.truth_addr = truth_addr
@@ -80,8 +88,9 @@ class LockstepServer:
         self.param_server: SimParamServer | None = None
         self.conn: socket.socket | None = None
         if truth_addr:
-            self.param_server = SimParamServer(self.params, bind=truth_bind, default_peer=truth_addr,
-                                               on_param_set=_log_param_set)
+            self.param_server = SimParamServer(
+                self.params, bind=truth_bind, default_peer=truth_addr, on_param_set=_log_param_set
+            )
         self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         try:
             self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -135,8 +144,14 @@ class LockstepServer:
         sim = self.sim
         t = sim.sensor_truth()  # plain floats; the full truth is built only at 50 Hz for the truth port
         time_us = sim.time_us
-        imu = sim.sensors.imu(t.specific_force_frd_m_s2, t.rate_frd_rad_s, t.r_ned_frd, t.pos_ned_m,
-                              dt_s=LOCKSTEP_DT_S, current_a=sim.battery.current_a)
+        imu = sim.sensors.imu(
+            t.specific_force_frd_m_s2,
+            t.rate_frd_rad_s,
+            t.r_ned_frd,
+            t.pos_ned_m,
+            dt_s=LOCKSTEP_DT_S,
+            current_a=sim.battery.current_a,
+        )
         a, g, m = imu.accel_frd_m_s2, imu.gyro_frd_rad_s, imu.mag_frd_gauss
         out = b""
         # Every period: the GPS model decides when a fix is due (SIM_GPS_HZ) and what delayed
@@ -144,25 +159,63 @@ class LockstepServer:
         fix = sim.sensors.gps(time_us, t.pos_ned_m, t.vel_ned_m_s)
         if fix is not None:
             v = fix.vel_ned_m_s
-            out += self._pack(mavlink.MAVLink_hil_gps_message(
-                time_us, fix.fix_type, round(fix.lat_deg * 1e7), round(fix.lon_deg * 1e7),
-                round(fix.alt_amsl_m * 1000), round(fix.eph_m * 100), round(fix.epv_m * 100),
-                round(math.hypot(v[0], v[1]) * 100), round(v[0] * 100), round(v[1] * 100), round(v[2] * 100),
-                round(course_over_ground_deg(v) * 100) % 36000, fix.satellites, 0, 0,
-            ))
+            out += self._pack(
+                mavlink.MAVLink_hil_gps_message(
+                    time_us,
+                    fix.fix_type,
+                    round(fix.lat_deg * 1e7),
+                    round(fix.lon_deg * 1e7),
+                    round(fix.alt_amsl_m * 1000),
+                    round(fix.eph_m * 100),
+                    round(fix.epv_m * 100),
+                    round(math.hypot(v[0], v[1]) * 100),
+                    round(v[0] * 100),
+                    round(v[1] * 100),
+                    round(v[2] * 100),
+                    round(course_over_ground_deg(v) * 100) % 36000,
+                    fix.satellites,
+                    0,
+                    0,
+                )
+            )
         if time_us % BATTERY_PERIOD_US == 0:
             b = sim.battery
             cells = [min(65534, round(b.voltage_v / b.cells * 1000))] * b.cells + [65535] * (10 - b.cells)
-            out += self._pack(mavlink.MAVLink_battery_status_message(
-                0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 32767, cells,
-                round(b.current_a * 100), round(b.consumed_mah), -1, round(b.remaining_frac * 100),
-            ))
+            out += self._pack(
+                mavlink.MAVLink_battery_status_message(
+                    0,
+                    mavlink.MAV_BATTERY_FUNCTION_ALL,
+                    mavlink.MAV_BATTERY_TYPE_LIPO,
+                    32767,
+                    cells,
+                    round(b.current_a * 100),
+                    round(b.consumed_mah),
+                    -1,
+                    round(b.remaining_frac * 100),
+                )
+            )
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
-        out += _HIL_SENSOR.encode(self.mav, (
-            time_us, a[0], a[1], a[2], g[0], g[1], g[2], m[0], m[1], m[2],
-            imu.pressure_hpa, 0.0, sim.sensors.home[2] - t.pos_ned_m[2], imu.temperature_c,
-            HIL_SENSOR_ALL_FIELDS, 0,
-        ))
+        out += _HIL_SENSOR.encode(
+            self.mav,
+            (
+                time_us,
+                a[0],
+                a[1],
+                a[2],
+                g[0],
+                g[1],
+                g[2],
+                m[0],
+                m[1],
+                m[2],
+                imu.pressure_hpa,
+                0.0,
+                sim.sensors.home[2] - t.pos_ned_m[2],
+                imu.temperature_c,
+                HIL_SENSOR_ALL_FIELDS,
+                0,
+            ),
+        )
         self.conn.sendall(out)
         if self.truth_log is not None:  # while the flight controller computes its step
             self.truth_log.record(time_us, t, self.armed, self.motor_commands)
@@ -181,8 +234,9 @@ class LockstepServer:
     def _apply_events(self, time_us: int) -> None:
         for event in self.events.pop_due(time_us):
             self.params.set_many(event.values)  # checked when the scenario was loaded
-            changes = ", ".join(f"{name} = {format_value(v, self.params.param(name).type)}"
-                                for name, v in event.values.items())
+            changes = ", ".join(
+                f"{name} = {format_value(v, self.params.param(name).type)}" for name, v in event.values.items()
+            )
             _log(f"t = {time_us / 1e6:.3f} s: scenario event: {changes}")
 
     def _send_truth(self, t) -> None:
@@ -191,9 +245,20 @@ class LockstepServer:
         ax, ay, az = (t.accel_ned_m_s2 * (1000.0 / GRAVITY_M_S2)).tolist()  # mG
         msgs = [
             mavlink.MAVLink_hil_state_quaternion_message(
-                t.time_us, t.q_ned_frd.tolist(), *t.rate_frd_rad_s.tolist(),
-                round(lat * 1e7), round(lon * 1e7), round(alt * 1000),
-                _int16(vn * 100), _int16(ve * 100), _int16(vd * 100), 0, 0, _int16(ax), _int16(ay), _int16(az),
+                t.time_us,
+                t.q_ned_frd.tolist(),
+                *t.rate_frd_rad_s.tolist(),
+                round(lat * 1e7),
+                round(lon * 1e7),
+                round(alt * 1000),
+                _int16(vn * 100),
+                _int16(ve * 100),
+                _int16(vd * 100),
+                0,
+                0,
+                _int16(ax),
+                _int16(ay),
+                _int16(az),
             ),
             mavlink.MAVLink_local_position_ned_message(t.time_us // 1000, *t.pos_ned_m.tolist(), vn, ve, vd),
         ]
@@ -211,8 +276,9 @@ class LockstepServer:
                 if msg.get_type() == "HIL_ACTUATOR_CONTROLS":
                     armed = self.armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
                     n = self.sim.rotors.n
-                    self.motor_commands = ([c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed
-                                           else [0.0] * n)
+                    self.motor_commands = (
+                        [c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed else [0.0] * n
+                    )
                     got = True
             if got:
                 return True

@@ -64,12 +64,12 @@ def build_mjcf(spec: VehicleSpec) -> str:
     <body name="vehicle" pos="0 0 {foot_depth_m + 0.001:.4f}" quat="0.70710678 0 0 0.70710678">
       <freejoint name="root"/>
       <inertial pos="0 0 0" mass="{spec.mass_kg:.6g}" diaginertia="{_v(j)}"/>
-      {chr(10).join('      ' + g for g in geoms)}
-      {chr(10).join('      ' + s for s in sites)}
+      {chr(10).join("      " + g for g in geoms)}
+      {chr(10).join("      " + s for s in sites)}
     </body>
   </worldbody>
   <actuator>
-{chr(10).join('    ' + a for a in actuators)}
+{chr(10).join("    " + a for a in actuators)}
   </actuator>
   <sensor>
     <accelerometer name="accel" site="imu"/>

@@ -247,8 +247,9 @@ class SimParamServer:
             result = mavlink.MAV_RESULT_ACCEPTED
         else:
             result = mavlink.MAV_RESULT_UNSUPPORTED
-        self.send_message(mavlink.MAVLink_command_ack_message(
-            command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+        self.send_message(
+            mavlink.MAVLink_command_ack_message(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent())
+        )
 
     def _request_message(self, msg_id: float, param2: float) -> int:
         if not math.isfinite(msg_id):
@@ -278,14 +279,16 @@ class SimParamServer:
         reply[0], reply[1], reply[2] = seq & 0xFF, seq >> 8, req[2]  # seq, session
         reply[_FTP_OPCODE], reply[_FTP_SIZE], reply[_FTP_REQ_OPCODE] = _FTP_NAK, 1, req[_FTP_OPCODE]
         reply[_FTP_HEADER_LEN] = _FTP_ERR_UNKNOWN_COMMAND
-        self.send_message(mavlink.MAVLink_file_transfer_protocol_message(
-            0, msg.get_srcSystem(), msg.get_srcComponent(), list(reply)))
+        self.send_message(
+            mavlink.MAVLink_file_transfer_protocol_message(0, msg.get_srcSystem(), msg.get_srcComponent(), list(reply))
+        )
 
     # ------------------------------------------------------------------ sending
 
     def _heartbeat(self) -> mavlink.MAVLink_message:
         return mavlink.MAVLink_heartbeat_message(
-            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_GENERIC, 0, 0, mavlink.MAV_STATE_ACTIVE, 3)
+            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_GENERIC, 0, 0, mavlink.MAV_STATE_ACTIVE, 3
+        )
 
     def _send_heartbeat(self, now_wall_s: float) -> None:
         self.send_message(self._heartbeat())
@@ -295,5 +298,4 @@ class SimParamServer:
 
     def _autopilot_version(self) -> mavlink.MAVLink_message:
         uid = (0x53494D << 24) | (self.sysid << 8) | self.compid  # "SIM", non-zero
-        return mavlink.MAVLink_autopilot_version_message(
-            CAPABILITIES, 0, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, uid)
+        return mavlink.MAVLink_autopilot_version_message(CAPABILITIES, 0, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, uid)

@@ -41,8 +41,10 @@ class RotorModel:
     def commanded_speed(self, commands) -> list[float]:
         """Motor command 0..1 (clipped) -> commanded rotor speed, rad/s."""
         w = self.max_speed_rad_s
-        return [(0.0 if c < 0.0 else w if c > 1.0 else c * w) * (e if e == 1.0 else math.sqrt(max(e, 0.0)))
-                for c, e in zip(commands, self.efficiency)]
+        return [
+            (0.0 if c < 0.0 else w if c > 1.0 else c * w) * (e if e == 1.0 else math.sqrt(max(e, 0.0)))
+            for c, e in zip(commands, self.efficiency)
+        ]
 
     def step(self, commands, dt_s: float) -> list[float]:
         """Advance the motor lag by dt_s toward the commands; return thrusts (N)."""
@@ -51,8 +53,9 @@ class RotorModel:
             self._alpha_down = 1.0 - math.exp(-dt_s / self.tau_down_s)
             self._alpha_dt = dt_s
         up, down = self._alpha_up, self._alpha_down
-        self.speeds = [w + (up if c > w else down) * (c - w)
-                       for w, c in zip(self.speeds, self.commanded_speed(commands))]
+        self.speeds = [
+            w + (up if c > w else down) * (c - w) for w, c in zip(self.speeds, self.commanded_speed(commands))
+        ]
         k = self.k_thrust
         return [k * w * w for w in self.speeds]
 

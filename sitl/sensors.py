@@ -118,8 +118,9 @@ def _earth_field(lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float)
     return (r.x * 1e-5, r.y * 1e-5, r.z * 1e-5)  # nT -> gauss
 
 
-def earth_field_ned_gauss(lat_deg: float, lon_deg: float, alt_amsl_m: float,
-                          year: float = MAGNETIC_MODEL_EPOCH_YEAR) -> np.ndarray:
+def earth_field_ned_gauss(
+    lat_deg: float, lon_deg: float, alt_amsl_m: float, year: float = MAGNETIC_MODEL_EPOCH_YEAR
+) -> np.ndarray:
     """Earth's magnetic field (gauss, NED) from the World Magnetic Model."""
     return np.array(_earth_field(float(lat_deg), float(lon_deg), float(alt_amsl_m), float(year)))
 
@@ -157,8 +158,14 @@ def _vec(v) -> tuple | list:
 class SensorSuite:
     """Turns ground truth into sensor readings with the errors of ``settings`` (read on every call)."""
 
-    def __init__(self, home_lat_deg: float, home_lon_deg: float, home_alt_m: float, seed: int,
-                 settings: SensorSettings | None = None) -> None:
+    def __init__(
+        self,
+        home_lat_deg: float,
+        home_lon_deg: float,
+        home_alt_m: float,
+        seed: int,
+        settings: SensorSettings | None = None,
+    ) -> None:
         self.home = (float(home_lat_deg), float(home_lon_deg), float(home_alt_m))
         self.settings = settings if settings is not None else SensorSettings()
         self.rng = np.random.default_rng(seed)
@@ -204,8 +211,9 @@ class SensorSuite:
         return (sd * z[0] + w[0], sd * z[1] + w[1], sd * z[2] + w[2])
 
     # -- IMU, magnetometer, barometer ----------------------------------------------
-    def imu(self, specific_force_frd, rate_frd, r_ned_frd, pos_ned_m, dt_s: float,
-            current_a: float = 0.0) -> ImuReading:
+    def imu(
+        self, specific_force_frd, rate_frd, r_ned_frd, pos_ned_m, dt_s: float, current_a: float = 0.0
+    ) -> ImuReading:
         """One sample of accelerometer, gyro, magnetometer and barometer.
 
         ``specific_force_frd`` (m/s^2) and ``rate_frd`` (rad/s) are true, FRD;
@@ -218,29 +226,44 @@ class SensorSuite:
         if i >= _BLOCK:
             self._z = self._imu_rng.standard_normal(_BLOCK).tolist()
             i = 0
-        (na0, na1, na2, wa0, wa1, wa2, ng0, ng1, ng2, wg0, wg1, wg2,
-         nm0, nm1, nm2, nb) = self._z[i:i + _IMU_DRAWS]
+        (na0, na1, na2, wa0, wa1, wa2, ng0, ng1, ng2, wg0, wg1, wg2, nm0, nm1, nm2, nb) = self._z[i : i + _IMU_DRAWS]
         self._zi = i + _IMU_DRAWS
         sqdt = math.sqrt(dt_s)
 
-        accel = _inertial_axes(specific_force_frd, self._acc_walk, s.accel_bias_walk * sqdt, (wa0, wa1, wa2),
-                               s.accel_bias_sd, self._acc_z0, s.accel_noise_density / sqdt, (na0, na1, na2))
-        gyro = _inertial_axes(rate_frd, self._gyr_walk, s.gyro_bias_walk * sqdt, (wg0, wg1, wg2),
-                              s.gyro_bias_sd, self._gyr_z0, s.gyro_noise_density / sqdt, (ng0, ng1, ng2))
+        accel = _inertial_axes(
+            specific_force_frd,
+            self._acc_walk,
+            s.accel_bias_walk * sqdt,
+            (wa0, wa1, wa2),
+            s.accel_bias_sd,
+            self._acc_z0,
+            s.accel_noise_density / sqdt,
+            (na0, na1, na2),
+        )
+        gyro = _inertial_axes(
+            rate_frd,
+            self._gyr_walk,
+            s.gyro_bias_walk * sqdt,
+            (wg0, wg1, wg2),
+            s.gyro_bias_sd,
+            self._gyr_z0,
+            s.gyro_noise_density / sqdt,
+            (ng0, ng1, ng2),
+        )
 
         # magnetometer
         mag = self._mag_last
         if not s.mag_stuck or mag is None:
             (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = (
-                r_ned_frd.tolist() if type(r_ned_frd) is np.ndarray else r_ned_frd)
+                r_ned_frd.tolist() if type(r_ned_frd) is np.ndarray else r_ned_frd
+            )
             bn, be, bd = self._field
             sig = s.mag_noise_gauss
-            mag = (r00 * bn + r10 * be + r20 * bd + s.mag_offset_x_gauss
-                   + current_a * s.mag_motor_x_gauss_a + sig * nm0,
-                   r01 * bn + r11 * be + r21 * bd + s.mag_offset_y_gauss
-                   + current_a * s.mag_motor_y_gauss_a + sig * nm1,
-                   r02 * bn + r12 * be + r22 * bd + s.mag_offset_z_gauss
-                   + current_a * s.mag_motor_z_gauss_a + sig * nm2)
+            mag = (
+                r00 * bn + r10 * be + r20 * bd + s.mag_offset_x_gauss + current_a * s.mag_motor_x_gauss_a + sig * nm0,
+                r01 * bn + r11 * be + r21 * bd + s.mag_offset_y_gauss + current_a * s.mag_motor_y_gauss_a + sig * nm1,
+                r02 * bn + r12 * be + r22 * bd + s.mag_offset_z_gauss + current_a * s.mag_motor_z_gauss_a + sig * nm2,
+            )
             self._mag_last = mag
 
         # barometer
@@ -249,8 +272,10 @@ class SensorSuite:
         if not s.baro_stuck or baro is None:
             alt = self.home[2] - float(pos_ned_m[2])
             h = alt + drift + s.baro_noise_m * nb
-            baro = self._baro_last = (SEA_LEVEL_PRESSURE_HPA * (1.0 - 2.25577e-5 * h) ** 5.25588,
-                                      SEA_LEVEL_TEMPERATURE_C - TEMPERATURE_LAPSE_K_M * alt)
+            baro = self._baro_last = (
+                SEA_LEVEL_PRESSURE_HPA * (1.0 - 2.25577e-5 * h) ** 5.25588,
+                SEA_LEVEL_TEMPERATURE_C - TEMPERATURE_LAPSE_K_M * alt,
+            )
         return ImuReading(accel, gyro, mag, baro[0], baro[1])
 
     # -- GPS -------------------------------------------------------------------------
@@ -287,8 +312,10 @@ class SensorSuite:
                     return entry[1], entry[2]
                 f = (t_us - t0) / (newer[0] - t0)
                 p0, v0, p1, v1 = entry[1], entry[2], newer[1], newer[2]
-                return ([p0[j] + f * (p1[j] - p0[j]) for j in range(3)],
-                        [v0[j] + f * (v1[j] - v0[j]) for j in range(3)])
+                return (
+                    [p0[j] + f * (p1[j] - p0[j]) for j in range(3)],
+                    [v0[j] + f * (v1[j] - v0[j]) for j in range(3)],
+                )
             newer = entry
         return newer[1], newer[2]
 
@@ -332,35 +359,48 @@ class SensorSuite:
         self.gps_outage = self._in_outage(time_us * 1e-6, s)
         if self.gps_outage:
             lat, lon, alt = self._last_lla
-            return GpsReading(lat, lon, alt, (0.0, 0.0, 0.0), GPS_NO_FIX_ERROR_M, GPS_NO_FIX_ERROR_M,
-                              0, FIX_TYPE_NO_FIX)
+            return GpsReading(
+                lat, lon, alt, (0.0, 0.0, 0.0), GPS_NO_FIX_ERROR_M, GPS_NO_FIX_ERROR_M, 0, FIX_TYPE_NO_FIX
+            )
 
         p, v = self._truth_at(time_us - s.gps_lag_ms * 1000)
         hn, vn, dr = s.gps_noise_m, s.gps_vnoise_m, s.gps_drift_m
         drv = GPS_VERTICAL_DRIFT_FACTOR * dr
         gm = self._gm
-        reported = (p[0] + hn * n[0] + dr * gm[0] + s.gps_glitch_n_m,
-                    p[1] + hn * n[1] + dr * gm[1] + s.gps_glitch_e_m,
-                    p[2] + vn * n[2] + drv * gm[2] + s.gps_glitch_d_m)
+        reported = (
+            p[0] + hn * n[0] + dr * gm[0] + s.gps_glitch_n_m,
+            p[1] + hn * n[1] + dr * gm[1] + s.gps_glitch_e_m,
+            p[2] + vn * n[2] + drv * gm[2] + s.gps_glitch_d_m,
+        )
         lat, lon, alt = self._last_lla = ned_to_geodetic(reported, *self.home)
         sv = s.gps_vel_noise_m_s
         vel = (v[0] + sv * n[6], v[1] + sv * n[7], v[2] + sv * n[8])
-        return GpsReading(lat, lon, alt, vel,
-                          max(GPS_MIN_ERROR_M, math.hypot(hn, dr)), max(GPS_MIN_ERROR_M, math.hypot(vn, drv)),
-                          self._sats, FIX_TYPE_3D)
+        return GpsReading(
+            lat,
+            lon,
+            alt,
+            vel,
+            max(GPS_MIN_ERROR_M, math.hypot(hn, dr)),
+            max(GPS_MIN_ERROR_M, math.hypot(vn, drv)),
+            self._sats,
+            FIX_TYPE_3D,
+        )
 
 
-def _inertial_axes(truth, walk: list[float], walk_step: float, walk_draws, bias_sd: float, bias_z0,
-                   noise_sd: float, noise_draws) -> Vec3:
+def _inertial_axes(
+    truth, walk: list[float], walk_step: float, walk_draws, bias_sd: float, bias_z0, noise_sd: float, noise_draws
+) -> Vec3:
     """One accelerometer or gyro sample on three axes: truth + turn-on bias (bias_sd x its unit
     draw z0) + bias random walk (advanced in place by walk_step x its draws) + white noise."""
     x0, x1, x2 = truth.tolist() if type(truth) is np.ndarray else truth
     w0 = walk[0] = walk[0] + walk_step * walk_draws[0]
     w1 = walk[1] = walk[1] + walk_step * walk_draws[1]
     w2 = walk[2] = walk[2] + walk_step * walk_draws[2]
-    return (x0 + bias_sd * bias_z0[0] + w0 + noise_sd * noise_draws[0],
-            x1 + bias_sd * bias_z0[1] + w1 + noise_sd * noise_draws[1],
-            x2 + bias_sd * bias_z0[2] + w2 + noise_sd * noise_draws[2])
+    return (
+        x0 + bias_sd * bias_z0[0] + w0 + noise_sd * noise_draws[0],
+        x1 + bias_sd * bias_z0[1] + w1 + noise_sd * noise_draws[1],
+        x2 + bias_sd * bias_z0[2] + w2 + noise_sd * noise_draws[2],
+    )
 
 
 def course_over_ground_deg(vel_ned_m_s) -> float:

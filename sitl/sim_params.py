@@ -95,11 +95,23 @@ class SimParameters:
                     raise ValueError(f"parameter {name} declared twice (sitl.sim_settings)")
                 if md["type"] not in (ParamType.INT32, ParamType.REAL32):
                     raise ValueError(f"parameter {name}: unsupported type {md['type']!r}")
-                if (md["type"] == ParamType.INT32
-                        and not -INT32_FLOAT_SAFE <= md["min"] <= md["max"] <= INT32_FLOAT_SAFE):
+                if (
+                    md["type"] == ParamType.INT32
+                    and not -INT32_FLOAT_SAFE <= md["min"] <= md["max"] <= INT32_FLOAT_SAFE
+                ):
                     raise ValueError(f"parameter {name}: INT32 limits must lie within +-{INT32_FLOAT_SAFE}")
-                p = SimParam(len(self._params), name, ParamType(md["type"]), f.default,
-                             float(md["min"]), float(md["max"]), md["unit"], md["description"], owner, f.name)
+                p = SimParam(
+                    len(self._params),
+                    name,
+                    ParamType(md["type"]),
+                    f.default,
+                    float(md["min"]),
+                    float(md["max"]),
+                    md["unit"],
+                    md["description"],
+                    owner,
+                    f.name,
+                )
                 self._params.append(p)
                 self._by_name[name] = p
 
@@ -176,15 +188,26 @@ class SimParameters:
 
     def describe(self) -> list[ParamRow]:
         """One row per parameter, in list order, with its current value."""
-        return [ParamRow(p.name, p.type, self.get(p.name), p.default, p.min, p.max, p.unit, p.description)
-                for p in self._params]
+        return [
+            ParamRow(p.name, p.type, self.get(p.name), p.default, p.min, p.max, p.unit, p.description)
+            for p in self._params
+        ]
 
 
 def format_table(rows: list[ParamRow]) -> str:
     """The rows of :meth:`SimParameters.describe` as an aligned text table."""
     header = ("NAME", "VALUE", "MIN", "MAX", "UNIT", "DESCRIPTION")
-    cells = [header] + [(r.name, format_value(r.value, r.type), format_value(r.min, r.type),
-                         format_value(r.max, r.type), r.unit, r.description) for r in rows]
+    cells = [header] + [
+        (
+            r.name,
+            format_value(r.value, r.type),
+            format_value(r.min, r.type),
+            format_value(r.max, r.type),
+            r.unit,
+            r.description,
+        )
+        for r in rows
+    ]
     widths = [max(len(c[i]) for c in cells) for i in range(len(header) - 1)]
     lines = ["  ".join(c[i].ljust(widths[i]) for i in range(len(widths))) + "  " + c[-1] for c in cells]
     return "\n".join(line.rstrip() for line in lines)

@@ -18,12 +18,15 @@ from dataclasses import dataclass, field, fields
 from mavsim_core.param_types import ParamType
 
 
-def sim_param(name: str, default: float, lo: float, hi: float, unit: str, description: str,
-              kind: ParamType = ParamType.REAL32):
+def sim_param(
+    name: str, default: float, lo: float, hi: float, unit: str, description: str, kind: ParamType = ParamType.REAL32
+):
     """A dataclass field that is also the MAVLink parameter ``name``."""
     assert len(name) <= 16 and name.startswith("SIM_"), name
-    return field(default=default, metadata={
-        "param": name, "type": kind, "min": lo, "max": hi, "unit": unit, "description": description})
+    return field(
+        default=default,
+        metadata={"param": name, "type": kind, "min": lo, "max": hi, "unit": unit, "description": description},
+    )
 
 
 @dataclass
@@ -31,15 +34,24 @@ class WindSettings:
     """Steady wind, Dryden turbulence and discrete gusts (sitl.wind)."""
 
     speed_m_s: float = sim_param("SIM_WIND_SPD", 0.0, 0.0, 30.0, "m/s", "Steady horizontal wind speed")
-    direction_deg: float = sim_param("SIM_WIND_DIR", 0.0, 0.0, 360.0, "deg",
-                                     "Direction the steady wind blows from, degrees true (270 = from the West)")
-    turbulence_m_s: float = sim_param("SIM_WIND_TURB", 0.0, 0.0, 10.0, "m/s",
-                                      "RMS of the horizontal Dryden turbulence (0 = none)")
-    gust_speed_m_s: float = sim_param("SIM_GUST_SPD", 0.0, 0.0, 20.0, "m/s",
-                                      "Peak speed of discrete 1-cosine gusts (0 = no gusts)")
+    direction_deg: float = sim_param(
+        "SIM_WIND_DIR",
+        0.0,
+        0.0,
+        360.0,
+        "deg",
+        "Direction the steady wind blows from, degrees true (270 = from the West)",
+    )
+    turbulence_m_s: float = sim_param(
+        "SIM_WIND_TURB", 0.0, 0.0, 10.0, "m/s", "RMS of the horizontal Dryden turbulence (0 = none)"
+    )
+    gust_speed_m_s: float = sim_param(
+        "SIM_GUST_SPD", 0.0, 0.0, 20.0, "m/s", "Peak speed of discrete 1-cosine gusts (0 = no gusts)"
+    )
     gust_duration_s: float = sim_param("SIM_GUST_DUR", 2.0, 0.2, 30.0, "s", "Duration of one gust")
-    gust_interval_s: float = sim_param("SIM_GUST_INT", 10.0, 1.0, 600.0, "s",
-                                       "Mean time between the starts of two gusts (random, exponential)")
+    gust_interval_s: float = sim_param(
+        "SIM_GUST_INT", 10.0, 1.0, 600.0, "s", "Mean time between the starts of two gusts (random, exponential)"
+    )
 
 
 @dataclass
@@ -55,53 +67,89 @@ class SensorSettings:
     """
 
     # IMU (250 Hz)
-    accel_noise_density: float = sim_param("SIM_ACC_NOISE", 1.86e-3, 0.0, 1.0, "m/s^2/sqrt(Hz)",
-                                           "Accelerometer white noise density")
-    gyro_noise_density: float = sim_param("SIM_GYR_NOISE", 1.8665e-4, 0.0, 0.1, "rad/s/sqrt(Hz)",
-                                          "Gyro white noise density")
-    accel_bias_walk: float = sim_param("SIM_ACC_BIAS_RW", 6.0e-3, 0.0, 1.0, "m/s^3/sqrt(Hz)",
-                                       "Accelerometer bias random walk")
-    gyro_bias_walk: float = sim_param("SIM_GYR_BIAS_RW", 3.8785e-5, 0.0, 0.1, "rad/s^2/sqrt(Hz)",
-                                      "Gyro bias random walk")
-    accel_bias_sd: float = sim_param("SIM_ACC_BIAS_SD", 0.05, 0.0, 2.0, "m/s^2",
-                                     "Standard deviation of the accelerometer turn-on bias (drawn at start)")
-    gyro_bias_sd: float = sim_param("SIM_GYR_BIAS_SD", 0.005, 0.0, 0.5, "rad/s",
-                                    "Standard deviation of the gyro turn-on bias (drawn at start)")
+    accel_noise_density: float = sim_param(
+        "SIM_ACC_NOISE", 1.86e-3, 0.0, 1.0, "m/s^2/sqrt(Hz)", "Accelerometer white noise density"
+    )
+    gyro_noise_density: float = sim_param(
+        "SIM_GYR_NOISE", 1.8665e-4, 0.0, 0.1, "rad/s/sqrt(Hz)", "Gyro white noise density"
+    )
+    accel_bias_walk: float = sim_param(
+        "SIM_ACC_BIAS_RW", 6.0e-3, 0.0, 1.0, "m/s^3/sqrt(Hz)", "Accelerometer bias random walk"
+    )
+    gyro_bias_walk: float = sim_param(
+        "SIM_GYR_BIAS_RW", 3.8785e-5, 0.0, 0.1, "rad/s^2/sqrt(Hz)", "Gyro bias random walk"
+    )
+    accel_bias_sd: float = sim_param(
+        "SIM_ACC_BIAS_SD",
+        0.05,
+        0.0,
+        2.0,
+        "m/s^2",
+        "Standard deviation of the accelerometer turn-on bias (drawn at start)",
+    )
+    gyro_bias_sd: float = sim_param(
+        "SIM_GYR_BIAS_SD", 0.005, 0.0, 0.5, "rad/s", "Standard deviation of the gyro turn-on bias (drawn at start)"
+    )
     # Magnetometer
     mag_noise_gauss: float = sim_param("SIM_MAG_NOISE", 0.003, 0.0, 0.5, "gauss", "Magnetometer white noise")
     mag_offset_x_gauss: float = sim_param("SIM_MAG_OFS_X", 0.0, -2.0, 2.0, "gauss", "Magnetometer offset, body x")
     mag_offset_y_gauss: float = sim_param("SIM_MAG_OFS_Y", 0.0, -2.0, 2.0, "gauss", "Magnetometer offset, body y")
     mag_offset_z_gauss: float = sim_param("SIM_MAG_OFS_Z", 0.0, -2.0, 2.0, "gauss", "Magnetometer offset, body z")
-    mag_motor_x_gauss_a: float = sim_param("SIM_MAG_MOT_X", 0.0, -0.1, 0.1, "gauss/A",
-                                           "Interference on the magnetometer per ampere of battery current, body x")
-    mag_motor_y_gauss_a: float = sim_param("SIM_MAG_MOT_Y", 0.0, -0.1, 0.1, "gauss/A",
-                                           "Interference per ampere, body y")
-    mag_motor_z_gauss_a: float = sim_param("SIM_MAG_MOT_Z", 0.0, -0.1, 0.1, "gauss/A",
-                                           "Interference per ampere, body z")
-    mag_stuck: int = sim_param("SIM_MAG_STUCK", 0, 0, 1, "", "1: the magnetometer repeats its last reading",
-                               ParamType.INT32)
+    mag_motor_x_gauss_a: float = sim_param(
+        "SIM_MAG_MOT_X",
+        0.0,
+        -0.1,
+        0.1,
+        "gauss/A",
+        "Interference on the magnetometer per ampere of battery current, body x",
+    )
+    mag_motor_y_gauss_a: float = sim_param(
+        "SIM_MAG_MOT_Y", 0.0, -0.1, 0.1, "gauss/A", "Interference per ampere, body y"
+    )
+    mag_motor_z_gauss_a: float = sim_param(
+        "SIM_MAG_MOT_Z", 0.0, -0.1, 0.1, "gauss/A", "Interference per ampere, body z"
+    )
+    mag_stuck: int = sim_param(
+        "SIM_MAG_STUCK", 0, 0, 1, "", "1: the magnetometer repeats its last reading", ParamType.INT32
+    )
     # Barometer
     baro_noise_m: float = sim_param("SIM_BARO_RND", 0.05, 0.0, 10.0, "m", "Barometer white noise, as altitude")
-    baro_drift_m_s: float = sim_param("SIM_BARO_DRIFT", 0.0, -1.0, 1.0, "m/s",
-                                      "Barometer altitude drift rate (a slow pressure change)")
-    baro_stuck: int = sim_param("SIM_BARO_STUCK", 0, 0, 1, "", "1: the barometer repeats its last reading",
-                                ParamType.INT32)
+    baro_drift_m_s: float = sim_param(
+        "SIM_BARO_DRIFT", 0.0, -1.0, 1.0, "m/s", "Barometer altitude drift rate (a slow pressure change)"
+    )
+    baro_stuck: int = sim_param(
+        "SIM_BARO_STUCK", 0, 0, 1, "", "1: the barometer repeats its last reading", ParamType.INT32
+    )
     # GPS
     gps_rate_hz: float = sim_param("SIM_GPS_HZ", 5.0, 1.0, 50.0, "Hz", "GPS fix rate")
-    gps_lag_ms: int = sim_param("SIM_GPS_LAG_MS", 120, 0, 500, "ms",
-                                "GPS latency: a fix reports the vehicle's state this long before it is sent",
-                                ParamType.INT32)
+    gps_lag_ms: int = sim_param(
+        "SIM_GPS_LAG_MS",
+        120,
+        0,
+        500,
+        "ms",
+        "GPS latency: a fix reports the vehicle's state this long before it is sent",
+        ParamType.INT32,
+    )
     gps_noise_m: float = sim_param("SIM_GPS_NOISE", 0.1, 0.0, 20.0, "m", "GPS horizontal white noise, per axis")
     gps_vnoise_m: float = sim_param("SIM_GPS_VNOISE", 0.2, 0.0, 20.0, "m", "GPS vertical white noise")
     gps_vel_noise_m_s: float = sim_param("SIM_GPS_VELNOISE", 0.05, 0.0, 5.0, "m/s", "GPS velocity white noise")
-    gps_drift_m: float = sim_param("SIM_GPS_DRIFT", 0.05, 0.0, 20.0, "m",
-                                   "RMS of the slowly wandering GPS position error (Gauss-Markov, 60 s)")
-    gps_dropout_per_min: float = sim_param("SIM_GPS_DROP_RT", 0.0, 0.0, 60.0, "1/min",
-                                           "Mean number of GPS outages (no fix) per minute")
+    gps_drift_m: float = sim_param(
+        "SIM_GPS_DRIFT", 0.05, 0.0, 20.0, "m", "RMS of the slowly wandering GPS position error (Gauss-Markov, 60 s)"
+    )
+    gps_dropout_per_min: float = sim_param(
+        "SIM_GPS_DROP_RT", 0.0, 0.0, 60.0, "1/min", "Mean number of GPS outages (no fix) per minute"
+    )
     gps_dropout_s: float = sim_param("SIM_GPS_DROP_S", 1.0, 0.1, 60.0, "s", "Duration of one GPS outage")
     gps_disable: int = sim_param("SIM_GPS_DISABLE", 0, 0, 1, "", "1: the GPS receiver sends nothing", ParamType.INT32)
-    gps_glitch_n_m: float = sim_param("SIM_GPS_GLITCH_N", 0.0, -1000.0, 1000.0, "m",
-                                      "GPS position glitch: offset added to the reported position, North")
+    gps_glitch_n_m: float = sim_param(
+        "SIM_GPS_GLITCH_N",
+        0.0,
+        -1000.0,
+        1000.0,
+        "m",
+        "GPS position glitch: offset added to the reported position, North",
+    )
     gps_glitch_e_m: float = sim_param("SIM_GPS_GLITCH_E", 0.0, -1000.0, 1000.0, "m", "GPS glitch, East")
     gps_glitch_d_m: float = sim_param("SIM_GPS_GLITCH_D", 0.0, -1000.0, 1000.0, "m", "GPS glitch, Down")
 
@@ -110,11 +158,18 @@ class SensorSettings:
 class MotorSettings:
     """Motor failures (sitl.simulation applies them to sitl.rotors)."""
 
-    fail_motor: int = sim_param("SIM_ENGINE_FAIL", 0, 0, 12, "",
-                                "Motor (1-based, the vehicle file's order) running at SIM_ENGINE_MUL; 0 = none",
-                                ParamType.INT32)
-    fail_efficiency: float = sim_param("SIM_ENGINE_MUL", 0.0, 0.0, 1.0, "",
-                                       "Thrust multiplier of the failed motor (0 = stopped, 1 = healthy)")
+    fail_motor: int = sim_param(
+        "SIM_ENGINE_FAIL",
+        0,
+        0,
+        12,
+        "",
+        "Motor (1-based, the vehicle file's order) running at SIM_ENGINE_MUL; 0 = none",
+        ParamType.INT32,
+    )
+    fail_efficiency: float = sim_param(
+        "SIM_ENGINE_MUL", 0.0, 0.0, 1.0, "", "Thrust multiplier of the failed motor (0 = stopped, 1 = healthy)"
+    )
 
 
 def param_fields(settings) -> list:

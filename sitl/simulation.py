@@ -59,9 +59,15 @@ class Simulation:
     are read on every step, so a ``SIM_*`` parameter changed between steps acts on the next.
     """
 
-    def __init__(self, spec: VehicleSpec, home: tuple[float, float, float], seed: int = 0,
-                 wind: WindSettings | None = None, sensors: SensorSettings | None = None,
-                 motors: MotorSettings | None = None) -> None:
+    def __init__(
+        self,
+        spec: VehicleSpec,
+        home: tuple[float, float, float],
+        seed: int = 0,
+        wind: WindSettings | None = None,
+        sensors: SensorSettings | None = None,
+        motors: MotorSettings | None = None,
+    ) -> None:
         self.spec = spec
         self.model = build_model(spec)
         self.data = mujoco.MjData(self.model)
@@ -107,8 +113,12 @@ class Simulation:
         bz = r2 * ax + r5 * ay + r8 * az
         fx, fy, fz, mx, my, mz = self.aero.wrench_flu(self.rotors.speeds, (bx, by, bz))
         d.xfrc_applied[self._body] = (
-            r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz,
-            r0 * mx + r1 * my + r2 * mz, r3 * mx + r4 * my + r5 * mz, r6 * mx + r7 * my + r8 * mz,
+            r0 * fx + r1 * fy + r2 * fz,
+            r3 * fx + r4 * fy + r5 * fz,
+            r6 * fx + r7 * fy + r8 * fz,
+            r0 * mx + r1 * my + r2 * mz,
+            r3 * mx + r4 * my + r5 * mz,
+            r6 * mx + r7 * my + r8 * mz,
         )
 
     def step(self, motor_commands: np.ndarray) -> None:
@@ -132,7 +142,7 @@ class Simulation:
         """
         d = self.data
         a = self._accel_adr
-        fx, fy, fz = d.sensordata[a:a + 3].tolist()
+        fx, fy, fz = d.sensordata[a : a + 3].tolist()
         w, x, y, z = d.qpos[3:7].tolist()
         r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
         r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
@@ -152,15 +162,16 @@ class Simulation:
         d = self.data
         sd = d.sensordata
         q = quat_enu_flu_to_ned_frd(d.qpos[3:7])
-        f_frd = flu_to_frd(sd[self._accel_adr:self._accel_adr + 3])
+        f_frd = flu_to_frd(sd[self._accel_adr : self._accel_adr + 3])
         r = np.empty(9)
         mujoco.mju_quat2Mat(r, q)
         r = r.reshape(3, 3)
         accel_ned = r @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
         return Truth(
             time_us=self.time_us,
-            pos_ned_m=enu_to_ned(np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1],
-                                           d.qpos[2]])),
+            pos_ned_m=enu_to_ned(
+                np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1], d.qpos[2]])
+            ),
             vel_ned_m_s=enu_to_ned(d.qvel[0:3]),
             accel_ned_m_s2=accel_ned,
             q_ned_frd=q,
@@ -169,4 +180,3 @@ class Simulation:
             specific_force_frd_m_s2=f_frd,
             wind_ned_m_s=enu_to_ned(self.wind_enu),
         )
-

@@ -27,13 +27,28 @@ from mavsim_core.npy_log import NpyLogWriter
 SUFFIX = ".truth.npy"
 POST_DISARM_S = 1.0
 
-_STATE_FIELDS = ("pos_n_m", "pos_e_m", "pos_d_m", "vel_n_m_s", "vel_e_m_s", "vel_d_m_s",
-                 "roll_rad", "pitch_rad", "yaw_rad", "rate_p_rad_s", "rate_q_rad_s", "rate_r_rad_s")
+_STATE_FIELDS = (
+    "pos_n_m",
+    "pos_e_m",
+    "pos_d_m",
+    "vel_n_m_s",
+    "vel_e_m_s",
+    "vel_d_m_s",
+    "roll_rad",
+    "pitch_rad",
+    "yaw_rad",
+    "rate_p_rad_s",
+    "rate_q_rad_s",
+    "rate_r_rad_s",
+)
 
 
 def truth_log_fields(n_motors: int) -> list[tuple[str, str]]:
-    return ([("time_us", "q"), ("armed", "B")] + [(name, "f") for name in _STATE_FIELDS]
-            + [(f"motor_{i}", "f") for i in range(n_motors)])
+    return (
+        [("time_us", "q"), ("armed", "B")]
+        + [(name, "f") for name in _STATE_FIELDS]
+        + [(f"motor_{i}", "f") for i in range(n_motors)]
+    )
 
 
 class TruthRecorder:

@@ -104,16 +104,16 @@ import numpy as np
 from sitl.sim_settings import WindSettings
 
 FT_PER_M = 1.0 / 0.3048
-H_MIN_FT = 10.0          # validity range of the low-altitude Dryden model
+H_MIN_FT = 10.0  # validity range of the low-altitude Dryden model
 H_MAX_FT = 1000.0
-V_MIN_M_S = 1.0          # floor of the speed that sweeps the frozen turbulence field
-_SMALL_R = 0.01          # below this dt/tau the conditional variance uses its series
+V_MIN_M_S = 1.0  # floor of the speed that sweeps the frozen turbulence field
+_SMALL_R = 0.01  # below this dt/tau the conditional variance uses its series
 _MIN_GUST_DURATION_S = 1e-3
 _MIN_GUST_INTERVAL_S = 1e-3
-_NORMALS_PER_STEP = 5    # u: 1, v: 2, w: 2
+_NORMALS_PER_STEP = 5  # u: 1, v: 2, w: 2
 _BLOCK_STEPS = 1024
 _BLOCK = _NORMALS_PER_STEP * _BLOCK_STEPS
-_C1 = math.sqrt(1.5)                          # sqrt(3) / sqrt(2)
+_C1 = math.sqrt(1.5)  # sqrt(3) / sqrt(2)
 _C2 = (1.0 - math.sqrt(3.0)) / math.sqrt(2.0)
 _TWO_PI = 2.0 * math.pi
 _ZERO = (0.0, 0.0, 0.0)
@@ -136,8 +136,9 @@ def _discretisation(r: float) -> tuple[float, float, float, float]:
     return a, l11, l21, (math.sqrt(d) if d > 0.0 else 0.0)
 
 
-def _second_order(x1: float, x2: float, r: float, a: float, l11: float, l21: float, l22: float,
-                  n1: float, n2: float) -> tuple[float, float]:
+def _second_order(
+    x1: float, x2: float, r: float, a: float, l11: float, l21: float, l22: float, n1: float, n2: float
+) -> tuple[float, float]:
     """One step of the second-order (v or w) Dryden state with unit normal draws n1, n2."""
     return a * x1 + l11 * n1, a * (r * x1 + x2) + l21 * n1 + l22 * n2
 
@@ -145,10 +146,27 @@ def _second_order(x1: float, x2: float, r: float, a: float, l11: float, l21: flo
 class WindModel:
     """Steady wind + Dryden turbulence + 1-cosine gusts; see the module docstring."""
 
-    __slots__ = ("settings", "_rng", "_normals", "_k", "_vel",
-                 "_dir_deg", "_cos", "_sin",
-                 "_xu", "_xv1", "_xv2", "_xw1", "_xw2",
-                 "_gust_active", "_gust_t_s", "_gust_T_s", "_gust_n", "_gust_e", "_to_next_gust")
+    __slots__ = (
+        "settings",
+        "_rng",
+        "_normals",
+        "_k",
+        "_vel",
+        "_dir_deg",
+        "_cos",
+        "_sin",
+        "_xu",
+        "_xv1",
+        "_xv2",
+        "_xw1",
+        "_xw2",
+        "_gust_active",
+        "_gust_t_s",
+        "_gust_T_s",
+        "_gust_n",
+        "_gust_e",
+        "_to_next_gust",
+    )
 
     def __init__(self, settings: WindSettings, seed: int) -> None:
         self.settings = settings
@@ -156,7 +174,7 @@ class WindModel:
         self._normals: list[float] = self._rng.standard_normal(_BLOCK).tolist()
         self._k = 0
         self._vel = _ZERO
-        self._dir_deg = math.nan          # cached steady direction and its unit vector
+        self._dir_deg = math.nan  # cached steady direction and its unit vector
         self._cos = 1.0
         self._sin = 0.0
         # Turbulence states (unit variance), drawn from their stationary distribution.
@@ -223,17 +241,17 @@ class WindModel:
         if sigma != 0.0:
             # Dryden turbulence.
             h_ft = altitude_agl_m * FT_PER_M
-            if not h_ft > H_MIN_FT:          # also catches NaN
+            if not h_ft > H_MIN_FT:  # also catches NaN
                 h_ft = H_MIN_FT
             elif h_ft > H_MAX_FT:
                 h_ft = H_MAX_FT
             k = 0.177 + 0.000823 * h_ft
-            k04 = k ** 0.4
+            k04 = k**0.4
             v_m_s = airspeed_m_s if airspeed_m_s > speed else speed
             if not v_m_s > V_MIN_M_S:
                 v_m_s = V_MIN_M_S
             if dt_s > 0.0:
-                dx_ft = dt_s * v_m_s * FT_PER_M      # distance flown through the frozen field
+                dx_ft = dt_s * v_m_s * FT_PER_M  # distance flown through the frozen field
                 i = self._k
                 buf = self._normals
                 if i >= _BLOCK:
@@ -255,7 +273,7 @@ class WindModel:
             if speed > 0.0:
                 vn += c * tu - sn * tv
                 ve += sn * tu + c * tv
-            else:                                # no mean wind: u along North, v along East
+            else:  # no mean wind: u along North, v along East
                 vn += tu
                 ve += tv
 
@@ -275,7 +293,7 @@ class WindModel:
                 else:
                     self._gust_active = False
             if not self._gust_active and self._to_next_gust <= 0.0:
-                self.trigger_gust()              # starts at t = 0, where g = 0
+                self.trigger_gust()  # starts at t = 0, where g = 0
                 self._to_next_gust = float(self._rng.standard_exponential())
         else:
             self._gust_active = False

@@ -51,8 +51,14 @@ def instance(test_file: str, role: str) -> int:
 
 def ports(i: int) -> set[tuple[str, int]]:
     """Every (protocol, port) that instance ``i`` binds, itself or through its clients."""
-    return {("tcp", 4560 + i), ("udp", 14540 + i), ("udp", 14550 + i), ("udp", 14560 + i),
-            ("udp", 14580 + i), ("udp", 18570 + i)}
+    return {
+        ("tcp", 4560 + i),
+        ("udp", 14540 + i),
+        ("udp", 14550 + i),
+        ("udp", 14560 + i),
+        ("udp", 14580 + i),
+        ("udp", 18570 + i),
+    }
 
 
 def all_instances() -> list[tuple[str, str, int]]:

@@ -119,8 +119,9 @@ class Bench:
 def test_arming_refused_with_every_reason_before_any_data():
     b = Bench()
     assert b.arm() == DENIED
-    assert b.texts() == ["Arming denied: attitude estimate not ready; no 3D GPS fix; position estimate not ready; "
-                         "home position not set"]
+    assert b.texts() == [
+        "Arming denied: attitude estimate not ready; no 3D GPS fix; position estimate not ready; home position not set"
+    ]
     assert not b.cmd.status.armed
     assert b.arm(force=True) == DENIED  # even forced: nothing to fly on
     assert b.texts()[-1] == "Arming denied: no sensor data"
@@ -233,7 +234,8 @@ def test_auto_disarm_after_landing():
     times = {text: t for t, text in b.events}
     assert "Landing detected" in times and "Disarmed (landed)" in times
     assert times["Disarmed (landed)"] - times["Landing detected"] == pytest.approx(
-        b.params.get("COM_DISARM_LAND"), abs=0.021)
+        b.params.get("COM_DISARM_LAND"), abs=0.021
+    )
     st = b.cmd.status
     assert not st.armed and st.landed_state is LandedState.ON_GROUND and not st.in_air
     assert b.pos[2] == 0.0
@@ -253,12 +255,15 @@ def test_auto_disarm_when_no_takeoff_follows_arming():
 # --------------------------------------------------------------------------- take-off
 
 
-@pytest.mark.parametrize("alt_amsl_m, above_home_m, note", [
-    (math.nan, 2.5, None),  # not given: MIS_TAKEOFF_ALT
-    (498.0, 10.0, None),  # AMSL
-    (488.3, 1.0, None),  # at least 1 m
-    (5.0, 5.0, "Takeoff altitude 5 m is below home: using 5 m above home"),  # MAVProxy's "takeoff 5"
-])
+@pytest.mark.parametrize(
+    "alt_amsl_m, above_home_m, note",
+    [
+        (math.nan, 2.5, None),  # not given: MIS_TAKEOFF_ALT
+        (498.0, 10.0, None),  # AMSL
+        (488.3, 1.0, None),  # at least 1 m
+        (5.0, 5.0, "Takeoff altitude 5 m is below home: using 5 m above home"),  # MAVProxy's "takeoff 5"
+    ],
+)
 def test_takeoff_altitude_rules(alt_amsl_m, above_home_m, note):
     b = Bench()
     b.run(0.5)

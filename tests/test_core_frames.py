@@ -42,7 +42,8 @@ def test_mujoco_yawed_90_deg_from_east_faces_north():
     assert quat.to_euler(q_ned) == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
     # MuJoCo's identity faces East: NED yaw +90 deg.
     assert quat.to_euler(frames.quat_enu_flu_to_ned_frd(np.array([1.0, 0.0, 0.0, 0.0]))) == pytest.approx(
-        (0.0, 0.0, math.pi / 2))
+        (0.0, 0.0, math.pi / 2)
+    )
     # Nose up 10 deg in MuJoCo (negative rotation about FLU y, the left axis) is pitch +10 deg in FRD.
     pitch = math.radians(10)
     q_up = quat.mul(q_enu_flu, np.array([math.cos(-pitch / 2), 0.0, math.sin(-pitch / 2), 0.0]))
@@ -68,7 +69,8 @@ def test_wxyz_xyzw_helpers_against_scipy():
         assert frames.xyzw_to_wxyz(xyzw) == pytest.approx(q)
         assert Rotation.from_quat(xyzw).as_matrix() == pytest.approx(quat.to_matrix(q))
         assert Rotation.from_quat(xyzw).as_matrix() == pytest.approx(
-            Rotation.from_quat(q, scalar_first=True).as_matrix())
+            Rotation.from_quat(q, scalar_first=True).as_matrix()
+        )
     yaw90 = frames.xyzw_to_wxyz(Rotation.from_euler("z", 90, degrees=True).as_quat())
     assert yaw90 == pytest.approx([math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)])
 

@@ -48,7 +48,7 @@ def worst_disagreement_1km(lat0: float, lon0: float = 8.545594, alt0: float = 48
 def test_disagreement_with_the_ellipsoid_over_1_km(lat0, horizontal_m):
     h, v = worst_disagreement_1km(lat0)
     assert h == pytest.approx(horizontal_m, abs=0.1)  # a scale error of 0.2-0.7 %
-    assert v == pytest.approx(1000.0 ** 2 / (2 * 6378137.0), abs=0.005)  # the earth's curvature: 0.08 m
+    assert v == pytest.approx(1000.0**2 / (2 * 6378137.0), abs=0.005)  # the earth's curvature: 0.08 m
 
 
 def test_agrees_with_pymap3d_within_3_cm_near_home():
@@ -72,6 +72,8 @@ def test_cost_per_call_against_pymap3d():
     ref = timeit.timeit(lambda: pymap3d.geodetic2ned(lat, lon, alt, lat0, lon0, alt0), number=n) / n
     ours_inv = timeit.timeit(lambda: ned_to_geodetic(ned, lat0, lon0, alt0), number=n) / n
     ref_inv = timeit.timeit(lambda: pymap3d.ned2geodetic(*ned, lat0, lon0, alt0), number=n) / n
-    print(f"\ngeodetic->NED: ours {ours * 1e6:.1f} us, pymap3d {ref * 1e6:.1f} us; "
-          f"NED->geodetic: ours {ours_inv * 1e6:.1f} us, pymap3d {ref_inv * 1e6:.1f} us")
+    print(
+        f"\ngeodetic->NED: ours {ours * 1e6:.1f} us, pymap3d {ref * 1e6:.1f} us; "
+        f"NED->geodetic: ours {ours_inv * 1e6:.1f} us, pymap3d {ref_inv * 1e6:.1f} us"
+    )
     assert ours < ref and ours_inv < ref_inv

@@ -9,8 +9,14 @@ from mavsim_core.px4_modes import Mode
 
 
 def test_mode_flag_bits_are_mavlinks():
-    for name in ("CUSTOM_MODE_ENABLED", "AUTO_ENABLED", "GUIDED_ENABLED", "STABILIZE_ENABLED",
-                 "MANUAL_INPUT_ENABLED", "SAFETY_ARMED"):
+    for name in (
+        "CUSTOM_MODE_ENABLED",
+        "AUTO_ENABLED",
+        "GUIDED_ENABLED",
+        "STABILIZE_ENABLED",
+        "MANUAL_INPUT_ENABLED",
+        "SAFETY_ARMED",
+    ):
         assert getattr(px4_modes, f"MAV_MODE_FLAG_{name}") == getattr(mavlink, f"MAV_MODE_FLAG_{name}")
 
 

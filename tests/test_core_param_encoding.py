@@ -36,11 +36,19 @@ from mavsim_core.param_encoding import (
     raw_param_value,
 )
 
-INT_RANGES = {UINT8: (0, 255), INT8: (-128, 127), UINT16: (0, 65535), INT16: (-32768, 32767),
-              UINT32: (0, 2**32 - 1), INT32: (-(2**31), 2**31 - 1)}
+INT_RANGES = {
+    UINT8: (0, 255),
+    INT8: (-128, 127),
+    UINT16: (0, 65535),
+    INT16: (-32768, 32767),
+    UINT32: (0, 2**32 - 1),
+    INT32: (-(2**31), 2**31 - 1),
+}
 # INT32 values whose bytes are a float32 signalling NaN: 0x7F800001..0x7FBFFFFF and 0xFF800001..0xFFBFFFFF
-SIGNALLING_NAN_INT32 = tuple(struct.unpack("<i", struct.pack("<I", bits))[0]
-                             for bits in (0x7F800001, 0x7FA00000, 0x7FBFFFFF, 0xFF800001, 0xFFBFFFFF))
+SIGNALLING_NAN_INT32 = tuple(
+    struct.unpack("<i", struct.pack("<I", bits))[0]
+    for bits in (0x7F800001, 0x7FA00000, 0x7FBFFFFF, 0xFF800001, 0xFFBFFFFF)
+)
 
 
 # --------------------------------------------------------------------------- ParamType
@@ -117,14 +125,17 @@ def test_signalling_nan_patterns_survive_only_as_bytes():
         assert decode_param_bytes(raw, INT32) == v
 
 
-@pytest.mark.parametrize("value, mav_type, why", [
-    (2.5, INT32, "not an integer"),
-    (2**31, INT32, "out of range for INT32"),
-    (-(2**31) - 1, INT32, "out of range for INT32"),
-    (256, UINT8, "out of range for UINT8"),
-    (-1, UINT32, "out of range for UINT32"),
-    (1, 99, "unsupported MAV_PARAM_TYPE 99"),
-])
+@pytest.mark.parametrize(
+    "value, mav_type, why",
+    [
+        (2.5, INT32, "not an integer"),
+        (2**31, INT32, "out of range for INT32"),
+        (-(2**31) - 1, INT32, "out of range for INT32"),
+        (256, UINT8, "out of range for UINT8"),
+        (-1, UINT32, "out of range for UINT32"),
+        (1, 99, "unsupported MAV_PARAM_TYPE 99"),
+    ],
+)
 def test_encoding_refuses_what_does_not_fit(value, mav_type, why):
     with pytest.raises(ValueError, match=why):
         encode_param_bytes(value, mav_type)
@@ -144,10 +155,12 @@ def test_raw_param_value_reads_the_bytes_of_the_frame(wire_version):
     """PARAM_VALUE packed by pymavlink and parsed back: the 4 wire bytes, for v1 and v2 frames."""
     dialect = mavlink1 if wire_version == 1 else mavlink
     sender = dialect.MAVLink(None, 1, 1)
-    cases = [(encode_param_float(4001, INT32), INT32, struct.pack("<i", 4001)),
-             (encode_param_float(-7, INT32), INT32, struct.pack("<i", -7)),
-             (0.95, REAL32, struct.pack("<f", 0.95)),
-             (0.0, REAL32, b"\0\0\0\0")]  # a zero value: MAVLink 2 trims no byte of it (type follows)
+    cases = [
+        (encode_param_float(4001, INT32), INT32, struct.pack("<i", 4001)),
+        (encode_param_float(-7, INT32), INT32, struct.pack("<i", -7)),
+        (0.95, REAL32, struct.pack("<f", 0.95)),
+        (0.0, REAL32, b"\0\0\0\0"),
+    ]  # a zero value: MAVLink 2 trims no byte of it (type follows)
     for value, mav_type, expected in cases:
         frame = dialect.MAVLink_param_value_message(b"MPC_XY_P", value, mav_type, 100, 3).pack(sender)
         assert frame[0] == (0xFE if wire_version == 1 else 0xFD)

@@ -70,8 +70,9 @@ def test_integrate_matches_mju_quatintegrate():
 
 def test_euler_round_trip_and_axes():
     rng = np.random.default_rng(14)
-    for roll, pitch, yaw in zip(rng.uniform(-math.pi, math.pi, N), rng.uniform(-1.5, 1.5, N),
-                                rng.uniform(-math.pi, math.pi, N)):
+    for roll, pitch, yaw in zip(
+        rng.uniform(-math.pi, math.pi, N), rng.uniform(-1.5, 1.5, N), rng.uniform(-math.pi, math.pi, N)
+    ):
         q = quat.from_euler(roll, pitch, yaw)
         assert np.linalg.norm(q) == pytest.approx(1.0)
         assert quat.to_euler(q) == pytest.approx((roll, pitch, yaw), abs=1e-9)

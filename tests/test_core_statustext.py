@@ -16,12 +16,20 @@ from pymavlink.dialects.v20 import common as mavlink
 from mavsim_core.statustext import STATUSTEXT_LEN, StatustextChunker, split_statustext
 
 
-@pytest.mark.parametrize("length, sizes", [
-    (0, [0]), (1, [1]), (49, [49]), (50, [50]),  # one message: no terminator needed
-    (51, [50, 1]), (99, [50, 49]),
-    (100, [50, 50, 0]),  # the last chunk is full: an empty chunk ends the text
-    (150, [50, 50, 50, 0]), (151, [50, 50, 50, 1]),
-])
+@pytest.mark.parametrize(
+    "length, sizes",
+    [
+        (0, [0]),
+        (1, [1]),
+        (49, [49]),
+        (50, [50]),  # one message: no terminator needed
+        (51, [50, 1]),
+        (99, [50, 49]),
+        (100, [50, 50, 0]),  # the last chunk is full: an empty chunk ends the text
+        (150, [50, 50, 50, 0]),
+        (151, [50, 50, 50, 1]),
+    ],
+)
 def test_chunk_sizes(length, sizes):
     chunks = split_statustext("x" * length)
     assert [len(c) for c in chunks] == sizes
@@ -40,8 +48,9 @@ def test_utf8_is_never_cut_inside_a_character():
 
 def received(msgs: list) -> str:
     """What a MAVLink 2 receiver reassembles: chunks of one id joined in chunk_seq order, up to the NUL."""
-    joined = b"".join(bytes(m.text) if isinstance(m.text, bytes) else m.text.encode()
-                      for m in sorted(msgs, key=lambda m: m.chunk_seq))
+    joined = b"".join(
+        bytes(m.text) if isinstance(m.text, bytes) else m.text.encode() for m in sorted(msgs, key=lambda m: m.chunk_seq)
+    )
     return joined.split(b"\0", 1)[0].decode("utf-8")
 
 

@@ -13,10 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from mavsim_core import quaternion as quat
 from gcs.client import VehicleClient, mavlink
-from gcs.sim_client import SimClient
 from gcs.launcher import Stack
+from gcs.sim_client import SimClient
+from mavsim_core import quaternion as quat
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -42,8 +42,11 @@ def horizontal_from(truth: SimClient, point) -> float:
 
 @pytest.fixture(scope="module")
 def flying():
-    with Stack(instance=INSTANCE, vehicle="quad_x") as stack, SimClient(14560 + INSTANCE) as truth, \
-            VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
+    with (
+        Stack(instance=INSTANCE, vehicle="quad_x") as stack,
+        SimClient(14560 + INSTANCE) as truth,
+        VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
         client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000).check()
         take_off(client, truth)
         yield client, truth
@@ -64,8 +67,9 @@ def test_estimates_stay_close_to_ground_truth_in_flight(flying):
             return
         dt = (msg.time_boot_ms - st.time_usec / 1000.0) / 1000.0
         if kind == "ATTITUDE":
-            q = quat.integrate(np.array(st.attitude_quaternion, dtype=float),
-                               np.array([st.rollspeed, st.pitchspeed, st.yawspeed]), dt)
+            q = quat.integrate(
+                np.array(st.attitude_quaternion, dtype=float), np.array([st.rollspeed, st.pitchspeed, st.yawspeed]), dt
+            )
             r, p, y = quat.to_euler(q)
             d_att.extend([quat.wrap_pi(msg.roll - r), quat.wrap_pi(msg.pitch - p)])
             d_yaw.append(quat.wrap_pi(msg.yaw - y))
@@ -89,8 +93,12 @@ def test_estimates_stay_close_to_ground_truth_in_flight(flying):
     assert vel < 0.2, f"velocity RMS error {vel:.3f} m/s"
     status = client.latest("ESTIMATOR_STATUS")
     assert status is not None, "no ESTIMATOR_STATUS streamed"
-    want = (mavlink.ESTIMATOR_ATTITUDE | mavlink.ESTIMATOR_VELOCITY_HORIZ | mavlink.ESTIMATOR_POS_HORIZ_ABS
-            | mavlink.ESTIMATOR_POS_VERT_ABS)
+    want = (
+        mavlink.ESTIMATOR_ATTITUDE
+        | mavlink.ESTIMATOR_VELOCITY_HORIZ
+        | mavlink.ESTIMATOR_POS_HORIZ_ABS
+        | mavlink.ESTIMATOR_POS_VERT_ABS
+    )
     assert status.flags & want == want
     assert status.pos_horiz_ratio < 1.0 and status.vel_ratio < 1.0
 
@@ -110,8 +118,11 @@ def test_gps_glitches_do_not_move_the_vehicle(flying):
     client.add_listener(track)
     try:
         truth.set("SIM_GPS_GLITCH_N", 30.0)
-        client.wait_until(lambda: client.latest("ESTIMATOR_STATUS").flags & mavlink.ESTIMATOR_GPS_GLITCH,
-                          WAIT_S, "the GPS_GLITCH flag")
+        client.wait_until(
+            lambda: client.latest("ESTIMATOR_STATUS").flags & mavlink.ESTIMATOR_GPS_GLITCH,
+            WAIT_S,
+            "the GPS_GLITCH flag",
+        )
         assert any("GPS position rejected" in st.text for st in client.statustexts)
         client.wait_sim_time(3.0)
         truth.set("SIM_GPS_GLITCH_N", 0.0)  # short glitch: over before the reset time
@@ -119,12 +130,14 @@ def test_gps_glitches_do_not_move_the_vehicle(flying):
         assert not any("reset" in st.text for st in client.statustexts)
 
         truth.set("SIM_GPS_GLITCH_N", 30.0)  # persistent: the filter believes GPS after 7 s
-        client.wait_until(lambda: any("position reset to GPS" in st.text for st in client.statustexts),
-                          WAIT_S, "the reset to GPS")
+        client.wait_until(
+            lambda: any("position reset to GPS" in st.text for st in client.statustexts), WAIT_S, "the reset to GPS"
+        )
         client.wait_sim_time(5.0)
         truth.set("SIM_GPS_GLITCH_N", 0.0)  # and back
-        client.wait_until(lambda: sum("position reset to GPS" in st.text for st in client.statustexts) >= 2,
-                          WAIT_S, "the reset back")
+        client.wait_until(
+            lambda: sum("position reset to GPS" in st.text for st in client.statustexts) >= 2, WAIT_S, "the reset back"
+        )
         client.wait_sim_time(3.0)
     finally:
         client.remove_listener(track)

@@ -43,8 +43,11 @@ INSTANCE = instance("test_e2e_flight", "shared")  # the shared max-speed stack
 INSTANCE_DEMO = instance("test_e2e_flight", "demo")  # flight-demo starts its own stack
 
 WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
-ON_GROUND, IN_AIR, LANDING = (mavlink.MAV_LANDED_STATE_ON_GROUND, mavlink.MAV_LANDED_STATE_IN_AIR,
-                              mavlink.MAV_LANDED_STATE_LANDING)
+ON_GROUND, IN_AIR, LANDING = (
+    mavlink.MAV_LANDED_STATE_ON_GROUND,
+    mavlink.MAV_LANDED_STATE_IN_AIR,
+    mavlink.MAV_LANDED_STATE_LANDING,
+)
 UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
 
 
@@ -79,8 +82,11 @@ def vehicle(stack):
 @pytest.fixture
 def client(vehicle):
     """The shared client, once the vehicle is landed, disarmed and ready; brought down after a failed flight."""
-    vehicle.wait_until(lambda: vehicle.landed_and_disarmed() and vehicle.prearm_ok(), WAIT_S,
-                       "the vehicle to be on the ground, disarmed and ready")
+    vehicle.wait_until(
+        lambda: vehicle.landed_and_disarmed() and vehicle.prearm_ok(),
+        WAIT_S,
+        "the vehicle to be on the ground, disarmed and ready",
+    )
     yield vehicle
     if vehicle.armed():  # a failed flight: bring it down so the next scenario starts clean
         try:
@@ -123,8 +129,9 @@ def text_time(client: VehicleClient, index: int, fragment: str) -> float:
 
 
 def wait_text(client: VehicleClient, index: int, fragment: str) -> None:
-    client.wait_until(lambda: any(fragment in t for t in texts_since(client, index)), WAIT_S,
-                      f"a STATUSTEXT containing {fragment!r}")
+    client.wait_until(
+        lambda: any(fragment in t for t in texts_since(client, index)), WAIT_S, f"a STATUSTEXT containing {fragment!r}"
+    )
 
 
 def arm(client: VehicleClient) -> None:
@@ -134,8 +141,9 @@ def arm(client: VehicleClient) -> None:
 
 def wait_hovering(client: VehicleClient, alt_m: float) -> None:
     """Until the take-off is over: mode LOITER, near the altitude, not climbing."""
-    client.wait_until(lambda: client.mode_name() == "LOITER" and client.takeoff_done(alt_m, 0.5), WAIT_S,
-                      f"hover at {alt_m:g} m")
+    client.wait_until(
+        lambda: client.mode_name() == "LOITER" and client.takeoff_done(alt_m, 0.5), WAIT_S, f"hover at {alt_m:g} m"
+    )
 
 
 def horizontal(a, b) -> float:
@@ -154,17 +162,22 @@ def test_arming_denied_until_estimate_ready_then_accepted():
     stack = Stack(instance=INSTANCE_REALTIME, speed=1)
     with stack:
         # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
-        cli = subprocess.Popen([sys.executable, "-m", "gcs", "--instance", str(INSTANCE_REALTIME),
-                                "--timeout", "30", "arm"], cwd=ROOT, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
+        cli = subprocess.Popen(
+            [sys.executable, "-m", "gcs", "--instance", str(INSTANCE_REALTIME), "--timeout", "30", "arm"],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         try:
             with VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as c:
                 early = c.arm(timeout_s=10)
                 assert early.result == mavlink.MAV_RESULT_DENIED, early.describe()
                 assert early.reason is not None and early.reason.startswith("Arming denied: ")
                 assert "not ready" in early.reason
-                assert any(st.severity <= mavlink.MAV_SEVERITY_CRITICAL and st.text == early.reason
-                           for st in c.statustexts)
+                assert any(
+                    st.severity <= mavlink.MAV_SEVERITY_CRITICAL and st.text == early.reason for st in c.statustexts
+                )
                 assert not c.armed()
 
                 out, err = cli.communicate(timeout=WAIT_S)
@@ -197,15 +210,25 @@ def test_arming_denied_until_estimate_ready_then_accepted():
 def test_flight_demo_flies_its_square(capsys):
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
-        rc = demo.main(["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S),
-                        "--step-timeout", str(WAIT_S)])
+        rc = demo.main(
+            ["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S), "--step-timeout", str(WAIT_S)]
+        )
     finally:
         signal.signal(signal.SIGTERM, sigterm)
     out = capsys.readouterr()
     assert rc == 0, out.err + out.out[-3000:]
     assert "flight demo: OK" in out.out
-    for expected in ("armed", "taking off to 5 m", "held 10 s", "at corner 4 (start)", "disarmed",
-                     "flight time", "max altitude", "landing error", "real-time factor"):
+    for expected in (
+        "armed",
+        "taking off to 5 m",
+        "held 10 s",
+        "at corner 4 (start)",
+        "disarmed",
+        "flight time",
+        "max altitude",
+        "landing error",
+        "real-time factor",
+    ):
         assert expected in out.out
     landing_error = float(out.out.split("landing error")[1].split()[0])
     assert landing_error < 1.0
@@ -259,8 +282,9 @@ def test_two_ground_stations_at_once(stack, client):
     """(d) QGroundControl's port and MAVSDK's port at the same time, each heard and obeyed."""
     with VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as gcs:
         for c in (gcs, client):
-            c.wait_until(lambda c=c: c.latest("HEARTBEAT") is not None and c.latest("GLOBAL_POSITION_INT"),
-                         WAIT_S, "telemetry")
+            c.wait_until(
+                lambda c=c: c.latest("HEARTBEAT") is not None and c.latest("GLOBAL_POSITION_INT"), WAIT_S, "telemetry"
+            )
             assert c.latest("HEARTBEAT").autopilot == mavlink.MAV_AUTOPILOT_PX4
         try:
             # one sets, the other reads back
@@ -339,8 +363,15 @@ def test_takeoff_hover_land_and_automatic_disarm(client, truth):
         states = [m.landed_state for m in rec.of("EXTENDED_SYS_STATE")]
         assert LANDING in states and states[-1] == ON_GROUND
         # ON_GROUND was reported while still armed: landed first, then disarmed by itself
-        seq = [(m.get_type(), m.landed_state if m.get_type() == "EXTENDED_SYS_STATE"
-                else bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)) for _, m in rec.msgs]
+        seq = [
+            (
+                m.get_type(),
+                m.landed_state
+                if m.get_type() == "EXTENDED_SYS_STATE"
+                else bool(m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED),
+            )
+            for _, m in rec.msgs
+        ]
         first_ground = seq.index(("EXTENDED_SYS_STATE", ON_GROUND))
         assert ("HEARTBEAT", True) in seq[first_ground:]
         texts = texts_since(client, n_texts)

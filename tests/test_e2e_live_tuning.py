@@ -98,10 +98,16 @@ class Record:
         sp = np.array([self.target[m] for m in ms[paired]])
         servo = np.array(sorted(self.servo))
         return {
-            "t": t, "roll_deg": np.degrees(roll), "rate": rate, "rate_fast": fast_part(t, rate),
+            "t": t,
+            "roll_deg": np.degrees(roll),
+            "rate": rate,
+            "rate_fast": fast_part(t, rate),
             "roll_fast_deg": fast_part(t, np.degrees(roll)),
-            "tp": t[paired], "rate_fast_p": fast_part(t[paired], rate[paired]), "sp_fast": fast_part(t[paired], sp),
-            "ts": servo[:, 0], "motor_fast": fast_part(servo[:, 0], servo[:, 1]),
+            "tp": t[paired],
+            "rate_fast_p": fast_part(t[paired], rate[paired]),
+            "sp_fast": fast_part(t[paired], sp),
+            "ts": servo[:, 0],
+            "motor_fast": fast_part(servo[:, 0], servo[:, 1]),
         }
 
 
@@ -123,9 +129,11 @@ def amplitudes(a: dict[str, np.ndarray], start_s: float, end_s: float, min_sampl
 
 
 def describe(name: str, w: dict[str, float]) -> str:
-    return (f"{name:<26s} rollspeed: fast {w['rate_fast']:.4f} rad/s, all {w['rate']:.4f} rad/s, "
-            f"per setpoint {w['gain']:.2f} | roll: all {w['roll']:.3f} deg, fast {w['roll_fast']:.4f} deg | "
-            f"motor roll differential: fast {w['motor_fast']:5.1f} us | {w['n']} samples")
+    return (
+        f"{name:<26s} rollspeed: fast {w['rate_fast']:.4f} rad/s, all {w['rate']:.4f} rad/s, "
+        f"per setpoint {w['gain']:.2f} | roll: all {w['roll']:.3f} deg, fast {w['roll_fast']:.4f} deg | "
+        f"motor roll differential: fast {w['motor_fast']:5.1f} us | {w['n']} samples"
+    )
 
 
 def roll_weights(vehicle: str = "quad_x") -> list[float]:
@@ -134,10 +142,15 @@ def roll_weights(vehicle: str = "quad_x") -> list[float]:
 
 
 def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_it_settles():
-    with Stack(instance=INSTANCE, speed="max", flight_logs=False, extra_sitl_args=["--truth-port", "0"]) as stack, \
-            VehicleClient(FC_GCS_URL, timeout_s=WAIT_S, idle=stack.check_alive) as client:
-        for msg_id in (mavlink.MAVLINK_MSG_ID_ATTITUDE, mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET,
-                       mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW):
+    with (
+        Stack(instance=INSTANCE, speed="max", flight_logs=False, extra_sitl_args=["--truth-port", "0"]) as stack,
+        VehicleClient(FC_GCS_URL, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
+        for msg_id in (
+            mavlink.MAVLINK_MSG_ID_ATTITUDE,
+            mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET,
+            mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
+        ):
             client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, REQUESTED_INTERVAL_US).check()
         default_p = client.param_get("MC_ROLLRATE_P")
         assert default_p == pytest.approx(12.0)
@@ -170,17 +183,21 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
     high_2 = amplitudes(a, mid, t_restored)
     restored = amplitudes(a, t_restored + SKIP_S, t_restored + SETTLE_S)
 
-    print(f"\nlive tuning: ATTITUDE requested at {1e6 / REQUESTED_INTERVAL_US:.0f} Hz, received at {rate_hz:.1f} Hz "
-          f"of simulated time; MC_ROLLRATE_P {default_p:g} -> {high_p:g} -> {default_p:g}")
+    print(
+        f"\nlive tuning: ATTITUDE requested at {1e6 / REQUESTED_INTERVAL_US:.0f} Hz, received at {rate_hz:.1f} Hz "
+        f"of simulated time; MC_ROLLRATE_P {default_p:g} -> {high_p:g} -> {default_p:g}"
+    )
     print(describe(f"baseline P={default_p:g}", base))
     print(describe(f"P={high_p:g}", high))
     print(describe(f"P={high_p:g}, first half", high_1))
     print(describe(f"P={high_p:g}, second half", high_2))
     print(describe(f"restored, {SKIP_S:g}-{SETTLE_S:g} s after", restored))
-    print(f"ratios to baseline: fast rollspeed {high['rate_fast'] / base['rate_fast']:.2f} x "
-          f"(halves {high_1['rate_fast'] / base['rate_fast']:.2f}, {high_2['rate_fast'] / base['rate_fast']:.2f}), "
-          f"per setpoint {high['gain'] / base['gain']:.2f} x, motors {high['motor_fast'] / base['motor_fast']:.2f} x; "
-          f"restored {restored['rate_fast'] / base['rate_fast']:.2f} x")
+    print(
+        f"ratios to baseline: fast rollspeed {high['rate_fast'] / base['rate_fast']:.2f} x "
+        f"(halves {high_1['rate_fast'] / base['rate_fast']:.2f}, {high_2['rate_fast'] / base['rate_fast']:.2f}), "
+        f"per setpoint {high['gain'] / base['gain']:.2f} x, motors {high['motor_fast'] / base['motor_fast']:.2f} x; "
+        f"restored {restored['rate_fast'] / base['rate_fast']:.2f} x"
+    )
 
     assert rate_hz > 40.0, f"ATTITUDE came at {rate_hz:.1f} Hz"
     # the raised gain makes the roll rate oscillate ...

@@ -14,10 +14,10 @@ import pytest
 from gcs.launcher import Stack
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.autopilot import Autopilot  # noqa: E402
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
+from mavsdk.autopilot import Autopilot  # noqa: E402
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -29,6 +29,7 @@ async def _until(predicate, timeout_s: float, what: str, period_s: float = 0.2):
     async def loop():
         while not await predicate():
             await asyncio.sleep(period_s)
+
     try:
         await asyncio.wait_for(loop(), timeout_s)
     except asyncio.TimeoutError:

@@ -40,14 +40,13 @@ from pathlib import Path
 import pytest
 
 importlib.import_module("autopilot.flight_controller")  # declares every parameter
-from autopilot.parameters import ParameterStore
+from autopilot.param_catalogue import default_store
 from gcs.client import VehicleClient, mavlink
 from gcs.errors import GcsTimeout, ParamRefused
 from gcs.launcher import Stack
 from gcs.plugins.param import DownloadStats, download_parameters
 from mavsim_core.param_encoding import INT32, REAL32, raw_param_value
 from params.param_file import QGC, parse_param_text, read_param_file
-from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -77,8 +76,12 @@ def state_dir(tmp_path_factory):
 def stack(state_dir):
     startup = state_dir.parent / "startup.params"
     startup.write_text(STARTUP_PARAMS)
-    with Stack(instance=INSTANCE, speed="max", extra_sitl_args=["--truth-port", "0"],
-               extra_autopilot_args=["--state-dir", str(state_dir), "--params", str(startup)]) as s:
+    with Stack(
+        instance=INSTANCE,
+        speed="max",
+        extra_sitl_args=["--truth-port", "0"],
+        extra_autopilot_args=["--state-dir", str(state_dir), "--params", str(startup)],
+    ) as s:
         yield s
 
 
@@ -156,8 +159,10 @@ def test_full_download_is_complete_and_consistent(client, declared):
     finally:
         client.remove_listener(note)
     count = len(params)
-    print(f"\nfull parameter download: {count} parameters in {min(times) * 1000:.1f} ms (best of 3), "
-          f"median {statistics.median(times) * 1000:.1f} ms; re-requested {stats.re_requested}")
+    print(
+        f"\nfull parameter download: {count} parameters in {min(times) * 1000:.1f} ms (best of 3), "
+        f"median {statistics.median(times) * 1000:.1f} ms; re-requested {stats.re_requested}"
+    )
     assert count == len(declared) and [p.index for p in params] == list(range(count))
     names = [p.name for p in params]
     assert len(set(names)) == count and names == declared.names()  # the registry, in index order
@@ -282,8 +287,9 @@ def test_qgc_file_round_trips_through_gcs_param_save_and_load(client, tmp_path):
 
 def test_gcs_param_load_reports_each_refusal(client, tmp_path):
     bad = tmp_path / "bad.parm"
-    bad.write_text("MPC_XY_P 5\nNOPE_PARAM 1\nMPC_LAND_SPEED 1.8\nMPC_Z_VEL_MAX_DN 2\nSYS_AUTOSTART 4001.5\n"
-                   "not a line at all\n")
+    bad.write_text(
+        "MPC_XY_P 5\nNOPE_PARAM 1\nMPC_LAND_SPEED 1.8\nMPC_Z_VEL_MAX_DN 2\nSYS_AUTOSTART 4001.5\nnot a line at all\n"
+    )
     try:
         p = run_gcs("param", "load", str(bad))
         assert p.returncode == 1
@@ -327,8 +333,12 @@ async def _mavsdk_params(port: int) -> dict:
 def test_mavsdk_param_plugin_sets_and_gets_int_and_float(client):
     pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
     seen = asyncio.run(_mavsdk_params(FC_API_PORT))
-    assert seen == {"int_before": 4001, "int_after": 4005, "float_before": pytest.approx(0.95),
-                    "float_after": pytest.approx(1.15)}
+    assert seen == {
+        "int_before": 4001,
+        "int_after": 4005,
+        "float_before": pytest.approx(0.95),
+        "float_after": pytest.approx(1.15),
+    }
     assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(0.95)
 
 
@@ -337,9 +347,14 @@ class MavproxySession:
 
     def __init__(self, master: str) -> None:
         self.proc = subprocess.Popen(
-            [sys.executable, MAVPROXY, "--master", master, "--no-state",
-             "--default-modules=param"],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1, cwd=ROOT)
+            [sys.executable, MAVPROXY, "--master", master, "--no-state", "--default-modules=param"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            bufsize=1,
+            cwd=ROOT,
+        )
         self.lines: queue.Queue[str] = queue.Queue()
         self.seen: list[str] = []
         threading.Thread(target=self._read, daemon=True).start()

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from gcs.client import VehicleClient, mavlink
-from gcs.sim_client import SimClient
 from gcs.launcher import Stack
+from gcs.sim_client import SimClient
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -60,8 +60,11 @@ def land(client: VehicleClient) -> None:
 
 @pytest.fixture(scope="module")
 def firefly():
-    with Stack(instance=INSTANCE_FIREFLY, vehicle="firefly") as stack, SimClient(14560 + INSTANCE_FIREFLY) as truth, \
-            VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
+    with (
+        Stack(instance=INSTANCE_FIREFLY, vehicle="firefly") as stack,
+        SimClient(14560 + INSTANCE_FIREFLY) as truth,
+        VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
         yield client, truth
 
 
@@ -104,8 +107,7 @@ def test_sim_wind_set_in_flight_makes_it_lean_into_the_wind_and_hold(firefly):
 
 def test_firefly_holds_position_in_5_m_s_wind_with_gusts(firefly):
     client, truth = firefly
-    for name, value in {"SIM_WIND_SPD": 5.0, "SIM_WIND_TURB": 1.0, "SIM_GUST_SPD": 2.0,
-                        "SIM_GUST_INT": 5.0}.items():
+    for name, value in {"SIM_WIND_SPD": 5.0, "SIM_WIND_TURB": 1.0, "SIM_GUST_SPD": 2.0, "SIM_GUST_INT": 5.0}.items():
         truth.set(name, value)
     point = np.array(truth.latest().pos_ned_m)
     client.wait_sim_time(8.0)
@@ -147,8 +149,10 @@ def test_hexacopter_with_a_motor_stopped_keeps_position_while_it_spins_and_desce
     try:
         err = hold_errors(client, truth, point, 10.0)
         spin = abs(math.degrees(client.latest("ATTITUDE").yawspeed))
-        print(f"motor 1 stopped: max horizontal error {np.hypot(err[:, 0], err[:, 1]).max():.2f} m, "
-              f"max vertical {np.abs(err[:, 2]).max():.2f} m, yaw rate {spin:.0f} deg/s")
+        print(
+            f"motor 1 stopped: max horizontal error {np.hypot(err[:, 0], err[:, 1]).max():.2f} m, "
+            f"max vertical {np.abs(err[:, 2]).max():.2f} m, yaw rate {spin:.0f} deg/s"
+        )
         assert spin > 90  # the heading is really lost: this is not the partial-failure case
         assert np.hypot(err[:, 0], err[:, 1]).max() < 3.0
         assert np.abs(err[:, 2]).max() < 1.5
@@ -184,9 +188,11 @@ def collect(client: VehicleClient, kind: str, seconds: float) -> list:
 def test_quad_holds_position_in_the_windy_scenario():
     """The seed-000 quadcopter started with ``sitl --scenario windy`` (5 m/s from the West,
     1 m/s turbulence, 2 m/s gusts)."""
-    with Stack(instance=INSTANCE_WINDY, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack, \
-            SimClient(14560 + INSTANCE_WINDY) as truth, \
-            VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
+    with (
+        Stack(instance=INSTANCE_WINDY, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack,
+        SimClient(14560 + INSTANCE_WINDY) as truth,
+        VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
         point = take_off(client, truth)
         assert truth.get("SIM_WIND_SPD") == 5.0
         client.wait_sim_time(5.0)

@@ -13,12 +13,11 @@ import numpy as np
 import pytest
 from pygeomag import GeoMag
 
-from mavsim_core import quaternion as quat
-from autopilot.estimation.estimator import Estimator
-from autopilot.parameters import ParameterStore
-from autopilot.topics import GpsSample, ImuSample
 import autopilot.flight_controller  # noqa: F401  (declares every parameter)
+from autopilot.estimation.estimator import Estimator
 from autopilot.param_catalogue import default_store
+from autopilot.topics import GpsSample, ImuSample
+from mavsim_core import quaternion as quat
 
 G = 9.80665
 LAT0, LON0, ALT0 = 47.397742, 8.545594, 488.0
@@ -34,8 +33,17 @@ def pressure_hpa(alt_m: float) -> float:
 class Synthetic:
     """Feeds an Estimator from a true state that the test moves."""
 
-    def __init__(self, est: Estimator, seed: int = 0, gyro_bias=(0.0, 0.0, 0.0), accel_bias=(0.0, 0.0, 0.0),
-                 gyro_noise=0.003, accel_noise=0.03, mag_noise=0.003, gps_noise=0.1) -> None:
+    def __init__(
+        self,
+        est: Estimator,
+        seed: int = 0,
+        gyro_bias=(0.0, 0.0, 0.0),
+        accel_bias=(0.0, 0.0, 0.0),
+        gyro_noise=0.003,
+        accel_noise=0.03,
+        mag_noise=0.003,
+        gps_noise=0.1,
+    ) -> None:
         self.est = est
         self.rng = np.random.default_rng(seed)
         self.t_us = 0
@@ -124,8 +132,13 @@ def test_a_known_rotation_sequence_is_tracked(group):
     s.run(20.0)
     worst = 0.0
     # Yaw at 90 deg/s for 2 s, then roll to 20 deg and back, then pitch, standing still.
-    for rate, seconds in (((0, 0, math.pi / 2), 2.0), ((0.7, 0, 0), 0.5), ((-0.7, 0, 0), 0.5),
-                          ((0, 0.7, 0), 0.5), ((0, -0.7, 0), 0.5)):
+    for rate, seconds in (
+        ((0, 0, math.pi / 2), 2.0),
+        ((0.7, 0, 0), 0.5),
+        ((-0.7, 0, 0), 0.5),
+        ((0, 0.7, 0), 0.5),
+        ((0, -0.7, 0), 0.5),
+    ):
         s.rate = np.array(rate, dtype=float)
         for _ in range(int(seconds / 0.004)):
             s.step()

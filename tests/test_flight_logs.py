@@ -28,13 +28,10 @@ from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from autopilot import flight_log, flight_recorder  # noqa: E402
-from mavsim_core import tlog  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
 from autopilot.mavlink.link import GcsLink  # noqa: E402
-from mavsim_core.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
-from autopilot.parameters import ParameterStore  # noqa: E402
-from mavsim_core.quaternion import from_euler  # noqa: E402
+from autopilot.param_catalogue import default_store
 from autopilot.topics import (  # noqa: E402
     BatteryState,
     ControlSetpoints,
@@ -43,9 +40,11 @@ from autopilot.topics import (  # noqa: E402
 )
 from gcs import plot  # noqa: E402
 from gcs.__main__ import main as gcs_main  # noqa: E402
+from mavsim_core import tlog  # noqa: E402
+from mavsim_core.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
+from mavsim_core.quaternion import from_euler  # noqa: E402
 from params.vehicle import load_vehicle  # noqa: E402
 from sitl.truth_log import truth_log_fields  # noqa: E402
-from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -82,8 +81,9 @@ def test_tlog_writer_round_trip_through_pymavlink(tmp_path):
     msgs = [
         mavlink.MAVLink_heartbeat_message(2, 12, 129, 4 << 16 | 3 << 24, 4, 3),
         mavlink.MAVLink_attitude_target_message(1234, 0, [0.9, 0.1, -0.2, 0.3], 0.1, -0.2, 0.3, 0.55),
-        mavlink.MAVLink_position_target_local_ned_message(1240, mavlink.MAV_FRAME_LOCAL_NED, 2048,
-                                                          1.0, 2.0, -5.0, 0.1, 0.2, -0.3, 0.0, 0.0, 0.0, 1.5, 0.0),
+        mavlink.MAVLink_position_target_local_ned_message(
+            1240, mavlink.MAV_FRAME_LOCAL_NED, 2048, 1.0, 2.0, -5.0, 0.1, 0.2, -0.3, 0.0, 0.0, 0.0, 1.5, 0.0
+        ),
     ]
     stamps = [EPOCH0_US, EPOCH0_US + 4_000, EPOCH0_US + 1_000_007]
     w = tlog.TlogWriter(tmp_path / "a.tlog")
@@ -127,8 +127,9 @@ def _fly(fc: FlightController, t_us: int) -> None:
 
 def test_recorder_one_tlog_per_arming_with_prearm_traffic_and_no_duplicates(tmp_path):
     fc = _flight_controller()
-    rec = flight_recorder.FlightRecorder(tmp_path, fc, instance=3, say=lambda text: None,
-                                         epoch_s=lambda: EPOCH0_US / 1e6)
+    rec = flight_recorder.FlightRecorder(
+        tmp_path, fc, instance=3, say=lambda text: None, epoch_s=lambda: EPOCH0_US / 1e6
+    )
     mav_gcs, mav_api = _mav(), _mav()
     hb = mavlink.MAVLink_heartbeat_message(2, 12, 0, 0, 3, 3)
     arm = mavlink.MAVLink_command_long_message(1, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
@@ -166,8 +167,12 @@ def test_recorder_one_tlog_per_arming_with_prearm_traffic_and_no_duplicates(tmp_
     path = tmp_path / (stems[0] + ".tlog")
     msgs = _read_tlog(path)
     assert [m.get_type() for m in msgs] == ["HEARTBEAT", "COMMAND_LONG", "COMMAND_ACK", "ATTITUDE"]
-    assert [round(m._timestamp * 1e6) for m in msgs] == [EPOCH0_US - 1_000_000, EPOCH0_US - 500_000,
-                                                         EPOCH0_US, EPOCH0_US + 500_000]
+    assert [round(m._timestamp * 1e6) for m in msgs] == [
+        EPOCH0_US - 1_000_000,
+        EPOCH0_US - 500_000,
+        EPOCH0_US,
+        EPOCH0_US + 500_000,
+    ]
     log = np.load(tmp_path / (stems[0] + ".fc.npy"))
     assert log["time_us"][0] == 2_000_000
     assert log["armed"][0] == 1 and log["armed"][-1] == 0
@@ -269,14 +274,20 @@ def test_link_streams_attitude_and_position_targets():
     instance = LINK_INSTANCE
     q_sp = from_euler(0.1, -0.05, 1.0)
     control = ControlSetpoints(
-        timestamp_us=0, pos_ned_m=np.array([1.0, 2.0, math.nan]), vel_ned_m_s=np.array([0.1, 0.2, -0.5]),
-        acc_ned_m_s2=np.array([0.0, 0.3, -0.1]), yaw_rad=1.0, q_sp_wxyz=q_sp,
-        rate_sp_frd_rad_s=np.array([0.2, -0.1, 0.05]), thrust_frac=0.57,
+        timestamp_us=0,
+        pos_ned_m=np.array([1.0, 2.0, math.nan]),
+        vel_ned_m_s=np.array([0.1, 0.2, -0.5]),
+        acc_ned_m_s2=np.array([0.0, 0.3, -0.1]),
+        yaw_rad=1.0,
+        q_sp_wxyz=q_sp,
+        rate_sp_frd_rad_s=np.array([0.2, -0.1, 0.05]),
+        thrust_frac=0.57,
     )
     vehicle = _Vehicle(_snapshot(control))
     link = GcsLink(vehicle, instance=instance)
-    client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{14550 + instance}", source_system=255,
-                                        source_component=190, dialect="common")
+    client = mavutil.mavlink_connection(
+        f"udpin:127.0.0.1:{14550 + instance}", source_system=255, source_component=190, dialect="common"
+    )
     got: list = []
     t = [0]
 
@@ -305,8 +316,9 @@ def test_link_streams_attitude_and_position_targets():
         assert at.thrust == pytest.approx(0.57)
         pt = next(m for m in got if m.get_type() == "POSITION_TARGET_LOCAL_NED")
         assert pt.coordinate_frame == mavlink.MAV_FRAME_LOCAL_NED
-        assert pt.type_mask == (mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE
-                                | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
+        assert pt.type_mask == (
+            mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+        )
         assert (pt.x, pt.y) == (1.0, 2.0) and math.isnan(pt.z)
         assert (pt.vx, pt.vy, pt.vz) == pytest.approx((0.1, 0.2, -0.5))
         assert (pt.afx, pt.afy, pt.afz) == pytest.approx((0.0, 0.3, -0.1)) and pt.yaw == pytest.approx(1.0)
@@ -315,10 +327,22 @@ def test_link_streams_attitude_and_position_targets():
         assert servos == (1500, 1600, 1000, 2000, 0)
 
         # SET_MESSAGE_INTERVAL works for them as for every stream: 50 Hz, then off.
-        client.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
-                                     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, 20_000, 0, 0, 0, 0, 0)
-        client.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
-                                     mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET, -1, 0, 0, 0, 0, 0)
+        client.mav.command_long_send(
+            1,
+            1,
+            mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
+            0,
+            mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED,
+            20_000,
+            0,
+            0,
+            0,
+            0,
+            0,
+        )
+        client.mav.command_long_send(
+            1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET, -1, 0, 0, 0, 0, 0
+        )
         time.sleep(0.05)
         got = run(0.1)
         acks = [m for m in got if m.get_type() == "COMMAND_ACK"]
@@ -348,15 +372,56 @@ def _synthetic_flight(tmp_path: Path, stem: str = "2026-01-02_03-04-05") -> tupl
     for k, t in enumerate(t_us):
         q = from_euler(float(roll[k]), 0.0, 0.2)
         q_sp = from_euler(float(roll[k]) * 1.2, 0.0, 0.2)
-        sp = [1.0, 0.0, -3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.2, *q_sp, 0.0, 0.0, 0.0, 0.5] if t > 2e6 \
+        sp = (
+            [1.0, 0.0, -3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.2, *q_sp, 0.0, 0.0, 0.0, 0.5]
+            if t > 2e6
             else [math.nan] * 18
-        w.append(int(t), 1, 4, 2 if t < 8e6 else 3, *sp, 0.5, 0.9, 0.0, -alt[k], 0.0, 0.0, 0.0, *q,
-                 0.0, 0.0, 0.0, 0.5, 0.52, 0.48, 0.5)
+        )
+        w.append(
+            int(t),
+            1,
+            4,
+            2 if t < 8e6 else 3,
+            *sp,
+            0.5,
+            0.9,
+            0.0,
+            -alt[k],
+            0.0,
+            0.0,
+            0.0,
+            *q,
+            0.0,
+            0.0,
+            0.0,
+            0.5,
+            0.52,
+            0.48,
+            0.5,
+        )
     w.close()
     w = NpyLogWriter(truth_path, truth_log_fields(4), chunk_rows=500)
     for k, t in enumerate(t_us):
-        w.append(int(t), 1, 1.0, 0.02, -alt[k] - 0.2, 0.0, 0.0, 0.0, float(roll[k]) + 0.01, 0.0, 0.2,
-                 0.0, 0.0, 0.0, 0.5, 0.5, 0.5, 0.5)
+        w.append(
+            int(t),
+            1,
+            1.0,
+            0.02,
+            -alt[k] - 0.2,
+            0.0,
+            0.0,
+            0.0,
+            float(roll[k]) + 0.01,
+            0.0,
+            0.2,
+            0.0,
+            0.0,
+            0.0,
+            0.5,
+            0.5,
+            0.5,
+            0.5,
+        )
     w.close()
     return fc_path, truth_path
 
@@ -390,12 +455,13 @@ def test_gcs_plot_tlog(tmp_path):
     for k in range(200):  # 10 s at 20 Hz, every message twice (two endpoints)
         ms = k * 50
         q = list(from_euler(0.1, 0.0, 0.0))
-        msgs = [mavlink.MAVLink_attitude_message(ms, 0.09, 0.01, 0.0, 0, 0, 0),
-                mavlink.MAVLink_attitude_target_message(ms, 0, q, 0, 0, 0, 0.5),
-                mavlink.MAVLink_local_position_ned_message(ms + 10, 0.0, 0.0, -min(ms / 1000.0, 3.0), 0, 0, 0),
-                mavlink.MAVLink_position_target_local_ned_message(ms + 10, 1, 0, 0.0, 0.0, -3.0,
-                                                                  0, 0, 0, 0, 0, 0, 0, 0),
-                mavlink.MAVLink_servo_output_raw_message(ms * 1000, 0, 1500, 1500, 1500, 1500, 0, 0, 0, 0)]
+        msgs = [
+            mavlink.MAVLink_attitude_message(ms, 0.09, 0.01, 0.0, 0, 0, 0),
+            mavlink.MAVLink_attitude_target_message(ms, 0, q, 0, 0, 0, 0.5),
+            mavlink.MAVLink_local_position_ned_message(ms + 10, 0.0, 0.0, -min(ms / 1000.0, 3.0), 0, 0, 0),
+            mavlink.MAVLink_position_target_local_ned_message(ms + 10, 1, 0, 0.0, 0.0, -3.0, 0, 0, 0, 0, 0, 0, 0, 0),
+            mavlink.MAVLink_servo_output_raw_message(ms * 1000, 0, 1500, 1500, 1500, 1500, 0, 0, 0, 0),
+        ]
         if k % 20 == 0:
             msgs.append(mavlink.MAVLink_heartbeat_message(2, 12, 129, 4 << 16 | 3 << 24, 4, 3))
         for m in msgs * 2:
@@ -449,8 +515,15 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
 
     msgs = _read_tlog(tlogs[0])
     types = Counter(m.get_type() for m in msgs)
-    for needed in ("HEARTBEAT", "ATTITUDE", "ATTITUDE_TARGET", "POSITION_TARGET_LOCAL_NED", "COMMAND_LONG",
-                   "COMMAND_ACK", "SERVO_OUTPUT_RAW"):
+    for needed in (
+        "HEARTBEAT",
+        "ATTITUDE",
+        "ATTITUDE_TARGET",
+        "POSITION_TARGET_LOCAL_NED",
+        "COMMAND_LONG",
+        "COMMAND_ACK",
+        "SERVO_OUTPUT_RAW",
+    ):
         assert types[needed] > 0, types
     stamps = [m._timestamp for m in msgs]
     assert all(b >= a for a, b in zip(stamps, stamps[1:]))
@@ -475,8 +548,12 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
     assert abs(len(truth) - len(log)) < 50  # the same flight, both at 250 Hz
 
     out = tmp_path / "png"
-    proc = subprocess.run([sys.executable, "-m", "gcs", "plot", str(tlogs[0]), "--out", str(out)],
-                          capture_output=True, text=True, cwd=ROOT)
+    proc = subprocess.run(
+        [sys.executable, "-m", "gcs", "plot", str(tlogs[0]), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "ground truth from" in proc.stdout
     _check_pngs(out)

@@ -33,10 +33,19 @@ T0_US = 7_000_000
 
 def estimate(t_us: int, pos, vel=(0.0, 0.0, 0.0), yaw_rad: float = 0.4, position_valid: bool = True) -> VehicleEstimate:
     return VehicleEstimate(
-        timestamp_us=t_us, q_wxyz=np.array([1.0, 0.0, 0.0, 0.0]), rate_frd_rad_s=np.zeros(3),
-        accel_ned_m_s2=np.zeros(3), pos_ned_m=np.array(pos, dtype=float), vel_ned_m_s=np.array(vel, dtype=float),
-        attitude_valid=True, position_valid=position_valid, origin_lat_deg=47.4, origin_lon_deg=8.5,
-        origin_alt_amsl_m=500.0, yaw_rad=yaw_rad)
+        timestamp_us=t_us,
+        q_wxyz=np.array([1.0, 0.0, 0.0, 0.0]),
+        rate_frd_rad_s=np.zeros(3),
+        accel_ned_m_s2=np.zeros(3),
+        pos_ned_m=np.array(pos, dtype=float),
+        vel_ned_m_s=np.array(vel, dtype=float),
+        attitude_valid=True,
+        position_valid=position_valid,
+        origin_lat_deg=47.4,
+        origin_lon_deg=8.5,
+        origin_alt_amsl_m=500.0,
+        yaw_rad=yaw_rad,
+    )
 
 
 class Flight:
@@ -78,8 +87,13 @@ def params() -> ParameterStore:
 
 
 def test_every_task_has_the_interface(params):
-    for task in (TakeoffTask(-5.0, params), LoiterTask(), GotoTask(np.ones(3), 0.0, 1.0, 1.0),
-                 LandTask(0.0, params), ReturnTask(np.zeros(3), params)):
+    for task in (
+        TakeoffTask(-5.0, params),
+        LoiterTask(),
+        GotoTask(np.ones(3), 0.0, 1.0, 1.0),
+        LandTask(0.0, params),
+        ReturnTask(np.zeros(3), params),
+    ):
         assert isinstance(task, FlightTask)
 
 
@@ -201,7 +215,7 @@ def test_land_descends_at_land_speed_below_alt1_and_slews_at_acc_down_max(params
     assert v.max() == pytest.approx(fast)  # above MPC_LAND_ALT1: MPC_Z_VEL_MAX_DN
     # Below MPC_LAND_ALT1 (plus the distance the slew needs) it descends at MPC_LAND_SPEED.
     h = home_down - np.array(f.downs)
-    low = h < alt1 - (fast ** 2 - slow ** 2) / (2 * acc) - 0.1
+    low = h < alt1 - (fast**2 - slow**2) / (2 * acc) - 0.1
     assert low.any() and np.allclose(v[low], slow)
     for _, sp, _ in f.log:
         assert sp.pos_ned_m[:2] == pytest.approx([2.0, 3.0]) and sp.yaw_rad == 0.9
@@ -243,6 +257,7 @@ class RtlFlight(Flight):
             if not f.phase_log or f.phase_log[-1][1] is not f.task.phase:
                 f.phase_log.append(((f.t_us - T0_US) * 1e-6, f.task.phase))
             return until is not None and until(f)
+
         return super().run(seconds, until=record)
 
 
@@ -298,12 +313,14 @@ def test_land_detector_hysteresis_is_lndmc_trig_time(params):
         ld = LandDetector(params)
         ld.on_arm(0.0)
         t, log = T0_US, []
+
         def run(seconds, pos, vel, thrust):
             nonlocal t
             for _ in range(round(seconds / DT_S)):
                 t += STEP_US
                 e = estimate(t, pos, vel)
                 log.append((t, ld.update(t, True, e.vel_ned_m_s, float(e.pos_ned_m[2]), thrust), ld.ground_contact))
+
         run(1.0, (0, 0, 0), (0, 0, 0), 1.0)
         assert ld.state is Landed.ON_GROUND  # thrust alone is no take-off
         run(1.0, (0, 0, -2.0), (0, 0, -1.0), 1.0)
@@ -324,7 +341,12 @@ def test_navigation_imports_no_socket_clock_or_mavlink():
     banned = {"socket", "time", "pymavlink", "datetime", "selectors"}
     for path in sorted(folder.glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
-                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
             for n in names:
                 assert n.split(".")[0] not in banned, f"{path.name} imports {n}"

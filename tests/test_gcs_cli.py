@@ -21,12 +21,12 @@ from pathlib import Path
 import pytest
 
 from gcs import geo
-from mavsim_core import px4_modes as modes
 from gcs.__main__ import build_parser, main, resolve_url, status_line
 from gcs.client import VehicleClient
 from gcs.errors import GcsTimeout
 from gcs.launcher import Stack, demo
 from mavsim_core import param_encoding
+from mavsim_core import px4_modes as modes
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -46,9 +46,19 @@ def free_udp_port() -> int:
 
 
 PX4_NUMBERS = {  # name: (main, sub), from PX4's px4_custom_mode.h
-    "MANUAL": (1, 0), "ALTCTL": (2, 0), "POSCTL": (3, 0), "READY": (4, 1), "TAKEOFF": (4, 2),
-    "LOITER": (4, 3), "MISSION": (4, 4), "RTL": (4, 5), "LAND": (4, 6), "PRECLAND": (4, 9),
-    "ACRO": (5, 0), "OFFBOARD": (6, 0), "STABILIZED": (7, 0),
+    "MANUAL": (1, 0),
+    "ALTCTL": (2, 0),
+    "POSCTL": (3, 0),
+    "READY": (4, 1),
+    "TAKEOFF": (4, 2),
+    "LOITER": (4, 3),
+    "MISSION": (4, 4),
+    "RTL": (4, 5),
+    "LAND": (4, 6),
+    "PRECLAND": (4, 9),
+    "ACRO": (5, 0),
+    "OFFBOARD": (6, 0),
+    "STABILIZED": (7, 0),
 }
 
 
@@ -82,8 +92,20 @@ def test_mode_aliases_and_errors():
 # --------------------------------------------------------------------------- parameters
 
 
-INT32_VALUES = [0, 1, -1, 42, 4001, 1000000, 2**31 - 1, -2**31,
-                -8388607, -4194305, 2139095041, 0x7FA00000]  # the last four are signalling-NaN patterns
+INT32_VALUES = [
+    0,
+    1,
+    -1,
+    42,
+    4001,
+    1000000,
+    2**31 - 1,
+    -(2**31),
+    -8388607,
+    -4194305,
+    2139095041,
+    0x7FA00000,
+]  # the last four are signalling-NaN patterns
 
 
 @pytest.mark.parametrize("value", INT32_VALUES)
@@ -96,7 +118,7 @@ def test_int32_bytewise_round_trip(value):
 def test_int32_encoding_is_not_float_conversion():
     assert param_encoding.encode_param_float(1, param_encoding.INT32) == struct.unpack("<f", b"\x01\0\0\0")[0]
     assert param_encoding.encode_param_float(1, param_encoding.INT32) != 1.0
-    for value in (0, 1, -1, 42, 2**31 - 1, -2**31, 123456789):
+    for value in (0, 1, -1, 42, 2**31 - 1, -(2**31), 123456789):
         f = param_encoding.encode_param_float(value, param_encoding.INT32)
         assert param_encoding.decode_param_float(f, param_encoding.INT32) == value
 
@@ -106,10 +128,18 @@ def test_real32_and_small_int_types():
         raw = param_encoding.encode_param_bytes(value, param_encoding.REAL32)
         as_float32 = struct.unpack("<f", struct.pack("<f", value))[0]
         assert param_encoding.decode_param_bytes(raw, param_encoding.REAL32) == as_float32
-    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(-5, param_encoding.INT8),
-                                             param_encoding.INT8) == -5
-    assert param_encoding.decode_param_bytes(param_encoding.encode_param_bytes(60000, param_encoding.UINT16),
-                                             param_encoding.UINT16) == 60000
+    assert (
+        param_encoding.decode_param_bytes(
+            param_encoding.encode_param_bytes(-5, param_encoding.INT8), param_encoding.INT8
+        )
+        == -5
+    )
+    assert (
+        param_encoding.decode_param_bytes(
+            param_encoding.encode_param_bytes(60000, param_encoding.UINT16), param_encoding.UINT16
+        )
+        == 60000
+    )
     with pytest.raises(ValueError):
         param_encoding.encode_param_bytes(1.5, param_encoding.INT32)
     with pytest.raises(ValueError):
@@ -179,8 +209,13 @@ def test_arm_without_vehicle_times_out_with_exit_2(capsys):
 
 
 def test_python_m_gcs_arm_without_vehicle_exits_2():
-    proc = subprocess.run([sys.executable, "-m", "gcs", "--instance", str(NOBODY), "--timeout", "0.5", "arm"],
-                          cwd=ROOT, capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "gcs", "--instance", str(NOBODY), "--timeout", "0.5", "arm"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2
     assert "waiting for a heartbeat" in proc.stderr
     assert proc.stdout == ""
@@ -208,8 +243,21 @@ def test_stack_ports_and_commands():
     s = Stack(instance=7, speed=2, vehicle="quad_x", extra_sitl_args=["--x"], home="1,2,3", seed=5)
     assert (s.sitl_port, s.gcs_port, s.api_port) == (4567, 14557, 14547)
     assert s.api_url == "udpin:0.0.0.0:14547"
-    assert s.sitl_command()[1:] == ["-m", "sitl", "--vehicle", "quad_x", "--speed", "2", "--instance", "7",
-                                    "--home", "1,2,3", "--seed", "5", "--x"]
+    assert s.sitl_command()[1:] == [
+        "-m",
+        "sitl",
+        "--vehicle",
+        "quad_x",
+        "--speed",
+        "2",
+        "--instance",
+        "7",
+        "--home",
+        "1,2,3",
+        "--seed",
+        "5",
+        "--x",
+    ]
     assert s.autopilot_command()[1:] == ["-m", "autopilot", "--vehicle", "quad_x", "--instance", "7"]
     assert Stack().speed == "max"
 
@@ -219,8 +267,9 @@ def test_demo_reports_dead_flight_controller_with_log_tail(capsys):
     """The real simulator starts; the flight controller cannot: the demo says which and why."""
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
-        rc = demo.main(["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module",
-                        "--ready-timeout", "60"])
+        rc = demo.main(
+            ["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"]
+        )
     finally:
         signal.signal(signal.SIGTERM, sigterm)
     err = capsys.readouterr().err

@@ -21,9 +21,6 @@ from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from autopilot.mavlink.link import GcsLink  # noqa: E402
-from mavsim_core.statustext import split_statustext  # noqa: E402
-from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
-from mavsim_core.quaternion import to_euler  # noqa: E402
 from autopilot.parameters import ParamDef, ParameterStore, ParamType  # noqa: E402
 from autopilot.topics import (  # noqa: E402
     BatteryState,
@@ -33,7 +30,10 @@ from autopilot.topics import (  # noqa: E402
     TelemetrySnapshot,
     VehicleEstimate,
 )
+from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic  # noqa: E402
 from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
+from mavsim_core.quaternion import to_euler  # noqa: E402
+from mavsim_core.statustext import split_statustext  # noqa: E402
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -230,8 +230,12 @@ def test_to_euler():
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    q = [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
-         cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
+    q = [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]
     assert to_euler(q) == pytest.approx((roll, pitch, yaw))
 
 
@@ -459,8 +463,10 @@ def test_timesync_and_empty_mission(make_harness):
     assert ts.ts1 == 123456789 and 0 < ts.tc1 <= h.t_us * 1000
     (count,) = of_type(got, "MISSION_COUNT")
     assert (count.count, count.mission_type, count.target_system) == (0, mavlink.MAV_MISSION_TYPE_FENCE, GCS_SYS)
-    assert [a.type for a in of_type(got, "MISSION_ACK")] == [mavlink.MAV_MISSION_ACCEPTED,
-                                                             mavlink.MAV_MISSION_UNSUPPORTED]
+    assert [a.type for a in of_type(got, "MISSION_ACK")] == [
+        mavlink.MAV_MISSION_ACCEPTED,
+        mavlink.MAV_MISSION_UNSUPPORTED,
+    ]
 
 
 # --------------------------------------------------------------------------- parameters
@@ -496,8 +502,9 @@ class RawParamSet(mavlink.MAVLink_param_set_message):
         self.raw4 = raw4
 
     def pack(self, mav, force_mavlink1=False):
-        payload = self.unpacker.pack(0.0, self.target_system, self.target_component, self._param_id_raw,
-                                     self.param_type)
+        payload = self.unpacker.pack(
+            0.0, self.target_system, self.target_component, self._param_id_raw, self.param_type
+        )
         return self._pack(mav, self.crc_extra, self.raw4 + payload[4:], force_mavlink1=force_mavlink1)
 
 
@@ -572,9 +579,13 @@ def test_param_change_from_elsewhere_is_broadcast(make_harness):
 def test_garbage_does_not_break_the_link(make_harness):
     h = make_harness(LINK[4])
     c = h.connect("gcs")
-    good = mavlink.MAVLink(None, GCS_SYS, GCS_COMP).command_long_encode(
-        1, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0
-    ).pack(mavlink.MAVLink(None, GCS_SYS, GCS_COMP))
+    good = (
+        mavlink.MAVLink(None, GCS_SYS, GCS_COMP)
+        .command_long_encode(
+            1, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0
+        )
+        .pack(mavlink.MAVLink(None, GCS_SYS, GCS_COMP))
+    )
     bad_crc = bytearray(good)
     bad_crc[-1] ^= 0xFF
     rng = np.random.default_rng(1)
@@ -654,8 +665,9 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
     battery = BatteryState(voltage_v=math.nan, current_a=math.nan, remaining_frac=math.nan)
     from dataclasses import replace
 
-    h = make_harness(LINK[7], StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery,
-                                                           throttle_frac=math.nan)))
+    h = make_harness(
+        LINK[7], StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery, throttle_frac=math.nan))
+    )
     h.client("gcs")
     got = h.pump(2.0)["gcs"]
     assert h.link.tx_build_errors == 0

@@ -14,7 +14,8 @@ FAST = (mavlink.MAVLink_hil_sensor_message, mavlink.MAVLink_hil_actuator_control
 
 def _sensor(k: int) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_hil_sensor_message(
-        4000 * k, 0.1 * k, -0.2, -9.8, 0.01, -0.02, 0.003 * k, 0.21, 0.0, 0.43, 955.5, 0.0, 5.0 + k, 20.0, 0x1FFF, 0)
+        4000 * k, 0.1 * k, -0.2, -9.8, 0.01, -0.02, 0.003 * k, 0.21, 0.0, 0.43, 955.5, 0.0, 5.0 + k, 20.0, 0x1FFF, 0
+    )
 
 
 def _actuators(k: int, armed: bool = True) -> mavlink.MAVLink_message:
@@ -59,7 +60,7 @@ def test_stream_parser_matches_pymavlink_on_split_mixed_and_damaged_streams():
         out, i = [], 0
         while i < len(stream):
             step = rng.choice([1, 3, 17, 64, 300])
-            out.extend(parse(bytes(stream[i:i + step])))
+            out.extend(parse(bytes(stream[i : i + step])))
             i += step
         return out
 
@@ -76,6 +77,9 @@ def test_stream_parser_matches_pymavlink_on_split_mixed_and_damaged_streams():
     assert len(good) > 400
     for a, b in zip([m for m in got if m.get_type() != "BAD_DATA"], good):
         assert a.to_dict() == b.to_dict()
-        assert (a.get_srcSystem(), a.get_srcComponent(), a.get_seq()) == (b.get_srcSystem(), b.get_srcComponent(),
-                                                                         b.get_seq())
+        assert (a.get_srcSystem(), a.get_srcComponent(), a.get_seq()) == (
+            b.get_srcSystem(),
+            b.get_srcComponent(),
+            b.get_seq(),
+        )
     assert any(m.get_type() == "BAD_DATA" for m in got)  # the damage is reported, as pymavlink does

@@ -10,8 +10,7 @@ TESTS = Path(__file__).resolve().parent
 
 
 def test_ports_of_an_instance():
-    assert ports(3) == {("tcp", 4563), ("udp", 14543), ("udp", 14553), ("udp", 14563), ("udp", 14583),
-                        ("udp", 18573)}
+    assert ports(3) == {("tcp", 4563), ("udp", 14543), ("udp", 14553), ("udp", 14563), ("udp", 14583), ("udp", 18573)}
 
 
 def test_collision_rule_is_the_differences_10_to_40():

@@ -168,5 +168,6 @@ def test_dynamics_is_nonlinear_away_from_hover():
     x[S["phi"]] = math.radians(30.0)
     xdot = f(x, np.zeros(4))
     # Body frame: gravity R^T g e_z minus thrust m g / m along z: (0, g sin phi, g cos phi - g).
-    np.testing.assert_allclose(xdot[3:6], [0.0, GRAVITY_M_S2 * 0.5, GRAVITY_M_S2 * (math.cos(math.radians(30)) - 1)],
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        xdot[3:6], [0.0, GRAVITY_M_S2 * 0.5, GRAVITY_M_S2 * (math.cos(math.radians(30)) - 1)], atol=1e-9
+    )

@@ -57,8 +57,11 @@ def test_table_covers_the_commands_of_px4_identity():
     }  # fmt: skip
     assert set(commands.COMMANDS) == expected
     by_link = {c for c, row in commands.COMMANDS.items() if row.by is commands.By.LINK}
-    assert by_link == {mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_CMD_REQUEST_MESSAGE,
-                       mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES}
+    assert by_link == {
+        mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
+        mavlink.MAV_CMD_REQUEST_MESSAGE,
+        mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+    }
 
 
 @pytest.mark.parametrize("params", [(0.0,) * 7, (math.nan,) * 7, (1.0,) * 7, (-1.0, 21196.0, 4, 3, 0.0, 0.0, 500.0)])
@@ -75,23 +78,39 @@ def test_every_vehicle_row_returns_a_mav_result_and_says_why_when_refused(params
 
 
 def test_command_int_coordinates():
-    msg = mavlink.MAVLink_command_int_message(1, 1, mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_CMD_DO_REPOSITION, 0, 0,
-                                              -1.0, 0.0, 0.0, math.nan, 473977420, 85455940, 510.5)
+    msg = mavlink.MAVLink_command_int_message(
+        1,
+        1,
+        mavlink.MAV_FRAME_GLOBAL_INT,
+        mavlink.MAV_CMD_DO_REPOSITION,
+        0,
+        0,
+        -1.0,
+        0.0,
+        0.0,
+        math.nan,
+        473977420,
+        85455940,
+        510.5,
+    )
     p = commands.command_int_params(msg)
     assert p[4] == pytest.approx(47.397742) and p[5] == pytest.approx(8.545594) and p[6] == 510.5
-    local = mavlink.MAVLink_command_int_message(1, 1, mavlink.MAV_FRAME_LOCAL_NED, 0, 0, 0, 0, 0, 0, 0,
-                                                125000, -5000, 3)
+    local = mavlink.MAVLink_command_int_message(
+        1, 1, mavlink.MAV_FRAME_LOCAL_NED, 0, 0, 0, 0, 0, 0, 0, 125000, -5000, 3
+    )
     assert commands.command_int_params(local)[4:6] == pytest.approx((12.5, -0.5))
-    unused = mavlink.MAVLink_command_int_message(1, 1, mavlink.MAV_FRAME_GLOBAL_INT, 0, 0, 0, 0, 0, 0, 0,
-                                                 2**31 - 1, 2**31 - 1, 0)
+    unused = mavlink.MAVLink_command_int_message(
+        1, 1, mavlink.MAV_FRAME_GLOBAL_INT, 0, 0, 0, 0, 0, 0, 0, 2**31 - 1, 2**31 - 1, 0
+    )
     assert all(math.isnan(v) for v in commands.command_int_params(unused)[4:6])
 
 
 def test_every_command_gets_one_ack_over_udp():
     fc = FlightController(load_vehicle("quad_x"), default_store())
     link = GcsLink(FlightControllerVehicle(fc), instance=INSTANCE)
-    client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{14550 + INSTANCE}", source_system=255,
-                                        source_component=190, dialect="common")
+    client = mavutil.mavlink_connection(
+        f"udpin:127.0.0.1:{14550 + INSTANCE}", source_system=255, source_component=190, dialect="common"
+    )
     t_us = 0
     got: list = []
 

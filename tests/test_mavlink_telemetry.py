@@ -17,9 +17,19 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander import health
 from autopilot.mavlink import telemetry
 from autopilot.mavlink.vehicle_interface import telemetry_snapshot
-from autopilot.topics import (ActuatorStatus, BatteryState, BatteryWarning, CommanderStatus, ControlSetpoints,
-                              EstimatorStatus, GpsSample, HomePosition, LandedState, TelemetrySnapshot,
-                              VehicleEstimate)
+from autopilot.topics import (
+    ActuatorStatus,
+    BatteryState,
+    BatteryWarning,
+    CommanderStatus,
+    ControlSetpoints,
+    EstimatorStatus,
+    GpsSample,
+    HomePosition,
+    LandedState,
+    TelemetrySnapshot,
+    VehicleEstimate,
+)
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.px4_modes import Mode
 from mavsim_core.quaternion import from_euler
@@ -129,8 +139,15 @@ def test_no_position_no_position_messages():
     assert telemetry.global_position_int(snap, NOW_US) is None
     assert telemetry.local_position_ned(snap, NOW_US) is None
     none = _snapshot(estimate=None, gps=None, home=None)
-    for builder in (telemetry.attitude, telemetry.attitude_quaternion, telemetry.vfr_hud, telemetry.gps_raw_int,
-                    telemetry.home_position, telemetry.attitude_target, telemetry.estimator_status):
+    for builder in (
+        telemetry.attitude,
+        telemetry.attitude_quaternion,
+        telemetry.vfr_hud,
+        telemetry.gps_raw_int,
+        telemetry.home_position,
+        telemetry.attitude_target,
+        telemetry.estimator_status,
+    ):
         assert builder(none, NOW_US) is None
 
 
@@ -159,12 +176,15 @@ def test_home_position():
 # --------------------------------------------------------------------------- battery
 
 
-@pytest.mark.parametrize("warning, charge_state", [
-    (BatteryWarning.NONE, mavlink.MAV_BATTERY_CHARGE_STATE_OK),
-    (BatteryWarning.LOW, mavlink.MAV_BATTERY_CHARGE_STATE_LOW),
-    (BatteryWarning.CRITICAL, mavlink.MAV_BATTERY_CHARGE_STATE_CRITICAL),
-    (BatteryWarning.EMERGENCY, mavlink.MAV_BATTERY_CHARGE_STATE_EMERGENCY),
-])
+@pytest.mark.parametrize(
+    "warning, charge_state",
+    [
+        (BatteryWarning.NONE, mavlink.MAV_BATTERY_CHARGE_STATE_OK),
+        (BatteryWarning.LOW, mavlink.MAV_BATTERY_CHARGE_STATE_LOW),
+        (BatteryWarning.CRITICAL, mavlink.MAV_BATTERY_CHARGE_STATE_CRITICAL),
+        (BatteryWarning.EMERGENCY, mavlink.MAV_BATTERY_CHARGE_STATE_EMERGENCY),
+    ],
+)
 def test_battery_status_cells_and_charge_state(warning, charge_state):
     bat = _build(mavlink.MAVLINK_MSG_ID_BATTERY_STATUS, _snapshot(battery_warning=warning))
     assert list(bat.voltages) == [3800] * 4 + [65535] * 6  # mV per cell
@@ -193,9 +213,14 @@ def test_servo_output_raw_pwm():
 
 def test_attitude_and_position_targets():
     control = ControlSetpoints(
-        timestamp_us=NOW_US, pos_ned_m=np.array([1.0, 2.0, math.nan]), vel_ned_m_s=np.array([0.1, 0.2, -0.5]),
-        acc_ned_m_s2=np.array([0.0, 0.3, -0.1]), yaw_rad=1.0, q_sp_wxyz=from_euler(0.1, 0.0, 1.0),
-        rate_sp_frd_rad_s=np.array([0.2, -0.1, 0.05]), thrust_frac=1.7,
+        timestamp_us=NOW_US,
+        pos_ned_m=np.array([1.0, 2.0, math.nan]),
+        vel_ned_m_s=np.array([0.1, 0.2, -0.5]),
+        acc_ned_m_s2=np.array([0.0, 0.3, -0.1]),
+        yaw_rad=1.0,
+        q_sp_wxyz=from_euler(0.1, 0.0, 1.0),
+        rate_sp_frd_rad_s=np.array([0.2, -0.1, 0.05]),
+        thrust_frac=1.7,
     )
     snap = _snapshot(control=control)
     at = _build(mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET, snap)
@@ -217,9 +242,18 @@ def test_estimator_status():
 
 
 def test_autopilot_version():
-    v = _wire(telemetry.autopilot_version(
-        flight_sw_version=telemetry.DEFAULT_FLIGHT_SW_VERSION, middleware_sw_version=0, os_sw_version=0,
-        board_version=0, flight_custom_version=b"mavsim", vendor_id=0, product_id=0, uid=42))
+    v = _wire(
+        telemetry.autopilot_version(
+            flight_sw_version=telemetry.DEFAULT_FLIGHT_SW_VERSION,
+            middleware_sw_version=0,
+            os_sw_version=0,
+            board_version=0,
+            flight_custom_version=b"mavsim",
+            vendor_id=0,
+            product_id=0,
+            uid=42,
+        )
+    )
     assert v.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
     assert v.flight_sw_version >> 24 == 1 and (v.flight_sw_version >> 16) & 0xFF == 14  # PX4 1.14
     assert bytes(v.flight_custom_version) == b"mavsim\x00\x00" and v.uid == 42
@@ -227,9 +261,11 @@ def test_autopilot_version():
 
 def test_nan_never_raises():
     nan3 = np.full(3, math.nan)
-    snap = _snapshot(estimate=_estimate(q_wxyz=np.full(4, math.nan), rate_frd_rad_s=nan3, pos_ned_m=nan3,
-                                        vel_ned_m_s=nan3), throttle_frac=math.nan,
-                     battery=BatteryState(math.nan, math.nan, math.nan))
+    snap = _snapshot(
+        estimate=_estimate(q_wxyz=np.full(4, math.nan), rate_frd_rad_s=nan3, pos_ned_m=nan3, vel_ned_m_s=nan3),
+        throttle_frac=math.nan,
+        battery=BatteryState(math.nan, math.nan, math.nan),
+    )
     for mid, builder in telemetry.BUILDERS.items():
         msg = builder(snap, NOW_US)
         if msg is not None:

@@ -50,7 +50,7 @@ def test_mix_reproduces_requested_wrench_when_not_saturated(quad):
         assert mixer.wrench(out.thrusts_n) == pytest.approx([*torque, hover_n], abs=1e-9)
         assert not out.sat_pos.any() and not out.sat_neg.any() and not out.thrust_saturated
         # Commands map linearly to rotor speed: T = T_max u^2.
-        assert out.commands ** 2 * quad.max_thrust_per_rotor_n == pytest.approx(out.thrusts_n)
+        assert out.commands**2 * quad.max_thrust_per_rotor_n == pytest.approx(out.thrusts_n)
         assert np.all((out.commands >= 0) & (out.commands <= 1))
     hover = mixer.mix(np.zeros(3), hover_n).commands
     assert hover == pytest.approx(np.full(4, quad.hover_speed_rad_s / quad.max_speed_rad_s))

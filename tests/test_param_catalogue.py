@@ -24,8 +24,31 @@ REGENERATE = "python -m autopilot.param_catalogue --markdown > docs/parameters.m
 
 # The unit spellings in use, PX4's where PX4 has one.  "" (and "-", which five derivative gains
 # use) for dimensionless values; "norm" for a fraction of full scale; "SD" for standard deviations.
-UNITS = {"", "-", "norm", "SD", "s", "ms", "Hz", "m", "m/s", "m/s^2", "m/s^3", "rad", "rad/s", "rad/s^2",
-         "deg", "deg/s", "1/s", "1/s^2", "%", "V", "A", "mAh", "gauss"}
+UNITS = {
+    "",
+    "-",
+    "norm",
+    "SD",
+    "s",
+    "ms",
+    "Hz",
+    "m",
+    "m/s",
+    "m/s^2",
+    "m/s^3",
+    "rad",
+    "rad/s",
+    "rad/s^2",
+    "deg",
+    "deg/s",
+    "1/s",
+    "1/s^2",
+    "%",
+    "V",
+    "A",
+    "mAh",
+    "gauss",
+}
 
 
 def test_docs_parameters_md_is_what_the_code_generates():
@@ -34,8 +57,14 @@ def test_docs_parameters_md_is_what_the_code_generates():
 
 
 def test_markdown_from_the_command_line_is_the_file():
-    out = subprocess.run([sys.executable, "-m", "autopilot.param_catalogue", "--markdown"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=60, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "autopilot.param_catalogue", "--markdown"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    ).stdout
     assert out == DOC.read_text()
 
 

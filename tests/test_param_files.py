@@ -23,17 +23,35 @@ import pytest
 
 importlib.import_module("autopilot.flight_controller")  # declares every parameter of the flight controller
 from autopilot import param_storage
-from autopilot.param_storage import (ParamSaver, apply_entries, atomic_write_text, load_file, prepare_parameters,
-                                     state_file, store_entries)
+from autopilot.param_catalogue import default_store
+from autopilot.param_storage import (
+    ParamSaver,
+    apply_entries,
+    atomic_write_text,
+    load_file,
+    prepare_parameters,
+    state_file,
+    store_entries,
+)
 from autopilot.parameters import RULES, ParamDef, ParamError, ParameterStore, ParamRule, ParamType
 from gcs.__main__ import build_parser
 from gcs.param_cli import ProgressBar
 from mavsim_core.param_encoding import INT32, REAL32
-from params.param_file import (MAVPROXY, QGC, ParamEntry, ParamFileError, apply_in_passes, detect_format,
-                               diff_params, format_params, format_value, parse_param_text, read_param_file,
-                               same_value)
+from params.param_file import (
+    MAVPROXY,
+    QGC,
+    ParamEntry,
+    ParamFileError,
+    apply_in_passes,
+    detect_format,
+    diff_params,
+    format_params,
+    format_value,
+    parse_param_text,
+    read_param_file,
+    same_value,
+)
 from params.vehicle import VEHICLE_DIR
-from autopilot.param_catalogue import default_store
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -115,20 +133,20 @@ def test_values_are_written_short_but_exact_as_float32():
     assert format_value(-7, None) == "-7"
     for x in (0.1, 1 / 3, 123.456, 1e-7, 3.4e38):
         assert f32(float(format_value(x, REAL32))) == f32(x)
-    extremes = [ParamEntry("BIG", 2**31 - 1, INT32), ParamEntry("SMALL", -2**31, INT32)]
-    assert parse_param_text(format_params(extremes, QGC)).values() == {"BIG": 2**31 - 1, "SMALL": -2**31}
+    extremes = [ParamEntry("BIG", 2**31 - 1, INT32), ParamEntry("SMALL", -(2**31), INT32)]
+    assert parse_param_text(format_params(extremes, QGC)).values() == {"BIG": 2**31 - 1, "SMALL": -(2**31)}
 
 
 def test_bad_lines_are_reported_with_their_line_and_the_rest_read():
     text = (
         "1\t1\tMPC_XY_P\t1.1\t9\n"
-        "1\t1\tMPC_Z_P\tfast\t9\n"            # 2: not a number
-        "1\t1\tSYS_AUTOSTART\t4001.5\t6\n"    # 3: INT32 not an integer
-        "1\t1\tMPC_XY_CRUISE\t3\t10\n"        # 4: REAL64 unsupported
-        "1\t1\tMPC_Z_P\t1\n"                  # 5: 4 fields
+        "1\t1\tMPC_Z_P\tfast\t9\n"  # 2: not a number
+        "1\t1\tSYS_AUTOSTART\t4001.5\t6\n"  # 3: INT32 not an integer
+        "1\t1\tMPC_XY_CRUISE\t3\t10\n"  # 4: REAL64 unsupported
+        "1\t1\tMPC_Z_P\t1\n"  # 5: 4 fields
         "1\t1\tA_NAME_THAT_IS_TOO_LONG\t1\t9\n"  # 6: name
-        "x\t1\tMPC_Z_P\t1\t9\n"               # 7: sysid not a number
-        "1\t1\tMPC_XY_VEL_MAX\tnan\t9\n"      # 8: not finite
+        "x\t1\tMPC_Z_P\t1\t9\n"  # 7: sysid not a number
+        "1\t1\tMPC_XY_VEL_MAX\tnan\t9\n"  # 8: not finite
         "1\t1\tMC_ROLL_P\t7\t9\n"
     )
     pf = parse_param_text(text, "tuned.params")
@@ -152,7 +170,10 @@ def test_diff():
     theirs = {"A": f32(1.2), "B": 4, "C": 0.1, "E": 1.0}
     types = {"A": REAL32, "B": INT32, "C": REAL32}
     assert [(d.name, d.ours, d.theirs) for d in diff_params(ours, theirs, types)] == [
-        ("B", 3, 4), ("D", 5.0, None), ("E", None, 1.0)]
+        ("B", 3, 4),
+        ("D", 5.0, None),
+        ("E", None, 1.0),
+    ]
     assert [d.name for d in diff_params(ours, theirs, types, only_ours=True)] == ["B", "D"]
     assert diff_params({"A": 1.00000001}, {"A": 1.0}, {"A": REAL32}) == []  # same float32
     assert [d.name for d in diff_params({"A": 1.001}, {"A": 1.0}, {"A": REAL32})] == ["A"]
@@ -177,24 +198,46 @@ def test_apply_in_passes_retries_what_another_entry_unlocks():
 
 
 def test_px4_names_of_the_issue_are_declared(store):
-    for name in ("MC_ROLL_P", "MC_ROLLRATE_P", "MC_ROLLRATE_I", "MC_ROLLRATE_D", "MC_YAWRATE_P", "MPC_XY_P",
-                 "MPC_XY_VEL_P_ACC", "MPC_XY_VEL_I_ACC", "MPC_XY_VEL_D_ACC", "MPC_Z_P", "MPC_Z_VEL_P_ACC",
-                 "MPC_Z_VEL_I_ACC", "MPC_Z_VEL_D_ACC", "MPC_XY_VEL_MAX", "MPC_Z_VEL_MAX_UP", "MPC_Z_VEL_MAX_DN",
-                 "MPC_LAND_SPEED", "MPC_TILTMAX_AIR", "MIS_TAKEOFF_ALT", "RTL_RETURN_ALT", "COM_DISARM_LAND",
-                 "SYS_AUTOSTART"):
+    for name in (
+        "MC_ROLL_P",
+        "MC_ROLLRATE_P",
+        "MC_ROLLRATE_I",
+        "MC_ROLLRATE_D",
+        "MC_YAWRATE_P",
+        "MPC_XY_P",
+        "MPC_XY_VEL_P_ACC",
+        "MPC_XY_VEL_I_ACC",
+        "MPC_XY_VEL_D_ACC",
+        "MPC_Z_P",
+        "MPC_Z_VEL_P_ACC",
+        "MPC_Z_VEL_I_ACC",
+        "MPC_Z_VEL_D_ACC",
+        "MPC_XY_VEL_MAX",
+        "MPC_Z_VEL_MAX_UP",
+        "MPC_Z_VEL_MAX_DN",
+        "MPC_LAND_SPEED",
+        "MPC_TILTMAX_AIR",
+        "MIS_TAKEOFF_ALT",
+        "RTL_RETURN_ALT",
+        "COM_DISARM_LAND",
+        "SYS_AUTOSTART",
+    ):
         assert name in store, name
     assert {str(r) for r in store.rules()} == {str(r) for r in RULES}  # every rule's parameters exist
 
 
-@pytest.mark.parametrize(("name", "value", "why"), [
-    ("MPC_LAND_SPEED", 1.8, "MPC_LAND_SPEED 1.8 refused: must be <= MPC_Z_VEL_MAX_DN (1.5 m/s)"),
-    ("MPC_Z_VEL_MAX_DN", 0.6, "MPC_Z_VEL_MAX_DN 0.6 refused: must be >= MPC_LAND_SPEED (0.7 m/s)"),
-    ("MPC_THR_MIN", 0.5, None),  # allowed: 0.5 < 1.0
-    ("MPC_TKO_SPEED", 3.5, "must be <= MPC_Z_VEL_MAX_UP"),
-    ("MPC_XY_CRUISE", 6.0, "must be <= MPC_XY_VEL_MAX"),
-    ("MPC_XY_VEL_MAX", 2.0, "must be >= MPC_XY_CRUISE"),
-    ("LNDMC_Z_VEL_MAX", 0.7, "must be < MPC_LAND_SPEED"),
-])
+@pytest.mark.parametrize(
+    ("name", "value", "why"),
+    [
+        ("MPC_LAND_SPEED", 1.8, "MPC_LAND_SPEED 1.8 refused: must be <= MPC_Z_VEL_MAX_DN (1.5 m/s)"),
+        ("MPC_Z_VEL_MAX_DN", 0.6, "MPC_Z_VEL_MAX_DN 0.6 refused: must be >= MPC_LAND_SPEED (0.7 m/s)"),
+        ("MPC_THR_MIN", 0.5, None),  # allowed: 0.5 < 1.0
+        ("MPC_TKO_SPEED", 3.5, "must be <= MPC_Z_VEL_MAX_UP"),
+        ("MPC_XY_CRUISE", 6.0, "must be <= MPC_XY_VEL_MAX"),
+        ("MPC_XY_VEL_MAX", 2.0, "must be >= MPC_XY_CRUISE"),
+        ("LNDMC_Z_VEL_MAX", 0.7, "must be < MPC_LAND_SPEED"),
+    ],
+)
 def test_rules_refuse_and_change_nothing(store, name, value, why):
     seen = []
     store.subscribe(lambda n, v: seen.append(n))
@@ -264,9 +307,9 @@ def test_load_file_names_each_bad_line_and_applies_the_rest(store, tmp_path):
         "1\t1\tNO_SUCH_PARAM\t1\t9\n"
         "1\t1\tMPC_XY_P\t50\t9\n"
         "this is not a parameter line\n"
-        "1\t1\tSYS_AUTOSTART\t4001\t9\n"      # wrong type
-        "1\t100\tCAM_MODE\t1\t6\n"            # another component
-        "1\t1\tMPC_LAND_SPEED\t1.8\t9\n"      # needs the next line first
+        "1\t1\tSYS_AUTOSTART\t4001\t9\n"  # wrong type
+        "1\t100\tCAM_MODE\t1\t6\n"  # another component
+        "1\t1\tMPC_LAND_SPEED\t1.8\t9\n"  # needs the next line first
         "1\t1\tMPC_Z_VEL_MAX_DN\t2\t9\n"
     )
     applied, messages = load_file(store, path)
@@ -279,9 +322,10 @@ def test_load_file_names_each_bad_line_and_applies_the_rest(store, tmp_path):
     assert f"{path}, line 5: SYS_AUTOSTART is INT32, not REAL32" in text
     assert f"{path}, line 6: CAM_MODE: component 100" in text
     assert len(messages) == 5
-    assert load_file(store, tmp_path / "missing.params") == (0, [f"cannot read parameter file "
-                                                                  f"{tmp_path / 'missing.params'}: "
-                                                                  "No such file or directory"])
+    assert load_file(store, tmp_path / "missing.params") == (
+        0,
+        [f"cannot read parameter file {tmp_path / 'missing.params'}: No such file or directory"],
+    )
 
 
 def test_start_up_order_vehicle_defaults_then_saved_state_then_params_file(tmp_path):
@@ -338,8 +382,11 @@ def test_saver_writes_changes_at_once_then_at_most_once_per_interval(store, tmp_
             store.set("MC_ROLL_P", 5.0 + i * 0.01)
         store.set("SYS_AUTOSTART", 4002)
         wait_for(lambda: saver.saves == 2)
-        assert read_param_file(path).values() == {"MC_ROLL_P": pytest.approx(5.49), "MPC_XY_P": pytest.approx(1.2),
-                                                  "SYS_AUTOSTART": 4002}
+        assert read_param_file(path).values() == {
+            "MC_ROLL_P": pytest.approx(5.49),
+            "MPC_XY_P": pytest.approx(1.2),
+            "SYS_AUTOSTART": 4002,
+        }
         store.set("MPC_XY_P", 0.95)  # back to the default: no longer saved
     finally:
         saver.close()  # writes what the interval held back
@@ -353,8 +400,9 @@ def test_saver_writes_changes_at_once_then_at_most_once_per_interval(store, tmp_
 
 def test_saver_initial_save_and_write_errors_are_reported(store, tmp_path):
     reports: list[str] = []
-    saver = ParamSaver(store, tmp_path / "missing-dir" / "x.params", initial_save=True, report=reports.append,
-                       min_interval_s=0.01)
+    saver = ParamSaver(
+        store, tmp_path / "missing-dir" / "x.params", initial_save=True, report=reports.append, min_interval_s=0.01
+    )
     wait_for(lambda: reports)
     saver.close()
     assert "cannot save parameters to" in reports[0] and saver.saves == 0
@@ -396,8 +444,13 @@ def test_atomic_write_survives_a_writer_killed_mid_write(tmp_path):
     path = tmp_path / "state.params"
     whole = {"A" * 200_000 + "\n", "B" * 300_000 + "\n"}
     for delay_s in (0.01, 0.037, 0.081):
-        proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path)], cwd=ROOT, stdout=subprocess.PIPE,
-                                text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        proc = subprocess.Popen(
+            [sys.executable, "-c", WRITER, str(path)],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            text=True,
+            env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        )
         try:
             assert proc.stdout.readline().strip() == "ready"
             time.sleep(delay_s)
@@ -447,8 +500,9 @@ def test_progress_bar_on_a_terminal_only():
 
 
 def test_apply_entries_counts(store):
-    applied, problems = apply_entries(store, [ParamEntry("MPC_XY_P", 1.5, REAL32, 1),
-                                              ParamEntry("MPC_XY_P", 3.0, REAL32, 2)])
+    applied, problems = apply_entries(
+        store, [ParamEntry("MPC_XY_P", 1.5, REAL32, 1), ParamEntry("MPC_XY_P", 3.0, REAL32, 2)]
+    )
     assert applied == 1 and [(p.line, p.reason) for p in problems] == [(2, "MPC_XY_P: 3 outside range [0, 2] 1/s")]
 
 
@@ -462,8 +516,9 @@ class FakeVehicleLink:
     ``rename_at`` that index is sent twice, the second time under another name (an inconsistent vehicle).
     """
 
-    def __init__(self, count: int, drop: set[int] = frozenset(), answer_reads: bool = True,
-                 rename_at: int | None = None) -> None:
+    def __init__(
+        self, count: int, drop: set[int] = frozenset(), answer_reads: bool = True, rename_at: int | None = None
+    ) -> None:
         from pymavlink.dialects.v20 import common as mavlink
 
         self.mavlink = mavlink

@@ -13,10 +13,12 @@ from autopilot.parameters import ParamDef, ParamError, ParameterStore, ParamType
 
 
 def test_parameter_store_refuses_bad_sets_and_changes_nothing():
-    store = ParameterStore({
-        "TEST_GAIN": ParamDef("TEST_GAIN", ParamType.REAL32, 1.0, 0.0, 5.0, "1/s", "a gain"),
-        "TEST_COUNT": ParamDef("TEST_COUNT", ParamType.INT32, 3, 1, 10, "", "a count"),
-    })
+    store = ParameterStore(
+        {
+            "TEST_GAIN": ParamDef("TEST_GAIN", ParamType.REAL32, 1.0, 0.0, 5.0, "1/s", "a gain"),
+            "TEST_COUNT": ParamDef("TEST_COUNT", ParamType.INT32, 3, 1, 10, "", "a count"),
+        }
+    )
     seen = []
     store.subscribe(lambda name, value: seen.append((name, value)))
     refused = [

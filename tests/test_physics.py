@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from mavsim_core import quaternion as quat
 from autopilot.control.mixer import Mixer
+from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2 as G
 from params.vehicle import load_vehicle
 from sitl.simulation import LOCKSTEP_DT_S, Simulation

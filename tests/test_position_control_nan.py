@@ -25,8 +25,9 @@ def quad():
 
 
 def make(quad, params=None) -> PositionControl:
-    return position_control_from_params(params or default_store(), quad.mass_kg,
-                                        len(quad.rotors) * quad.max_thrust_per_rotor_n)
+    return position_control_from_params(
+        params or default_store(), quad.mass_kg, len(quad.rotors) * quad.max_thrust_per_rotor_n
+    )
 
 
 def hover_thrust(quad) -> list[float]:

@@ -36,8 +36,9 @@ def test_rate_integrator_clamped_at_int_lim(params):
     rc = make_rate_control(params)
     for _ in range(5000):
         rc.update(np.zeros(3), np.array([5.0, -5.0, 5.0]), 0.004)
-    assert np.asarray(rc.integral) == pytest.approx([params.get("MC_RR_INT_LIM"), -params.get("MC_PR_INT_LIM"),
-                                                    params.get("MC_YR_INT_LIM")])
+    assert np.asarray(rc.integral) == pytest.approx(
+        [params.get("MC_RR_INT_LIM"), -params.get("MC_PR_INT_LIM"), params.get("MC_YR_INT_LIM")]
+    )
     params.set("MC_RR_INT_LIM", 1.5)  # a changed limit applies at once
     rc.update(np.zeros(3), np.array([5.0, -5.0, 5.0]), 0.004)
     assert rc.integral[0] == pytest.approx(1.5)

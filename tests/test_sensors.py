@@ -57,8 +57,10 @@ def test_imu_at_rest_mean_is_truth_plus_bias_and_noise_matches_density():
         gyr_bias.append(s.gyro_bias_frd)
     acc, gyr, acc_bias, gyr_bias = map(np.array, (acc, gyr, acc_bias, gyr_bias))
     cfg = s.settings
-    for reading, bias, truth, density in ((acc, acc_bias, f_true, cfg.accel_noise_density),
-                                          (gyr, gyr_bias, np.zeros(3), cfg.gyro_noise_density)):
+    for reading, bias, truth, density in (
+        (acc, acc_bias, f_true, cfg.accel_noise_density),
+        (gyr, gyr_bias, np.zeros(3), cfg.gyro_noise_density),
+    ):
         sigma = density * math.sqrt(1.0 / DT)
         noise = reading - truth - bias
         assert np.allclose(noise.std(axis=0), sigma, rtol=0.10)
@@ -92,13 +94,20 @@ def test_bias_random_walk_variance_grows_as_walk_squared_times_t():
         dg.append(g - g_prev)
         a_prev, g_prev = a, g
     t = window * DT
-    assert np.mean(np.square(da)) == pytest.approx(s.settings.accel_bias_walk ** 2 * t, rel=0.2)
-    assert np.mean(np.square(dg)) == pytest.approx(s.settings.gyro_bias_walk ** 2 * t, rel=0.2)
+    assert np.mean(np.square(da)) == pytest.approx(s.settings.accel_bias_walk**2 * t, rel=0.2)
+    assert np.mean(np.square(dg)) == pytest.approx(s.settings.gyro_bias_walk**2 * t, rel=0.2)
 
 
 def test_imu_noise_setting_acts_at_once():
-    s = suite(seed=2, accel_noise_density=0.0, gyro_noise_density=0.0, accel_bias_walk=0.0, gyro_bias_walk=0.0,
-              accel_bias_sd=0.0, gyro_bias_sd=0.0)
+    s = suite(
+        seed=2,
+        accel_noise_density=0.0,
+        gyro_noise_density=0.0,
+        accel_bias_walk=0.0,
+        gyro_bias_walk=0.0,
+        accel_bias_sd=0.0,
+        gyro_bias_sd=0.0,
+    )
     f = np.array([0.5, -0.25, -G])
     w = np.array([0.1, 0.2, -0.3])
     r = s.imu(f, w, LEVEL_NORTH, np.zeros(3), DT)
@@ -299,7 +308,8 @@ def test_reproducible_for_a_seed_and_gps_settings_do_not_disturb_the_imu():
 
     assert record(suite(seed=21)) == record(suite(seed=21))
     imu_a = [r for r in record(suite(seed=21)) if hasattr(r, "accel_frd_m_s2")]
-    imu_b = [r for r in record(suite(seed=21, gps_dropout_per_min=30.0, gps_noise_m=2.0))
-             if hasattr(r, "accel_frd_m_s2")]
+    imu_b = [
+        r for r in record(suite(seed=21, gps_dropout_per_min=30.0, gps_noise_m=2.0)) if hasattr(r, "accel_frd_m_s2")
+    ]
     assert imu_a == imu_b
     assert record(suite(seed=21)) != record(suite(seed=22))

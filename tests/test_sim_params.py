@@ -85,21 +85,24 @@ def test_set_writes_the_settings_objects():
     assert params.set("SIM_GYR_NOISE", float32(0.1)) == 0.1
 
 
-@pytest.mark.parametrize("name, value, reason", [
-    ("SIM_NOPE", 1.0, "unknown parameter"),
-    ("SIM_WIND_SPD", math.nan, "finite"),
-    ("SIM_WIND_SPD", math.inf, "finite"),
-    ("SIM_WIND_SPD", -math.inf, "finite"),
-    ("SIM_WIND_SPD", 30.5, "outside range [0, 30] m/s"),
-    ("SIM_WIND_SPD", -0.1, "outside range"),
-    ("SIM_GYR_NOISE", 0.1000002, "outside range"),
-    ("SIM_ENGINE_FAIL", 13, "outside range [0, 12]"),
-    ("SIM_ENGINE_FAIL", 2.5, "not an integer"),
-    ("SIM_GPS_LAG_MS", 1e-45, "not an integer"),  # a byte-wise int mistaken for a float
-    ("SIM_ENGINE_FAIL", "3", "expected a number"),
-    ("SIM_GPS_DISABLE", True, "expected a number"),
-    ("SIM_WIND_SPD", None, "expected a number"),
-])
+@pytest.mark.parametrize(
+    "name, value, reason",
+    [
+        ("SIM_NOPE", 1.0, "unknown parameter"),
+        ("SIM_WIND_SPD", math.nan, "finite"),
+        ("SIM_WIND_SPD", math.inf, "finite"),
+        ("SIM_WIND_SPD", -math.inf, "finite"),
+        ("SIM_WIND_SPD", 30.5, "outside range [0, 30] m/s"),
+        ("SIM_WIND_SPD", -0.1, "outside range"),
+        ("SIM_GYR_NOISE", 0.1000002, "outside range"),
+        ("SIM_ENGINE_FAIL", 13, "outside range [0, 12]"),
+        ("SIM_ENGINE_FAIL", 2.5, "not an integer"),
+        ("SIM_GPS_LAG_MS", 1e-45, "not an integer"),  # a byte-wise int mistaken for a float
+        ("SIM_ENGINE_FAIL", "3", "expected a number"),
+        ("SIM_GPS_DISABLE", True, "expected a number"),
+        ("SIM_WIND_SPD", None, "expected a number"),
+    ],
+)
 def test_refusals_change_nothing(name, value, reason):
     params, *_ = make_params()
     before = {n: params.get(n) for n in params.names()}
@@ -159,8 +162,14 @@ def test_shipped_scenarios():
     params, *_ = make_params()
     assert all(params.get(n) == v for n, v in calm.parameters.items()) and calm.events == ()
     windy = load_scenario("windy")
-    assert windy.parameters == {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 270.0, "SIM_WIND_TURB": 1.0,
-                                "SIM_GUST_SPD": 2.0, "SIM_GUST_DUR": 2.0, "SIM_GUST_INT": 10.0}
+    assert windy.parameters == {
+        "SIM_WIND_SPD": 5.0,
+        "SIM_WIND_DIR": 270.0,
+        "SIM_WIND_TURB": 1.0,
+        "SIM_GUST_SPD": 2.0,
+        "SIM_GUST_DUR": 2.0,
+        "SIM_GUST_INT": 10.0,
+    }
     hexa = load_scenario("hexa_motor_failure")
     assert hexa.parameters == {}
     assert hexa.events == (ScenarioEvent(20_000_000, {"SIM_ENGINE_FAIL": 1, "SIM_ENGINE_MUL": 0.0}),)
@@ -174,7 +183,9 @@ def test_scenarios_are_package_data():
 
 
 def test_good_file_with_events(tmp_path):
-    path = write(tmp_path, """
+    path = write(
+        tmp_path,
+        """
 description = "test"
 [parameters]
 SIM_WIND_SPD = 3
@@ -185,7 +196,8 @@ set = { SIM_GPS_DISABLE = 1 }
 [[events]]
 at_s = 2
 set = { SIM_ENGINE_FAIL = 4, SIM_ENGINE_MUL = 0.5 }
-""")
+""",
+    )
     sc = load_scenario(str(path))
     assert sc.name == "s" and sc.description == "test"
     assert sc.parameters == {"SIM_WIND_SPD": 3.0, "SIM_GPS_LAG_MS": 100}
@@ -194,23 +206,26 @@ set = { SIM_ENGINE_FAIL = 4, SIM_ENGINE_MUL = 0.5 }
     assert sc.events[0].values == {"SIM_ENGINE_FAIL": 4, "SIM_ENGINE_MUL": 0.5}
 
 
-@pytest.mark.parametrize("text, key, reason", [
-    ("[parameters]\nSIM_NOPE = 1\n", "parameters.SIM_NOPE", "unknown parameter"),
-    ("[parameters]\nSIM_WIND_SPD = 31.0\n", "parameters.SIM_WIND_SPD", "outside range [0, 30] m/s"),
-    ("[parameters]\nSIM_ENGINE_FAIL = 1.5\n", "parameters.SIM_ENGINE_FAIL", "not an integer"),
-    ("[parameters]\nSIM_WIND_SPD = \"5\"\n", "parameters.SIM_WIND_SPD", "expected a number"),
-    ("[parameters]\nSIM_WIND_SPD = nan\n", "parameters.SIM_WIND_SPD", "finite"),
-    ("wind = 3\n", "wind", "unknown key"),
-    ("parameters = 3\n", "parameters", "must be a table"),
-    ("description = 3\n", "description", "must be a string"),
-    ("[[events]]\nat_s = 1\nset = { SIM_ENGINE_FAIL = 20 }\n", "events[0].set.SIM_ENGINE_FAIL", "outside range"),
-    ("[[events]]\nat_s = -1\nset = { SIM_ENGINE_FAIL = 1 }\n", "events[0].at_s", ">= 0"),
-    ("[[events]]\nat_s = \"soon\"\nset = { SIM_ENGINE_FAIL = 1 }\n", "events[0].at_s", ">= 0"),
-    ("[[events]]\nat_s = 1\n", "events[0]", "missing set"),
-    ("[[events]]\nat_s = 1\nset = {}\n", "events[0].set", "sets no parameter"),
-    ("[[events]]\nat_s = 1\nwhen = 2\nset = { SIM_ENGINE_FAIL = 1 }\n", "events[0].when", "unknown key"),
-    ("events = 3\n", "events", "array of tables"),
-])
+@pytest.mark.parametrize(
+    "text, key, reason",
+    [
+        ("[parameters]\nSIM_NOPE = 1\n", "parameters.SIM_NOPE", "unknown parameter"),
+        ("[parameters]\nSIM_WIND_SPD = 31.0\n", "parameters.SIM_WIND_SPD", "outside range [0, 30] m/s"),
+        ("[parameters]\nSIM_ENGINE_FAIL = 1.5\n", "parameters.SIM_ENGINE_FAIL", "not an integer"),
+        ('[parameters]\nSIM_WIND_SPD = "5"\n', "parameters.SIM_WIND_SPD", "expected a number"),
+        ("[parameters]\nSIM_WIND_SPD = nan\n", "parameters.SIM_WIND_SPD", "finite"),
+        ("wind = 3\n", "wind", "unknown key"),
+        ("parameters = 3\n", "parameters", "must be a table"),
+        ("description = 3\n", "description", "must be a string"),
+        ("[[events]]\nat_s = 1\nset = { SIM_ENGINE_FAIL = 20 }\n", "events[0].set.SIM_ENGINE_FAIL", "outside range"),
+        ("[[events]]\nat_s = -1\nset = { SIM_ENGINE_FAIL = 1 }\n", "events[0].at_s", ">= 0"),
+        ('[[events]]\nat_s = "soon"\nset = { SIM_ENGINE_FAIL = 1 }\n', "events[0].at_s", ">= 0"),
+        ("[[events]]\nat_s = 1\n", "events[0]", "missing set"),
+        ("[[events]]\nat_s = 1\nset = {}\n", "events[0].set", "sets no parameter"),
+        ("[[events]]\nat_s = 1\nwhen = 2\nset = { SIM_ENGINE_FAIL = 1 }\n", "events[0].when", "unknown key"),
+        ("events = 3\n", "events", "array of tables"),
+    ],
+)
 def test_bad_files_name_file_key_and_reason(tmp_path, text, key, reason):
     path = write(tmp_path, text)
     with pytest.raises(ScenarioError) as err:
@@ -230,8 +245,11 @@ def test_bad_toml_and_missing_file(tmp_path):
 
 
 def test_event_schedule():
-    a, b, c = ScenarioEvent(0, {"SIM_WIND_SPD": 1.0}), ScenarioEvent(40_000, {"SIM_WIND_SPD": 2.0}), \
-        ScenarioEvent(40_000, {"SIM_WIND_SPD": 3.0})
+    a, b, c = (
+        ScenarioEvent(0, {"SIM_WIND_SPD": 1.0}),
+        ScenarioEvent(40_000, {"SIM_WIND_SPD": 2.0}),
+        ScenarioEvent(40_000, {"SIM_WIND_SPD": 3.0}),
+    )
     sched = EventSchedule([b, a, c])
     assert sched.next_us == 0 and len(sched) == 3
     assert sched.pop_due(0) == [a] and sched.next_us == 40_000
@@ -244,10 +262,19 @@ def test_lockstep_applies_events_at_50hz_periods():
     from sitl.lockstep import LockstepServer
 
     wind, sensors, motors = WindSettings(), SensorSettings(), MotorSettings()
-    fake_sim = SimpleNamespace(wind_settings=wind, sensors=SimpleNamespace(settings=sensors),
-                               motor_settings=motors, rotors=SimpleNamespace(n=6))
-    server = LockstepServer(fake_sim, 0, None, None,  # TCP port 0: any free port; no truth, no UDP service
-                            events=load_scenario("hexa_motor_failure").events)
+    fake_sim = SimpleNamespace(
+        wind_settings=wind,
+        sensors=SimpleNamespace(settings=sensors),
+        motor_settings=motors,
+        rotors=SimpleNamespace(n=6),
+    )
+    server = LockstepServer(
+        fake_sim,
+        0,
+        None,
+        None,  # TCP port 0: any free port; no truth, no UDP service
+        events=load_scenario("hexa_motor_failure").events,
+    )
     try:
         assert server.param_server is None
         server._every_truth_period(19_980_000)
@@ -262,21 +289,28 @@ def test_lockstep_applies_events_at_50hz_periods():
 
 
 def test_cli_list_params(capsys):
-    assert sitl_main.main(["--list-params", "--scenario", "windy", "--param", "SIM_WIND_SPD=7",
-                           "--param", "SIM_ENGINE_FAIL=2"]) == 0
+    assert (
+        sitl_main.main(
+            ["--list-params", "--scenario", "windy", "--param", "SIM_WIND_SPD=7", "--param", "SIM_ENGINE_FAIL=2"]
+        )
+        == 0
+    )
     out = capsys.readouterr().out.splitlines()
     rows = {line.split()[0]: line.split() for line in out[1:]}
     assert rows["SIM_WIND_SPD"][1] == "7" and rows["SIM_WIND_DIR"][1] == "270" and rows["SIM_ENGINE_FAIL"][1] == "2"
     assert rows["SIM_WIND_SPD"][2:5] == ["0", "30", "m/s"]
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--param", "SIM_WIND_SPD=99"], "SIM_WIND_SPD: 99 outside range"),
-    (["--param", "SIM_NOPE=1"], "SIM_NOPE: unknown parameter"),
-    (["--param", "SIM_WIND_SPD=fast"], "value must be a number"),
-    (["--param", "SIM_WIND_SPD"], "expected NAME=VALUE"),
-    (["--scenario", "no_such_scenario"], "no such scenario file"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--param", "SIM_WIND_SPD=99"], "SIM_WIND_SPD: 99 outside range"),
+        (["--param", "SIM_NOPE=1"], "SIM_NOPE: unknown parameter"),
+        (["--param", "SIM_WIND_SPD=fast"], "value must be a number"),
+        (["--param", "SIM_WIND_SPD"], "expected NAME=VALUE"),
+        (["--scenario", "no_such_scenario"], "no such scenario file"),
+    ],
+)
 def test_cli_errors_exit_2(capsys, args, message):
     with pytest.raises(SystemExit) as exit_:  # argparse errors exit by themselves ...
         sys.exit(sitl_main.main(["--list-params", *args]))  # ... checked values return 2
@@ -306,11 +340,16 @@ class Harness:
     def __init__(self) -> None:
         self.params, self.wind, self.sensors, self.motors = make_params()
         port = free_udp_port()
-        self.client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYS,
-                                                 source_component=GCS_COMP)
+        self.client = mavutil.mavlink_connection(
+            f"udpin:127.0.0.1:{port}", source_system=GCS_SYS, source_component=GCS_COMP
+        )
         self.changes: list[tuple[str, float, tuple]] = []
-        self.server = SimParamServer(self.params, bind=("127.0.0.1", 0), default_peer=("127.0.0.1", port),
-                                     on_param_set=lambda *a: self.changes.append(a))
+        self.server = SimParamServer(
+            self.params,
+            bind=("127.0.0.1", 0),
+            default_peer=("127.0.0.1", port),
+            on_param_set=lambda *a: self.changes.append(a),
+        )
         self.now_s = 0.0  # the fake wall clock handed to poll()
 
     def pump(self, rounds: int = 20) -> list:
@@ -403,7 +442,9 @@ def test_read_by_name_and_index(h):
     assert of_type(got, "PARAM_VALUE") == []
     n = len(h.params)
     assert [m.text for m in of_type(got, "STATUSTEXT")] == [
-        "SIM_NOPE: unknown parameter", f"#{n}: no parameter at index {n} (0..{n - 1})"]
+        "SIM_NOPE: unknown parameter",
+        f"#{n}: no parameter at index {n} (0..{n - 1})",
+    ]
 
 
 def test_set_real32_and_int32_c_cast(h):
@@ -424,7 +465,9 @@ def test_set_real32_and_int32_c_cast(h):
     h.client.mav.param_request_read_send(SIM_SYSID, SIM_COMPID, b"SIM_ENGINE_FAIL", -1)
     h.client.mav.param_request_read_send(SIM_SYSID, SIM_COMPID, b"SIM_WIND_SPD", -1)
     assert [(m.param_id, value_of(m)) for m in of_type(h.pump(), "PARAM_VALUE")] == [
-        ("SIM_ENGINE_FAIL", 3), ("SIM_WIND_SPD", 4.5)]
+        ("SIM_ENGINE_FAIL", 3),
+        ("SIM_WIND_SPD", 4.5),
+    ]
 
     # a client that sends an integer parameter typed REAL32: the value is what counts
     h.client.mav.param_set_send(SIM_SYSID, SIM_COMPID, b"SIM_GPS_LAG_MS", 250.0, REAL32)
@@ -471,8 +514,19 @@ def test_commands(h):
     (ack,) = of_type(h.pump(), "COMMAND_ACK")
     assert (ack.command, ack.result) == (mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavlink.MAV_RESULT_UNSUPPORTED)
     assert (ack.target_system, ack.target_component) == (GCS_SYS, GCS_COMP)
-    h.client.mav.command_long_send(SIM_SYSID, SIM_COMPID, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
-                                   mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0)
+    h.client.mav.command_long_send(
+        SIM_SYSID,
+        SIM_COMPID,
+        mavlink.MAV_CMD_REQUEST_MESSAGE,
+        0,
+        mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+    )
     got = h.pump()
     (ver,) = of_type(got, "AUTOPILOT_VERSION")
     assert ver.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
@@ -501,8 +555,15 @@ def test_malformed_datagrams_are_ignored(h):
         packet = bytearray(good.pack(mavlink.MAVLink(None, GCS_SYS, GCS_COMP)))
         bad_crc = bytearray(packet)
         bad_crc[-1] ^= 0xFF
-        for junk in (b"", b"\x00", b"hello world" * 50, bytes(range(256)), bytes(packet[:-3]), bytes(bad_crc),
-                     b"\xfd\xff" + b"\x00" * 300):
+        for junk in (
+            b"",
+            b"\x00",
+            b"hello world" * 50,
+            bytes(range(256)),
+            bytes(packet[:-3]),
+            bytes(bad_crc),
+            b"\xfd\xff" + b"\x00" * 300,
+        ):
             raw.sendto(junk, server_addr)
         raw.sendto(bytes(packet) + b"\xfd\x09", server_addr)  # a good packet with trailing damage
         got = h.pump()
@@ -514,8 +575,9 @@ def test_malformed_datagrams_are_ignored(h):
 
 def test_peers_are_remembered_and_send_reaches_everyone(h):
     h.hello()
-    other = mavutil.mavlink_connection("udpout:127.0.0.1:%d" % h.server.local_address[1],
-                                       source_system=GCS_SYS, source_component=191)
+    other = mavutil.mavlink_connection(
+        "udpout:127.0.0.1:%d" % h.server.local_address[1], source_system=GCS_SYS, source_component=191
+    )
     try:
         other.mav.param_request_read_send(SIM_SYSID, SIM_COMPID, b"SIM_WIND_TURB", -1)
         got_default = h.pump()
@@ -542,9 +604,25 @@ def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(
     log_path = tmp_path / "sitl.log"
     log = open(log_path, "w")  # the child's; read through log_path (seeking this would move the child's offset)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "sitl", "--instance", str(instance), "--speed", "max", "--scenario", "windy",
-         "--param", "SIM_GPS_LAG_MS=80"],
-        cwd=ROOT, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        [
+            sys.executable,
+            "-m",
+            "sitl",
+            "--instance",
+            str(instance),
+            "--speed",
+            "max",
+            "--scenario",
+            "windy",
+            "--param",
+            "SIM_GPS_LAG_MS=80",
+        ],
+        cwd=ROOT,
+        stdin=subprocess.DEVNULL,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
     try:
         hb = client.recv_match(type="HEARTBEAT", blocking=True, timeout=60)
         assert hb is not None, f"no HEARTBEAT from sitl:\n{log_path.read_text()}"
@@ -553,8 +631,9 @@ def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(
         def exchange(send, name):
             for _ in range(5):  # UDP: retry as a ground station would
                 send()
-                m = client.recv_match(type="PARAM_VALUE", blocking=True, timeout=2,
-                                      condition=f"PARAM_VALUE.param_id == '{name}'")
+                m = client.recv_match(
+                    type="PARAM_VALUE", blocking=True, timeout=2, condition=f"PARAM_VALUE.param_id == '{name}'"
+                )
                 if m is not None:
                     return m
             raise AssertionError(f"no PARAM_VALUE for {name}")
@@ -565,8 +644,7 @@ def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(
         assert value_of(m) == 80  # from --param
         m = exchange(lambda: client.mav.param_set_send(1, 51, b"SIM_WIND_SPD", 3.0, REAL32), "SIM_WIND_SPD")
         assert m.param_value == 3.0
-        m = exchange(lambda: client.mav.param_set_send(1, 51, b"SIM_ENGINE_FAIL", 2.0, INT32),
-                     "SIM_ENGINE_FAIL")
+        m = exchange(lambda: client.mav.param_set_send(1, 51, b"SIM_ENGINE_FAIL", 2.0, INT32), "SIM_ENGINE_FAIL")
         assert value_of(m) == 2
         assert proc.poll() is None
     finally:

@@ -29,19 +29,27 @@ def write_vehicle(tmp_path, text: str):
     return str(path)
 
 
-@pytest.mark.parametrize(("edit", "message"), [
-    (lambda t: t.replace("k_thrust = 8.54858e-6", ""), "missing 'k_thrust'"),
-    (lambda t: t.replace('spin = ["ccw", "ccw", "cw", "cw"]', 'spin = ["ccw", "cww", "cw", "cw"]'),
-     "rotor 2 spin must be 'ccw' or 'cw', is 'cww'"),
-    (lambda t: t.replace(
-        "positions_frd_m = [[0.46, 0.46, -0.06], [-0.46, -0.46, -0.06], [0.46, -0.46, -0.06], [-0.46, 0.46, -0.06]]",
-        "positions_frd_m = [[0.46, 0.46, -0.06], [-0.46, -0.46, -0.06], [0.46, -0.46, -0.06]]").replace(
-        'spin = ["ccw", "ccw", "cw", "cw"]', 'spin = ["ccw", "ccw", "cw"]'),
-     "a multirotor needs at least 4 rotors, has 3"),
-    (lambda t: t.replace("mass_kg = 1.0", "mass_kg = -1.0"), "'mass_kg' must be > 0, is -1.0"),
-    (lambda t: t.replace("[legs]", "[lags]"), "missing section [legs]"),
-    (lambda t: t.replace("max_speed_rad_s = 838.0", "max_speed_rad_s = 500.0"), "cannot hover with margin"),
-])
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("k_thrust = 8.54858e-6", ""), "missing 'k_thrust'"),
+        (
+            lambda t: t.replace('spin = ["ccw", "ccw", "cw", "cw"]', 'spin = ["ccw", "cww", "cw", "cw"]'),
+            "rotor 2 spin must be 'ccw' or 'cw', is 'cww'",
+        ),
+        (
+            lambda t: t.replace(
+                "positions_frd_m = [[0.46, 0.46, -0.06], [-0.46, -0.46, -0.06], [0.46, -0.46, -0.06], "
+                "[-0.46, 0.46, -0.06]]",
+                "positions_frd_m = [[0.46, 0.46, -0.06], [-0.46, -0.46, -0.06], [0.46, -0.46, -0.06]]",
+            ).replace('spin = ["ccw", "ccw", "cw", "cw"]', 'spin = ["ccw", "ccw", "cw"]'),
+            "a multirotor needs at least 4 rotors, has 3",
+        ),
+        (lambda t: t.replace("mass_kg = 1.0", "mass_kg = -1.0"), "'mass_kg' must be > 0, is -1.0"),
+        (lambda t: t.replace("[legs]", "[lags]"), "missing section [legs]"),
+        (lambda t: t.replace("max_speed_rad_s = 838.0", "max_speed_rad_s = 500.0"), "cannot hover with margin"),
+    ],
+)
 def test_broken_vehicle_files_are_refused_clearly(tmp_path, edit, message):
     text = edit(QUAD_TOML)
     assert text != QUAD_TOML

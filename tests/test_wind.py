@@ -16,8 +16,9 @@ from sitl.wind import FT_PER_M, WindModel
 DT_S = 0.004
 
 
-def run(model: WindModel, n: int, altitude_m: float = 10.0, airspeed_m_s: float = 3.0,
-        dt_s: float = DT_S) -> np.ndarray:
+def run(
+    model: WindModel, n: int, altitude_m: float = 10.0, airspeed_m_s: float = 3.0, dt_s: float = DT_S
+) -> np.ndarray:
     step = model.step
     return np.array([step(dt_s, altitude_m, airspeed_m_s) for _ in range(n)])
 
@@ -26,7 +27,7 @@ def dryden_scales(altitude_m: float, sigma: float) -> tuple[float, float, float]
     """(L_u, L_w, sigma_w) in metres and m/s from the MIL-F-8785C low-altitude formulas."""
     h_ft = altitude_m * FT_PER_M
     k = 0.177 + 0.000823 * h_ft
-    return h_ft / k ** 1.2 / FT_PER_M, altitude_m, sigma * k ** 0.4
+    return h_ft / k**1.2 / FT_PER_M, altitude_m, sigma * k**0.4
 
 
 def autocorr(x: np.ndarray, lag: int) -> float:
@@ -36,12 +37,16 @@ def autocorr(x: np.ndarray, lag: int) -> float:
 
 # --- steady wind ---------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("direction_deg, expected", [
-    (270.0, (0.0, 5.0, 0.0)),     # from the West: the air moves East
-    (0.0, (-5.0, 0.0, 0.0)),      # from the North: the air moves South
-    (90.0, (0.0, -5.0, 0.0)),
-    (180.0, (5.0, 0.0, 0.0)),
-])
+
+@pytest.mark.parametrize(
+    "direction_deg, expected",
+    [
+        (270.0, (0.0, 5.0, 0.0)),  # from the West: the air moves East
+        (0.0, (-5.0, 0.0, 0.0)),  # from the North: the air moves South
+        (90.0, (0.0, -5.0, 0.0)),
+        (180.0, (5.0, 0.0, 0.0)),
+    ],
+)
 def test_steady_wind_direction_is_where_it_blows_from(direction_deg, expected):
     model = WindModel(WindSettings(speed_m_s=5.0, direction_deg=direction_deg), seed=1)
     for _ in range(3):
@@ -57,6 +62,7 @@ def test_calm_returns_exact_zero():
 
 
 # --- turbulence ----------------------------------------------------------------------------------
+
 
 def test_dryden_turbulence_statistics():
     sigma, altitude_m, airspeed_m_s, n = 2.0, 5.0, 20.0, 200_000
@@ -87,7 +93,7 @@ def test_turbulence_variance_is_exact_for_long_steps():
     model = WindModel(WindSettings(turbulence_m_s=sigma), seed=3)
     wind = run(model, 20_000, altitude_m, airspeed_m_s, dt_s=0.5)
     _, _, sigma_w = dryden_scales(altitude_m, sigma)
-    assert wind[:, 0].std() == pytest.approx(sigma, rel=0.10)   # no mean wind: u along North
+    assert wind[:, 0].std() == pytest.approx(sigma, rel=0.10)  # no mean wind: u along North
     assert wind[:, 1].std() == pytest.approx(sigma, rel=0.10)
     assert wind[:, 2].std() == pytest.approx(sigma_w, rel=0.15)
 
@@ -103,25 +109,28 @@ def test_turbulence_defined_in_hover_and_with_bad_inputs():
 
 # --- gusts ---------------------------------------------------------------------------------------
 
+
 def test_random_gusts_peak_along_the_wind():
-    settings = WindSettings(speed_m_s=5.0, direction_deg=270.0, gust_speed_m_s=3.0,
-                            gust_duration_s=2.0, gust_interval_s=10.0)
+    settings = WindSettings(
+        speed_m_s=5.0, direction_deg=270.0, gust_speed_m_s=3.0, gust_duration_s=2.0, gust_interval_s=10.0
+    )
     model = WindModel(settings, seed=11)
-    wind = run(model, 125_000)                      # 500 s
-    assert np.abs(wind[:, 0]).max() < 1e-9          # horizontal and along the wind only
+    wind = run(model, 125_000)  # 500 s
+    assert np.abs(wind[:, 0]).max() < 1e-9  # horizontal and along the wind only
     assert np.abs(wind[:, 2]).max() == 0.0
     east = wind[:, 1]
     assert east.min() == pytest.approx(5.0, abs=1e-9)
     assert east.max() == pytest.approx(8.0, abs=0.01)
     in_gust = east > 5.0 + 1e-9
     starts = int(np.count_nonzero(in_gust[1:] & ~in_gust[:-1]))
-    assert 25 <= starts <= 80                       # ~500 s / (10 s + a little) = ~49
+    assert 25 <= starts <= 80  # ~500 s / (10 s + a little) = ~49
 
 
 def test_trigger_gust_gives_one_minus_cosine_profile():
     amplitude, duration = 3.0, 2.0
-    settings = WindSettings(speed_m_s=5.0, direction_deg=0.0, gust_speed_m_s=amplitude,
-                            gust_duration_s=duration, gust_interval_s=600.0)
+    settings = WindSettings(
+        speed_m_s=5.0, direction_deg=0.0, gust_speed_m_s=amplitude, gust_duration_s=duration, gust_interval_s=600.0
+    )
     model = WindModel(settings, seed=5)
     model.step(DT_S, 10.0, 0.0)
     model.trigger_gust()
@@ -129,9 +138,9 @@ def test_trigger_gust_gives_one_minus_cosine_profile():
     wind = run(model, steps + 10)
     t = DT_S * np.arange(1, steps + 1)
     expected = 5.0 + 0.5 * amplitude * (1.0 - np.cos(2.0 * np.pi * t / duration))
-    assert -wind[:steps, 0] == pytest.approx(expected, abs=1e-9)   # wind from the North moves South
-    assert -wind[steps // 2 - 1, 0] == pytest.approx(5.0 + amplitude, abs=1e-9)   # t = T/2: peak A
-    assert wind[steps:, 0] == pytest.approx(-5.0, abs=1e-9)       # over after T
+    assert -wind[:steps, 0] == pytest.approx(expected, abs=1e-9)  # wind from the North moves South
+    assert -wind[steps // 2 - 1, 0] == pytest.approx(5.0 + amplitude, abs=1e-9)  # t = T/2: peak A
+    assert wind[steps:, 0] == pytest.approx(-5.0, abs=1e-9)  # over after T
     assert np.abs(wind[:, 1]).max() < 1e-9
 
 
@@ -150,19 +159,21 @@ def test_gust_direction_is_horizontal_and_random_without_steady_wind():
 
 
 def test_gust_speed_zero_stops_gusts():
-    settings = WindSettings(speed_m_s=5.0, direction_deg=270.0, gust_speed_m_s=3.0,
-                            gust_duration_s=2.0, gust_interval_s=2.0)
+    settings = WindSettings(
+        speed_m_s=5.0, direction_deg=270.0, gust_speed_m_s=3.0, gust_duration_s=2.0, gust_interval_s=2.0
+    )
     model = WindModel(settings, seed=12)
-    wind = run(model, 5_000)                        # 20 s: several gusts
+    wind = run(model, 5_000)  # 20 s: several gusts
     assert wind[:, 1].max() > 7.0
     model.trigger_gust()
-    run(model, 100)                                 # inside a gust
+    run(model, 100)  # inside a gust
     settings.gust_speed_m_s = 0.0
-    wind = run(model, 25_000)                       # 100 s
+    wind = run(model, 25_000)  # 100 s
     assert wind == pytest.approx(np.tile([0.0, 5.0, 0.0], (25_000, 1)), abs=1e-9)
 
 
 # --- live settings -------------------------------------------------------------------------------
+
 
 def test_settings_changes_act_on_the_next_step():
     settings = WindSettings(speed_m_s=5.0, direction_deg=270.0)
@@ -173,18 +184,18 @@ def test_settings_changes_act_on_the_next_step():
     settings.direction_deg = 0.0
     assert model.step(DT_S, 10.0, 0.0) == pytest.approx((-8.0, 0.0, 0.0), abs=1e-9)
 
-    settings.turbulence_m_s = 2.0                    # switched on: fully developed at once
+    settings.turbulence_m_s = 2.0  # switched on: fully developed at once
     first = model.step(DT_S, 10.0, 0.0)
     assert first != pytest.approx((-8.0, 0.0, 0.0), abs=1e-6)
     wind = run(model, 20_000, 10.0, 0.0)
     assert np.all(wind.std(axis=0) > 0.1)
-    settings.turbulence_m_s = 0.0                    # switched off
+    settings.turbulence_m_s = 0.0  # switched off
     assert model.step(DT_S, 10.0, 0.0) == pytest.approx((-8.0, 0.0, 0.0), abs=1e-9)
 
-    settings.speed_m_s = 0.0                         # calm
+    settings.speed_m_s = 0.0  # calm
     assert model.step(DT_S, 10.0, 0.0) == (0.0, 0.0, 0.0)
 
-    settings.gust_speed_m_s = 4.0                    # gusts switched on: a triggered gust blows
+    settings.gust_speed_m_s = 4.0  # gusts switched on: a triggered gust blows
     settings.gust_duration_s = 1.0
     settings.gust_interval_s = 600.0
     model.trigger_gust()
@@ -194,9 +205,16 @@ def test_settings_changes_act_on_the_next_step():
 
 # --- reproducibility -----------------------------------------------------------------------------
 
+
 def _gusty_turbulent_run(seed: int) -> np.ndarray:
-    settings = WindSettings(speed_m_s=4.0, direction_deg=45.0, turbulence_m_s=1.5,
-                            gust_speed_m_s=3.0, gust_duration_s=1.0, gust_interval_s=3.0)
+    settings = WindSettings(
+        speed_m_s=4.0,
+        direction_deg=45.0,
+        turbulence_m_s=1.5,
+        gust_speed_m_s=3.0,
+        gust_duration_s=1.0,
+        gust_interval_s=3.0,
+    )
     model = WindModel(settings, seed=seed)
     wind = run(model, 3_000, 15.0, 6.0)
     settings.direction_deg = 200.0

@@ -22,21 +22,30 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander import health, prearm_checks
 from autopilot.control.position_control import PositionSetpoint
-from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
-from autopilot.navigation.land_detector import LandDetector, Landed
-from mavsim_core.px4_modes import Mode
 from autopilot.navigation import GotoTask, LandTask, LoiterTask, ReturnTask, TakeoffTask, started
+from autopilot.navigation.land_detector import LandDetector, Landed
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
-from autopilot.topics import (NO_ACTUATORS, ActuatorStatus, BatteryState, CommanderStatus, GpsSample, HomePosition,
-                              LandedState, VehicleEstimate)
-
+from autopilot.topics import (
+    NO_ACTUATORS,
+    ActuatorStatus,
+    BatteryState,
+    CommanderStatus,
+    GpsSample,
+    HomePosition,
+    LandedState,
+    VehicleEstimate,
+)
+from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
+from mavsim_core.px4_modes import Mode
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (
     param("COM_DISARM_LAND", 2.0, -1.0, 20.0, "s", "Disarm this long after landing (-1: never)"),
     param("COM_DISARM_PRFLT", 10.0, -1.0, 60.0, "s", "Disarm this long after arming if no take-off (-1: never)"),
     param("COM_ARM_TILT_MAX", 10.0, 1.0, 60.0, "deg", "Maximum tilt to allow arming (vehicle level check)"),
-    param("SYS_AUTOSTART", 4001, 1, 99999, "", "Airframe id (4001 quadcopter X, 6001 hexacopter)", ParamType.INT32, True),
+    param(
+        "SYS_AUTOSTART", 4001, 1, 99999, "", "Airframe id (4001 quadcopter X, 6001 hexacopter)", ParamType.INT32, True
+    ),
 )
 
 # Modes this flight controller can fly today (no RC input yet: POSCTL holds position).
@@ -49,12 +58,14 @@ REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
 
 def _publishes(method):
     """A command method after which the commander publishes its status, whatever the result."""
+
     @functools.wraps(method)
     def wrapper(self: "Commander", *args, **kwargs) -> int:
         try:
             return method(self, *args, **kwargs)
         finally:
             self._publish()
+
     return wrapper
 
 
@@ -93,9 +104,18 @@ class Commander:
     def _make_status(self) -> CommanderStatus:
         armed = self.armed
         return CommanderStatus(
-            timestamp_us=self.now_us, mav_type=self.mav_type, armed=armed, mode=self.mode,
-            landed_state=self.landed_state(), in_air=self.in_air, ground_contact=self.land_detector.ground_contact,
-            home=self.home, estimate=self.est, gps=self.gps, gps_ok=self.gps_ok, battery=self.battery,
+            timestamp_us=self.now_us,
+            mav_type=self.mav_type,
+            armed=armed,
+            mode=self.mode,
+            landed_state=self.landed_state(),
+            in_air=self.in_air,
+            ground_contact=self.land_detector.ground_contact,
+            home=self.home,
+            estimate=self.est,
+            gps=self.gps,
+            gps_ok=self.gps_ok,
+            battery=self.battery,
             battery_warning=health.battery_warning(self.battery.remaining_frac, self.params),
             prearm_failures=() if armed else tuple(self.prearm_failures()),
             position_setpoint_ned_m=None if self.setpoint is None else self.setpoint.pos_ned_m,
@@ -113,17 +133,30 @@ class Commander:
     def prearm_failures(self) -> list[str]:
         """Why arming would be refused now (:mod:`autopilot.commander.prearm_checks`)."""
         p = self.params
-        return prearm_checks.prearm_failures(self.est, self.gps, self.home, self.battery, self.estimator_checks,
-                                             p.get("COM_ARM_TILT_MAX"), p.get("BAT_LOW_THR"))
+        return prearm_checks.prearm_failures(
+            self.est,
+            self.gps,
+            self.home,
+            self.battery,
+            self.estimator_checks,
+            p.get("COM_ARM_TILT_MAX"),
+            p.get("BAT_LOW_THR"),
+        )
 
     @property
     def in_air(self) -> bool:
         return self.land_detector.state is Landed.IN_AIR
 
     # -- periodic -----------------------------------------------------------------------
-    def update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool,
-               actuators: ActuatorStatus = NO_ACTUATORS,
-               estimator_checks: tuple[str, ...] = ()) -> PositionSetpoint | None:
+    def update(
+        self,
+        now_us: int,
+        est: VehicleEstimate,
+        gps: GpsSample | None,
+        gps_ok: bool,
+        actuators: ActuatorStatus = NO_ACTUATORS,
+        estimator_checks: tuple[str, ...] = (),
+    ) -> PositionSetpoint | None:
         """Advance the state machines and publish the status; return the position setpoint, or None for
         motors idle/off.
 
@@ -135,8 +168,15 @@ class Commander:
         finally:
             self._publish()
 
-    def _update(self, now_us: int, est: VehicleEstimate, gps: GpsSample | None, gps_ok: bool,
-                actuators: ActuatorStatus, estimator_checks: tuple[str, ...]) -> PositionSetpoint | None:
+    def _update(
+        self,
+        now_us: int,
+        est: VehicleEstimate,
+        gps: GpsSample | None,
+        gps_ok: bool,
+        actuators: ActuatorStatus,
+        estimator_checks: tuple[str, ...],
+    ) -> PositionSetpoint | None:
         self.now_us, self.est, self.gps_ok = now_us, est, gps_ok
         self.estimator_checks = estimator_checks
         if gps is not None:
@@ -146,7 +186,9 @@ class Commander:
         if est.reset_count != self._reset_count:
             self._follow_reset(est)
         before = self.land_detector.state
-        state = self.land_detector.update(now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), actuators.thrust_frac_of_hover)
+        state = self.land_detector.update(
+            now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), actuators.thrust_frac_of_hover
+        )
         if state is not before and self.armed:
             self.say(S.MAV_SEVERITY_INFO, "Takeoff detected" if state is Landed.IN_AIR else "Landing detected")
             if state is Landed.ON_GROUND and self.mode in (Mode.AUTO_LAND, Mode.AUTO_RTL):
@@ -156,7 +198,12 @@ class Commander:
         if self.armed and self.in_air and not est.position_valid and self.mode is not Mode.AUTO_LAND:
             self.say(S.MAV_SEVERITY_CRITICAL, "Position estimate lost: landing")
             self._enter(Mode.AUTO_LAND)
-        if self.armed and self.mode is Mode.AUTO_TAKEOFF and isinstance(self.task, TakeoffTask) and self.task.arrived(now_us, est):
+        if (
+            self.armed
+            and self.mode is Mode.AUTO_TAKEOFF
+            and isinstance(self.task, TakeoffTask)
+            and self.task.arrived(now_us, est)
+        ):
             goal = self.task.goal
             self.say(S.MAV_SEVERITY_INFO, "Takeoff complete: holding")
             self.mode = Mode.AUTO_LOITER
@@ -188,8 +235,13 @@ class Commander:
             limit = p.get("COM_DISARM_LAND")
             if since is not None and since > self.armed_at_us and limit >= 0 and now_us - since >= limit * 1e6:
                 self._disarm("landed")
-            elif (since is not None and since <= self.armed_at_us and p.get("COM_DISARM_PRFLT") >= 0
-                  and self.mode is not Mode.AUTO_TAKEOFF and now_us - self.armed_at_us >= p.get("COM_DISARM_PRFLT") * 1e6):
+            elif (
+                since is not None
+                and since <= self.armed_at_us
+                and p.get("COM_DISARM_PRFLT") >= 0
+                and self.mode is not Mode.AUTO_TAKEOFF
+                and now_us - self.armed_at_us >= p.get("COM_DISARM_PRFLT") * 1e6
+            ):
                 self._disarm("no takeoff")
 
     def _set_home(self, est: VehicleEstimate) -> None:
@@ -277,7 +329,9 @@ class Commander:
             if mode is not self.mode or self.task is None:
                 self.task = self._hold_here()
         elif mode is Mode.AUTO_LAND:
-            self.task = started(LandTask(self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params), e, self.now_us)
+            self.task = started(
+                LandTask(self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params), e, self.now_us
+            )
         elif mode is Mode.AUTO_RTL:
             self.task = started(ReturnTask(self.home.pos_ned_m, self.params), e, self.now_us)
         if mode is not self.mode:
@@ -329,8 +383,14 @@ class Commander:
         return self._enter(Mode.AUTO_TAKEOFF, self.home.pos_ned_m[2] - rel)
 
     @_publishes
-    def reposition(self, lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None,
-                   yaw_rad: float | None, speed_m_s: float | None) -> int:
+    def reposition(
+        self,
+        lat_deg: float | None,
+        lon_deg: float | None,
+        alt_amsl_m: float | None,
+        yaw_rad: float | None,
+        speed_m_s: float | None,
+    ) -> int:
         """Fly to a point and hold there (AUTO.LOITER), along a straight line from the current setpoint.
 
         None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw;
@@ -359,11 +419,17 @@ class Commander:
             return S.MAV_RESULT_DENIED
         yaw = e.yaw_rad if yaw_rad is None else yaw_rad
         speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
-        start = self.setpoint.pos_ned_m if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m)) else e.pos_ned_m
+        start = (
+            self.setpoint.pos_ned_m
+            if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))
+            else e.pos_ned_m
+        )
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
         self.mode = Mode.AUTO_LOITER
-        self.task = started(GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us)
+        self.task = started(
+            GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us
+        )
         return S.MAV_RESULT_ACCEPTED
 
     # -- status -------------------------------------------------------------------------
@@ -374,7 +440,8 @@ class Commander:
             return LandedState.ON_GROUND
         if self.mode is Mode.AUTO_TAKEOFF:
             return LandedState.TAKEOFF
-        if self.mode is Mode.AUTO_LAND or (self.mode is Mode.AUTO_RTL and getattr(self.task, "phase", None) and
-                                           self.task.phase.value == "land"):
+        if self.mode is Mode.AUTO_LAND or (
+            self.mode is Mode.AUTO_RTL and getattr(self.task, "phase", None) and self.task.phase.value == "land"
+        ):
             return LandedState.LANDING
         return LandedState.IN_AIR

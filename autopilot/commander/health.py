@@ -17,21 +17,47 @@ from autopilot.topics import BatteryWarning, EstimatorStatus, VehicleEstimate
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (
-    param("BAT_LOW_THR", 0.15, 0.12, 0.5, "norm", "Low battery: remaining charge below this fraction "
-          "(refuses arming; BATTERY_STATUS charge state LOW)"),
-    param("BAT_CRIT_THR", 0.07, 0.05, 0.5, "norm", "Critical battery: remaining charge below this fraction "
-          "(BATTERY_STATUS charge state CRITICAL)"),
-    param("BAT_EMERGEN_THR", 0.05, 0.03, 0.5, "norm", "Emergency battery: remaining charge below this fraction "
-          "(BATTERY_STATUS charge state EMERGENCY)"),
+    param(
+        "BAT_LOW_THR",
+        0.15,
+        0.12,
+        0.5,
+        "norm",
+        "Low battery: remaining charge below this fraction (refuses arming; BATTERY_STATUS charge state LOW)",
+    ),
+    param(
+        "BAT_CRIT_THR",
+        0.07,
+        0.05,
+        0.5,
+        "norm",
+        "Critical battery: remaining charge below this fraction (BATTERY_STATUS charge state CRITICAL)",
+    ),
+    param(
+        "BAT_EMERGEN_THR",
+        0.05,
+        0.03,
+        0.5,
+        "norm",
+        "Emergency battery: remaining charge below this fraction (BATTERY_STATUS charge state EMERGENCY)",
+    ),
 )
 
 SENSORS_PRESENT = (
-    S.MAV_SYS_STATUS_SENSOR_3D_GYRO | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL | S.MAV_SYS_STATUS_SENSOR_3D_MAG
-    | S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE | S.MAV_SYS_STATUS_SENSOR_GPS
-    | S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-    | S.MAV_SYS_STATUS_SENSOR_YAW_POSITION | S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
-    | S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL | S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-    | S.MAV_SYS_STATUS_AHRS | S.MAV_SYS_STATUS_SENSOR_BATTERY | S.MAV_SYS_STATUS_PREARM_CHECK
+    S.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | S.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+    | S.MAV_SYS_STATUS_SENSOR_GPS
+    | S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+    | S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+    | S.MAV_SYS_STATUS_SENSOR_YAW_POSITION
+    | S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
+    | S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+    | S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | S.MAV_SYS_STATUS_AHRS
+    | S.MAV_SYS_STATUS_SENSOR_BATTERY
+    | S.MAV_SYS_STATUS_PREARM_CHECK
 )
 ESTIMATOR_FLAG_ATTITUDE = 1  # ESTIMATOR_STATUS_FLAGS: ESTIMATOR_ATTITUDE
 

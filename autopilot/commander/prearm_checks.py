@@ -59,5 +59,12 @@ def prearm_failures(
 ) -> list[str]:
     """Every reason arming would be refused now; ``estimator_failures`` are the EKF's own (empty when
     another filter flies)."""
-    return (attitude_check(est) + gps_check(gps) + position_check(est) + list(estimator_failures)
-            + home_check(home) + level_check(est, tilt_max_deg) + battery_check(battery, battery_low_thr))
+    return (
+        attitude_check(est)
+        + gps_check(gps)
+        + position_check(est)
+        + list(estimator_failures)
+        + home_check(home)
+        + level_check(est, tilt_max_deg)
+        + battery_check(battery, battery_low_thr)
+    )

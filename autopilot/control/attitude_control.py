@@ -48,5 +48,6 @@ class AttitudeControl:
         ez = w * sz - x * sy + y * sx - z * sw
         k = 2.0 if ew >= 0 else -2.0
         (gx, mx), (gy, my), (gz, mz) = self._k
-        return np.array([min(max(k * ex * gx, -mx), mx), min(max(k * ey * gy, -my), my),
-                         min(max(k * ez * gz, -mz), mz)])
+        return np.array(
+            [min(max(k * ex * gx, -mx), mx), min(max(k * ey * gy, -my), my), min(max(k * ez * gz, -mz), mz)]
+        )

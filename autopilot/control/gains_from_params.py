@@ -50,14 +50,27 @@ ATTITUDE_PARAMS: tuple[ParamDef, ...] = (
 )
 
 GYRO_FILTER_PARAMS: tuple[ParamDef, ...] = (
-    param("IMU_GYRO_CUTOFF", 30.0, 0.0, 1000.0, "Hz",
-          "Low-pass cutoff of the body rates the rate controller uses (0: no filter)"),
+    param(
+        "IMU_GYRO_CUTOFF",
+        30.0,
+        0.0,
+        1000.0,
+        "Hz",
+        "Low-pass cutoff of the body rates the rate controller uses (0: no filter)",
+    ),
 )
 
 POSITION_PARAMS: tuple[ParamDef, ...] = (
     param("MPC_XY_P", 0.95, 0.0, 2.0, "1/s", "Horizontal position proportional gain"),
     param("MPC_Z_P", 1.0, 0.0, 2.0, "1/s", "Vertical position proportional gain"),
-    param("MPC_XY_VEL_P_ACC", 2.2, 0.0, 10.0, "1/s", "Horizontal velocity proportional gain (acceleration per velocity error)"),
+    param(
+        "MPC_XY_VEL_P_ACC",
+        2.2,
+        0.0,
+        10.0,
+        "1/s",
+        "Horizontal velocity proportional gain (acceleration per velocity error)",
+    ),
     param("MPC_XY_VEL_I_ACC", 0.8, 0.0, 10.0, "1/s^2", "Horizontal velocity integral gain"),
     param("MPC_XY_VEL_D_ACC", 0.2, 0.0, 2.0, "-", "Horizontal velocity derivative gain"),
     param("MPC_Z_VEL_P_ACC", 4.0, 0.0, 15.0, "1/s", "Vertical velocity proportional gain"),
@@ -71,11 +84,23 @@ POSITION_PARAMS: tuple[ParamDef, ...] = (
     param("MPC_THR_MAX", 1.0, 0.5, 1.0, "norm", "Maximum collective thrust (fraction of maximum)"),
     param("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp (seed 000 3.4)"),
     param("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp (seed 000 3.4)"),
-    param("MPC_JERK_AUTO", 4.0, 1.0, 80.0, "m/s^3",
-          "Jerk limit of automatic moves: how fast their acceleration feed-forward may change"),
+    param(
+        "MPC_JERK_AUTO",
+        4.0,
+        1.0,
+        80.0,
+        "m/s^3",
+        "Jerk limit of automatic moves: how fast their acceleration feed-forward may change",
+    ),
     param("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term (seed 000 3.4)"),
-    param("MPC_VELD_LP", 5.0, 0.0, 10.0, "Hz",
-          "Low-pass cut-off of the velocity derivative (0 = unfiltered): GPS corrections step the velocity estimate"),
+    param(
+        "MPC_VELD_LP",
+        5.0,
+        0.0,
+        10.0,
+        "Hz",
+        "Low-pass cut-off of the velocity derivative (0 = unfiltered): GPS corrections step the velocity estimate",
+    ),
 )
 
 # The parameters of the controllers (listed in autopilot/param_catalogue.py).
@@ -89,9 +114,13 @@ def rate_gains(g: Getter) -> RateGains:
     p0, p1, p2 = (g(f"MC_{a}RATE_P") for a in _AXES)
     i0, i1, i2 = (g(f"MC_{a}RATE_I") for a in _AXES)
     d0, d1, d2 = (g(f"MC_{a}RATE_D") for a in _AXES)
-    return RateGains(p_per_s=(p0, p1, p2), i_per_s2=(i0, i1, i2), d_unitless=(d0, d1, d2),
-                     int_lim_rad_s2=(g("MC_RR_INT_LIM"), g("MC_PR_INT_LIM"), g("MC_YR_INT_LIM")),
-                     d_lim_rad_s2=g("MC_RATE_D_LIM"))
+    return RateGains(
+        p_per_s=(p0, p1, p2),
+        i_per_s2=(i0, i1, i2),
+        d_unitless=(d0, d1, d2),
+        int_lim_rad_s2=(g("MC_RR_INT_LIM"), g("MC_PR_INT_LIM"), g("MC_YR_INT_LIM")),
+        d_lim_rad_s2=g("MC_RATE_D_LIM"),
+    )
 
 
 def attitude_gains(g: Getter) -> AttitudeGains:

@@ -155,8 +155,13 @@ class PositionControl:
         self._integrate(vel_err, acc_sp, sat, dt)
         self.acc_sp = acc_sp
         self.output = out = PositionControlOutput(
-            thrust_ned_n=thrust, vel_sp_ned_m_s=self.vel_sp, acc_sp_ned_m_s2=acc_sp,
-            pos_controlled=_flags(pos_ctrl), vel_controlled=_flags(vel_ctrl), saturated=_flags(sat))
+            thrust_ned_n=thrust,
+            vel_sp_ned_m_s=self.vel_sp,
+            acc_sp_ned_m_s2=acc_sp,
+            pos_controlled=_flags(pos_ctrl),
+            vel_controlled=_flags(vel_ctrl),
+            saturated=_flags(sat),
+        )
         return out
 
     def _velocity_pid(self, vel: np.ndarray, vel_err: np.ndarray, dt: float) -> np.ndarray:

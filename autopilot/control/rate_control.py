@@ -51,9 +51,15 @@ class RateControl:
         self.prev_rate = None
         self.d_filtered = [0.0, 0.0, 0.0]
 
-    def update(self, rate: np.ndarray, rate_sp: np.ndarray, dt: float,
-               sat_pos: np.ndarray | None = None, sat_neg: np.ndarray | None = None,
-               integrate: bool = True) -> np.ndarray:
+    def update(
+        self,
+        rate: np.ndarray,
+        rate_sp: np.ndarray,
+        dt: float,
+        sat_pos: np.ndarray | None = None,
+        sat_neg: np.ndarray | None = None,
+        integrate: bool = True,
+    ) -> np.ndarray:
         """Angular acceleration setpoint (rad/s^2, FRD) from the body rate and its setpoint (rad/s, FRD).
 
         ``sat_pos``/``sat_neg``: per axis, the mixer could not deliver more
@@ -76,7 +82,9 @@ class RateControl:
             out[i] = p[i] * err[i] + self.integral[i] + d_term
             if integrate and dt > 0:
                 grow = ki[i] * err[i] * dt
-                if (grow > 0 and sat_pos is not None and sat_pos[i]) or (grow < 0 and sat_neg is not None and sat_neg[i]):
+                if (grow > 0 and sat_pos is not None and sat_pos[i]) or (
+                    grow < 0 and sat_neg is not None and sat_neg[i]
+                ):
                     grow = 0.0
                 self.integral[i] = min(max(self.integral[i] + grow, -int_lim[i]), int_lim[i])
         return np.array(out)

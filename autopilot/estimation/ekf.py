@@ -61,8 +61,8 @@ from collections import deque
 
 import numpy as np
 
-from mavsim_core import quaternion as quat
 from autopilot.parameters import ParamDef, param
+from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
 
 _G = np.array([0.0, 0.0, GRAVITY_M_S2])
@@ -74,16 +74,26 @@ P_GYR_NOISE = param("EKF2_GYR_NOISE", 0.015, 0.0001, 0.1, "rad/s", "Rate gyro no
 P_ACC_NOISE = param("EKF2_ACC_NOISE", 0.35, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
 P_GYR_B_NOISE = param("EKF2_GYR_B_NOISE", 0.001, 0.0, 0.01, "rad/s^2", "Process noise of the gyro bias")
 P_ACC_B_NOISE = param("EKF2_ACC_B_NOISE", 0.003, 0.0, 0.01, "m/s^3", "Process noise of the accelerometer bias")
-P_GPS_P_NOISE = param("EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)")
+P_GPS_P_NOISE = param(
+    "EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)"
+)
 P_GPS_V_NOISE = param("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
 P_BARO_NOISE = param("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
 P_HEAD_NOISE = param("EKF2_HEAD_NOISE", 0.1, 0.01, 1.0, "rad", "Magnetometer heading measurement noise")
 P_GPS_P_GATE = param("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS position (standard deviations)")
 P_GPS_V_GATE = param("EKF2_GPS_V_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS velocity (standard deviations)")
 P_BARO_GATE = param("EKF2_BARO_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of barometer height (standard deviations)")
-P_HDG_GATE = param("EKF2_HDG_GATE", 2.6, 1.0, 20.0, "SD", "Innovation gate of magnetometer heading (standard deviations)")
-P_NOAID_NOISE = param("EKF2_NOAID_NOISE", 10.0, 0.5, 50.0, "m",
-                        "Noise of the constant-position pseudo-measurement fused when nothing aids the filter in flight")
+P_HDG_GATE = param(
+    "EKF2_HDG_GATE", 2.6, 1.0, 20.0, "SD", "Innovation gate of magnetometer heading (standard deviations)"
+)
+P_NOAID_NOISE = param(
+    "EKF2_NOAID_NOISE",
+    10.0,
+    0.5,
+    50.0,
+    "m",
+    "Noise of the constant-position pseudo-measurement fused when nothing aids the filter in flight",
+)
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (
@@ -161,8 +171,9 @@ class ErrorStateEkf:
         self.r_ned_frd = quat.to_matrix(self.q)
         self.p[:] = 0.0
         self.v[:] = 0.0
-        self.cov = np.diag(np.concatenate((
-            [1.0] * 3, [0.25] * 3, [0.05**2, 0.05**2, 0.15**2], [0.01**2] * 3, [0.1**2] * 3)))
+        self.cov = np.diag(
+            np.concatenate(([1.0] * 3, [0.25] * 3, [0.05**2, 0.05**2, 0.15**2], [0.01**2] * 3, [0.1**2] * 3))
+        )
         self.initialised = True
         self.time_aligned_s = 0.0
 
@@ -216,7 +227,7 @@ class ErrorStateEkf:
         f[TH, TH] = _EYE3 - _skew(dth)
         f[6, 9] = f[7, 10] = f[8, 11] = -t
         c = f @ self.cov @ f.T
-        c.flat[::N + 1] += self._process_noise(t)
+        c.flat[:: N + 1] += self._process_noise(t)
         self._predictions += 1
         if self._predictions % 10 == 0:  # keep P symmetric and its variances sane (once per 0.2 s)
             c = 0.5 * (c + c.T)
@@ -254,7 +265,12 @@ class ErrorStateEkf:
         self.v += dx[V]
         w, x, y, z = (float(c) for c in self.q)
         a, b, c = 0.5 * float(dx[6]), 0.5 * float(dx[7]), 0.5 * float(dx[8])
-        qn = (w - x * a - y * b - z * c, x + w * a + y * c - z * b, y + w * b + z * a - x * c, z + w * c + x * b - y * a)
+        qn = (
+            w - x * a - y * b - z * c,
+            x + w * a + y * c - z * b,
+            y + w * b + z * a - x * c,
+            z + w * c + x * b - y * a,
+        )
         k = 1.0 / math.sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3])
         self.q = np.array([qn[0] * k, qn[1] * k, qn[2] * k, qn[3] * k])
         self.r_ned_frd = quat.to_matrix(self.q)
@@ -293,7 +309,6 @@ class ErrorStateEkf:
         self._inject(k * innovation)
         return True
 
-
     def fuse_vector(self, first: int, values: np.ndarray, then: np.ndarray, r: float, gate: float, kind: str) -> int:
         """Fuse consecutive direct measurements (e.g. velocity N, E, D) of error-state elements
         ``first``...; ``then`` is the state they are compared with.  Returns how many were rejected."""
@@ -305,11 +320,11 @@ class ErrorStateEkf:
         n = len(values)
         then = np.array(then[:n], dtype=float)
         for j in range(n):
-            before = current[offset:offset + n].copy()
+            before = current[offset : offset + n].copy()
             if not self.fuse_state(first + j, float(values[j] - then[j]), r, gate, kind):
                 rejected += 1
             # Later components are compared with the delayed estimate moved by this correction.
-            then += current[offset:offset + n] - before
+            then += current[offset : offset + n] - before
         self._batch_kind = None
         return rejected
 

@@ -30,7 +30,6 @@ from collections import deque
 
 import numpy as np
 
-from mavsim_core import quaternion as quat
 from autopilot.estimation.ekf import P_BARO_GATE, P_BARO_NOISE, P_HDG_GATE, P_HEAD_NOISE, P_NOAID_NOISE, ErrorStateEkf
 from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GPS_RESET_S, GpsFusion, finite3
 from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field
@@ -38,6 +37,7 @@ from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import PositionVelocityFilter
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import EstimatorStatus, GpsSample, ImuSample, VehicleEstimate
+from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 
 _GRAVITY = np.array([0.0, 0.0, GRAVITY_M_S2])
@@ -54,14 +54,18 @@ FAKE_POS_PERIOD_US = 200_000  # constant-position fusion when nothing aids the f
 GROUND_FAKE_POS_NOISE_M = 0.5
 GPS_ACCEL_LAG_US = 100_000  # a derivative between two 5 Hz fixes describes the middle of the interval
 
-P_EST_GROUP = param("SYS_MC_EST_GROUP", 2, 1, 2, "",
-                      "Estimator the controllers fly on: 1 = Mahony attitude + linear position filter, 2 = EKF",
-                      ParamType.INT32)
+P_EST_GROUP = param(
+    "SYS_MC_EST_GROUP",
+    2,
+    1,
+    2,
+    "",
+    "Estimator the controllers fly on: 1 = Mahony attitude + linear position filter, 2 = EKF",
+    ParamType.INT32,
+)
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
-PARAMS: tuple[ParamDef, ...] = (
-    P_EST_GROUP,
-)
+PARAMS: tuple[ParamDef, ...] = (P_EST_GROUP,)
 
 # ESTIMATOR_STATUS_FLAGS (MAVLink common).
 FLAG_ATTITUDE, FLAG_VEL_HORIZ, FLAG_VEL_VERT = 1, 2, 4
@@ -116,8 +120,9 @@ class Estimator:
         self._deferred_gps: list[GpsSample] = []
         if params is not None:
             self._load_params()
-            params.subscribe(lambda name, value: self._load_params()
-                             if name.startswith(("EKF2_", "ATT_", "SYS_MC_EST")) else None)
+            params.subscribe(
+                lambda name, value: self._load_params() if name.startswith(("EKF2_", "ATT_", "SYS_MC_EST")) else None
+            )
 
     def _load_params(self) -> None:
         assert self.params is not None
@@ -319,9 +324,14 @@ class Estimator:
 
     def _ekf_position_ok(self, now: int) -> bool:
         e, gps = self.ekf, self.gps
-        return (gps.origin is not None and gps.last_pos_fused_us is not None
-                and now - gps.last_pos_fused_us < GPS_RESET_S * 1e6 and gps.ok(now)
-                and e.horizontal_pos_std_m() < MAX_H_STD_M and e.vertical_pos_std_m() < MAX_V_STD_M)
+        return (
+            gps.origin is not None
+            and gps.last_pos_fused_us is not None
+            and now - gps.last_pos_fused_us < GPS_RESET_S * 1e6
+            and gps.ok(now)
+            and e.horizontal_pos_std_m() < MAX_H_STD_M
+            and e.vertical_pos_std_m() < MAX_V_STD_M
+        )
 
     def estimate(self) -> VehicleEstimate:
         now = self.last_imu_us if self.last_imu_us is not None else 0
@@ -335,16 +345,31 @@ class Estimator:
         else:
             q, pos, vel = self.attitude.q, self.position.pos_ned_m, self.position.vel_ned_m_s
             att_ok = self.attitude.initialised and self.attitude.time_aligned_s >= ALIGN_TIME_S
-            pos_ok = (settled and gps.ok(now) and self.position.horizontal_std_m() < MAX_H_STD_M
-                      and self.position.vertical_std_m() < MAX_V_STD_M)
+            pos_ok = (
+                settled
+                and gps.ok(now)
+                and self.position.horizontal_std_m() < MAX_H_STD_M
+                and self.position.vertical_std_m() < MAX_V_STD_M
+            )
         roll, pitch, yaw = quat.to_euler(q)
         o = gps.origin or (math.nan, math.nan, math.nan)
         return VehicleEstimate(
-            timestamp_us=now, q_wxyz=q.copy(), rate_frd_rad_s=self.rate_frd.copy(),
-            accel_ned_m_s2=self.accel_ned.copy(), pos_ned_m=pos, vel_ned_m_s=vel,
-            attitude_valid=att_ok, position_valid=pos_ok, height_valid=gps.origin is not None,
-            origin_lat_deg=o[0], origin_lon_deg=o[1], origin_alt_amsl_m=o[2],
-            roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw, reset_count=gps.reset_count,
+            timestamp_us=now,
+            q_wxyz=q.copy(),
+            rate_frd_rad_s=self.rate_frd.copy(),
+            accel_ned_m_s2=self.accel_ned.copy(),
+            pos_ned_m=pos,
+            vel_ned_m_s=vel,
+            attitude_valid=att_ok,
+            position_valid=pos_ok,
+            height_valid=gps.origin is not None,
+            origin_lat_deg=o[0],
+            origin_lon_deg=o[1],
+            origin_alt_amsl_m=o[2],
+            roll_rad=roll,
+            pitch_rad=pitch,
+            yaw_rad=yaw,
+            reset_count=gps.reset_count,
             reset_delta_ned_m=gps.reset_delta_ned_m.copy(),
         )
 
@@ -366,10 +391,19 @@ class Estimator:
             flags |= FLAG_GPS_GLITCH
         r = e.ratio
         return EstimatorStatus(
-            timestamp_us=now, flags=flags, vel_ratio=r["vel"], pos_horiz_ratio=r["pos"], pos_vert_ratio=r["hgt"],
-            mag_ratio=r["mag"], pos_horiz_accuracy_m=e.horizontal_pos_std_m(), pos_vert_accuracy_m=e.vertical_pos_std_m(),
-            tilt_std_rad=e.tilt_std_rad(), yaw_std_rad=e.yaw_std_rad(), mag_fault=self.mag.fault,
-            gps_glitch=self.gps.glitch, position_ok=pos_ok,
+            timestamp_us=now,
+            flags=flags,
+            vel_ratio=r["vel"],
+            pos_horiz_ratio=r["pos"],
+            pos_vert_ratio=r["hgt"],
+            mag_ratio=r["mag"],
+            pos_horiz_accuracy_m=e.horizontal_pos_std_m(),
+            pos_vert_accuracy_m=e.vertical_pos_std_m(),
+            tilt_std_rad=e.tilt_std_rad(),
+            yaw_std_rad=e.yaw_std_rad(),
+            mag_fault=self.mag.fault,
+            gps_glitch=self.gps.glitch,
+            position_ok=pos_ok,
         )
 
     def prearm_failures(self) -> list[str]:

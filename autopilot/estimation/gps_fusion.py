@@ -21,7 +21,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.estimation.ekf import P_GPS_P_GATE, P_GPS_P_NOISE, P_GPS_V_GATE, P_GPS_V_NOISE, ErrorStateEkf, nearest_state
+from autopilot.estimation.ekf import (
+    P_GPS_P_GATE,
+    P_GPS_P_NOISE,
+    P_GPS_V_GATE,
+    P_GPS_V_NOISE,
+    ErrorStateEkf,
+    nearest_state,
+)
 from autopilot.estimation.position_kf import P_GPS_DELAY, PositionVelocityFilter
 from autopilot.parameters import ParamDef
 from autopilot.topics import GpsSample
@@ -41,8 +48,13 @@ def finite3(v: np.ndarray) -> bool:
 class GpsFusion:
     """Fuses GPS fixes into the EKF and the linear position filter; owns the local origin."""
 
-    def __init__(self, ekf: ErrorStateEkf, lkf: PositionVelocityFilter, events: list[tuple[str, str]],
-                 p: Callable[[ParamDef], float]) -> None:
+    def __init__(
+        self,
+        ekf: ErrorStateEkf,
+        lkf: PositionVelocityFilter,
+        events: list[tuple[str, str]],
+        p: Callable[[ParamDef], float],
+    ) -> None:
         self.ekf = ekf
         self.lkf = lkf
         self.events = events  # (severity name, text), shared with the estimator

@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from mavsim_core import quaternion as quat
 from autopilot.parameters import ParamDef, param
+from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
 
 P_KP = param("ATT_MAHONY_KP", 0.5, 0.0, 20.0, "rad/s", "Mahony filter proportional gain (accelerometer and heading)")
@@ -62,8 +62,14 @@ class MahonyFilter:
         self.initialised = True
         self.time_aligned_s = 0.0
 
-    def update(self, gyro_frd: np.ndarray, accel_frd: np.ndarray, mag_frd: np.ndarray | None, dt_s: float,
-               accel_ned_kinematic: np.ndarray | None = None) -> np.ndarray:
+    def update(
+        self,
+        gyro_frd: np.ndarray,
+        accel_frd: np.ndarray,
+        mag_frd: np.ndarray | None,
+        dt_s: float,
+        accel_ned_kinematic: np.ndarray | None = None,
+    ) -> np.ndarray:
         """One step; returns the bias-corrected body rate (rad/s)."""
         if not self.initialised:
             if abs(np.linalg.norm(accel_frd) - GRAVITY_M_S2) > 0.1 * GRAVITY_M_S2:
@@ -81,8 +87,9 @@ class MahonyFilter:
         self.time_aligned_s += dt_s
         return rate
 
-    def _correct(self, accel_frd: np.ndarray, mag_frd: np.ndarray | None, dt_s: float,
-                 accel_ned_kinematic: np.ndarray | None) -> None:
+    def _correct(
+        self, accel_frd: np.ndarray, mag_frd: np.ndarray | None, dt_s: float, accel_ned_kinematic: np.ndarray | None
+    ) -> None:
         """Recompute the correction rate from gravity and heading; learn the gyro bias."""
         r = quat.to_matrix(self.q)
         err = np.zeros(3)

@@ -17,20 +17,30 @@ from __future__ import annotations
 
 import numpy as np
 
+from autopilot.estimation.ekf import (  # noqa: E402  (shared with the EKF: one set of sensor noises)
+    P_BARO_NOISE,
+    P_GPS_P_NOISE,
+    P_GPS_V_NOISE,
+)
+from autopilot.estimation.ekf import (
+    P_GPS_P_GATE as P_GATE,
+)
 from autopilot.parameters import ParamDef, param
 
-from autopilot.estimation.ekf import (  # noqa: E402  (shared with the EKF: one set of sensor noises)
-    P_BARO_NOISE, P_GPS_P_GATE as P_GATE, P_GPS_P_NOISE, P_GPS_V_NOISE,
+P_GPS_DELAY = param(
+    "EKF2_GPS_DELAY",
+    110.0,
+    0.0,
+    300.0,
+    "ms",
+    "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago",
 )
-
-P_GPS_DELAY = param("EKF2_GPS_DELAY", 110.0, 0.0, 300.0, "ms",
-                      "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago")
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
-PARAMS: tuple[ParamDef, ...] = (
-    P_GPS_DELAY,
+PARAMS: tuple[ParamDef, ...] = (P_GPS_DELAY,)
+ACC_NOISE_DENSITY = (
+    0.35  # m/s^2/sqrt(s): acceleration process noise of this filter (not EKF2_ACC_NOISE's per-step form)
 )
-ACC_NOISE_DENSITY = 0.35  # m/s^2/sqrt(s): acceleration process noise of this filter (not EKF2_ACC_NOISE's per-step form)
 
 _ACC_BIAS_RW = 0.002  # m/s^2 per sqrt(s), accelerometer bias random walk
 
@@ -83,8 +93,9 @@ class PositionVelocityFilter:
         self.p_h = f @ self.p_h @ f.T + q
         self.p_v = f @ self.p_v @ f.T + q
 
-    def _update_scalar(self, axes: list[int], p: np.ndarray, state: int, z: np.ndarray, r: float,
-                       reference: np.ndarray | None = None) -> np.ndarray:
+    def _update_scalar(
+        self, axes: list[int], p: np.ndarray, state: int, z: np.ndarray, r: float, reference: np.ndarray | None = None
+    ) -> np.ndarray:
         """Fuse a measurement of one state element on the given axes (same P).
 
         ``reference``: the filter's own value of that element at the time the measurement
@@ -100,8 +111,13 @@ class PositionVelocityFilter:
         self.x[axes, :] += np.outer(innov, k)
         return p - np.outer(k, p[state, :])
 
-    def fuse_gps(self, pos_ned_m: np.ndarray, vel_ned_m_s: np.ndarray,
-                 pos_then: np.ndarray | None = None, vel_then: np.ndarray | None = None) -> None:
+    def fuse_gps(
+        self,
+        pos_ned_m: np.ndarray,
+        vel_ned_m_s: np.ndarray,
+        pos_then: np.ndarray | None = None,
+        vel_then: np.ndarray | None = None,
+    ) -> None:
         """Fuse a GPS fix; ``pos_then``/``vel_then`` are the estimate at the time the fix describes."""
         pos_then = self.x[:, 0] if pos_then is None else pos_then
         vel_then = self.x[:, 1] if vel_then is None else vel_then

@@ -29,24 +29,28 @@ from mavsim_core.px4_modes import Mode
 FORCE_MAGIC = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM: arm or disarm whatever the checks say
 INT32_MAX = 2**31 - 1  # COMMAND_INT x/y "not given"
 
-_GLOBAL_FRAMES = frozenset({
-    mavlink.MAV_FRAME_GLOBAL,
-    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
-    mavlink.MAV_FRAME_GLOBAL_INT,
-    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-})
-_LOCAL_FRAMES = frozenset({
-    mavlink.MAV_FRAME_LOCAL_NED,
-    mavlink.MAV_FRAME_LOCAL_ENU,
-    mavlink.MAV_FRAME_LOCAL_OFFSET_NED,
-    mavlink.MAV_FRAME_BODY_NED,
-    mavlink.MAV_FRAME_BODY_OFFSET_NED,
-    mavlink.MAV_FRAME_BODY_FRD,
-    mavlink.MAV_FRAME_LOCAL_FRD,
-    mavlink.MAV_FRAME_LOCAL_FLU,
-})
+_GLOBAL_FRAMES = frozenset(
+    {
+        mavlink.MAV_FRAME_GLOBAL,
+        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        mavlink.MAV_FRAME_GLOBAL_INT,
+        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+    }
+)
+_LOCAL_FRAMES = frozenset(
+    {
+        mavlink.MAV_FRAME_LOCAL_NED,
+        mavlink.MAV_FRAME_LOCAL_ENU,
+        mavlink.MAV_FRAME_LOCAL_OFFSET_NED,
+        mavlink.MAV_FRAME_BODY_NED,
+        mavlink.MAV_FRAME_BODY_OFFSET_NED,
+        mavlink.MAV_FRAME_BODY_FRD,
+        mavlink.MAV_FRAME_LOCAL_FRD,
+        mavlink.MAV_FRAME_LOCAL_FLU,
+    }
+)
 
 
 class LinkCommands(Protocol):
@@ -74,8 +78,14 @@ class CommanderCommands(Protocol):
     def land(self) -> int: ...
     def return_to_launch(self) -> int: ...
     def set_mode(self, mode: Mode) -> int: ...
-    def reposition(self, lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None,
-                   yaw_rad: float | None, speed_m_s: float | None) -> int: ...
+    def reposition(
+        self,
+        lat_deg: float | None,
+        lon_deg: float | None,
+        alt_amsl_m: float | None,
+        yaw_rad: float | None,
+        speed_m_s: float | None,
+    ) -> int: ...
 
 
 class By(Enum):

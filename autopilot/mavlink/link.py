@@ -115,8 +115,9 @@ class GcsLink:
         try:
             for name, local, remote in (("gcs", local_gcs_port, gcs_port), ("api", local_api_port, api_port)):
                 self._endpoints.append(
-                    LinkEndpoint(name, (bind_host, local + instance), (remote_host, remote + instance), sysid, compid,
-                                 intervals)
+                    LinkEndpoint(
+                        name, (bind_host, local + instance), (remote_host, remote + instance), sysid, compid, intervals
+                    )
                 )
         except OSError:
             self.close()
@@ -147,10 +148,12 @@ class GcsLink:
         handlers: dict[str, Handler] = {
             "HEARTBEAT": lambda ep, msg: None,  # the sender is registered as a peer, nothing else
             "PING": lambda ep, msg: None,
-            "COMMAND_LONG": self._for_us(lambda ep, msg: self._run_command(
-                ep, msg, commands.command_long_params(msg), mavlink.MAV_FRAME_GLOBAL)),
-            "COMMAND_INT": self._for_us(lambda ep, msg: self._run_command(
-                ep, msg, commands.command_int_params(msg), msg.frame)),
+            "COMMAND_LONG": self._for_us(
+                lambda ep, msg: self._run_command(ep, msg, commands.command_long_params(msg), mavlink.MAV_FRAME_GLOBAL)
+            ),
+            "COMMAND_INT": self._for_us(
+                lambda ep, msg: self._run_command(ep, msg, commands.command_int_params(msg), msg.frame)
+            ),
             "SET_MODE": self._on_set_mode,
             "PARAM_REQUEST_LIST": self._for_us(self._params.on_request_list),
             "PARAM_REQUEST_READ": self._for_us(self._params.on_request_read),
@@ -244,13 +247,14 @@ class GcsLink:
 
     def _for_us(self, handler: Handler) -> Handler:
         """The handler, called only for messages addressed to our system (or broadcast) and component (or all)."""
+
         def checked(ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
             if msg.target_system in (0, self.sysid) and msg.target_component in (0, self.compid):
                 handler(ep, msg)
+
         return checked
 
-    def _run_command(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, params: commands.Params,
-                     frame: int) -> None:
+    def _run_command(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, params: commands.Params, frame: int) -> None:
         """Execute a command through the command table and send exactly one COMMAND_ACK."""
         command = msg.command
         try:

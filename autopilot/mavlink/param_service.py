@@ -64,8 +64,12 @@ class ParamService:
     addressed to this system and component (the link checks).
     """
 
-    def __init__(self, store: ParameterStore, statustext: Callable[[int, str, str | None], None],
-                 broadcast: Callable[[mavlink.MAVLink_message], None]) -> None:
+    def __init__(
+        self,
+        store: ParameterStore,
+        statustext: Callable[[int, str, str | None], None],
+        broadcast: Callable[[mavlink.MAVLink_message], None],
+    ) -> None:
         self.store = store
         self._statustext = statustext
         self._broadcast = broadcast

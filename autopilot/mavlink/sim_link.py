@@ -13,9 +13,9 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.topics import BatteryState, GpsSample, ImuSample
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
-from autopilot.topics import BatteryState, GpsSample, ImuSample
 
 UINT16_MAX = 65535
 _ACTUATORS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
@@ -36,10 +36,15 @@ def imu_from_msg(m) -> ImuSample:
 
 def gps_from_msg(m) -> GpsSample:
     return GpsSample(
-        timestamp_us=m.time_usec, fix_type=m.fix_type, lat_deg=m.lat * 1e-7, lon_deg=m.lon * 1e-7,
-        alt_amsl_m=m.alt * 1e-3, vel_ned_m_s=np.array([m.vn, m.ve, m.vd]) * 0.01,
+        timestamp_us=m.time_usec,
+        fix_type=m.fix_type,
+        lat_deg=m.lat * 1e-7,
+        lon_deg=m.lon * 1e-7,
+        alt_amsl_m=m.alt * 1e-3,
+        vel_ned_m_s=np.array([m.vn, m.ve, m.vd]) * 0.01,
         eph_m=m.eph * 0.01 if m.eph != UINT16_MAX else float("nan"),
-        epv_m=m.epv * 0.01 if m.epv != UINT16_MAX else float("nan"), satellites=m.satellites_visible,
+        epv_m=m.epv * 0.01 if m.epv != UINT16_MAX else float("nan"),
+        satellites=m.satellites_visible,
     )
 
 

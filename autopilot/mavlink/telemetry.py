@@ -46,11 +46,16 @@ DEFAULT_FLIGHT_SW_VERSION = 0x010E00FF
 
 # POSITION_TARGET_LOCAL_NED type_mask bits of x, y, z, vx, vy, vz, afx, afy, afz, yaw
 _POSITION_TARGET_IGNORE_BITS = (
-    mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE,
-    mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE,
-    mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE,
-    mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE,
-    mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE,
+    mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE,
 )
 
 # BatteryWarning (the commander's, from BAT_*_THR) -> BATTERY_STATUS.charge_state
@@ -93,8 +98,15 @@ def deg_e7(deg: float) -> int:
 
 
 def autopilot_version(
-    *, flight_sw_version: int, middleware_sw_version: int, os_sw_version: int, board_version: int,
-    flight_custom_version: bytes, vendor_id: int, product_id: int, uid: int,
+    *,
+    flight_sw_version: int,
+    middleware_sw_version: int,
+    os_sw_version: int,
+    board_version: int,
+    flight_custom_version: bytes,
+    vendor_id: int,
+    product_id: int,
+    uid: int,
 ) -> mavlink.MAVLink_message:
     """AUTOPILOT_VERSION with PX4's capabilities (:data:`CAPABILITIES`); ``flight_custom_version`` up to 8 bytes."""
     return mavlink.MAVLink_autopilot_version_message(
@@ -173,7 +185,8 @@ def position_target_local_ned(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVL
         if not math.isfinite(value):
             mask |= bit
     return mavlink.MAVLink_position_target_local_ned_message(
-        time_boot_ms(now_us), mavlink.MAV_FRAME_LOCAL_NED, mask, *values, math.nan)
+        time_boot_ms(now_us), mavlink.MAV_FRAME_LOCAL_NED, mask, *values, math.nan
+    )
 
 
 def servo_output_raw(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
@@ -181,8 +194,10 @@ def servo_output_raw(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_messa
     if not s.motor_outputs:
         return None
     span = PWM_MAX_US - PWM_MIN_US
-    pwm = [clamp_int(PWM_MIN_US + span * c, PWM_MIN_US, PWM_MAX_US, PWM_MIN_US) if s.armed else PWM_DISARMED_US
-           for c in s.motor_outputs[:16]]
+    pwm = [
+        clamp_int(PWM_MIN_US + span * c, PWM_MIN_US, PWM_MAX_US, PWM_MIN_US) if s.armed else PWM_DISARMED_US
+        for c in s.motor_outputs[:16]
+    ]
     pwm += [0] * (16 - len(pwm))  # 0: output not used
     return mavlink.MAVLink_servo_output_raw_message(now_us & 0xFFFFFFFF, 0, *pwm)
 
@@ -240,8 +255,17 @@ def estimator_status(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_messa
     if st is None:
         return None
     return mavlink.MAVLink_estimator_status_message(
-        now_us, st.flags, st.vel_ratio, st.pos_horiz_ratio, st.pos_vert_ratio, st.mag_ratio,
-        0.0, 0.0, st.pos_horiz_accuracy_m, st.pos_vert_accuracy_m)
+        now_us,
+        st.flags,
+        st.vel_ratio,
+        st.pos_horiz_ratio,
+        st.pos_vert_ratio,
+        st.mag_ratio,
+        0.0,
+        0.0,
+        st.pos_horiz_accuracy_m,
+        st.pos_vert_accuracy_m,
+    )
 
 
 def vfr_hud(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:

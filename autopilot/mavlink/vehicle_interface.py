@@ -91,8 +91,9 @@ class FlightControllerVehicle:
     def snapshot(self) -> TelemetrySnapshot:
         fc = self.fc
         estimator = fc.estimator
-        return telemetry_snapshot(fc.commander.status, fc.actuators, fc.control_setpoints(), estimator.status(),
-                                  estimator.use_ekf)
+        return telemetry_snapshot(
+            fc.commander.status, fc.actuators, fc.control_setpoints(), estimator.status(), estimator.use_ekf
+        )
 
     def handle_command(self, command: int, params: tuple[float, ...], frame: int) -> int:
         return commands.handle_vehicle_command(self.fc.commander, command, params, frame)

@@ -28,5 +28,15 @@ from autopilot.navigation.loiter import LoiterTask
 from autopilot.navigation.rtl import ReturnTask, RtlPhase
 from autopilot.navigation.takeoff import TakeoffTask
 
-__all__ = ["FlightTask", "GotoTask", "LandDetector", "LandTask", "Landed", "LoiterTask", "ReturnTask", "RtlPhase",
-           "TakeoffTask", "started"]
+__all__ = [
+    "FlightTask",
+    "GotoTask",
+    "LandDetector",
+    "LandTask",
+    "Landed",
+    "LoiterTask",
+    "ReturnTask",
+    "RtlPhase",
+    "TakeoffTask",
+    "started",
+]

@@ -38,8 +38,14 @@ class GotoTask:
     m/s along the line, acceleration in m/s^2 along the line.
     """
 
-    def __init__(self, goal_ned_m: np.ndarray, yaw_rad: float, cruise_m_s: float, accel_m_s2: float,
-                 start_ned_m: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        goal_ned_m: np.ndarray,
+        yaw_rad: float,
+        cruise_m_s: float,
+        accel_m_s2: float,
+        start_ned_m: np.ndarray | None = None,
+    ) -> None:
         self.goal = goal_ned_m.astype(float).copy()
         self.yaw_rad = yaw_rad
         self.cruise_m_s = cruise_m_s

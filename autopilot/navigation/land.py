@@ -24,8 +24,14 @@ from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import VehicleEstimate
 
 P_LAND_SPEED = param("MPC_LAND_SPEED", 0.7, 0.2, 2.0, "m/s", "Landing descent speed (final phase)")
-P_ACC_DOWN_MAX = param("MPC_ACC_DOWN_MAX", 3.0, 2.0, 15.0, "m/s^2",
-                       "Largest change per second of the descent speed setpoint when landing starts or slows")
+P_ACC_DOWN_MAX = param(
+    "MPC_ACC_DOWN_MAX",
+    3.0,
+    2.0,
+    15.0,
+    "m/s^2",
+    "Largest change per second of the descent speed setpoint when landing starts or slows",
+)
 P_LAND_ALT1 = param("MPC_LAND_ALT1", 5.0, 0.0, 50.0, "m", "Below this height above home, descend at MPC_LAND_SPEED")
 
 # The parameters the landing reads (listed in autopilot/param_catalogue.py); MPC_Z_VEL_MAX_DN is
@@ -45,8 +51,13 @@ class LandTask:
     ``yaw_rad`` None take the vehicle's at activation.
     """
 
-    def __init__(self, home_down_m: float, params: ParameterStore, north_east: np.ndarray | None = None,
-                 yaw_rad: float | None = None) -> None:
+    def __init__(
+        self,
+        home_down_m: float,
+        params: ParameterStore,
+        north_east: np.ndarray | None = None,
+        yaw_rad: float | None = None,
+    ) -> None:
         self.ne = None if north_east is None else north_east.astype(float).copy()
         self.yaw_rad = yaw_rad
         self.home_down_m = home_down_m

@@ -18,7 +18,9 @@ import numpy as np
 
 from autopilot.parameters import ParamDef, ParameterStore, param
 
-P_TRIG_TIME = param("LNDMC_TRIG_TIME", 1.0, 0.1, 10.0, "s", "Time the landed conditions must hold before landing is declared")
+P_TRIG_TIME = param(
+    "LNDMC_TRIG_TIME", 1.0, 0.1, 10.0, "s", "Time the landed conditions must hold before landing is declared"
+)
 P_Z_VEL_MAX = param("LNDMC_Z_VEL_MAX", 0.3, 0.1, 2.0, "m/s", "Maximum vertical speed while landed")
 P_XY_VEL_MAX = param("LNDMC_XY_VEL_MAX", 1.0, 0.1, 5.0, "m/s", "Maximum horizontal speed while landed")
 
@@ -70,7 +72,9 @@ class LandDetector:
         self.ground_down_m = down_m
         self.state = Landed.ON_GROUND
 
-    def update(self, now_us: int, armed: bool, vel_ned: np.ndarray, down_m: float, thrust_frac_of_hover: float) -> Landed:
+    def update(
+        self, now_us: int, armed: bool, vel_ned: np.ndarray, down_m: float, thrust_frac_of_hover: float
+    ) -> Landed:
         self._filter(now_us, vel_ned, thrust_frac_of_hover)
         if not armed:
             if self.state is not Landed.ON_GROUND:
@@ -84,8 +88,11 @@ class LandDetector:
                 self.landed_since_us = None
             return self.state
         get = self.params.get if self.params is not None else (lambda n: _DEFAULTS[n])
-        quiet = (self._f_vz < get("LNDMC_Z_VEL_MAX") and self._f_vxy < get("LNDMC_XY_VEL_MAX")
-                 and self._f_thrust < LANDED_THRUST_FRAC_OF_HOVER)
+        quiet = (
+            self._f_vz < get("LNDMC_Z_VEL_MAX")
+            and self._f_vxy < get("LNDMC_XY_VEL_MAX")
+            and self._f_thrust < LANDED_THRUST_FRAC_OF_HOVER
+        )
         if not quiet:
             self._low_since_us = None
         elif self._low_since_us is None:

@@ -25,8 +25,9 @@ from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import VehicleEstimate
 
 P_RETURN_ALT = param("RTL_RETURN_ALT", 10.0, 0.0, 150.0, "m", "Return altitude above home for return-to-launch")
-P_LAND_DELAY = param("RTL_LAND_DELAY", 0.0, -1.0, 300.0, "s", "Hover time over home before landing (-1: do not land)",
-                     ParamType.REAL32)
+P_LAND_DELAY = param(
+    "RTL_LAND_DELAY", 0.0, -1.0, 300.0, "s", "Hover time over home before landing (-1: do not land)", ParamType.REAL32
+)
 
 # The parameters the return reads (listed in autopilot/param_catalogue.py); the go-to's and the
 # position controller's are their definitions, not copies.  The LAND phase reads the land's.
@@ -67,8 +68,13 @@ class ReturnTask:
     def _move(self, start: np.ndarray, goal: np.ndarray) -> GotoTask:
         p = self.params
         if abs(goal[2] - start[2]) > np.linalg.norm(goal[:2] - start[:2]):
-            return GotoTask(goal, self.yaw_rad, p.get("MPC_Z_VEL_MAX_UP") * VERTICAL_SPEED_FRAC, VERTICAL_ACCEL_M_S2,
-                            start_ned_m=start)
+            return GotoTask(
+                goal,
+                self.yaw_rad,
+                p.get("MPC_Z_VEL_MAX_UP") * VERTICAL_SPEED_FRAC,
+                VERTICAL_ACCEL_M_S2,
+                start_ned_m=start,
+            )
         return GotoTask(goal, self.yaw_rad, p.get("MPC_XY_CRUISE"), p.get("MPC_ACC_HOR"), start_ned_m=start)
 
     def _start_phase(self, phase: RtlPhase, now_us: int, est: VehicleEstimate, pos: np.ndarray) -> None:
@@ -97,7 +103,9 @@ class ReturnTask:
             self._start_phase(RtlPhase.RETURN, now_us, est, t.goal)
         elif self.phase is RtlPhase.RETURN and t.arrived(now_us, est):
             self._start_phase(RtlPhase.LOITER, now_us, est, t.goal)
-        elif self.phase is RtlPhase.LOITER and now_us >= self.loiter_until_us and self.params.get("RTL_LAND_DELAY") >= 0:
+        elif (
+            self.phase is RtlPhase.LOITER and now_us >= self.loiter_until_us and self.params.get("RTL_LAND_DELAY") >= 0
+        ):
             self._start_phase(RtlPhase.LAND, now_us, est, est.pos_ned_m)
         return self.task.update(est, now_us)
 

@@ -35,29 +35,46 @@ ARRIVAL_SPEED_M_S = 0.5
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flight-demo", description=__doc__.split("\n\n")[0])
     parser.add_argument("--instance", type=int, default=0, help="instance number: offsets every port (default 0)")
-    parser.add_argument("--speed", default=None,
-                        help="simulation speed: 'max' or a real-time factor (default max; 1 with --wait)")
+    parser.add_argument(
+        "--speed", default=None, help="simulation speed: 'max' or a real-time factor (default max; 1 with --wait)"
+    )
     parser.add_argument("--vehicle", default="quad_x", help="vehicle file (default quad_x)")
     parser.add_argument("--home", default=None, metavar="LAT,LON,ALT", help="home position for the simulator")
     parser.add_argument("--seed", type=int, default=None, help="simulator random seed")
     parser.add_argument("--alt", type=float, default=5.0, help="flight altitude above home, m (default 5)")
     parser.add_argument("--side", type=float, default=10.0, help="square side, m (default 10)")
     parser.add_argument("--hold", type=float, default=10.0, help="hover time after takeoff, simulated s (default 10)")
-    parser.add_argument("--ready-timeout", type=float, default=120.0,
-                        help="wall seconds to wait for the vehicle to be ready to arm (default 120)")
-    parser.add_argument("--step-timeout", type=float, default=120.0,
-                        help="wall seconds allowed for each flight step (default 120)")
-    parser.add_argument("--log-dir", default=None,
-                        help="where to write the child logs and the flight logs (default: a temp dir)")
+    parser.add_argument(
+        "--ready-timeout",
+        type=float,
+        default=120.0,
+        help="wall seconds to wait for the vehicle to be ready to arm (default 120)",
+    )
+    parser.add_argument(
+        "--step-timeout", type=float, default=120.0, help="wall seconds allowed for each flight step (default 120)"
+    )
+    parser.add_argument(
+        "--log-dir", default=None, help="where to write the child logs and the flight logs (default: a temp dir)"
+    )
     parser.add_argument("--sitl-module", default="sitl", help="module run as the simulator (testing; default sitl)")
-    parser.add_argument("--autopilot-module", default="autopilot",
-                        help="module run as the flight controller (testing; default autopilot)")
-    parser.add_argument("--sitl-arg", action="append", default=[], metavar="ARG",
-                        help="extra argument for the simulator (repeatable)")
-    parser.add_argument("--autopilot-arg", action="append", default=[], metavar="ARG",
-                        help="extra argument for the flight controller (repeatable)")
-    parser.add_argument("--wait", action="store_true",
-                        help="only start the stack and print how to connect; run until Ctrl-C")
+    parser.add_argument(
+        "--autopilot-module",
+        default="autopilot",
+        help="module run as the flight controller (testing; default autopilot)",
+    )
+    parser.add_argument(
+        "--sitl-arg", action="append", default=[], metavar="ARG", help="extra argument for the simulator (repeatable)"
+    )
+    parser.add_argument(
+        "--autopilot-arg",
+        action="append",
+        default=[],
+        metavar="ARG",
+        help="extra argument for the flight controller (repeatable)",
+    )
+    parser.add_argument(
+        "--wait", action="store_true", help="only start the stack and print how to connect; run until Ctrl-C"
+    )
     return parser
 
 
@@ -150,15 +167,22 @@ class Demo:
         c.remove_listener(drift)
         self.say(f"held {a.hold:g} s at N {hold_n:.2f} E {hold_e:.2f}; max drift {self.log.hold_drift_m:.2f} m")
 
-        legs = (("corner 1 (N)", a.side, 0.0), ("corner 2 (NE)", a.side, a.side),
-                ("corner 3 (E)", 0.0, a.side), ("corner 4 (start)", 0.0, 0.0))
+        legs = (
+            ("corner 1 (N)", a.side, 0.0),
+            ("corner 2 (NE)", a.side, a.side),
+            ("corner 3 (E)", 0.0, a.side),
+            ("corner 4 (start)", 0.0, 0.0),
+        )
         for name, dn, de in legs:
             self.step = f"fly to {name}"
             tn, te = hold_n + dn, hold_e + de
             c.goto_ned(tn, te, -a.alt, timeout_s=10).check()
             self.say(f"flying to {name}: N {tn:.2f} E {te:.2f} alt {a.alt:g}")
-            c.wait_until(lambda: c.arrived(tn, te, ARRIVAL_RADIUS_M, ARRIVAL_SPEED_M_S), timeout,
-                         f"arrival at {name} (N {tn:.2f} E {te:.2f})")
+            c.wait_until(
+                lambda: c.arrived(tn, te, ARRIVAL_RADIUS_M, ARRIVAL_SPEED_M_S),
+                timeout,
+                f"arrival at {name} (N {tn:.2f} E {te:.2f})",
+            )
             n, e, d = c.position_ned()
             herr, verr = math.hypot(n - tn, e - te), -d - a.alt
             self.log.corners.append((name, herr, verr, c.sim_time_s()))
@@ -187,8 +211,9 @@ class Demo:
         if log.landing_error_m is not None:
             lines.append(f"landing error      {log.landing_error_m:.2f} m from home")
         rtf = sim_flight_s / wall_flight_s if wall_flight_s > 0 else math.nan
-        lines.append(f"wall time          {wall_total_s:.1f} s total, {wall_flight_s:.1f} s from first "
-                     f"telemetry to the end")
+        lines.append(
+            f"wall time          {wall_total_s:.1f} s total, {wall_flight_s:.1f} s from first telemetry to the end"
+        )
         lines.append(f"real-time factor   {rtf:.2f} ({sim_flight_s:.1f} simulated s / {wall_flight_s:.1f} wall s)")
         return "\n".join(lines)
 
@@ -209,16 +234,21 @@ def _print_tails(stack: Stack, lines: int = 20) -> None:
 def connection_help(stack: Stack) -> str:
     """How to connect ground stations to a running stack."""
     i, gcs, api = stack.instance, stack.gcs_port, stack.api_port
-    qgc = ("QGroundControl: start it; it auto-connects on UDP 14550" if gcs == 14550 else
-           f"QGroundControl: add a UDP comm link listening on port {gcs} (it auto-listens only on 14550)")
-    return "\n".join([
-        f"stack running (instance {i}, speed {stack.speed}); logs in {stack.log_dir}",
-        f"  {qgc}",
-        f"  MAVProxy:  mavproxy.py --master udpin:0.0.0.0:{gcs}",
-        f'  MAVSDK:    await drone.connect(system_address="udpin://0.0.0.0:{api}")',
-        f"  gcs:       python -m gcs --instance {i} status" if i else "  gcs:       python -m gcs status",
-        "Ctrl-C to stop.",
-    ])
+    qgc = (
+        "QGroundControl: start it; it auto-connects on UDP 14550"
+        if gcs == 14550
+        else f"QGroundControl: add a UDP comm link listening on port {gcs} (it auto-listens only on 14550)"
+    )
+    return "\n".join(
+        [
+            f"stack running (instance {i}, speed {stack.speed}); logs in {stack.log_dir}",
+            f"  {qgc}",
+            f"  MAVProxy:  mavproxy.py --master udpin:0.0.0.0:{gcs}",
+            f'  MAVSDK:    await drone.connect(system_address="udpin://0.0.0.0:{api}")',
+            f"  gcs:       python -m gcs --instance {i} status" if i else "  gcs:       python -m gcs status",
+            "Ctrl-C to stop.",
+        ]
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -228,9 +258,18 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     speed = args.speed or ("1" if args.wait else "max")
     wall_start = time.monotonic()
-    stack = Stack(args.instance, speed, args.vehicle, args.sitl_arg, args.autopilot_arg, home=args.home,
-                  seed=args.seed, log_dir=args.log_dir, sitl_module=args.sitl_module,
-                  autopilot_module=args.autopilot_module)
+    stack = Stack(
+        args.instance,
+        speed,
+        args.vehicle,
+        args.sitl_arg,
+        args.autopilot_arg,
+        home=args.home,
+        seed=args.seed,
+        log_dir=args.log_dir,
+        sitl_module=args.sitl_module,
+        autopilot_module=args.autopilot_module,
+    )
     demo = None
     client = None
     try:
@@ -239,10 +278,12 @@ def main(argv: list[str] | None = None) -> int:
             print(connection_help(stack), flush=True)
             stack.wait()
             return 0
-        print(f"started sitl (speed {speed}) and autopilot, instance {args.instance}; logs in {stack.log_dir}",
-              flush=True)
-        client = VehicleClient(stack.api_url, timeout_s=args.ready_timeout, idle=stack.check_alive,
-                               on_statustext=show_statustext)
+        print(
+            f"started sitl (speed {speed}) and autopilot, instance {args.instance}; logs in {stack.log_dir}", flush=True
+        )
+        client = VehicleClient(
+            stack.api_url, timeout_s=args.ready_timeout, idle=stack.check_alive, on_statustext=show_statustext
+        )
         demo = Demo(client, args)
         client.wait_until(lambda: client.sim_time_s() is not None, args.step_timeout, "vehicle time")
         wall_flight_start, sim_flight_start = time.monotonic(), client.sim_time_s()

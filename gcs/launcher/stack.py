@@ -170,8 +170,17 @@ class Stack:
     # ----------------------------------------------------------------- commands
 
     def sitl_command(self) -> list[str]:
-        cmd = [self.python, "-m", *self.sitl_module, "--vehicle", self.vehicle, "--speed", self.speed,
-               "--instance", str(self.instance)]
+        cmd = [
+            self.python,
+            "-m",
+            *self.sitl_module,
+            "--vehicle",
+            self.vehicle,
+            "--speed",
+            self.speed,
+            "--instance",
+            str(self.instance),
+        ]
         if self.home is not None:
             cmd += ["--home", self.home]
         if self.seed is not None:
@@ -179,8 +188,11 @@ class Stack:
         return cmd + self._log_dir_args("sitl") + self.extra_sitl_args
 
     def autopilot_command(self) -> list[str]:
-        return [self.python, "-m", *self.autopilot_module, "--vehicle", self.vehicle,
-                "--instance", str(self.instance)] + self._log_dir_args("autopilot") + self.extra_autopilot_args
+        return (
+            [self.python, "-m", *self.autopilot_module, "--vehicle", self.vehicle, "--instance", str(self.instance)]
+            + self._log_dir_args("autopilot")
+            + self.extra_autopilot_args
+        )
 
     def _log_dir_args(self, child: str) -> list[str]:
         """``--log-dir`` for the flight logs once the stack has its log directory (at start); ``--no-log`` if off."""
@@ -202,8 +214,10 @@ class Stack:
         if self.procs:
             raise StackError("stack already started")
         if _tcp_listening(self.sitl_port):
-            raise StackError(f"TCP port {self.sitl_port} is already in use: is another simulator running "
-                             f"as instance {self.instance}? Choose another --instance.")
+            raise StackError(
+                f"TCP port {self.sitl_port} is already in use: is another simulator running "
+                f"as instance {self.instance}? Choose another --instance."
+            )
         if self._log_dir_arg is not None:
             self._log_dir_arg.mkdir(parents=True, exist_ok=True)
             self.log_dir = self._log_dir_arg
@@ -228,9 +242,16 @@ class Stack:
         log.write("$ " + " ".join(cmd) + "\n")
         log.flush()
         self._log_files[name] = log
-        self.procs[name] = subprocess.Popen(cmd, cwd=PROJECT_ROOT, env=env, stdin=subprocess.DEVNULL,
-                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
-                                            preexec_fn=_die_with_parent if sys.platform == "linux" else None)
+        self.procs[name] = subprocess.Popen(
+            cmd,
+            cwd=PROJECT_ROOT,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+            preexec_fn=_die_with_parent if sys.platform == "linux" else None,
+        )
 
     def _wait_sitl_listening(self) -> None:
         proc = self.procs["sitl"]
@@ -244,8 +265,10 @@ class Stack:
             if listening:
                 return
             if time.monotonic() > deadline:
-                raise StackError(f"the simulator did not listen on TCP {self.sitl_port} within "
-                                 f"{self.start_timeout_s:g} s\n{self._tail_block('sitl')}")
+                raise StackError(
+                    f"the simulator did not listen on TCP {self.sitl_port} within "
+                    f"{self.start_timeout_s:g} s\n{self._tail_block('sitl')}"
+                )
             try:
                 proc.wait(timeout=0.05)
             except subprocess.TimeoutExpired:

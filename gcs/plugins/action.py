@@ -34,8 +34,14 @@ class Action:
 
     # ----------------------------------------------------------------- the command protocol
 
-    def command_long(self, command: int, *params: float, timeout_s: float | None = None,
-                     retries: int = 3, timeout: float | None = None) -> CommandResult:
+    def command_long(
+        self,
+        command: int,
+        *params: float,
+        timeout_s: float | None = None,
+        retries: int = 3,
+        timeout: float | None = None,
+    ) -> CommandResult:
         """Send COMMAND_LONG (up to 7 params, missing ones 0) until its COMMAND_ACK arrives.
 
         Resends up to ``retries`` times (confirmation 0, 1, 2 ...) within
@@ -47,14 +53,21 @@ class Action:
         link = self.link
 
         def send(attempt: int) -> None:
-            link.conn.mav.command_long_send(link.target_system, link.target_component, command,
-                                            min(attempt, 255), *p)
+            link.conn.mav.command_long_send(link.target_system, link.target_component, command, min(attempt, 255), *p)
 
         return self._command(command, send, timeout_s if timeout is None else timeout, retries)
 
-    def command_int(self, command: int, *params: float, frame: int = mavlink.MAV_FRAME_GLOBAL,
-                    timeout_s: float | None = None, retries: int = 3, timeout: float | None = None,
-                    current: int = 0, autocontinue: int = 0) -> CommandResult:
+    def command_int(
+        self,
+        command: int,
+        *params: float,
+        frame: int = mavlink.MAV_FRAME_GLOBAL,
+        timeout_s: float | None = None,
+        retries: int = 3,
+        timeout: float | None = None,
+        current: int = 0,
+        autocontinue: int = 0,
+    ) -> CommandResult:
         """Send COMMAND_INT: params are p1, p2, p3, p4, x (int, e.g. degE7), y (int), z (float).
 
         Same retry and result behaviour as :meth:`command_long`.
@@ -64,13 +77,27 @@ class Action:
         link = self.link
 
         def send(attempt: int) -> None:
-            link.conn.mav.command_int_send(link.target_system, link.target_component, frame, command,
-                                           current, autocontinue, p[0], p[1], p[2], p[3], x, y, p[6])
+            link.conn.mav.command_int_send(
+                link.target_system,
+                link.target_component,
+                frame,
+                command,
+                current,
+                autocontinue,
+                p[0],
+                p[1],
+                p[2],
+                p[3],
+                x,
+                y,
+                p[6],
+            )
 
         return self._command(command, send, timeout_s if timeout is None else timeout, retries)
 
-    def _command(self, command: int, send: Callable[[int], None], timeout_s: float | None,
-                 retries: int) -> CommandResult:
+    def _command(
+        self, command: int, send: Callable[[int], None], timeout_s: float | None, retries: int
+    ) -> CommandResult:
         """Send (attempt 0, 1 ...) until a final COMMAND_ACK; IN_PROGRESS extends the wait to the timeout."""
         link = self.link
         timeout = link._timeout(timeout_s)
@@ -96,8 +123,10 @@ class Action:
                 break
         if ack is None or ack.result == mavlink.MAV_RESULT_IN_PROGRESS:
             state = "only IN_PROGRESS" if ack is not None else "no COMMAND_ACK"
-            raise GcsTimeout(f"timed out after {timeout:g} s waiting for the vehicle to acknowledge "
-                             f"{command_name(command)} ({state} after {retries} attempt(s)) [{link.describe()}]")
+            raise GcsTimeout(
+                f"timed out after {timeout:g} s waiting for the vehicle to acknowledge "
+                f"{command_name(command)} ({state} after {retries} attempt(s)) [{link.describe()}]"
+            )
         reason = None
         if ack.result != mavlink.MAV_RESULT_ACCEPTED:
             reason = link.reason_since(texts_before)
@@ -107,19 +136,26 @@ class Action:
 
     def arm(self, force: bool = False, timeout_s: float | None = None) -> CommandResult:
         """COMPONENT_ARM_DISARM(1); ``force`` skips the pre-arm checks (param2 = 21196)."""
-        return self.command_long(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, ARM_FORCE_MAGIC if force else 0,
-                                 timeout_s=timeout_s)
+        return self.command_long(
+            mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, ARM_FORCE_MAGIC if force else 0, timeout_s=timeout_s
+        )
 
     def disarm(self, force: bool = False, timeout_s: float | None = None) -> CommandResult:
         """COMPONENT_ARM_DISARM(0); ``force`` disarms even in flight (param2 = 21196)."""
-        return self.command_long(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, ARM_FORCE_MAGIC if force else 0,
-                                 timeout_s=timeout_s)
+        return self.command_long(
+            mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, ARM_FORCE_MAGIC if force else 0, timeout_s=timeout_s
+        )
 
     def set_mode(self, name: str, timeout_s: float | None = None) -> CommandResult:
         """MAV_CMD_DO_SET_MODE to a named PX4 mode (any accepted spelling; does not wait for the heartbeat)."""
         mode = modes.lookup_mode(name)
-        return self.command_long(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                                 mode.main, mode.sub, timeout_s=timeout_s)
+        return self.command_long(
+            mavlink.MAV_CMD_DO_SET_MODE,
+            mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+            mode.main,
+            mode.sub,
+            timeout_s=timeout_s,
+        )
 
     def hold(self, timeout_s: float | None = None) -> CommandResult:
         """Hold position: DO_SET_MODE to AUTO.LOITER (PX4's Hold mode)."""
@@ -128,8 +164,7 @@ class Action:
     def takeoff(self, alt_amsl_m: float = math.nan, timeout_s: float | None = None) -> CommandResult:
         """NAV_TAKEOFF to an altitude AMSL, m (NaN: the vehicle's MIS_TAKEOFF_ALT above home)."""
         nan = math.nan
-        return self.command_long(mavlink.MAV_CMD_NAV_TAKEOFF, nan, 0, 0, nan, nan, nan, alt_amsl_m,
-                                 timeout_s=timeout_s)
+        return self.command_long(mavlink.MAV_CMD_NAV_TAKEOFF, nan, 0, 0, nan, nan, nan, alt_amsl_m, timeout_s=timeout_s)
 
     def land(self, timeout_s: float | None = None) -> CommandResult:
         """NAV_LAND where the vehicle is (yaw, lat, lon, alt NaN = keep current)."""
@@ -140,25 +175,48 @@ class Action:
         """NAV_RETURN_TO_LAUNCH."""
         return self.command_long(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, timeout_s=timeout_s)
 
-    def goto_global(self, lat_deg: float, lon_deg: float, alt_amsl_m: float, *, ground_speed_m_s: float = -1.0,
-                    yaw_deg: float = math.nan, timeout_s: float | None = None) -> CommandResult:
+    def goto_global(
+        self,
+        lat_deg: float,
+        lon_deg: float,
+        alt_amsl_m: float,
+        *,
+        ground_speed_m_s: float = -1.0,
+        yaw_deg: float = math.nan,
+        timeout_s: float | None = None,
+    ) -> CommandResult:
         """DO_REPOSITION (as COMMAND_INT, MAV_FRAME_GLOBAL, degE7) with the change-mode flag: fly there and hold."""
         return self.command_int(
-            mavlink.MAV_CMD_DO_REPOSITION, ground_speed_m_s, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0,
-            yaw_deg, deg_to_e7(lat_deg), deg_to_e7(lon_deg), alt_amsl_m,
-            frame=mavlink.MAV_FRAME_GLOBAL, timeout_s=timeout_s)
+            mavlink.MAV_CMD_DO_REPOSITION,
+            ground_speed_m_s,
+            mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE,
+            0,
+            yaw_deg,
+            deg_to_e7(lat_deg),
+            deg_to_e7(lon_deg),
+            alt_amsl_m,
+            frame=mavlink.MAV_FRAME_GLOBAL,
+            timeout_s=timeout_s,
+        )
 
     def ned_to_global(self, north_m: float, east_m: float, down_rel_home_m: float) -> tuple[float, float, float]:
         """(lat deg, lon deg, alt AMSL m) of a NED point relative to home (waits for home)."""
         home = self.telemetry.wait_home()
         return ned_to_global(home.lat_deg, home.lon_deg, home.alt_amsl_m, north_m, east_m, down_rel_home_m)
 
-    def goto_ned(self, north_m: float, east_m: float, down_rel_home_m: float, *, ground_speed_m_s: float = -1.0,
-                 yaw_deg: float = math.nan, timeout_s: float | None = None) -> CommandResult:
+    def goto_ned(
+        self,
+        north_m: float,
+        east_m: float,
+        down_rel_home_m: float,
+        *,
+        ground_speed_m_s: float = -1.0,
+        yaw_deg: float = math.nan,
+        timeout_s: float | None = None,
+    ) -> CommandResult:
         """Fly to a point given in metres NED relative to home (down negative = above home) and hold there."""
         lat, lon, alt = self.ned_to_global(north_m, east_m, down_rel_home_m)
-        return self.goto_global(lat, lon, alt, ground_speed_m_s=ground_speed_m_s, yaw_deg=yaw_deg,
-                                timeout_s=timeout_s)
+        return self.goto_global(lat, lon, alt, ground_speed_m_s=ground_speed_m_s, yaw_deg=yaw_deg, timeout_s=timeout_s)
 
 
 def _padded(params: tuple, n: int) -> list[float]:

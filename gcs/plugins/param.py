@@ -95,13 +95,22 @@ class Param:
         link = self.link
         name_b = _param_id(name)
         msg = self._exchange(
-            name, lambda: link.conn.mav.param_request_read_send(link.target_system, link.target_component,
-                                                                name_b, -1),
-            timeout_s, retries, f"PARAM_VALUE for {name} (unknown parameter?)")
+            name,
+            lambda: link.conn.mav.param_request_read_send(link.target_system, link.target_component, name_b, -1),
+            timeout_s,
+            retries,
+            f"PARAM_VALUE for {name} (unknown parameter?)",
+        )
         return decode_param_value(msg)
 
-    def set(self, name: str, value: float | int, param_type: int | None = None,
-            timeout_s: float | None = None, retries: int = 3) -> int | float:
+    def set(
+        self,
+        name: str,
+        value: float | int,
+        param_type: int | None = None,
+        timeout_s: float | None = None,
+        retries: int = 3,
+    ) -> int | float:
         """Set a parameter (PARAM_SET) and return the value the vehicle echoes.
 
         ``param_type`` is a MAV_PARAM_TYPE (6 INT32, 9 REAL32); if omitted the
@@ -118,8 +127,9 @@ class Param:
         raw = param_encoding.encode_param_bytes(value, param_type)
         link.drain()  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
         texts_before = len(link.statustexts)
-        msg = self._exchange(name, lambda: self._send_set(name_b, raw, param_type), timeout_s, retries,
-                             f"PARAM_VALUE echo for {name}")
+        msg = self._exchange(
+            name, lambda: self._send_set(name_b, raw, param_type), timeout_s, retries, f"PARAM_VALUE echo for {name}"
+        )
         want = param_encoding.decode_param_bytes(raw, param_type)
 
         def matches(m) -> bool:
@@ -132,9 +142,11 @@ class Param:
             # was a late answer to an earlier request (another station's change, a read), and the
             # echo of this set follows.
             if len(link.statustexts) == texts_before:
-                later = link.recv(("PARAM_VALUE", "STATUSTEXT"), LATE_ECHO_S,
-                                  lambda m: m.get_type() == "STATUSTEXT" or
-                                  (param_id_text(m.param_id) == name and matches(m)))
+                later = link.recv(
+                    ("PARAM_VALUE", "STATUSTEXT"),
+                    LATE_ECHO_S,
+                    lambda m: m.get_type() == "STATUSTEXT" or (param_id_text(m.param_id) == name and matches(m)),
+                )
                 if later is not None and later.get_type() == "PARAM_VALUE":
                     return decode_param_value(later)
             reason = link.reason_since(texts_before)
@@ -143,13 +155,16 @@ class Param:
             raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {kept}{because}")
         return got
 
-    def get_all(self, progress: Callable[[int, int], None] | None = None, timeout_s: float | None = None,
-             stats: DownloadStats | None = None) -> list[VehicleParam]:
+    def get_all(
+        self,
+        progress: Callable[[int, int], None] | None = None,
+        timeout_s: float | None = None,
+        stats: DownloadStats | None = None,
+    ) -> list[VehicleParam]:
         """Every parameter of the vehicle in index order (see :func:`download_parameters`)."""
         return download_parameters(self.link, progress, timeout_s, stats)
 
-    def _exchange(self, name: str, send: Callable[[], None], timeout_s: float | None, retries: int,
-                  what: str):
+    def _exchange(self, name: str, send: Callable[[], None], timeout_s: float | None, retries: int, what: str):
         """Send (up to ``retries`` times) until a PARAM_VALUE named ``name`` answers; GcsTimeout if none."""
         link = self.link
         timeout = link._timeout(timeout_s)
@@ -169,8 +184,9 @@ class Param:
         dialect = sys.modules[type(link.conn.mav).__module__]
         msg = dialect.MAVLink_param_set_message(link.target_system, link.target_component, name_b, 0.0, param_type)
         payload = raw + struct.pack("<BB16sB", link.target_system, link.target_component, name_b, param_type)
-        msg.pack = lambda mav, force_mavlink1=False: msg._pack(mav, msg.crc_extra, payload,
-                                                               force_mavlink1=force_mavlink1)
+        msg.pack = lambda mav, force_mavlink1=False: msg._pack(
+            mav, msg.crc_extra, payload, force_mavlink1=force_mavlink1
+        )
         link.conn.mav.send(msg)
 
 
@@ -222,8 +238,12 @@ class _Collector:
                 self.progress(len(self.by_index), self.count)
 
 
-def download_parameters(link: Connection, progress: Callable[[int, int], None] | None = None,
-                        timeout_s: float | None = None, stats: DownloadStats | None = None) -> list[VehicleParam]:
+def download_parameters(
+    link: Connection,
+    progress: Callable[[int, int], None] | None = None,
+    timeout_s: float | None = None,
+    stats: DownloadStats | None = None,
+) -> list[VehicleParam]:
     """Every parameter of the vehicle on ``link``, in index order.
 
     ``progress(received, count)`` is called for each new index.  Raises
@@ -279,5 +299,7 @@ def _timeout_text(col: _Collector, timeout: float) -> str:
         return f"timed out after {timeout:g} s waiting for the parameter list (no PARAM_VALUE received)"
     missing = [i for i in range(col.count) if i not in col.by_index]
     shown = ", ".join(str(i) for i in missing[:20]) + (" ..." if len(missing) > 20 else "")
-    return (f"timed out after {timeout:g} s downloading parameters: {len(col.by_index)} of {col.count} "
-            f"received, missing indices {shown}")
+    return (
+        f"timed out after {timeout:g} s downloading parameters: {len(col.by_index)} of {col.count} "
+        f"received, missing indices {shown}"
+    )

@@ -22,8 +22,17 @@ MAV_SYS_STATUS_PREARM_CHECK = 0x10000000
 UINT16_UNKNOWN = 65535  # BATTERY_STATUS.voltages / SYS_STATUS.voltage_battery: no value
 
 LANDED_STATE_NAMES = {0: "UNDEFINED", 1: "ON_GROUND", 2: "IN_AIR", 3: "TAKEOFF", 4: "LANDING"}
-GPS_FIX_NAMES = {0: "NO_GPS", 1: "NO_FIX", 2: "2D", 3: "3D", 4: "DGPS", 5: "RTK_FLOAT", 6: "RTK_FIXED",
-                 7: "STATIC", 8: "PPP"}
+GPS_FIX_NAMES = {
+    0: "NO_GPS",
+    1: "NO_FIX",
+    2: "2D",
+    3: "3D",
+    4: "DGPS",
+    5: "RTK_FLOAT",
+    6: "RTK_FIXED",
+    7: "STATIC",
+    8: "PPP",
+}
 
 
 @dataclass(frozen=True)
@@ -175,8 +184,9 @@ class Telemetry:
     def request_message(self, msg_id: int) -> None:
         """Fire-and-forget MAV_CMD_REQUEST_MESSAGE (the ACK, if any, is ignored)."""
         link = self.link
-        link.conn.mav.command_long_send(link.target_system, link.target_component,
-                                        mavlink.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0)
+        link.conn.mav.command_long_send(
+            link.target_system, link.target_component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0
+        )
 
     # ----------------------------------------------------------------- flight conditions
 
