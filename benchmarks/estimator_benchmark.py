@@ -218,8 +218,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{np.mean([r['rtf'] for r in rs]):5.1f}x"
         )
     print(
-        "targets (issue 4, default sensor errors): roll/pitch <= 0.5 deg, yaw <= 2 deg, "
-        "horizontal <= 0.5 m, vertical <= 0.3 m"
+        "targets (default sensor errors): roll/pitch <= 0.5 deg, yaw <= 2 deg, horizontal <= 0.5 m, vertical <= 0.3 m"
     )
     return 0
 

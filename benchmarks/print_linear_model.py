@@ -1,8 +1,8 @@
-"""Print the hover linearisation (seed 001 eqs 4.17-4.19) of a vehicle.
+"""Print the hover linearisation ([F eqs. 4.17-4.19] of a vehicle.
 
 A and B come from sitl.linearize.linearize_hover (central differences through the
 simulator's MuJoCo model); the largest difference from the corrected analytic model
-of the seed (sitl.linearize.seed_hover_model) and the eigenvalues of A follow.
+of [F] (sitl.linearize.seed_hover_model) and the eigenvalues of A follow.
 Frames: state (x_n, y_n, z_n NED m; u, v, w FRD m/s; phi, theta, psi rad; p, q, r FRD
 rad/s), input (T - m g N; tau_roll, tau_pitch, tau_yaw FRD N m).
 

@@ -1,6 +1,6 @@
 """``gcs plot LOG``: PNG figures of a flight, setpoint against estimate (and ground truth).
 
-Like seed 000's tuning plots (errors in altitude, roll and pitch over time).  The
+Like [Q]'s tuning plots (errors in altitude, roll and pitch over time).  The
 logs (``*.fc.npy``, ``*.tlog``, a directory, and the simulator's ``*.truth.npy``)
 are read into series by :mod:`gcs.flight_logs`; this module only draws them.
 
@@ -200,7 +200,7 @@ def _fig_errors(plt, data: FlightData):
         _error_panel(ax, data, key, label + " error", wrap)
         _mark_modes(ax, data, labels=False)
     axes[0].set_title(
-        "Errors (seed 000 style): setpoint - estimate" + (", estimate - truth" if data.truth is not None else "")
+        "Errors (as in [Q 3.5]): setpoint - estimate" + (", estimate - truth" if data.truth is not None else "")
     )
     axes[-1].set_xlabel("simulated time, s")
     return fig

@@ -52,8 +52,8 @@ class VehicleSpec:
     time_constant_down_s: float
     leg_positions_frd_m: tuple[tuple[float, float, float], ...]
     leg_size_m: tuple[float, float, float]
-    rotor_drag_k_d: float  # k_d in F_d,i = w_i k_d V_a_perp, N/((rad/s)(m/s))     (seed 001 eq 4.12)
-    rolling_moment_k_r: float  # k_r in M_r,i = w_i k_r V_a_perp, N m/((rad/s)(m/s))  (seed 001 eq 4.13)
+    rotor_drag_k_d: float  # k_d in F_d,i = w_i k_d V_a_perp, N/((rad/s)(m/s))     ([F eq. 4.12]
+    rolling_moment_k_r: float  # k_r in M_r,i = w_i k_r V_a_perp, N m/((rad/s)(m/s))  ([F eq. 4.13]
     body_drag_cd_area_m2: tuple[float, float, float]  # drag coefficient x area along body x, y, z (FRD)
     battery_cells: int
     battery_capacity_mah: float
@@ -84,7 +84,7 @@ class VehicleSpec:
 
     @property
     def hover_speed_rad_s(self) -> float:
-        """Rotor speed at hover: sqrt(m g / (n k_T)) (seed 001 eq 4.8)."""
+        """Rotor speed at hover: sqrt(m g / (n k_T)) ([F eq. 4.8]."""
         return math.sqrt(self.mass_kg * GRAVITY_M_S2 / (len(self.rotors) * self.k_thrust))
 
     def effectiveness_matrix(self) -> np.ndarray:
@@ -92,7 +92,7 @@ class VehicleSpec:
 
         Rows: roll, pitch, yaw torque (N m, FRD) and collective thrust (N, along -z).
         A rotor at (x, y) pushing T up (-z in FRD) gives torque r x F = (-y T, x T, 0);
-        its drag torque on the body is +k_M T about FRD z for a CCW rotor (seed 001 eq 4.9).
+        its drag torque on the body is +k_M T about FRD z for a CCW rotor ([F eq. 4.9].
         """
         cols = []
         for r in self.rotors:

@@ -1,4 +1,4 @@
-"""Aerodynamic forces of seed 001 section 4.3: rotor drag, rolling moment, body drag.
+"""Aerodynamic forces of [F 4.3]: rotor drag, rolling moment, body drag.
 
 Frame: everything here is in MuJoCo's body frame FLU (x forward, y left, z up),
 metres, newtons, N m; the rotor disc plane is the body x-y plane, r_3 = (0, 0, 1).
@@ -8,7 +8,7 @@ metres, newtons, N m; the rotor disc plane is the body x-y plane, r_3 = (0, 0, 1
 - Rotor i: drag F_d,i = w_i k_d V_a_perp (4.12) applied at the rotor (so it also
   gives the moment r_i x F_d,i about the centre of mass) and rolling moment
   M_r,i = w_i k_r V_a_perp (4.13); summed over rotors (4.14)-(4.15).
-- Body (not in the seed): F_b = 1/2 rho (Cd A)_j |V_a| V_a,j per body axis j.
+- Body (not in [F]): F_b = 1/2 rho (Cd A)_j |V_a| V_a,j per body axis j.
 
 Plain floats: :meth:`Aerodynamics.wrench_flu` runs every 4 ms of simulated time.
 """

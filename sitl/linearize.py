@@ -1,4 +1,4 @@
-"""Linearised hover model of seed 001 section 4.4, eqs (4.16)-(4.19).
+"""Linearised hover model of [F 4.4], eqs (4.16)-(4.19).
 
 Two sources of the same (A, B, C):
 
@@ -7,12 +7,12 @@ Two sources of the same (A, B, C):
   (:func:`sitl.model.build_model`) with ``mujoco.mj_forward``, optionally with
   the aerodynamic wrench of :class:`sitl.aerodynamics.Aerodynamics`, and A, B
   are central finite differences about hover.
-- :func:`seed_hover_model` writes the seed's analytic matrices (4.19), with the
-  seed's typos corrected and in this project's frames (listed in its docstring).
+- :func:`seed_hover_model` writes [F]'s analytic matrices (4.19), with the
+  [F]'s typos corrected and in this project's frames (listed in its docstring).
 
 Frames and units (the MAVLink frames of the flight controller):
 
-- State x (12), the seed's ordering::
+- State x (12), [F]'s ordering::
 
       x = [x_n, y_n, z_n,   position, world NED, m
            u, v, w,         velocity, body FRD, m/s
@@ -37,7 +37,7 @@ Inputs reach the model as rotor thrusts, the simulator's actuator controls
 thrust), du = (tau_roll, tau_pitch, tau_yaw, T - m g) and t_e = pinv(E) (0, 0,
 0, m g) the hover thrusts (m g / n each for a symmetric frame).  Rotor lag
 (the simulator's first-order motor model) is not part of this model: the input
-is the thrust itself, as in the seed.
+is the thrust itself, as in [F].
 
 Pure: no sockets, files or clocks; every call builds its own MjModel/MjData.
 """
@@ -70,7 +70,7 @@ LINEARIZE_ALTITUDE_M = 50.0
 
 @dataclass(frozen=True)
 class LinearModel:
-    """x_dot = A x + B u, y = C x about hover (seed 001 eqs 4.17, 4.19); frames in the module docstring.
+    """x_dot = A x + B u, y = C x about hover ([F eq. 4.17], 4.19); frames in the module docstring.
 
     x and u are deviations from the equilibrium x_e = (0, 0, 0, 0, 0, 0, 0, 0, yaw, 0, 0, 0), u_e = 0.
     """
@@ -330,7 +330,7 @@ def seed_hover_model(spec: VehicleSpec, yaw_rad: float = 0.0, include_aero: bool
     accelerates up, i.e. towards -z, w_dot = -(T - m g)/m.  W of (4.7) is the identity at
     hover and J Omega_dot = tau - Omega x J Omega loses its quadratic term.
 
-    Corrections to the seed's printed (4.19), and why:
+    Corrections to [F]'s printed (4.19), and why:
 
     1. A is printed 12 x 13 with its attitude rows shifted: the phi_dot row is all zero and
        the ones of phi_dot = p, theta_dot = q, psi_dot = r sit in rows 8-10, columns 11-13.
@@ -341,9 +341,9 @@ def seed_hover_model(spec: VehicleSpec, yaw_rad: float = 0.0, include_aero: bool
        body z) and 1/I_xx, 1/I_yy, 1/I_zz the p, q, r rows (10-12).
     3. The input "T - g" is a force difference: T - m g (N).
     4. "cos phi ~ 0, cos theta ~ 0" is meant as cos ~ 1 (small angles).
-    5. Frames: the seed is ENU/FLU (thrust along +z_b); this project is NED/FRD, so the
+    5. Frames: [F] is ENU/FLU (thrust along +z_b); this project is NED/FRD, so the
        thrust row is -1/m (w positive down) and u_dot = -g theta (seed: +g theta).
-       The seed's v_dot = +g phi is what NED/FRD gives; in the seed's own ENU/FLU it
+       [F]'s v_dot = +g phi is what NED/FRD gives; in [F]'s own ENU/FLU it
        would be -g phi (positive roll about forward tilts +z_b toward -y_b), so the printed
        sign is an error there.
     6. The position rows rotate body velocity to the world by yaw (cos psi, -sin psi;
@@ -354,10 +354,10 @@ def seed_hover_model(spec: VehicleSpec, yaw_rad: float = 0.0, include_aero: bool
     8. (Not in 4.19, for the record) eq (4.5) is printed J Omega_dot = Omega x J Omega + ...;
        Euler's equation has -Omega x J Omega.  It is quadratic in Omega and vanishes at hover.
     9. m and J are the vehicle file's totals (``spec.mass_kg``, ``spec.inertia_kg_m2``), as
-       given to MuJoCo; g is the simulator's 9.80665 m/s^2, not the seed's rounded 9.81.
+       given to MuJoCo; g is the simulator's 9.80665 m/s^2, not [F]'s rounded 9.81.
 
     ``include_aero`` adds :func:`aero_hover_terms` (the linearised eqs 4.11-4.15), which the
-    seed's (4.19) leaves out.
+    [F]'s (4.19) leaves out.
     """
     g = GRAVITY_M_S2
     m = spec.mass_kg

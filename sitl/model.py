@@ -4,7 +4,7 @@ The vehicle file gives positions in body FRD; MuJoCo's body frame is FLU, so
 every position is converted with :func:`sitl.frames.frd_to_flu`.  Each rotor is a
 site with a ``general`` actuator whose gear is (0, 0, 1, 0, 0, -s k_M): the
 control value is the rotor thrust T in newtons, pushing along the site's +z (up)
-and giving the drag torque of seed 001 eq (4.9) about it (s = +1 for a rotor that
+and giving the drag torque of [F eq. 4.9] about it (s = +1 for a rotor that
 turns counter-clockwise seen from above, whose reaction turns the body clockwise).
 """
 
@@ -82,11 +82,11 @@ def build_mjcf(spec: VehicleSpec) -> str:
 def build_model(spec: VehicleSpec) -> mujoco.MjModel:
     """Compile the MJCF and set the vehicle's inertia to the file's exactly.
 
-    Seed 001's Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
+    [F]'s Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
     inequality I_xx + I_yy >= I_zz that every real mass distribution satisfies, and MuJoCo's
     compiler refuses such a body.  The model is therefore compiled with ``balanceinertia``
     and the file's values are written into ``body_inertia`` afterwards: the rigid-body
-    equations (seed 001 eq 4.5) use J as given, which is what the seed specifies.
+    equations ([F eq. 4.5]) use J as given, which is what [F] specifies.
     """
     xml = build_mjcf(spec)
     j = spec.inertia_kg_m2

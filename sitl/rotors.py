@@ -1,4 +1,4 @@
-"""Rotor model of seed 001: T_i = k_T w_i^2 (4.8), M_i = +-k_M T_i (4.9), motor lag.
+"""Rotor model of [F]: T_i = k_T w_i^2 (4.8), M_i = +-k_M T_i (4.9), motor lag.
 
 Motor commands u_i in 0..1 map linearly to the commanded rotor speed
 w_cmd = u_i * w_max (rad/s); the rotor speed follows with a first-order lag whose
@@ -60,12 +60,12 @@ class RotorModel:
         return [k * w * w for w in self.speeds]
 
     def thrust_n(self) -> np.ndarray:
-        """T_i = k_T w_i^2 (seed 001 eq 4.8)."""
+        """T_i = k_T w_i^2 ([F eq. 4.8]."""
         k = self.k_thrust
         return np.array([k * w * w for w in self.speeds])
 
     def drag_torque_nm(self) -> np.ndarray:
-        """|M_i| = k_M T_i (seed 001 eq 4.9); the sign comes from the spin direction."""
+        """|M_i| = k_M T_i ([F eq. 4.9]; the sign comes from the spin direction."""
         return self.k_moment * self.thrust_n()
 
     def shaft_power_w(self) -> float:

@@ -106,7 +106,7 @@ class Simulation:
         vx, vy, vz = d.qvel[0:3].tolist()  # world ENU
         wn, we, wd = self.wind.step(dt_s, float(d.qpos[2]), math.sqrt(vx * vx + vy * vy + vz * vz))
         self.wind_enu = (we, wn, -wd)
-        ax, ay, az = we - vx, wn - vy, -wd - vz  # V_a = V_wind - V_n (seed 001 eq 4.11), ENU
+        ax, ay, az = we - vx, wn - vy, -wd - vz  # V_a = V_wind - V_n ([F eq. 4.11], ENU
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = d.xmat[self._body].tolist()  # body FLU -> world ENU, row-major
         bx = r0 * ax + r3 * ay + r6 * az  # R^T V_a
         by = r1 * ax + r4 * ay + r7 * az

@@ -1,4 +1,4 @@
-"""End-to-end: live tuning of the roll-rate gain in a hover (issue 5).
+"""End-to-end: live tuning of the roll-rate gain in a hover ([Q 3.5]: gains changed in flight).
 
 A real ``sitl`` + ``autopilot`` stack (its instance from tests/instances.py, ``--speed max``,
 default seed) and a :class:`VehicleClient` on the flight controller's ground-station socket
@@ -22,8 +22,7 @@ the motor outputs but small in the roll angle (0.1 rad/s at 13 Hz is 0.07 deg). 
 measured as the part of ATTITUDE.rollspeed above ~5 Hz: the rate minus its 0.1 s
 running mean, which takes out the slow motion of the hover.
 
-Assertions (the measured spread over several runs is in the closing note of issue 5
-and printed with ``pytest -s``):
+Assertions (the measured spread over several runs is printed with ``pytest -s``):
 
 * at the high gain the fast roll-rate amplitude is >= 8 x the baseline, the rate moves
   >= 5 x as much per unit of the fast rate setpoint (ATTITUDE_TARGET.body_roll_rate),

@@ -186,7 +186,7 @@ def collect(client: VehicleClient, kind: str, seconds: float) -> list:
 
 
 def test_quad_holds_position_in_the_windy_scenario():
-    """The seed-000 quadcopter started with ``sitl --scenario windy`` (5 m/s from the West,
+    """The [Q] quadcopter started with ``sitl --scenario windy`` (5 m/s from the West,
     1 m/s turbulence, 2 m/s gusts)."""
     with (
         Stack(instance=INSTANCE_WINDY, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack,

@@ -1,4 +1,4 @@
-"""The hover linearisation of seed 001 section 4.4 (sitl.linearize).
+"""The hover linearisation of [F 4.4] (sitl.linearize).
 
 The numerical A, B (central differences through the simulator's MuJoCo model) must
 equal the corrected analytic matrices of eq (4.19), for both vehicle files and at two
@@ -45,7 +45,7 @@ def numeric(name: str, include_aero: bool = False, yaw_rad: float = 0.0) -> Line
 
 @pytest.mark.parametrize("name", VEHICLES)
 def test_simulator_model_has_the_files_mass_and_inertia(name):
-    """Even the seed's firefly J (Izz > Ixx + Iyy, refused by MuJoCo's compiler) reaches the model exactly."""
+    """Even [F]'s firefly J (Izz > Ixx + Iyy, refused by MuJoCo's compiler) reaches the model exactly."""
     spec = load_vehicle(name)
     model = build_model(spec)
     body = model.body("vehicle").id
@@ -83,7 +83,7 @@ def test_numeric_matches_seed_analytic(name, yaw_rad):
 
 @pytest.mark.parametrize("name", VEHICLES)
 def test_analytic_entries_from_first_principles(name):
-    """Spot-check the seed model's signs independently of its code (NED/FRD)."""
+    """Spot-check the [F] model's signs independently of its code (NED/FRD)."""
     spec = load_vehicle(name)
     yaw = math.radians(30.0)
     a, b = seed_hover_model(spec, yaw_rad=yaw).A, seed_hover_model(spec, yaw_rad=yaw).B

@@ -10,7 +10,7 @@ import pytest
 
 from autopilot.control.mixer import Mixer
 
-# Seed 000 section 2.9: Motor = Thrust +- Yaw +- Pitch +- Roll, rows (front right, front left, back right, back left).
+# [Q 2.9]: Motor = Thrust +- Yaw +- Pitch +- Roll, rows (front right, front left, back right, back left).
 SEED_TABLE = {  # motor: (yaw, pitch, roll) sign
     "FR": (+1, +1, +1),
     "FL": (-1, +1, -1),
@@ -25,7 +25,7 @@ def test_quad_x_allocation_reproduces_seed_000_mixing_table(quad):
     b = Mixer(quad).b  # rows roll, pitch, yaw torque (N m, FRD), thrust (N); one column per rotor
     assert b.shape == (4, 4)
     seed = np.array([SEED_TABLE[m] for m in QUAD_ORDER]).T  # rows yaw, pitch, roll
-    # Same pattern as the seed's table on every axis (each axis' overall sign is a convention):
+    # Same pattern as [Q]'s table on every axis (each axis' overall sign is a convention):
     for row, seed_row in ((b[2], seed[0]), (b[1], seed[1]), (b[0], seed[2])):
         signs = np.sign(row)
         assert np.array_equal(signs, seed_row) or np.array_equal(signs, -seed_row)

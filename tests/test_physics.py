@@ -1,4 +1,4 @@
-"""The simulated physics checked against seed 001's equations, for both vehicles.
+"""The simulated physics checked against [F]'s equations, for both vehicles.
 
 Everything runs through :class:`sitl.simulation.Simulation` (MuJoCo, rotor lag,
 aerodynamics, wind) with nothing else in the loop; frames are NED/FRD as the

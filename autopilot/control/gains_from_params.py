@@ -37,7 +37,7 @@ RATE_PARAMS: tuple[ParamDef, ...] = (
     param("MC_RR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Roll rate integrator clamp"),
     param("MC_PR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Pitch rate integrator clamp"),
     param("MC_YR_INT_LIM", 3.0, 0.0, 50.0, "rad/s^2", "Yaw rate integrator clamp"),
-    param("MC_RATE_D_LIM", 100.0, 0.0, 1000.0, "rad/s^2", "Clamp of the rate derivative term (seed 000 3.4)"),
+    param("MC_RATE_D_LIM", 100.0, 0.0, 1000.0, "rad/s^2", "Clamp of the rate derivative term ([Q 3.4])"),
 )
 
 ATTITUDE_PARAMS: tuple[ParamDef, ...] = (
@@ -82,8 +82,8 @@ POSITION_PARAMS: tuple[ParamDef, ...] = (
     param("MPC_TILTMAX_AIR", 35.0, 20.0, 89.0, "deg", "Maximum tilt in air"),
     param("MPC_THR_MIN", 0.12, 0.05, 0.5, "norm", "Minimum collective thrust in flight (fraction of maximum)"),
     param("MPC_THR_MAX", 1.0, 0.5, 1.0, "norm", "Maximum collective thrust (fraction of maximum)"),
-    param("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp (seed 000 3.4)"),
-    param("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp (seed 000 3.4)"),
+    param("MPC_XY_INT_LIM", 3.0, 0.0, 10.0, "m/s^2", "Horizontal velocity integrator clamp ([Q 3.4])"),
+    param("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp ([Q 3.4])"),
     param(
         "MPC_JERK_AUTO",
         4.0,
@@ -92,7 +92,7 @@ POSITION_PARAMS: tuple[ParamDef, ...] = (
         "m/s^3",
         "Jerk limit of automatic moves: how fast their acceleration feed-forward may change",
     ),
-    param("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term (seed 000 3.4)"),
+    param("MPC_ACC_D_LIM", 10.0, 0.0, 100.0, "m/s^2", "Clamp of the velocity derivative term ([Q 3.4])"),
     param(
         "MPC_VELD_LP",
         5.0,

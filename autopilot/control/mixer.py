@@ -3,7 +3,7 @@
 The effectiveness matrix B (rows: roll, pitch, yaw torque in N m, FRD, and
 collective thrust in N) comes from the vehicle file's rotor positions and spin
 directions (:meth:`params.vehicle.VehicleSpec.effectiveness_matrix`); for the
-quadcopter X it is seed 000's mixing table, for the hexacopter seed 001's
+quadcopter X it is [Q]'s mixing table, for the hexacopter [F]'s
 eq (4.10).  Rotor thrusts are its pseudo-inverse applied to the wanted wrench.
 
 Saturation (ArduPilot/PX4 style priorities): roll and pitch first, then
@@ -12,7 +12,7 @@ and full thrust they are scaled down; the collective is then shifted to fit;
 yaw gets what is left.  Which axes were cut, and in which direction, is
 reported so integrators stop winding up.  Motor command = sqrt(T / T_max)
 because the simulator (like PX4's) maps the 0..1 command linearly to rotor speed
-and thrust goes as speed squared (seed 001 eq 4.8).
+and thrust goes as speed squared ([F eq. 4.8].
 """
 
 from __future__ import annotations

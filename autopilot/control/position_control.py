@@ -1,7 +1,7 @@
-"""Position and velocity control (PX4's PositionControl structure, seed 000 2.10).
+"""Position and velocity control (PX4's PositionControl structure, [Q 2.10]).
 
 Position P -> velocity setpoint (limited) -> velocity PID -> acceleration
-setpoint -> thrust vector.  Seed 000 section 3.4 clamps the integrators, the
+setpoint -> thrust vector.  [Q 3.4] clamps the integrators, the
 derivative and the outputs; here those are :class:`PositionGains` fields (PX4's
 MPC_*_INT_LIM, MPC_ACC_*_MAX and MPC_TILTMAX_AIR parameters, mapped by
 :mod:`autopilot.control.gains_from_params`).  The thrust vector is in newtons, NED,

@@ -2,7 +2,7 @@
 
 alpha_sp = P e + I integral(e) + D d(-rate)/dt, per FRD axis, in rad/s^2; the
 caller turns it into torque with the vehicle's inertia (tau = J alpha), so gains
-carry over between airframes.  Seed 000 section 3.4's clamps: the integrator is
+carry over between airframes.  [Q 3.4]'s clamps: the integrator is
 limited to :attr:`RateGains.int_lim_rad_s2` and stops growing on an axis the mixer
 reports saturated in the same direction.  NaN inputs never reach the integrator.
 

@@ -1,4 +1,4 @@
-"""Mahony complementary filter for attitude (seed 001's attitude estimator).
+"""Mahony complementary filter for attitude ([F]'s attitude estimator).
 
 Gyro integration corrected by the accelerometer's gravity direction (roll,
 pitch) and by the magnetometer's heading (yaw only, so a disturbed magnetometer
