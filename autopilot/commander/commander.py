@@ -1,8 +1,9 @@
 """Commander: arming, modes, commands and the flight task that is active.
 
-Its typed command methods (:meth:`Commander.arm`, ``disarm``, ``takeoff``, ``land``,
-``return_to_launch``, ``set_mode``, ``reposition``) are what the MAVLink command table
-(:mod:`autopilot.mavlink.commands`) calls; each returns a MAV_RESULT.  Every refusal
+Its typed command methods (:meth:`Commander.arm`, ``disarm``, ``set_mode`` here;
+``takeoff``, ``land``, ``return_to_launch``, ``reposition`` inherited from
+:class:`autopilot.commander.flight_commands.FlightCommands`) are what the MAVLink command
+table (:mod:`autopilot.mavlink.commands`) calls; each returns a MAV_RESULT.  Every refusal
 says why in a STATUSTEXT (:meth:`Commander.pop_events`).  After each update, command
 and battery reading the commander publishes a frozen
 :class:`~autopilot.topics.CommanderStatus` (``commander.status``) that the flight
@@ -15,14 +16,13 @@ clock.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander import health, prearm_checks
+from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.control.position_control import PositionSetpoint
-from autopilot.navigation import GotoTask, LandTask, LoiterTask, ReturnTask, TakeoffTask, started
+from autopilot.navigation import LandTask, LoiterTask, ReturnTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (
@@ -35,7 +35,7 @@ from autopilot.topics import (
     LandedState,
     VehicleEstimate,
 )
-from mavsim_core.geodesy import geodetic_to_ned, ned_to_geodetic
+from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.px4_modes import Mode
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
@@ -53,23 +53,9 @@ AVAILABLE = {Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_RTL, Mo
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
-REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
 
 
-def _publishes(method):
-    """A command method after which the commander publishes its status, whatever the result."""
-
-    @functools.wraps(method)
-    def wrapper(self: "Commander", *args, **kwargs) -> int:
-        try:
-            return method(self, *args, **kwargs)
-        finally:
-            self._publish()
-
-    return wrapper
-
-
-class Commander:
+class Commander(FlightCommands):
     """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
 
     def __init__(self, params: ParameterStore, mav_type_name: str) -> None:
@@ -279,7 +265,7 @@ class Commander:
         self.task = None
         self.say(S.MAV_SEVERITY_INFO, f"Disarmed ({why})")
 
-    @_publishes
+    @publishes
     def arm(self, force: bool = False) -> int:
         """Arm (``force``: whatever the pre-arm checks say); armed in AUTO_TAKEOFF on the ground, take off."""
         result = self._arm(force)
@@ -287,7 +273,7 @@ class Commander:
             return self._takeoff(None)
         return result
 
-    @_publishes
+    @publishes
     def disarm(self, force: bool = False) -> int:
         """Disarm; refused in the air unless ``force``."""
         if not self.armed:
@@ -339,7 +325,7 @@ class Commander:
         self.mode = mode
         return S.MAV_RESULT_ACCEPTED
 
-    @_publishes
+    @publishes
     def set_mode(self, mode: Mode) -> int:
         """Switch to ``mode`` (SET_MODE, DO_SET_MODE): armed, its task starts now or the switch is refused;
         disarmed, an available mode is accepted and acts once armed, as in PX4."""
@@ -350,86 +336,6 @@ class Commander:
         self.mode = mode  # on the ground, disarmed: PX4 accepts the mode; it acts once armed
         self.task = None
         self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
-        return S.MAV_RESULT_ACCEPTED
-
-    # -- commands -----------------------------------------------------------------------
-    @_publishes
-    def takeoff(self, rel_alt_m: float | None = None) -> int:
-        """Take off to ``rel_alt_m`` above home (None: MIS_TAKEOFF_ALT; at least 1 m)."""
-        return self._takeoff(rel_alt_m)
-
-    @_publishes
-    def land(self) -> int:
-        """Land where the vehicle is (AUTO.LAND)."""
-        if not self.armed:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Land denied: vehicle not armed")
-            return S.MAV_RESULT_DENIED
-        return self._enter(Mode.AUTO_LAND)
-
-    @_publishes
-    def return_to_launch(self) -> int:
-        """Return home and land (AUTO.RTL)."""
-        if not self.armed:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Return denied: vehicle not armed")
-            return S.MAV_RESULT_DENIED
-        return self._enter(Mode.AUTO_RTL)
-
-    def _takeoff(self, rel_alt_m: float | None) -> int:
-        if self.home is None or self.est is None:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: no home position")
-            return S.MAV_RESULT_DENIED
-        rel = self.params.get("MIS_TAKEOFF_ALT") if rel_alt_m is None else rel_alt_m
-        rel = max(rel, 1.0)
-        return self._enter(Mode.AUTO_TAKEOFF, self.home.pos_ned_m[2] - rel)
-
-    @_publishes
-    def reposition(
-        self,
-        lat_deg: float | None,
-        lon_deg: float | None,
-        alt_amsl_m: float | None,
-        yaw_rad: float | None,
-        speed_m_s: float | None,
-    ) -> int:
-        """Fly to a point and hold there (AUTO.LOITER), along a straight line from the current setpoint.
-
-        None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw;
-        speed None: MPC_XY_CRUISE.  Refused when not flying, without a position estimate, for
-        an impossible latitude/longitude or a target more than REPOSITION_MAX_M away.
-        """
-        e = self.est
-        if not (self.armed and self.in_air) or e is None:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: vehicle not flying")
-            return S.MAV_RESULT_DENIED
-        if not e.position_valid:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: no position estimate")
-            return S.MAV_RESULT_DENIED
-        if lat_deg is None or lon_deg is None:
-            goal = e.pos_ned_m.copy()
-        else:
-            if abs(lat_deg) > 90 or abs(lon_deg) > 180:
-                self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: latitude/longitude out of range")
-                return S.MAV_RESULT_DENIED
-            goal = geodetic_to_ned(lat_deg, lon_deg, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)
-            goal[2] = e.pos_ned_m[2]
-        if alt_amsl_m is not None:
-            goal[2] = e.origin_alt_amsl_m - alt_amsl_m
-        if np.linalg.norm(goal - e.pos_ned_m) > REPOSITION_MAX_M:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: target more than 1 km away")
-            return S.MAV_RESULT_DENIED
-        yaw = e.yaw_rad if yaw_rad is None else yaw_rad
-        speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
-        start = (
-            self.setpoint.pos_ned_m
-            if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))
-            else e.pos_ned_m
-        )
-        if self.mode is not Mode.AUTO_LOITER:
-            self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
-        self.mode = Mode.AUTO_LOITER
-        self.task = started(
-            GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us
-        )
         return S.MAV_RESULT_ACCEPTED
 
     # -- status -------------------------------------------------------------------------

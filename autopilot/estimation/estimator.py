@@ -19,8 +19,10 @@ forward on the bias-corrected gyro at 250 Hz.  In deferred mode (the flight cont
 the 50 Hz run and GPS fusion wait for :meth:`Estimator.run_deferred`.  Also here: the
 barometer's height (relative to its reading at the origin), the EKF's heading fusion and
 its constant-position fusion when nothing aids it.  Beside this module:
-:mod:`autopilot.estimation.gps_fusion` (origin, delayed fusion, glitch rejection, reset)
-and :mod:`autopilot.estimation.mag_health` (stuck, field strength, inconsistent heading).
+:mod:`autopilot.estimation.gps_fusion` (origin, delayed fusion, glitch rejection, reset),
+:mod:`autopilot.estimation.mag_health` (stuck, field strength, inconsistent heading) and
+:mod:`autopilot.estimation.estimator_outputs` (the estimate, status flags and pre-arm failures
+published from the filters' state).
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ from collections import deque
 import numpy as np
 
 from autopilot.estimation.ekf import P_BARO_GATE, P_BARO_NOISE, P_HDG_GATE, P_HEAD_NOISE, P_NOAID_NOISE, ErrorStateEkf
-from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GPS_RESET_S, GpsFusion, finite3
+from autopilot.estimation.estimator_outputs import ekf_prearm_failures, estimator_status, vehicle_estimate
+from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GpsFusion, finite3
 from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field
 from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import PositionVelocityFilter
@@ -41,13 +44,7 @@ from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 
 _GRAVITY = np.array([0.0, 0.0, GRAVITY_M_S2])
-ALIGN_TIME_S = 3.0  # attitude must have run this long before it is trusted
 BARO_PERIOD_US = 20_000  # barometer fused (and the EKF predicted) at 50 Hz
-POSITION_SETTLE_S = 3.0  # GPS must have been fused this long before position is trusted
-MAX_H_STD_M = 0.5
-MAX_V_STD_M = 0.5
-MAX_TILT_STD_RAD = math.radians(1.5)  # the EKF's roll/pitch must be this certain to arm
-MAX_YAW_STD_RAD = math.radians(5.0)
 HEADING_PERIOD_US = 100_000  # magnetometer heading fused into the EKF at 10 Hz
 STANDBY_EVERY = 5  # the estimator the controllers do not use runs every 5th 50 Hz step (10 Hz)
 FAKE_POS_PERIOD_US = 200_000  # constant-position fusion when nothing aids the filter
@@ -66,11 +63,6 @@ P_EST_GROUP = param(
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (P_EST_GROUP,)
-
-# ESTIMATOR_STATUS_FLAGS (MAVLink common).
-FLAG_ATTITUDE, FLAG_VEL_HORIZ, FLAG_VEL_VERT = 1, 2, 4
-FLAG_POS_HORIZ_REL, FLAG_POS_HORIZ_ABS, FLAG_POS_VERT_ABS = 8, 16, 32
-FLAG_CONST_POS_MODE, FLAG_GPS_GLITCH = 128, 1024
 
 
 def pressure_to_altitude_m(pressure_hpa: float) -> float:
@@ -153,6 +145,11 @@ class Estimator:
     @property
     def _mag(self) -> np.ndarray | None:
         return self.mag.last
+
+    @property
+    def const_pos_mode(self) -> bool:
+        """Nothing aids the EKF: it is being held to where it was (constant-position fusion)."""
+        return self._fake_pos is not None
 
     def set_in_air(self, in_air: bool) -> None:
         """The commander's landed state: decides the noise of constant-position fusion."""
@@ -318,107 +315,19 @@ class Estimator:
         self.attitude.q = quat.from_euler(roll, pitch, yaw + d)
         self.ekf.rotate_yaw(d)
 
-    # -- output ---------------------------------------------------------------------
+    # -- output (autopilot.estimation.estimator_outputs) ---------------------------------
     def gps_ok(self, now_us: int) -> bool:
+        """GPS fixes are arriving and usable at ``now_us`` (simulated µs)."""
         return self.gps.ok(now_us)
 
-    def _ekf_position_ok(self, now: int) -> bool:
-        e, gps = self.ekf, self.gps
-        return (
-            gps.origin is not None
-            and gps.last_pos_fused_us is not None
-            and now - gps.last_pos_fused_us < GPS_RESET_S * 1e6
-            and gps.ok(now)
-            and e.horizontal_pos_std_m() < MAX_H_STD_M
-            and e.vertical_pos_std_m() < MAX_V_STD_M
-        )
-
     def estimate(self) -> VehicleEstimate:
-        now = self.last_imu_us if self.last_imu_us is not None else 0
-        gps = self.gps
-        settled = gps.first_us is not None and now - gps.first_us >= POSITION_SETTLE_S * 1e6
-        if self.use_ekf:
-            e = self.ekf
-            q, pos, vel = e.q, e.p.copy(), e.v.copy()
-            att_ok = e.initialised and e.time_aligned_s >= ALIGN_TIME_S and e.tilt_std_rad() < 5 * MAX_TILT_STD_RAD
-            pos_ok = settled and self._ekf_position_ok(now)
-        else:
-            q, pos, vel = self.attitude.q, self.position.pos_ned_m, self.position.vel_ned_m_s
-            att_ok = self.attitude.initialised and self.attitude.time_aligned_s >= ALIGN_TIME_S
-            pos_ok = (
-                settled
-                and gps.ok(now)
-                and self.position.horizontal_std_m() < MAX_H_STD_M
-                and self.position.vertical_std_m() < MAX_V_STD_M
-            )
-        roll, pitch, yaw = quat.to_euler(q)
-        o = gps.origin or (math.nan, math.nan, math.nan)
-        return VehicleEstimate(
-            timestamp_us=now,
-            q_wxyz=q.copy(),
-            rate_frd_rad_s=self.rate_frd.copy(),
-            accel_ned_m_s2=self.accel_ned.copy(),
-            pos_ned_m=pos,
-            vel_ned_m_s=vel,
-            attitude_valid=att_ok,
-            position_valid=pos_ok,
-            height_valid=gps.origin is not None,
-            origin_lat_deg=o[0],
-            origin_lon_deg=o[1],
-            origin_alt_amsl_m=o[2],
-            roll_rad=roll,
-            pitch_rad=pitch,
-            yaw_rad=yaw,
-            reset_count=gps.reset_count,
-            reset_delta_ned_m=gps.reset_delta_ned_m.copy(),
-        )
+        """The selected estimator's state (NED m, m/s; FRD -> NED attitude) and validity, now."""
+        return vehicle_estimate(self)
 
     def status(self) -> EstimatorStatus:
         """The EKF's health, for ESTIMATOR_STATUS and SYS_STATUS."""
-        e = self.ekf
-        now = self.last_imu_us or 0
-        flags = 0
-        if e.initialised and e.time_aligned_s >= ALIGN_TIME_S:
-            flags |= FLAG_ATTITUDE
-        pos_ok = self._ekf_position_ok(now)
-        if pos_ok:
-            flags |= FLAG_VEL_HORIZ | FLAG_VEL_VERT | FLAG_POS_HORIZ_REL | FLAG_POS_HORIZ_ABS
-        if self.gps.origin is not None:
-            flags |= FLAG_POS_VERT_ABS
-        if self._fake_pos is not None:
-            flags |= FLAG_CONST_POS_MODE
-        if self.gps.glitch:
-            flags |= FLAG_GPS_GLITCH
-        r = e.ratio
-        return EstimatorStatus(
-            timestamp_us=now,
-            flags=flags,
-            vel_ratio=r["vel"],
-            pos_horiz_ratio=r["pos"],
-            pos_vert_ratio=r["hgt"],
-            mag_ratio=r["mag"],
-            pos_horiz_accuracy_m=e.horizontal_pos_std_m(),
-            pos_vert_accuracy_m=e.vertical_pos_std_m(),
-            tilt_std_rad=e.tilt_std_rad(),
-            yaw_std_rad=e.yaw_std_rad(),
-            mag_fault=self.mag.fault,
-            gps_glitch=self.gps.glitch,
-            position_ok=pos_ok,
-        )
+        return estimator_status(self)
 
     def prearm_failures(self) -> list[str]:
         """Why the EKF is not yet fit to fly on (empty when converged and consistent)."""
-        e = self.ekf
-        out = []
-        if not e.initialised or e.time_aligned_s < ALIGN_TIME_S:
-            return ["EKF attitude not aligned"]
-        if e.tilt_std_rad() > MAX_TILT_STD_RAD:
-            out.append(f"EKF not converged (tilt uncertainty {math.degrees(e.tilt_std_rad()):.1f} deg)")
-        if not self.mag.fault and e.yaw_std_rad() > MAX_YAW_STD_RAD:
-            out.append(f"EKF not converged (heading uncertainty {math.degrees(e.yaw_std_rad()):.1f} deg)")
-        if self.mag.fault:
-            out.append(f"EKF: {self.mag.fault_reason}")
-        for kind, label in (("pos", "GPS position"), ("vel", "GPS velocity"), ("hgt", "height"), ("mag", "heading")):
-            if e.ratio[kind] > 1.0:
-                out.append(f"EKF {label} inconsistent (test ratio {e.ratio[kind]:.1f})")
-        return out
+        return ekf_prearm_failures(self)

@@ -1,0 +1,152 @@
+"""The commander's flight commands: take-off (and its altitude rules), land, return and reposition.
+
+:class:`FlightCommands` is a base class of :class:`autopilot.commander.commander.Commander`;
+its methods are the typed commands the MAVLink command table
+(:mod:`autopilot.mavlink.commands`) calls for NAV_TAKEOFF, NAV_LAND,
+NAV_RETURN_TO_LAUNCH and DO_REPOSITION.  Each returns a MAV_RESULT, says why in a
+STATUSTEXT when it refuses, and (:func:`publishes`) has the commander publish its status
+afterwards.  They act through the commander's state (``est``, ``home``, ``armed``,
+``mode``, ``task``, ``setpoint``, ``params``, ``now_us``) and its ``say``, ``in_air``
+and ``_enter`` (the mode switch, which starts the mode's flight task).
+
+Positions are NED metres from the estimator origin; altitudes AMSL or above home as
+named; yaw in radians.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import TYPE_CHECKING
+
+import numpy as np
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.navigation import GotoTask, started
+from mavsim_core.geodesy import geodetic_to_ned
+from mavsim_core.px4_modes import Mode
+
+if TYPE_CHECKING:
+    from autopilot.control.position_control import PositionSetpoint
+    from autopilot.navigation.flight_task import FlightTask
+    from autopilot.parameters import ParameterStore
+    from autopilot.topics import HomePosition, VehicleEstimate
+
+S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_* constants
+REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
+
+
+def publishes(method):
+    """A command method after which the commander publishes its status, whatever the result."""
+
+    @functools.wraps(method)
+    def wrapper(self: FlightCommands, *args, **kwargs) -> int:
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            self._publish()
+
+    return wrapper
+
+
+class FlightCommands:
+    """Take-off, land, return to launch and reposition, as methods of the :class:`Commander`."""
+
+    # The commander's state these methods read and set (Commander.__init__ sets it) ...
+    params: ParameterStore
+    est: VehicleEstimate | None
+    home: HomePosition | None
+    armed: bool
+    mode: Mode
+    now_us: int
+    task: FlightTask | None
+    setpoint: PositionSetpoint | None
+
+    if TYPE_CHECKING:  # ... and the commander's methods they call.
+
+        @property
+        def in_air(self) -> bool: ...
+
+        def say(self, severity: int, text: str) -> None: ...
+
+        def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int: ...
+
+        def _publish(self) -> None: ...
+
+    @publishes
+    def takeoff(self, rel_alt_m: float | None = None) -> int:
+        """Take off to ``rel_alt_m`` above home (None: MIS_TAKEOFF_ALT; at least 1 m)."""
+        return self._takeoff(rel_alt_m)
+
+    @publishes
+    def land(self) -> int:
+        """Land where the vehicle is (AUTO.LAND)."""
+        if not self.armed:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Land denied: vehicle not armed")
+            return S.MAV_RESULT_DENIED
+        return self._enter(Mode.AUTO_LAND)
+
+    @publishes
+    def return_to_launch(self) -> int:
+        """Return home and land (AUTO.RTL)."""
+        if not self.armed:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Return denied: vehicle not armed")
+            return S.MAV_RESULT_DENIED
+        return self._enter(Mode.AUTO_RTL)
+
+    def _takeoff(self, rel_alt_m: float | None) -> int:
+        if self.home is None or self.est is None:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: no home position")
+            return S.MAV_RESULT_DENIED
+        rel = self.params.get("MIS_TAKEOFF_ALT") if rel_alt_m is None else rel_alt_m
+        rel = max(rel, 1.0)
+        return self._enter(Mode.AUTO_TAKEOFF, self.home.pos_ned_m[2] - rel)
+
+    @publishes
+    def reposition(
+        self,
+        lat_deg: float | None,
+        lon_deg: float | None,
+        alt_amsl_m: float | None,
+        yaw_rad: float | None,
+        speed_m_s: float | None,
+    ) -> int:
+        """Fly to a point and hold there (AUTO.LOITER), along a straight line from the current setpoint.
+
+        None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw;
+        speed None: MPC_XY_CRUISE.  Refused when not flying, without a position estimate, for
+        an impossible latitude/longitude or a target more than REPOSITION_MAX_M away.
+        """
+        e = self.est
+        if not (self.armed and self.in_air) or e is None:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: vehicle not flying")
+            return S.MAV_RESULT_DENIED
+        if not e.position_valid:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: no position estimate")
+            return S.MAV_RESULT_DENIED
+        if lat_deg is None or lon_deg is None:
+            goal = e.pos_ned_m.copy()
+        else:
+            if abs(lat_deg) > 90 or abs(lon_deg) > 180:
+                self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: latitude/longitude out of range")
+                return S.MAV_RESULT_DENIED
+            goal = geodetic_to_ned(lat_deg, lon_deg, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)
+            goal[2] = e.pos_ned_m[2]
+        if alt_amsl_m is not None:
+            goal[2] = e.origin_alt_amsl_m - alt_amsl_m
+        if np.linalg.norm(goal - e.pos_ned_m) > REPOSITION_MAX_M:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: target more than 1 km away")
+            return S.MAV_RESULT_DENIED
+        yaw = e.yaw_rad if yaw_rad is None else yaw_rad
+        speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
+        start = (
+            self.setpoint.pos_ned_m
+            if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))
+            else e.pos_ned_m
+        )
+        if self.mode is not Mode.AUTO_LOITER:
+            self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
+        self.mode = Mode.AUTO_LOITER
+        self.task = started(
+            GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us
+        )
+        return S.MAV_RESULT_ACCEPTED
