@@ -39,8 +39,10 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_sim_params": {"sitl": 171},
     "test_gcs_cli": {"nobody": 172, "demo": 173},
     "test_mavlink_commands": {"link": 174},  # "nobody": a ground-station port nothing sends to
-    # GcsLink on real UDP sockets, one instance per test (no stack running)
-    "test_gcs_link": {f"link{k}": 120 + k for k in range(10)},
+    # GcsLink on real UDP sockets (no stack running); a file may reuse its own numbers in turn
+    "test_gcs_link_telemetry": {f"link{k}": 120 + k for k in range(6)},
+    "test_gcs_link_params": {f"link{k}": 126 + k for k in range(4)},
+    "test_gcs_link_commands": {f"link{k}": 220 + k for k in range(6)},
 }
 
 
