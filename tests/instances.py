@@ -35,7 +35,8 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_vehicles": {"firefly": 75, "windy": 76},
     "test_e2e_live_tuning": {"stack": 77},
     "test_e2e_params": {"stack": 78},
-    "test_flight_logs": {"e2e": 79, "link": 170},
+    "test_flight_log_plots": {"e2e": 79},
+    "test_setpoint_streams": {"link": 170},
     "test_sitl_cli": {"sitl": 171},
     "test_gcs_cli": {"nobody": 172, "demo": 173},
     "test_mavlink_commands": {"link": 174},  # "nobody": a ground-station port nothing sends to
