@@ -30,7 +30,8 @@ BENCHMARKS = (20, 21, 22, 25)  # flight_benchmark 20, vehicle_benchmark 21+ (one
 
 INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_estimation": {"quad_x": 70},
-    "test_e2e_flight": {"realtime": 71, "shared": 72, "demo": 73},
+    "test_e2e_flight_own_stacks": {"realtime": 71, "demo": 73},
+    "test_e2e_flight": {"shared": 72},
     "test_e2e_mavsdk": {"stack": 74},
     "test_e2e_vehicles": {"firefly": 75, "windy": 76},
     "test_e2e_live_tuning": {"stack": 77},
