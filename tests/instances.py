@@ -14,10 +14,11 @@ file's.  The table also keeps clear of people's instances (0-9: ``flight-demo``,
 on 14550) and of the benchmarks' defaults (benchmarks/*.py), so a suite run next to either
 binds nothing they bind.
 
-Numbers: units 0-9 of the decades 70, 120 and 170.  Within one unit digit, 70, 120 and 170 are
-50 apart, and from people's 0-9 and the benchmarks' 20-25 they are 45 or more apart, so no
+Numbers: units 0-9 of the decades 70, 120, 170 and 220.  Within one decade they differ by less
+than 10; the decades are 50 apart, so numbers of neighbouring decades differ by 41-59 and others
+by 91 or more; from people's 0-9 and the benchmarks' 20-25 they are 45 or more apart.  So no
 pair differs by 10-40.  ``tests/test_instances.py`` checks all of it.  Instances above 99 are
-as valid as any: ``--instance`` only offsets ports (the highest here, 18570+179, is far below
+as valid as any: ``--instance`` only offsets ports (the highest here, 18570+225, is far below
 the OS's ephemeral range, where ``bind(("127.0.0.1", 0))`` ports of other tests come from).
 """
 
