@@ -21,3 +21,30 @@ def quad():
 def params():
     """A fresh parameter store with every declared parameter at its default."""
     return default_store()
+
+
+@pytest.fixture
+def store(params):
+    """``params`` under the name the parameter tests use (test_param_files.py, test_param_rules.py, ...)."""
+    return params
+
+
+@pytest.fixture
+def make_harness():
+    """``make(instance, vehicle=None)``: a GcsLink harness (tests/gcs_link_harness.py); all are closed after the test.
+
+    For tests/test_gcs_link_*.py.  The harness module is imported here, not above, so that only
+    those tests load pymavlink through it.
+    """
+    from gcs_link_harness import Harness, StubVehicle
+
+    made: list[Harness] = []
+
+    def make(instance: int, vehicle: StubVehicle | None = None) -> Harness:
+        h = Harness(instance, vehicle)
+        made.append(h)
+        return h
+
+    yield make
+    for h in made:
+        h.close()

@@ -14,10 +14,11 @@ file's.  The table also keeps clear of people's instances (0-9: ``flight-demo``,
 on 14550) and of the benchmarks' defaults (benchmarks/*.py), so a suite run next to either
 binds nothing they bind.
 
-Numbers: units 0-9 of the decades 70, 120 and 170.  Within one unit digit, 70, 120 and 170 are
-50 apart, and from people's 0-9 and the benchmarks' 20-25 they are 45 or more apart, so no
+Numbers: units 0-9 of the decades 70, 120, 170 and 220.  Within one decade they differ by less
+than 10; the decades are 50 apart, so numbers of neighbouring decades differ by 41-59 and others
+by 91 or more; from people's 0-9 and the benchmarks' 20-25 they are 45 or more apart.  So no
 pair differs by 10-40.  ``tests/test_instances.py`` checks all of it.  Instances above 99 are
-as valid as any: ``--instance`` only offsets ports (the highest here, 18570+179, is far below
+as valid as any: ``--instance`` only offsets ports (the highest here, 18570+225, is far below
 the OS's ephemeral range, where ``bind(("127.0.0.1", 0))`` ports of other tests come from).
 """
 
@@ -30,17 +31,21 @@ BENCHMARKS = (20, 21, 22, 25)  # flight_benchmark 20, vehicle_benchmark 21+ (one
 
 INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_estimation": {"quad_x": 70},
-    "test_e2e_flight": {"realtime": 71, "shared": 72, "demo": 73},
+    "test_e2e_flight_own_stacks": {"realtime": 71, "demo": 73},
+    "test_e2e_flight": {"shared": 72},
     "test_e2e_mavsdk": {"stack": 74},
     "test_e2e_vehicles": {"firefly": 75, "windy": 76},
     "test_e2e_live_tuning": {"stack": 77},
     "test_e2e_params": {"stack": 78},
-    "test_flight_logs": {"e2e": 79, "link": 170},
-    "test_sim_params": {"sitl": 171},
+    "test_flight_log_plots": {"e2e": 79},
+    "test_setpoint_streams": {"link": 170},
+    "test_sitl_cli": {"sitl": 171},
     "test_gcs_cli": {"nobody": 172, "demo": 173},
     "test_mavlink_commands": {"link": 174},  # "nobody": a ground-station port nothing sends to
-    # GcsLink on real UDP sockets, one instance per test (no stack running)
-    "test_gcs_link": {f"link{k}": 120 + k for k in range(10)},
+    # GcsLink on real UDP sockets (no stack running); a file may reuse its own numbers in turn
+    "test_gcs_link_telemetry": {f"link{k}": 120 + k for k in range(6)},
+    "test_gcs_link_params": {f"link{k}": 126 + k for k in range(4)},
+    "test_gcs_link_commands": {f"link{k}": 220 + k for k in range(6)},
 }
 
 

@@ -1,6 +1,6 @@
-"""End-to-end: the real simulator and flight controller, flown over real sockets.
+"""End-to-end: the real simulator and flight controller, flown over real sockets, on one shared stack.
 
-Every test here starts the real ``sitl`` and ``autopilot`` processes (through
+Every test here uses the real ``sitl`` and ``autopilot`` processes (through
 :class:`gcs.launcher.Stack`) and talks MAVLink to the flight controller the way a
 ground station does: :class:`gcs.client.VehicleClient` (pymavlink underneath) on
 the API port, a second client on the ground-station port, the ``gcs`` CLI as a
@@ -11,16 +11,17 @@ with what the vehicle reports; it never reaches the flight controller.
 One max-speed stack (module scope) carries the scenarios in file order; each
 flight scenario starts and ends landed and disarmed.  Durations the vehicle must
 hold are simulated seconds (its clock); wall-clock values are only "give up
-waiting" timeouts.
+waiting" timeouts.  The scenarios that start their own stacks (arming before the
+estimate is ready, the flight demo) are in tests/test_e2e_flight_own_stacks.py;
+the helpers of both files in tests/e2e_flight_helpers.py.
 
-Instances: this file's three, from the one table in tests/instances.py (which says
+Instances: this file's one, from the one table in tests/instances.py (which says
 which ports an instance uses and checks that no two tests' instances share one).
 """
 
 from __future__ import annotations
 
 import math
-import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -30,28 +31,30 @@ import pytest
 from gcs import geo
 from gcs.client import VehicleClient, mavlink
 from gcs.errors import GcsTimeout, ParamRefused
-from gcs.launcher import Stack, StackError, demo
+from gcs.launcher import Stack, StackError
 from gcs.sim_client import SimClient
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
+    IN_AIR,
+    LANDING,
+    ON_GROUND,
+    WAIT_S,
+    Recorder,
+    arm,
+    horizontal,
+    text_time,
+    texts_since,
+    wait_hovering,
+    wait_text,
+)
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE_REALTIME = instance("test_e2e_flight", "realtime")  # scenario (a): real-time stack, started and stopped
 INSTANCE = instance("test_e2e_flight", "shared")  # the shared max-speed stack
-INSTANCE_DEMO = instance("test_e2e_flight", "demo")  # flight-demo starts its own stack
 
-WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
-ON_GROUND, IN_AIR, LANDING = (
-    mavlink.MAV_LANDED_STATE_ON_GROUND,
-    mavlink.MAV_LANDED_STATE_IN_AIR,
-    mavlink.MAV_LANDED_STATE_LANDING,
-)
 UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
-
-
-# --------------------------------------------------------------------------- ground truth
 
 
 # --------------------------------------------------------------------------- fixtures
@@ -94,144 +97,6 @@ def client(vehicle):
             vehicle.wait_until(vehicle.landed_and_disarmed, WAIT_S, "landing after a failed test")
         except Exception:
             vehicle.disarm(force=True, timeout_s=10)
-
-
-class Recorder:
-    """Client listener: keeps selected messages with the vehicle time they arrived at."""
-
-    def __init__(self, client: VehicleClient, types: tuple[str, ...]) -> None:
-        self.client = client
-        self.types = types
-        self.msgs: list[tuple[float | None, object]] = []
-
-    def __call__(self, msg) -> None:
-        if msg.get_type() in self.types:
-            self.msgs.append((self.client.sim_time_s(), msg))
-
-    def __enter__(self) -> "Recorder":
-        self.client.add_listener(self)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.client.remove_listener(self)
-
-    def of(self, mtype: str) -> list:
-        return [m for _, m in self.msgs if m.get_type() == mtype]
-
-
-def texts_since(client: VehicleClient, index: int) -> list[str]:
-    return [st.text for st in client.statustexts[index:]]
-
-
-def text_time(client: VehicleClient, index: int, fragment: str) -> float:
-    """Vehicle time at which the first STATUSTEXT containing ``fragment`` (after ``index``) arrived."""
-    return next(st.sim_time_s for st in client.statustexts[index:] if fragment in st.text)
-
-
-def wait_text(client: VehicleClient, index: int, fragment: str) -> None:
-    client.wait_until(
-        lambda: any(fragment in t for t in texts_since(client, index)), WAIT_S, f"a STATUSTEXT containing {fragment!r}"
-    )
-
-
-def arm(client: VehicleClient) -> None:
-    client.arm(timeout_s=10).check()
-    client.wait_armed(True, WAIT_S)
-
-
-def wait_hovering(client: VehicleClient, alt_m: float) -> None:
-    """Until the take-off is over: mode LOITER, near the altitude, not climbing."""
-    client.wait_until(
-        lambda: client.mode_name() == "LOITER" and client.takeoff_done(alt_m, 0.5), WAIT_S, f"hover at {alt_m:g} m"
-    )
-
-
-def horizontal(a, b) -> float:
-    return math.hypot(a[0] - b[0], a[1] - b[1])
-
-
-# --------------------------------------------------------------------------- (a) arming waits for the estimate
-
-
-def test_arming_denied_until_estimate_ready_then_accepted():
-    """Real time, armed at the first heartbeat: denied with a reason; once ready, accepted.
-
-    The estimator needs a few simulated seconds; at speed 1 those are wall seconds, far more than
-    a command's round trip, so both early attempts (the client's and the CLI's) come first.
-    """
-    stack = Stack(instance=INSTANCE_REALTIME, speed=1)
-    with stack:
-        # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
-        cli = subprocess.Popen(
-            [sys.executable, "-m", "gcs", "--instance", str(INSTANCE_REALTIME), "--timeout", "30", "arm"],
-            cwd=ROOT,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        try:
-            with VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as c:
-                early = c.arm(timeout_s=10)
-                assert early.result == mavlink.MAV_RESULT_DENIED, early.describe()
-                assert early.reason is not None and early.reason.startswith("Arming denied: ")
-                assert "not ready" in early.reason
-                assert any(
-                    st.severity <= mavlink.MAV_SEVERITY_CRITICAL and st.text == early.reason for st in c.statustexts
-                )
-                assert not c.armed()
-
-                out, err = cli.communicate(timeout=WAIT_S)
-                assert cli.returncode == 1, out + err
-                assert "arm refused: DENIED" in err and "Arming denied: " in err
-
-                c.wait_until(c.prearm_ok, WAIT_S, "the pre-arm checks to pass")
-                assert c.sim_time_s() > 1.0  # the estimator needed simulated time
-                arm(c)
-                assert "Armed" in [st.text for st in c.statustexts]
-                c.disarm(timeout_s=10).check()
-                c.wait_armed(False, WAIT_S)
-        finally:
-            if cli.poll() is None:
-                cli.kill()
-                cli.communicate()
-        procs = list(stack.procs.values())
-        assert all(p.poll() is None for p in procs)
-        sitl_log = stack.log_path("sitl").read_text()
-        autopilot_log = stack.log_path("autopilot").read_text()
-    assert all(p.poll() is not None for p in procs)  # both children end with the stack
-    assert "speed 1x" in sitl_log and "flight controller connected" in sitl_log
-    assert "[autopilot] connected to the simulator" in autopilot_log
-
-
-# --------------------------------------------------------------------------- the flight demo
-# (before the shared stack starts: its two processes would compete with the demo's for the CPUs)
-
-
-def test_flight_demo_flies_its_square(capsys):
-    sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
-    try:
-        rc = demo.main(
-            ["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S), "--step-timeout", str(WAIT_S)]
-        )
-    finally:
-        signal.signal(signal.SIGTERM, sigterm)
-    out = capsys.readouterr()
-    assert rc == 0, out.err + out.out[-3000:]
-    assert "flight demo: OK" in out.out
-    for expected in (
-        "armed",
-        "taking off to 5 m",
-        "held 10 s",
-        "at corner 4 (start)",
-        "disarmed",
-        "flight time",
-        "max altitude",
-        "landing error",
-        "real-time factor",
-    ):
-        assert expected in out.out
-    landing_error = float(out.out.split("landing error")[1].split()[0])
-    assert landing_error < 1.0
 
 
 # --------------------------------------------------------------------------- on the shared max-speed stack

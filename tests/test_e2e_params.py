@@ -6,7 +6,8 @@ One max-speed stack (module scope, instance from tests/instances.py) started wit
 * a :class:`VehicleClient` (pymavlink);
 * ``python -m gcs --url ... param ...`` as a subprocess;
 * MAVSDK's Param plugin;
-* MAVProxy's ``param set`` / ``param show`` through its stdin, if installed.
+* MAVProxy's ``param set`` / ``param show`` through its stdin, if installed
+  (these two driven by tests/e2e_params_clients.py).
 
 Every client talks *to* the flight controller's own sockets (``udpout`` to its
 ground-station socket, 18570 + instance, or its API socket, 14580 + instance) and so
@@ -25,14 +26,11 @@ from __future__ import annotations
 
 import asyncio
 import importlib
-import queue
 import re
-import shutil
 import statistics
 import struct
 import subprocess
 import sys
-import threading
 import time
 from collections import Counter
 from pathlib import Path
@@ -50,14 +48,13 @@ from params.param_file import QGC, parse_param_text, read_param_file
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from e2e_params_clients import MAVPROXY, WAIT_S, MavproxySession, mavsdk_params  # tests/e2e_params_clients.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_params", "stack")
 FC_GCS_URL = f"udpout:127.0.0.1:{18570 + INSTANCE}"  # the flight controller's ground-station socket
 FC_API_PORT = 14580 + INSTANCE  # its API socket
-WAIT_S = 30.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
-MAVPROXY = shutil.which("mavproxy.py") or str(Path(sys.executable).parent / "mavproxy.py")
 
 STARTUP_PARAMS = (
     "# start-up file of the end-to-end test (QGroundControl format)\n"
@@ -309,30 +306,9 @@ def test_gcs_param_load_reports_each_refusal(client, tmp_path):
 # --------------------------------------------------------------------------- other ground stations
 
 
-async def _mavsdk_params(port: int) -> dict:
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
-    from mavsdk.asyncio.plugins.param import ParamAsync
-
-    seen = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
-        system = await sdk.first_autopilot(timeout_s=WAIT_S)
-        assert system is not None, "MAVSDK found no autopilot"
-        param = ParamAsync(system)
-        seen["int_before"] = await param.get_param_int("SYS_AUTOSTART")
-        await param.set_param_int("SYS_AUTOSTART", 4005)
-        seen["int_after"] = await param.get_param_int("SYS_AUTOSTART")
-        seen["float_before"] = await param.get_param_float("MPC_XY_P")
-        await param.set_param_float("MPC_XY_P", 1.15)
-        seen["float_after"] = await param.get_param_float("MPC_XY_P")
-        await param.set_param_int("SYS_AUTOSTART", 4001)
-        await param.set_param_float("MPC_XY_P", 0.95)
-    return seen
-
-
 def test_mavsdk_param_plugin_sets_and_gets_int_and_float(client):
     pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-    seen = asyncio.run(_mavsdk_params(FC_API_PORT))
+    seen = asyncio.run(mavsdk_params(FC_API_PORT))
     assert seen == {
         "int_before": 4001,
         "int_after": 4005,
@@ -340,54 +316,6 @@ def test_mavsdk_param_plugin_sets_and_gets_int_and_float(client):
         "float_after": pytest.approx(1.15),
     }
     assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(0.95)
-
-
-class MavproxySession:
-    """MAVProxy driven through its stdin, its output read line by line."""
-
-    def __init__(self, master: str) -> None:
-        self.proc = subprocess.Popen(
-            [sys.executable, MAVPROXY, "--master", master, "--no-state", "--default-modules=param"],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            bufsize=1,
-            cwd=ROOT,
-        )
-        self.lines: queue.Queue[str] = queue.Queue()
-        self.seen: list[str] = []
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self) -> None:
-        for line in self.proc.stdout:
-            self.lines.put(line)
-
-    def send(self, command: str) -> None:
-        self.proc.stdin.write(command + "\n")
-        self.proc.stdin.flush()
-
-    def expect(self, pattern: str, timeout_s: float = WAIT_S) -> re.Match:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                line = self.lines.get(timeout=max(deadline - time.monotonic(), 0.01))
-            except queue.Empty:
-                raise AssertionError(f"MAVProxy never printed {pattern!r}; output:\n{''.join(self.seen)}") from None
-            self.seen.append(line)
-            match = re.search(pattern, line)
-            if match:
-                return match
-
-    def close(self) -> None:
-        """End MAVProxy (its own "exit" takes seconds; it keeps no state with --no-state)."""
-        self.proc.terminate()
-        try:
-            self.proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        self.proc.stdin.close()
 
 
 @pytest.mark.skipif(not Path(MAVPROXY).exists(), reason="MAVProxy is not installed")

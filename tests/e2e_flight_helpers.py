@@ -1,0 +1,73 @@
+"""Helpers of the end-to-end flight tests (test_e2e_flight.py, test_e2e_flight_own_stacks.py).
+
+Waiting on a :class:`gcs.client.VehicleClient` (wall-clock timeouts only: durations the vehicle
+must hold are simulated seconds), recording its messages with their vehicle time, reading its
+STATUSTEXTs, and horizontal distances in metres (NED).
+"""
+
+from __future__ import annotations
+
+import math
+
+from gcs.client import VehicleClient, mavlink
+
+WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
+ON_GROUND, IN_AIR, LANDING = (
+    mavlink.MAV_LANDED_STATE_ON_GROUND,
+    mavlink.MAV_LANDED_STATE_IN_AIR,
+    mavlink.MAV_LANDED_STATE_LANDING,
+)
+
+
+class Recorder:
+    """Client listener: keeps selected messages with the vehicle time they arrived at."""
+
+    def __init__(self, client: VehicleClient, types: tuple[str, ...]) -> None:
+        self.client = client
+        self.types = types
+        self.msgs: list[tuple[float | None, object]] = []
+
+    def __call__(self, msg) -> None:
+        if msg.get_type() in self.types:
+            self.msgs.append((self.client.sim_time_s(), msg))
+
+    def __enter__(self) -> "Recorder":
+        self.client.add_listener(self)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.client.remove_listener(self)
+
+    def of(self, mtype: str) -> list:
+        return [m for _, m in self.msgs if m.get_type() == mtype]
+
+
+def texts_since(client: VehicleClient, index: int) -> list[str]:
+    return [st.text for st in client.statustexts[index:]]
+
+
+def text_time(client: VehicleClient, index: int, fragment: str) -> float:
+    """Vehicle time at which the first STATUSTEXT containing ``fragment`` (after ``index``) arrived."""
+    return next(st.sim_time_s for st in client.statustexts[index:] if fragment in st.text)
+
+
+def wait_text(client: VehicleClient, index: int, fragment: str) -> None:
+    client.wait_until(
+        lambda: any(fragment in t for t in texts_since(client, index)), WAIT_S, f"a STATUSTEXT containing {fragment!r}"
+    )
+
+
+def arm(client: VehicleClient) -> None:
+    client.arm(timeout_s=10).check()
+    client.wait_armed(True, WAIT_S)
+
+
+def wait_hovering(client: VehicleClient, alt_m: float) -> None:
+    """Until the take-off is over: mode LOITER, near the altitude, not climbing."""
+    client.wait_until(
+        lambda: client.mode_name() == "LOITER" and client.takeoff_done(alt_m, 0.5), WAIT_S, f"hover at {alt_m:g} m"
+    )
+
+
+def horizontal(a, b) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])

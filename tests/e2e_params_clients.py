@@ -1,0 +1,89 @@
+"""Other ground stations for tests/test_e2e_params.py: MAVSDK's Param plugin and MAVProxy through its stdin.
+
+Both talk *to* the flight controller's own sockets (``udpout``), so they bind no fixed port.
+Wall-clock values are only "give up waiting" timeouts.
+"""
+
+from __future__ import annotations
+
+import queue
+import re
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+WAIT_S = 30.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
+MAVPROXY = shutil.which("mavproxy.py") or str(Path(sys.executable).parent / "mavproxy.py")
+
+
+async def mavsdk_params(port: int) -> dict:
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.param import ParamAsync
+
+    seen = {}
+    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
+        system = await sdk.first_autopilot(timeout_s=WAIT_S)
+        assert system is not None, "MAVSDK found no autopilot"
+        param = ParamAsync(system)
+        seen["int_before"] = await param.get_param_int("SYS_AUTOSTART")
+        await param.set_param_int("SYS_AUTOSTART", 4005)
+        seen["int_after"] = await param.get_param_int("SYS_AUTOSTART")
+        seen["float_before"] = await param.get_param_float("MPC_XY_P")
+        await param.set_param_float("MPC_XY_P", 1.15)
+        seen["float_after"] = await param.get_param_float("MPC_XY_P")
+        await param.set_param_int("SYS_AUTOSTART", 4001)
+        await param.set_param_float("MPC_XY_P", 0.95)
+    return seen
+
+
+class MavproxySession:
+    """MAVProxy driven through its stdin, its output read line by line."""
+
+    def __init__(self, master: str) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, MAVPROXY, "--master", master, "--no-state", "--default-modules=param"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            bufsize=1,
+            cwd=ROOT,
+        )
+        self.lines: queue.Queue[str] = queue.Queue()
+        self.seen: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:
+            self.lines.put(line)
+
+    def send(self, command: str) -> None:
+        self.proc.stdin.write(command + "\n")
+        self.proc.stdin.flush()
+
+    def expect(self, pattern: str, timeout_s: float = WAIT_S) -> re.Match:
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                line = self.lines.get(timeout=max(deadline - time.monotonic(), 0.01))
+            except queue.Empty:
+                raise AssertionError(f"MAVProxy never printed {pattern!r}; output:\n{''.join(self.seen)}") from None
+            self.seen.append(line)
+            match = re.search(pattern, line)
+            if match:
+                return match
+
+    def close(self) -> None:
+        """End MAVProxy (its own "exit" takes seconds; it keeps no state with --no-state)."""
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self.proc.stdin.close()

@@ -1,0 +1,115 @@
+"""End-to-end: the scenarios that start their own stack, the real simulator and flight controller.
+
+(a) arming waits for the estimate: a real-time stack, armed at the first heartbeat through a
+client and the ``gcs`` CLI, denied with a reason, then accepted; both processes end with the
+stack.  The flight demo (``flight-demo``) starts its own stack and flies its square.  Wall-clock
+values are only "give up waiting" timeouts.  The scenarios on one shared max-speed stack are in
+tests/test_e2e_flight.py.
+
+Instances: this file's two, from the one table in tests/instances.py (which says
+which ports an instance uses and checks that no two tests' instances share one).
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gcs.client import VehicleClient, mavlink
+from gcs.launcher import Stack, demo
+
+ROOT = Path(__file__).resolve().parent.parent
+
+from e2e_flight_helpers import WAIT_S, arm  # tests/e2e_flight_helpers.py
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE_REALTIME = instance("test_e2e_flight_own_stacks", "realtime")  # (a): a real-time stack, started and stopped
+INSTANCE_DEMO = instance("test_e2e_flight_own_stacks", "demo")  # flight-demo starts its own stack
+
+
+# --------------------------------------------------------------------------- (a) arming waits for the estimate
+
+
+def test_arming_denied_until_estimate_ready_then_accepted():
+    """Real time, armed at the first heartbeat: denied with a reason; once ready, accepted.
+
+    The estimator needs a few simulated seconds; at speed 1 those are wall seconds, far more than
+    a command's round trip, so both early attempts (the client's and the CLI's) come first.
+    """
+    stack = Stack(instance=INSTANCE_REALTIME, speed=1)
+    with stack:
+        # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
+        cli = subprocess.Popen(
+            [sys.executable, "-m", "gcs", "--instance", str(INSTANCE_REALTIME), "--timeout", "30", "arm"],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            with VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as c:
+                early = c.arm(timeout_s=10)
+                assert early.result == mavlink.MAV_RESULT_DENIED, early.describe()
+                assert early.reason is not None and early.reason.startswith("Arming denied: ")
+                assert "not ready" in early.reason
+                assert any(
+                    st.severity <= mavlink.MAV_SEVERITY_CRITICAL and st.text == early.reason for st in c.statustexts
+                )
+                assert not c.armed()
+
+                out, err = cli.communicate(timeout=WAIT_S)
+                assert cli.returncode == 1, out + err
+                assert "arm refused: DENIED" in err and "Arming denied: " in err
+
+                c.wait_until(c.prearm_ok, WAIT_S, "the pre-arm checks to pass")
+                assert c.sim_time_s() > 1.0  # the estimator needed simulated time
+                arm(c)
+                assert "Armed" in [st.text for st in c.statustexts]
+                c.disarm(timeout_s=10).check()
+                c.wait_armed(False, WAIT_S)
+        finally:
+            if cli.poll() is None:
+                cli.kill()
+                cli.communicate()
+        procs = list(stack.procs.values())
+        assert all(p.poll() is None for p in procs)
+        sitl_log = stack.log_path("sitl").read_text()
+        autopilot_log = stack.log_path("autopilot").read_text()
+    assert all(p.poll() is not None for p in procs)  # both children end with the stack
+    assert "speed 1x" in sitl_log and "flight controller connected" in sitl_log
+    assert "[autopilot] connected to the simulator" in autopilot_log
+
+
+# --------------------------------------------------------------------------- the flight demo
+
+
+def test_flight_demo_flies_its_square(capsys):
+    sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
+    try:
+        rc = demo.main(
+            ["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S), "--step-timeout", str(WAIT_S)]
+        )
+    finally:
+        signal.signal(signal.SIGTERM, sigterm)
+    out = capsys.readouterr()
+    assert rc == 0, out.err + out.out[-3000:]
+    assert "flight demo: OK" in out.out
+    for expected in (
+        "armed",
+        "taking off to 5 m",
+        "held 10 s",
+        "at corner 4 (start)",
+        "disarmed",
+        "flight time",
+        "max altitude",
+        "landing error",
+        "real-time factor",
+    ):
+        assert expected in out.out
+    landing_error = float(out.out.split("landing error")[1].split()[0])
+    assert landing_error < 1.0
