@@ -67,11 +67,9 @@ class _Vehicle:
         return []
 
 
-def test_link_streams_attitude_and_position_targets():
-    """ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED and SERVO_OUTPUT_RAW: fields, default rates, SET_MESSAGE_INTERVAL."""
-    instance = LINK_INSTANCE
-    q_sp = from_euler(0.1, -0.05, 1.0)
-    control = ControlSetpoints(
+def _control_setpoints(q_sp) -> ControlSetpoints:
+    """What the controllers publish in flight: a NaN down position (altitude not controlled)."""
+    return ControlSetpoints(
         timestamp_us=0,
         pos_ned_m=np.array([1.0, 2.0, math.nan]),
         vel_ned_m_s=np.array([0.1, 0.2, -0.5]),
@@ -81,6 +79,28 @@ def test_link_streams_attitude_and_position_targets():
         rate_sp_frd_rad_s=np.array([0.2, -0.1, 0.05]),
         thrust_frac=0.57,
     )
+
+
+def _run_link(link, client, t: list, seconds: float) -> list:
+    """Update the link at 50 Hz of simulated time for ``seconds``; what the client received."""
+    out = []
+    for _ in range(int(seconds * 50)):
+        t[0] += 20_000
+        link.update(t[0])
+        time.sleep(0.0005)
+        while (m := client.recv_match(blocking=False)) is not None:
+            out.append(m)
+    time.sleep(0.05)
+    while (m := client.recv_match(blocking=False)) is not None:
+        out.append(m)
+    return out
+
+
+def test_link_streams_attitude_and_position_targets():
+    """ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED and SERVO_OUTPUT_RAW: fields, default rates, SET_MESSAGE_INTERVAL."""
+    instance = LINK_INSTANCE
+    q_sp = from_euler(0.1, -0.05, 1.0)
+    control = _control_setpoints(q_sp)
     vehicle = _Vehicle(_snapshot(control))
     link = GcsLink(vehicle, instance=instance)
     client = mavutil.mavlink_connection(
@@ -90,17 +110,7 @@ def test_link_streams_attitude_and_position_targets():
     t = [0]
 
     def run(seconds: float) -> list:
-        out = []
-        for _ in range(int(seconds * 50)):
-            t[0] += 20_000
-            link.update(t[0])
-            time.sleep(0.0005)
-            while (m := client.recv_match(blocking=False)) is not None:
-                out.append(m)
-        time.sleep(0.05)
-        while (m := client.recv_match(blocking=False)) is not None:
-            out.append(m)
-        return out
+        return _run_link(link, client, t, seconds)
 
     try:
         got = run(2.0)
@@ -125,19 +135,8 @@ def test_link_streams_attitude_and_position_targets():
         assert servos == (1500, 1600, 1000, 2000, 0)
 
         # SET_MESSAGE_INTERVAL works for them as for every stream: 50 Hz, then off.
-        client.mav.command_long_send(
-            1,
-            1,
-            mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
-            0,
-            mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED,
-            20_000,
-            0,
-            0,
-            0,
-            0,
-            0,
-        )
+        position_target = mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED
+        client.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, position_target, 20_000, *[0] * 5)
         client.mav.command_long_send(
             1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET, -1, 0, 0, 0, 0, 0
         )
