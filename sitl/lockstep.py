@@ -32,9 +32,9 @@ from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
+from sitl.gps import course_over_ground_deg
 from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer
 from sitl.scenario import EventSchedule, ScenarioEvent
-from sitl.sensors import course_over_ground_deg
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
 
