@@ -1,8 +1,8 @@
 """``autopilot``: start the flight-controller process.  ``autopilot --help`` lists the options.
 
-The loop: receive the simulator's messages; on each HIL_SENSOR run one
-iteration of the flight controller and answer with HIL_ACTUATOR_CONTROLS; then
-let the ground-station link receive, stream telemetry and send events.
+``main`` parses the options and wires the parts (parameters, flight controller,
+ground-station link, flight logs, simulator link); the loop itself, lockstep with
+the simulator, is :func:`autopilot.lockstep_loop.run_lockstep`.
 """
 
 from __future__ import annotations
@@ -12,9 +12,6 @@ import signal
 import sys
 
 from params.vehicle import VehicleFileError, load_vehicle
-
-LOCKSTEP_US = 4_000
-LINK_EVERY, LINK_PHASE = 5, 2  # ground-station link at 50 Hz of simulated time, off the outer loop's period
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -89,8 +86,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"autopilot: {exc}", file=sys.stderr)
         return 2
     from autopilot.flight_controller import FlightController
+    from autopilot.lockstep_loop import run_lockstep
     from autopilot.mavlink.link import GcsLink
-    from autopilot.mavlink.sim_link import SimLink, battery_from_msg, gps_from_msg, imu_from_msg
+    from autopilot.mavlink.sim_link import SimLink
     from autopilot.mavlink.vehicle_interface import FlightControllerVehicle
     from autopilot.param_catalogue import default_store
 
@@ -128,39 +126,8 @@ def main(argv: list[str] | None = None) -> int:
         f"{args.gcs_port + args.instance} and {args.api_port + args.instance}",
         flush=True,
     )
-    now_us = 0
     try:
-        sim.connect(on_wait=lambda: link.update(now_us))
-        print("[autopilot] connected to the simulator", flush=True)
-        gps = None
-        while True:
-            msgs = sim.receive(timeout_s=0.05)
-            if msgs is None:
-                print("[autopilot] simulator closed the link; reconnecting", flush=True)
-                sim.connect(on_wait=lambda: link.update(now_us))
-                continue
-            if not msgs:
-                link.update(now_us)  # keep answering ground stations while the simulator is paused
-                continue
-            for m in msgs:
-                t = m.get_type()
-                if t == "HIL_SENSOR":
-                    imu = imu_from_msg(m)
-                    commands = fc.step(imu, gps)
-                    gps = None
-                    now_us = imu.timestamp_us
-                    sim.send_actuators(now_us, commands, fc.commander.status.armed)
-                    if recorder is not None:
-                        recorder.on_step()
-                    # While the simulator steps its physics: the outer loops, and in another
-                    # period the ground-station link (both 50 Hz), so the two never add up.
-                    fc.after_step()
-                    if (now_us // LOCKSTEP_US) % LINK_EVERY == LINK_PHASE:
-                        link.update(now_us)
-                elif t == "HIL_GPS":
-                    gps = gps_from_msg(m)
-                elif t == "BATTERY_STATUS":
-                    fc.commander.set_battery(battery_from_msg(m))
+        run_lockstep(sim, fc, link, recorder)
     except KeyboardInterrupt:
         pass
     finally:

@@ -6,7 +6,7 @@ the 250 Hz attitude and rate loops); :meth:`FlightController.after_step` runs th
 estimator's 50 Hz filter work and GPS fusion (its output predictor carries the
 attitude in between) and the 50 Hz outer loops (commander, navigator, position
 control), whose results the inner loops use from the next period on.  The process loop
-(``autopilot.__main__``) calls ``after_step`` after sending the motor commands,
+(``autopilot.lockstep_loop``) calls ``after_step`` after sending the motor commands,
 so that work overlaps the simulator's physics step instead of delaying it.
 
 The parts exchange frozen records (:mod:`autopilot.topics`), not attribute writes: the
@@ -34,7 +34,7 @@ from params.vehicle import VehicleSpec
 
 OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 Hz
 # ... in the 4 ms period 1 of each 20 ms: the estimator's filters run after period 0 and the
-# ground-station link after period 2 (autopilot.__main__), so no two heavy jobs share a period.
+# ground-station link after period 2 (autopilot.lockstep_loop), so no two heavy jobs share a period.
 OUTER_OFFSET_US = 4_000
 
 

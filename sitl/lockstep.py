@@ -32,9 +32,9 @@ from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
+from sitl.gps import GpsReading, course_over_ground_deg
 from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer
 from sitl.scenario import EventSchedule, ScenarioEvent
-from sitl.sensors import course_over_ground_deg
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
 
@@ -141,10 +141,12 @@ class LockstepServer:
 
     # -- one period --------------------------------------------------------------
     def _send_sensors(self) -> None:
+        """The period's sensor messages: HIL_GPS when a fix is due, BATTERY_STATUS at 5 Hz, then HIL_SENSOR."""
         sim = self.sim
+        sensors = sim.sensors
         t = sim.sensor_truth()  # plain floats; the full truth is built only at 50 Hz for the truth port
         time_us = sim.time_us
-        imu = sim.sensors.imu(
+        imu = sensors.imu(
             t.specific_force_frd_m_s2,
             t.rate_frd_rad_s,
             t.r_ned_frd,
@@ -156,44 +158,11 @@ class LockstepServer:
         out = b""
         # Every period: the GPS model decides when a fix is due (SIM_GPS_HZ) and what delayed
         # state it describes (SIM_GPS_LAG_MS); it is sent stamped with the current time.
-        fix = sim.sensors.gps(time_us, t.pos_ned_m, t.vel_ned_m_s)
+        fix = sensors.gps(time_us, t.pos_ned_m, t.vel_ned_m_s)
         if fix is not None:
-            v = fix.vel_ned_m_s
-            out += self._pack(
-                mavlink.MAVLink_hil_gps_message(
-                    time_us,
-                    fix.fix_type,
-                    round(fix.lat_deg * 1e7),
-                    round(fix.lon_deg * 1e7),
-                    round(fix.alt_amsl_m * 1000),
-                    round(fix.eph_m * 100),
-                    round(fix.epv_m * 100),
-                    round(math.hypot(v[0], v[1]) * 100),
-                    round(v[0] * 100),
-                    round(v[1] * 100),
-                    round(v[2] * 100),
-                    round(course_over_ground_deg(v) * 100) % 36000,
-                    fix.satellites,
-                    0,
-                    0,
-                )
-            )
+            out += self._hil_gps(time_us, fix)
         if time_us % BATTERY_PERIOD_US == 0:
-            b = sim.battery
-            cells = [min(65534, round(b.voltage_v / b.cells * 1000))] * b.cells + [65535] * (10 - b.cells)
-            out += self._pack(
-                mavlink.MAVLink_battery_status_message(
-                    0,
-                    mavlink.MAV_BATTERY_FUNCTION_ALL,
-                    mavlink.MAV_BATTERY_TYPE_LIPO,
-                    32767,
-                    cells,
-                    round(b.current_a * 100),
-                    round(b.consumed_mah),
-                    -1,
-                    round(b.remaining_frac * 100),
-                )
-            )
+            out += self._battery_status()
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
         out += _HIL_SENSOR.encode(
             self.mav,
@@ -210,7 +179,7 @@ class LockstepServer:
                 m[2],
                 imu.pressure_hpa,
                 0.0,
-                sim.sensors.home[2] - t.pos_ned_m[2],
+                sensors.home[2] - t.pos_ned_m[2],
                 imu.temperature_c,
                 HIL_SENSOR_ALL_FIELDS,
                 0,
@@ -221,6 +190,47 @@ class LockstepServer:
             self.truth_log.record(time_us, t, self.armed, self.motor_commands)
         if time_us % TRUTH_PERIOD_US == 0:
             self._every_truth_period(time_us)
+
+    def _hil_gps(self, time_us: int, fix: GpsReading) -> bytes:
+        """HIL_GPS for a fix, stamped ``time_us``: degE7, mm, cm, cm/s (NED), course in cdeg."""
+        v = fix.vel_ned_m_s
+        return self._pack(
+            mavlink.MAVLink_hil_gps_message(
+                time_us,
+                fix.fix_type,
+                round(fix.lat_deg * 1e7),
+                round(fix.lon_deg * 1e7),
+                round(fix.alt_amsl_m * 1000),
+                round(fix.eph_m * 100),
+                round(fix.epv_m * 100),
+                round(math.hypot(v[0], v[1]) * 100),
+                round(v[0] * 100),
+                round(v[1] * 100),
+                round(v[2] * 100),
+                round(course_over_ground_deg(v) * 100) % 36000,
+                fix.satellites,
+                0,
+                0,
+            )
+        )
+
+    def _battery_status(self) -> bytes:
+        """BATTERY_STATUS of the simulated pack: cell voltages in mV, current in cA, consumed mAh, percent left."""
+        b = self.sim.battery
+        cells = [min(65534, round(b.voltage_v / b.cells * 1000))] * b.cells + [65535] * (10 - b.cells)
+        return self._pack(
+            mavlink.MAVLink_battery_status_message(
+                0,
+                mavlink.MAV_BATTERY_FUNCTION_ALL,
+                mavlink.MAV_BATTERY_TYPE_LIPO,
+                32767,
+                cells,
+                round(b.current_a * 100),
+                round(b.consumed_mah),
+                -1,
+                round(b.remaining_frac * 100),
+            )
+        )
 
     def _every_truth_period(self, time_us: int) -> None:
         """50 Hz of simulated time: scenario events, ground truth, parameter service."""

@@ -56,7 +56,7 @@ class WindSettings:
 
 @dataclass
 class SensorSettings:
-    """Noise, bias, delay and failures of the IMU, magnetometer, barometer and GPS (sitl.sensors).
+    """Noise, bias, delay and failures of the IMU, magnetometer, barometer and GPS (sitl.sensors, sitl.gps).
 
     Defaults: the IMU noise densities and bias walks are those of PX4's Gazebo IMU
     plugin defaults (an ADIS16448-class IMU: accelerometer 1.86e-3 m/s^2/sqrt(Hz),

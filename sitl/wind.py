@@ -213,6 +213,24 @@ class WindModel:
             self._gust_n = math.cos(psi)
             self._gust_e = math.sin(psi)
 
+    def _gusts(self, dt_s: float, gust_a: float, vn: float, ve: float) -> tuple[float, float]:
+        """Advance the current gust by ``dt_s`` (s), amplitude ``gust_a`` (m/s, SIM_GUST_SPD, not 0), and
+        start the next one if the countdown has run out; (vn, ve) (m/s, North/East) with the gust added.
+
+        Called by :meth:`step` (after the countdown) only during a gust or when one is due."""
+        if self._gust_active:
+            t = self._gust_t_s + dt_s
+            T = self._gust_T_s
+            if t < T:  # one gust at a time: a start due now waits for its end
+                self._gust_t_s = t
+                g = 0.5 * gust_a * (1.0 - math.cos(_TWO_PI * t / T))
+                return vn + g * self._gust_n, ve + g * self._gust_e
+            self._gust_active = False
+        if self._to_next_gust <= 0.0:
+            self.trigger_gust()  # starts at t = 0, where g = 0
+            self._to_next_gust = float(self._rng.standard_exponential())
+        return vn, ve
+
     def step(self, dt_s: float, altitude_agl_m: float, airspeed_m_s: float) -> tuple[float, float, float]:
         """Advance by dt_s; return the wind (air velocity) in NED, m/s."""
         s = self.settings
@@ -281,20 +299,9 @@ class WindModel:
             interval = s.gust_interval_s
             if not interval > _MIN_GUST_INTERVAL_S:
                 interval = _MIN_GUST_INTERVAL_S
-            self._to_next_gust -= dt_s / interval
-            if self._gust_active:
-                t = self._gust_t_s + dt_s
-                T = self._gust_T_s
-                if t < T:
-                    self._gust_t_s = t
-                    g = 0.5 * gust_a * (1.0 - math.cos(_TWO_PI * t / T))
-                    vn += g * self._gust_n
-                    ve += g * self._gust_e
-                else:
-                    self._gust_active = False
-            if not self._gust_active and self._to_next_gust <= 0.0:
-                self.trigger_gust()  # starts at t = 0, where g = 0
-                self._to_next_gust = float(self._rng.standard_exponential())
+            self._to_next_gust -= dt_s / interval  # the Poisson countdown runs every step
+            if self._gust_active or self._to_next_gust <= 0.0:
+                vn, ve = self._gusts(dt_s, gust_a, vn, ve)
         else:
             self._gust_active = False
 

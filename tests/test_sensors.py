@@ -1,4 +1,4 @@
-"""The sensor error models of sitl.sensors: noise, bias, drift, latency, glitches and failures.
+"""The sensor error models of sitl.sensors and sitl.gps: noise, bias, drift, latency, glitches and failures.
 
 Statistical checks use fixed seeds, so each is deterministic; the tolerances are
 several standard errors of the estimate wide.
