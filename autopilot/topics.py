@@ -219,3 +219,41 @@ class TelemetrySnapshot:
     control: ControlSetpoints | None = None  # None while the controllers are not flying
     estimator_status: EstimatorStatus | None = None
     battery_warning: BatteryWarning = BatteryWarning.NONE
+
+
+@dataclass(frozen=True, slots=True)
+class LandingTargetMeasurement:
+    """One decoded LANDING_TARGET message: where the target is seen from the vehicle.
+
+    ``rel_pos_ned_m`` is the target's position minus the vehicle's, in NED metres.
+    ``std_m`` is the measurement's standard deviation in metres per horizontal axis;
+    NaN when the sender gave none (the estimator then uses ``LTEST_MEAS_UNC``).
+    ``source_frame`` is the message's MAV_FRAME value; ``angular`` says whether it came
+    from the angle_x/angle_y/distance form.
+    """
+
+    timestamp_us: int
+    rel_pos_ned_m: np.ndarray
+    std_m: float
+    source_frame: int
+    valid: bool
+    angular: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class LandingTargetEstimate:
+    """The landing target's estimated state relative to the vehicle (PX4's landing_target_pose).
+
+    NED metres and metres per second.  ``target_vel_ned_m_s`` is the target's velocity
+    over ground (None when the vehicle's velocity was not given).  ``rel_pos_var_m2`` is
+    the north and east position variance.  ``valid`` is False before the first
+    measurement, after the timeout, or (polynomial predictor) with too few samples.
+    """
+
+    timestamp_us: int
+    rel_pos_ned_m: np.ndarray
+    rel_vel_ned_m_s: np.ndarray
+    valid: bool
+    is_static: bool = False
+    target_vel_ned_m_s: np.ndarray | None = None
+    rel_pos_var_m2: np.ndarray = field(default_factory=lambda: np.full(2, np.inf))
