@@ -29,7 +29,11 @@ def _ok(result) -> LandingTargetMeasurement:
 
 
 def test_px4_local_ned_is_target_position_minus_vehicle_position():
-    m = _ok(decode_landing_target(_msg(mav.MAV_FRAME_LOCAL_NED, x=10.0, y=5.0, z=0.0), LEVEL, 3.0, np.array([9.0, 5.5, -3.0])))
+    m = _ok(
+        decode_landing_target(
+            _msg(mav.MAV_FRAME_LOCAL_NED, x=10.0, y=5.0, z=0.0), LEVEL, 3.0, np.array([9.0, 5.5, -3.0])
+        )
+    )
     np.testing.assert_allclose(m.rel_pos_ned_m, [1.0, -0.5, 3.0])
     assert m.timestamp_us == 123456 and m.source_frame == mav.MAV_FRAME_LOCAL_NED and not m.angular
 
