@@ -107,3 +107,23 @@ def test_polynomial_predictor_is_invalid_with_fewer_than_100_samples():
     assert not pred.predict(99 * DT_US, 0.5, np.zeros(3)).valid
     pred.add_sample(99 * DT_US, _circle(99 * DT_US * 1e-6))
     assert pred.predict(99 * DT_US, 0.5, np.zeros(3)).valid
+
+
+def test_vehicle_acceleration_drives_the_prediction():
+    """Vehicle accelerating north at 1 m/s^2 over a static target: the relative state
+    predicted 1 s past the last measurement follows the vehicle's acceleration."""
+    rng = np.random.default_rng(5)
+    est = LandingTargetEstimator()
+    a = 1.0
+    t = 0
+    for k in range(int(3e6 / DT_US)):
+        t = k * DT_US
+        ts = t * 1e-6
+        est.predict(t, np.array([a, 0.0, 0.0]))
+        if k % 3 == 0:
+            est.update(_meas(t, (4.0 - 0.5 * a * ts * ts, 0.0), 0.02, rng))
+    ts = t * 1e-6
+    e = est.estimate(t + 1_000_000)
+    t2 = ts + 1.0  # 1 s ahead: the acceleration alone moves it 0.5 m
+    assert abs(e.rel_pos_ned_m[0] - (4.0 - 0.5 * a * t2 * t2)) < 0.15
+    assert abs(e.rel_vel_ned_m_s[0] + a * t2) < 0.15
