@@ -47,7 +47,7 @@ class UgvGeometry:
     @property
     def deck_top_m(self) -> float:
         """Height of the deck's top surface above the ground."""
-        return self.wheel_radius_m + 0.05 + self.chassis_half_m[2] + 0.01
+        return self.wheel_radius_m + 0.05 + 2 * self.chassis_half_m[2] + 0.01
 
 
 def write_marker_png(path: Path, cell_px: int = 16) -> float:
@@ -91,11 +91,12 @@ def ugv_mjcf(start: Pose2, texture_dir: Path, geom: UgvGeometry = UgvGeometry())
     pos[2] = r
     q = quat_ned_frd_to_enu_flu(np.array([math.cos(start.yaw_rad / 2), 0.0, 0.0, math.sin(start.yaw_rad / 2)]))
     ch = g.chassis_half_m
-    chassis_z = 0.05 + ch[2]
+    chassis_z = 0.05 + ch[2]  # 5 cm above the axle; the deck (1 cm) on top: deck_top_m
     deck_z = chassis_z + ch[2] + 0.005
+    # MuJoCo's cube texture puts "front" on the box's +z (top) face: the marker looks up.
     asset = (
-        f'<texture name="ugv_deck" type="cube" fileup="{deck_png}" filedown="{white_png}" fileleft="{white_png}" '
-        f'fileright="{white_png}" filefront="{white_png}" fileback="{white_png}"/>\n'
+        f'<texture name="ugv_deck" type="cube" fileup="{white_png}" filedown="{white_png}" fileleft="{white_png}" '
+        f'fileright="{white_png}" filefront="{deck_png}" fileback="{white_png}"/>\n'
         '<material name="ugv_deck" texture="ugv_deck" rgba="1 1 1 1" specular="0" shininess="0"/>'
     )
     wheels = []

@@ -188,9 +188,10 @@ def unicycle_command(
 ) -> UnicycleCommand:
     """Kanayama's tracking law: feed-forward speed/yaw rate plus feedback on the pose error.
 
-    ``gains`` = (k_x 1/s, k_y 1/m^2... as rad/(m s) per m/s, k_yaw 1/s).  The error is taken in
-    the vehicle's frame (x forward, y right).  The result is clipped to the speed and yaw-rate
-    limits; the acceleration limit is the wheel controller's job (:class:`sitl.ugv.UgvDrive`).
+    ``gains`` = (k_x in 1/s, k_y in rad/m^2, k_yaw in rad/m; the last two are multiplied by
+    the speed).  The error is taken in the vehicle's frame (x forward, y right).  The result
+    is clipped to the speed and yaw-rate limits; the acceleration limit is the wheel
+    controller's job (:class:`sitl.ugv.UgvDrive`).
     """
     kx, ky, kyaw = gains
     dn, de = target.pose.north_m - pose.north_m, target.pose.east_m - pose.east_m
