@@ -80,11 +80,11 @@ def test_path_targets_are_consistent():
             assert dn == pytest.approx(a.velocity_ne_m_s[0], abs=1e-2)
             assert de == pytest.approx(a.velocity_ne_m_s[1], abs=1e-2)
             assert a.speed_m_s <= path.speed_m_s + 1e-12
-    f8 = figure8(Pose2(0, 0, 0), 4.0, 2.0)
-    lap_s = f8.distance_m(0)[0]  # the figure-8 returns through its start after two circles
-    s_lap = 4 * math.pi * 4.0
-    p = f8.pose_at(s_lap)[0]
-    assert (p.north_m, p.east_m) == pytest.approx((0.0, 0.0), abs=1e-9) and lap_s == 0.0
+    f8 = figure8(Pose2(0, 0, 0), 4.0, 2.0)  # two circles of 4 m (8 pi m each) through the start
+    half, lap = f8.pose_at(8 * math.pi)[0], f8.pose_at(16 * math.pi)[0]
+    assert (half.north_m, half.east_m, lap.north_m, lap.east_m) == pytest.approx((0, 0, 0, 0), abs=1e-9)
+    assert f8.pose_at(4 * math.pi)[0].east_m == pytest.approx(8.0), "first circle to the East (right turn)"
+    assert f8.pose_at(12 * math.pi)[0].east_m == pytest.approx(-8.0), "second circle to the West"
     assert straight_line(Pose2(0, 0, 0), 0.0).target(10.0).pose == Pose2(0, 0, 0), "speed 0 stands still"
     with pytest.raises(ValueError):
         straight_line(Pose2(0, 0, 0), 10.0)
