@@ -5,7 +5,8 @@ module reports are NED (m, m/s, rad), converted only through :mod:`mavsim_core.f
 Two driven wheels on hinge joints (``velocity`` actuators, rad/s), a passive ball caster,
 real contact with the ground, and a flat deck on top textured with ArUco marker id 76 of
 ``DICT_ARUCO_ORIGINAL``, 0.333 m wide, centred with a white border.  The texture is drawn
-with OpenCV when the MJCF is built and written to a PNG (MuJoCo loads it by file name).
+with OpenCV when the MJCF is built and encoded as PNG, handed to MuJoCo as an in-memory
+asset (``from_xml_string(xml, assets)``), so no file is left behind.
 
 Kinematics: v = r (w_l + w_r) / 2, yaw rate (FLU, positive left) = r (w_r - w_l) / b.
 """
@@ -13,9 +14,7 @@ Kinematics: v = r (w_l + w_r) / 2, yaw rate (FLU, positive left) = r (w_r - w_l)
 from __future__ import annotations
 
 import math
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import mujoco
@@ -50,8 +49,8 @@ class UgvGeometry:
         return self.wheel_radius_m + 0.05 + 2 * self.chassis_half_m[2] + 0.01
 
 
-def write_marker_png(path: Path, cell_px: int = 16) -> float:
-    """Draw the deck texture (marker id 76 centred on white) to ``path``; return the deck side (m).
+def marker_png(cell_px: int = 16) -> tuple[bytes, float]:
+    """The deck texture as PNG bytes (marker id 76 centred on white) and the deck side (m).
 
     The marker has 7 cells (5 data + border); with ``cell_px`` pixels per cell the image is
     sized so that the marker is exactly 0.333 m of a deck of about 0.8 m.
@@ -63,8 +62,10 @@ def write_marker_png(path: Path, cell_px: int = 16) -> float:
     marker = cv2.aruco.generateImageMarker(cv2.aruco.getPredefinedDictionary(MARKER_DICT), MARKER_ID, marker_px)
     o = (side_px - marker_px) // 2
     img[o : o + marker_px, o : o + marker_px] = marker
-    cv2.imwrite(str(path), cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
-    return side_px * m_per_px
+    ok, png = cv2.imencode(".png", cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
+    if not ok:
+        raise RuntimeError("OpenCV could not encode the deck texture as PNG")
+    return png.tobytes(), side_px * m_per_px
 
 
 def _v(x) -> str:
@@ -73,19 +74,24 @@ def _v(x) -> str:
 
 @dataclass(frozen=True)
 class UgvMjcf:
-    """MJCF fragments to merge into a world: ``asset``, ``worldbody`` and ``actuator`` children."""
+    """MJCF fragments to merge into a world: ``asset``, ``worldbody`` and ``actuator`` children.
+
+    ``assets`` are the PNG files the ``asset`` part names, to pass to
+    ``mujoco.MjModel.from_xml_string(xml, assets)`` (nothing is written to disk).
+    """
 
     asset: str
     worldbody: str
     actuator: str
+    assets: dict[str, bytes]
 
 
-def ugv_mjcf(start: Pose2, texture_dir: Path, geom: UgvGeometry = UgvGeometry()) -> UgvMjcf:
+def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry()) -> UgvMjcf:
     """The UGV's MJCF parts, its body ``ugv`` placed at ``start`` (NED m, yaw rad) on the ground."""
-    deck_png, white_png = texture_dir / "ugv_deck_marker76.png", texture_dir / "ugv_white.png"
-    deck = write_marker_png(deck_png)
-    side_px = cv2.imread(str(deck_png)).shape[0]  # cube faces must all be the same size
-    cv2.imwrite(str(white_png), np.full((side_px, side_px, 3), 255, np.uint8))
+    deck_png, white_png = "ugv_deck_marker76.png", "ugv_white.png"
+    deck_bytes, deck = marker_png()
+    side_px = cv2.imdecode(np.frombuffer(deck_bytes, np.uint8), cv2.IMREAD_GRAYSCALE).shape[0]
+    white = cv2.imencode(".png", np.full((side_px, side_px, 3), 255, np.uint8))[1].tobytes()  # cube faces: same size
     g, r = geom, geom.wheel_radius_m
     pos = ned_to_enu(np.array([start.north_m, start.east_m, 0.0]))
     pos[2] = r
@@ -125,13 +131,12 @@ def ugv_mjcf(start: Pose2, texture_dir: Path, geom: UgvGeometry = UgvGeometry())
         f'forcelimited="true" forcerange="-20 20"/>'
         for s in ("left", "right")
     )
-    return UgvMjcf(asset, worldbody, actuator)
+    return UgvMjcf(asset, worldbody, actuator, {deck_png: deck_bytes, white_png: white})
 
 
-def build_ugv_world(start: Pose2, texture_dir: Path | None = None) -> mujoco.MjModel:
+def build_ugv_world(start: Pose2) -> mujoco.MjModel:
     """A world with only the ground plane and the UGV (tests, tools); 4 ms step as :mod:`sitl.model`."""
-    texture_dir = Path(tempfile.mkdtemp(prefix="ugv_tex_")) if texture_dir is None else texture_dir
-    parts = ugv_mjcf(start, texture_dir)
+    parts = ugv_mjcf(start)
     xml = f"""<mujoco model="ugv_world">
   <option timestep="{LOCKSTEP_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
   <visual><global offwidth="640" offheight="480"/><quality shadowsize="0" offsamples="0"/></visual>
@@ -143,7 +148,7 @@ def build_ugv_world(start: Pose2, texture_dir: Path | None = None) -> mujoco.MjM
   </worldbody>
   <actuator>{parts.actuator}</actuator>
 </mujoco>"""
-    return mujoco.MjModel.from_xml_string(xml)
+    return mujoco.MjModel.from_xml_string(xml, parts.assets)
 
 
 @dataclass(frozen=True)
