@@ -63,7 +63,7 @@ def test_straight_line_speed_heading_upright_and_acceleration_limit(speed):
 
 def test_circle_radius_5m():
     path = circle(Pose2(0.0, 0.0, 0.0), 5.0, 2.0)
-    t, states, _ = drive(path, 8.0)
+    t, states, _ = drive(path, 6.0)
     centre = np.array([0.0, 5.0])  # clockwise from above, heading North: centre to the East
     r = np.array([np.linalg.norm(s.position_ned_m[:2] - centre) for s in states])
     assert np.all(np.abs(r[t > 2.0] - 5.0) < 0.3)
@@ -99,8 +99,8 @@ def test_random_waypoints_deterministic_for_a_seed():
     pa = [a.target(t).pose for t in times]
     assert pa == [b.target(t).pose for t in times]
     assert pa != [c.target(t).pose for t in times]
-    _, states, _ = drive(a, 6.0)
-    end = a.target(6.0).pose
+    _, states, _ = drive(a, 4.0)
+    end = a.target(4.0).pose
     assert np.hypot(states[-1].position_ned_m[0] - end.north_m, states[-1].position_ned_m[1] - end.east_m) < 0.3
 
 
@@ -141,3 +141,20 @@ def test_deck_marker_decodes_as_id_76_from_above(tmp_path):
     deck_above_axle = UgvGeometry().deck_top_m - UgvGeometry().wheel_radius_m
     expected = 0.333 / (2 * (1.5 - (deck_above_axle - 0.15)) * math.tan(math.radians(22.5))) * 240
     assert side_px == pytest.approx(expected, rel=0.1)
+
+
+def test_ugv_merges_into_the_multicopter_world_behind_a_switch():
+    from params.vehicle import load_vehicle
+    from sitl.model import build_mjcf, build_model
+
+    spec = load_vehicle("quad_x")
+    assert "ugv" not in build_mjcf(spec), "off by default"
+    model = build_model(spec, ugv_start=Pose2(6.0, 0.0, 0.0))
+    assert [model.actuator(i).name for i in range(4)] == ["rotor1", "rotor2", "rotor3", "rotor4"]
+    data = mujoco.MjData(model)
+    ugv, path = Ugv(model, data), straight_line(Pose2(6.0, 0.0, 0.0), 1.0)
+    for i in range(500):
+        ugv.follow(path.target(i * DT))
+        mujoco.mj_step(model, data)
+    assert ugv.state().position_ned_m[0] == pytest.approx(path.target(2.0).pose.north_m, abs=0.2)
+    assert data.body("vehicle").xpos[:2] == pytest.approx([0.0, 0.0], abs=1e-3), "the multicopter stays put"
