@@ -15,6 +15,8 @@ import mujoco
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 from mavsim_core.frames import frd_to_flu
 from params.vehicle import VehicleSpec
+from sitl.ugv import UgvMjcf, ugv_mjcf
+from sitl.ugv_paths import Pose2
 
 # One physics step per lockstep period (250 Hz).  MuJoCo's default contact time constant
 # (0.02 s) needs a step of at most 0.01 s; rotor lag is integrated exactly (sitl.rotors).
@@ -25,10 +27,12 @@ def _v(x) -> str:
     return " ".join(f"{float(a):.6g}" for a in x)
 
 
-def build_mjcf(spec: VehicleSpec) -> str:
+def build_mjcf(spec: VehicleSpec, ugv: UgvMjcf | None = None) -> str:
     """Return the MJCF XML text of the world: ground plane and the vehicle.
 
-    The vehicle starts on its legs facing North (body x along world +y, ENU).
+    The vehicle starts on its legs facing North (body x along world +y, ENU).  ``ugv``
+    (off by default) adds the ground vehicle's parts (:func:`sitl.ugv.ugv_mjcf`) after the
+    vehicle's, so the vehicle's joint, actuator and sensor indices stay the same.
     """
     j = spec.inertia_kg_m2
     foot_depth_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
@@ -55,9 +59,12 @@ def build_mjcf(spec: VehicleSpec) -> str:
             f'<general name="rotor{i + 1}" site="rotor{i + 1}" ctrllimited="false" '
             f'gear="0 0 1 0 0 {-r.spin_ccw * spec.k_moment:.6g}"/>'
         )
+    ugv_asset = f"\n  <asset>{ugv.asset}</asset>" if ugv else ""
+    ugv_body = f"\n    {ugv.worldbody}" if ugv else ""
+    ugv_actuators = f"\n{ugv.actuator}" if ugv else ""
     return f"""<mujoco model="{spec.name}">
   <option timestep="{PHYSICS_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
-  <visual><global offwidth="640" offheight="480"/></visual>
+  <visual><global offwidth="640" offheight="480"/></visual>{ugv_asset}
   <worldbody>
     <light pos="0 0 20" dir="0 0 -1" directional="true"/>
     <geom name="ground" type="plane" size="500 500 0.1" friction="1 0.01 0.001" rgba="0.5 0.6 0.5 1"/>
@@ -66,10 +73,10 @@ def build_mjcf(spec: VehicleSpec) -> str:
       <inertial pos="0 0 0" mass="{spec.mass_kg:.6g}" diaginertia="{_v(j)}"/>
       {chr(10).join("      " + g for g in geoms)}
       {chr(10).join("      " + s for s in sites)}
-    </body>
+    </body>{ugv_body}
   </worldbody>
   <actuator>
-{chr(10).join("    " + a for a in actuators)}
+{chr(10).join("    " + a for a in actuators)}{ugv_actuators}
   </actuator>
   <sensor>
     <accelerometer name="accel" site="imu"/>
@@ -79,8 +86,11 @@ def build_mjcf(spec: VehicleSpec) -> str:
 """
 
 
-def build_model(spec: VehicleSpec) -> mujoco.MjModel:
+def build_model(spec: VehicleSpec, ugv_start: Pose2 | None = None) -> mujoco.MjModel:
     """Compile the MJCF and set the vehicle's inertia to the file's exactly.
+
+    ``ugv_start`` (NED m, yaw rad; None, the default, leaves it out) adds the ground vehicle
+    (:mod:`sitl.ugv`) there.
 
     [F]'s Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
     inequality I_xx + I_yy >= I_zz that every real mass distribution satisfies, and MuJoCo's
@@ -88,11 +98,12 @@ def build_model(spec: VehicleSpec) -> mujoco.MjModel:
     and the file's values are written into ``body_inertia`` afterwards: the rigid-body
     equations ([F eq. 4.5]) use J as given, which is what [F] specifies.
     """
-    xml = build_mjcf(spec)
+    ugv = ugv_mjcf(ugv_start) if ugv_start is not None else None
+    xml = build_mjcf(spec, ugv)
     j = spec.inertia_kg_m2
     if j[0] + j[1] < j[2] or j[0] + j[2] < j[1] or j[1] + j[2] < j[0]:
         xml = xml.replace("<option ", '<compiler balanceinertia="true"/>\n  <option ', 1)
-    model = mujoco.MjModel.from_xml_string(xml)
+    model = mujoco.MjModel.from_xml_string(xml, ugv.assets if ugv else None)
     model.body_inertia[model.body("vehicle").id] = j
     mujoco.mj_setConst(model, mujoco.MjData(model))  # recompute what the compiler derived from the inertia
     return model

@@ -1,0 +1,215 @@
+"""The ground vehicle (UGV) in MuJoCo: a differential drive with a caster and an ArUco deck.
+
+MuJoCo's frames (ENU world, FLU body) as in :mod:`sitl.model`; the pose and velocity this
+module reports are NED (m, m/s, rad), converted only through :mod:`mavsim_core.frames`.
+Two driven wheels on hinge joints (``velocity`` actuators, rad/s), a passive ball caster,
+real contact with the ground, and a flat deck on top textured with ArUco marker id 76 of
+``DICT_ARUCO_ORIGINAL``, 0.333 m wide, centred with a white border.  The texture is drawn
+with OpenCV when the MJCF is built and encoded as PNG, handed to MuJoCo as an in-memory
+asset (``from_xml_string(xml, assets)``), so no file is left behind.
+
+Kinematics: v = r (w_l + w_r) / 2, yaw rate (FLU, positive left) = r (w_r - w_l) / b.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import mujoco
+import numpy as np
+
+from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from mavsim_core.frames import enu_to_ned, ned_to_enu, quat_enu_flu_to_ned_frd, quat_ned_frd_to_enu_flu
+from mavsim_core.quaternion import to_euler
+from sitl.ugv_paths import PathTarget, Pose2, UgvLimits, UnicycleCommand, unicycle_command
+
+MARKER_ID = 76
+MARKER_SIZE_M = 0.333
+MARKER_DICT = cv2.aruco.DICT_ARUCO_ORIGINAL
+
+
+@dataclass(frozen=True)
+class UgvGeometry:
+    """Sizes in metres, masses in kg.  ``track_m`` is b, the distance between the wheels."""
+
+    wheel_radius_m: float = 0.1
+    track_m: float = 0.6
+    wheel_x_m: float = 0.15  # axle ahead of the chassis centre (body x)
+    caster_x_m: float = -0.3
+    chassis_half_m: tuple[float, float, float] = (0.38, 0.26, 0.07)
+    deck_side_m: float = 0.8
+    chassis_mass_kg: float = 20.0
+    wheel_mass_kg: float = 1.0
+
+    @property
+    def deck_top_m(self) -> float:
+        """Height of the deck's top surface above the ground."""
+        return self.wheel_radius_m + 0.05 + 2 * self.chassis_half_m[2] + 0.01
+
+
+def marker_png(cell_px: int = 16) -> tuple[bytes, float]:
+    """The deck texture as PNG bytes (marker id 76 centred on white) and the deck side (m).
+
+    The marker has 7 cells (5 data + border); with ``cell_px`` pixels per cell the image is
+    sized so that the marker is exactly 0.333 m of a deck of about 0.8 m.
+    """
+    marker_px = 7 * cell_px
+    m_per_px = MARKER_SIZE_M / marker_px
+    side_px = int(round(0.8 / m_per_px / 2)) * 2 + marker_px % 2
+    img = np.full((side_px, side_px), 255, np.uint8)
+    marker = cv2.aruco.generateImageMarker(cv2.aruco.getPredefinedDictionary(MARKER_DICT), MARKER_ID, marker_px)
+    o = (side_px - marker_px) // 2
+    img[o : o + marker_px, o : o + marker_px] = marker
+    ok, png = cv2.imencode(".png", cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
+    if not ok:
+        raise RuntimeError("OpenCV could not encode the deck texture as PNG")
+    return png.tobytes(), side_px * m_per_px
+
+
+def _v(x) -> str:
+    return " ".join(f"{float(a):.6g}" for a in x)
+
+
+@dataclass(frozen=True)
+class UgvMjcf:
+    """MJCF fragments to merge into a world: ``asset``, ``worldbody`` and ``actuator`` children.
+
+    ``assets`` are the PNG files the ``asset`` part names, to pass to
+    ``mujoco.MjModel.from_xml_string(xml, assets)`` (nothing is written to disk).
+    """
+
+    asset: str
+    worldbody: str
+    actuator: str
+    assets: dict[str, bytes]
+
+
+def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry()) -> UgvMjcf:
+    """The UGV's MJCF parts, its body ``ugv`` placed at ``start`` (NED m, yaw rad) on the ground."""
+    deck_png, white_png = "ugv_deck_marker76.png", "ugv_white.png"
+    deck_bytes, deck = marker_png()
+    side_px = cv2.imdecode(np.frombuffer(deck_bytes, np.uint8), cv2.IMREAD_GRAYSCALE).shape[0]
+    white = cv2.imencode(".png", np.full((side_px, side_px, 3), 255, np.uint8))[1].tobytes()  # cube faces: same size
+    g, r = geom, geom.wheel_radius_m
+    pos = ned_to_enu(np.array([start.north_m, start.east_m, 0.0]))
+    pos[2] = r
+    q = quat_ned_frd_to_enu_flu(np.array([math.cos(start.yaw_rad / 2), 0.0, 0.0, math.sin(start.yaw_rad / 2)]))
+    ch = g.chassis_half_m
+    chassis_z = 0.05 + ch[2]  # 5 cm above the axle; the deck (1 cm) on top: deck_top_m
+    deck_z = chassis_z + ch[2] + 0.005
+    # MuJoCo's cube texture puts "front" on the box's +z (top) face: the marker looks up.
+    asset = (
+        f'<texture name="ugv_deck" type="cube" fileup="{white_png}" filedown="{white_png}" fileleft="{white_png}" '
+        f'fileright="{white_png}" filefront="{deck_png}" fileback="{white_png}"/>\n'
+        '<material name="ugv_deck" texture="ugv_deck" rgba="1 1 1 1" specular="0" shininess="0"/>'
+    )
+    wheels = []
+    for side, y in (("left", g.track_m / 2), ("right", -g.track_m / 2)):
+        wheels.append(
+            f'<body name="ugv_wheel_{side}" pos="{g.wheel_x_m:.4g} {y:.4g} 0">'
+            f'<joint name="ugv_wheel_{side}" type="hinge" axis="0 1 0" damping="0.01"/>'
+            f'<geom type="cylinder" size="{r:.4g} 0.025" quat="0.70710678 0.70710678 0 0" '
+            f'mass="{g.wheel_mass_kg:.4g}" friction="1.2 0.01 0.001" rgba="0.1 0.1 0.1 1"/></body>'
+        )
+    caster_r = 0.05
+    worldbody = f"""<body name="ugv" pos="{_v(pos)}" quat="{_v(q)}">
+  <freejoint name="ugv_root"/>
+  <geom name="ugv_chassis" type="box" pos="0 0 {chassis_z:.4g}" size="{_v(ch)}" mass="{g.chassis_mass_kg:.4g}"
+        rgba="0.7 0.5 0.1 1"/>
+  <geom name="ugv_deck" type="box" pos="0 0 {deck_z:.4g}" size="{deck / 2:.5g} {deck / 2:.5g} 0.005" mass="0.5"
+        material="ugv_deck" friction="1 0.01 0.001"/>
+  {"".join(wheels)}
+  <body name="ugv_caster" pos="{g.caster_x_m:.4g} 0 {caster_r - r:.4g}">
+    <joint name="ugv_caster" type="ball" damping="0.001"/>
+    <geom type="sphere" size="{caster_r}" mass="0.2" friction="0.5 0.005 0.0001" rgba="0.6 0.6 0.6 1"/>
+  </body>
+</body>"""
+    actuator = "\n".join(
+        f'<velocity name="ugv_wheel_{s}" joint="ugv_wheel_{s}" kv="{20.0:.4g}" ctrllimited="true" ctrlrange="-60 60" '
+        f'forcelimited="true" forcerange="-20 20"/>'
+        for s in ("left", "right")
+    )
+    return UgvMjcf(asset, worldbody, actuator, {deck_png: deck_bytes, white_png: white})
+
+
+def build_ugv_world(start: Pose2) -> mujoco.MjModel:
+    """A world with only the ground plane and the UGV (tests, tools); 4 ms step as :mod:`sitl.model`."""
+    parts = ugv_mjcf(start)
+    xml = f"""<mujoco model="ugv_world">
+  <option timestep="{LOCKSTEP_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
+  <visual><global offwidth="640" offheight="480"/><quality shadowsize="0" offsamples="0"/></visual>
+  <asset>{parts.asset}</asset>
+  <worldbody>
+    <light pos="0 0 20" dir="0 0 -1" directional="true"/>
+    <geom name="ground" type="plane" size="500 500 0.1" friction="1 0.01 0.001" rgba="0.5 0.6 0.5 1"/>
+    {parts.worldbody}
+  </worldbody>
+  <actuator>{parts.actuator}</actuator>
+</mujoco>"""
+    return mujoco.MjModel.from_xml_string(xml, parts.assets)
+
+
+@dataclass(frozen=True)
+class UgvState:
+    """True state in NED: position (m), velocity (m/s), attitude quaternion FRD->NED (w,x,y,z), yaw (rad)."""
+
+    position_ned_m: np.ndarray
+    velocity_ned_m_s: np.ndarray
+    quat_ned_frd: np.ndarray
+    yaw_rad: float
+
+    @property
+    def pose(self) -> Pose2:
+        return Pose2(float(self.position_ned_m[0]), float(self.position_ned_m[1]), self.yaw_rad)
+
+
+def wheel_speeds(cmd: UnicycleCommand, geom: UgvGeometry = UgvGeometry()) -> tuple[float, float]:
+    """Wheel rates (rad/s, left, right) for a speed (m/s) and a NED yaw rate (rad/s, + turns right)."""
+    w_flu = -cmd.yaw_rate_rad_s  # FLU yaw rate is positive to the left
+    b, r = geom.track_m, geom.wheel_radius_m
+    return (cmd.speed_m_s - w_flu * b / 2) / r, (cmd.speed_m_s + w_flu * b / 2) / r
+
+
+class UgvDrive:
+    """Slew-limits a unicycle command to the acceleration limits and turns it into wheel rates."""
+
+    def __init__(self, limits: UgvLimits = UgvLimits(), geom: UgvGeometry = UgvGeometry()) -> None:
+        self.limits, self.geom = limits, geom
+        self._v = 0.0
+
+    def wheels(self, cmd: UnicycleCommand, dt_s: float) -> tuple[float, float]:
+        """Wheel rates (rad/s) for ``cmd`` after ``dt_s`` seconds since the last call."""
+        dv = self.limits.accel_m_s2 * dt_s
+        self._v = min(max(cmd.speed_m_s, self._v - dv), self._v + dv)
+        return wheel_speeds(UnicycleCommand(self._v, cmd.yaw_rate_rad_s), self.geom)
+
+
+class Ugv:
+    """The UGV inside a MuJoCo model: follows a path (time as input) and reports its truth in NED."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, limits: UgvLimits = UgvLimits()) -> None:
+        self.model, self.data, self.limits = model, data, limits
+        self.drive = UgvDrive(limits)
+        self._body = model.body("ugv").id
+        self._act = (model.actuator("ugv_wheel_left").id, model.actuator("ugv_wheel_right").id)
+
+    def state(self) -> UgvState:
+        """True pose and velocity of the ``ugv`` body (its origin, at axle height)."""
+        d, b = self.data, self._body
+        q = quat_enu_flu_to_ned_frd(np.array(d.xquat[b]))
+        vel6 = np.zeros(6)
+        mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, b, vel6, 0)
+        return UgvState(enu_to_ned(d.xpos[b]), enu_to_ned(vel6[3:]), q, float(to_euler(q)[2]))
+
+    def command(self, cmd: UnicycleCommand, dt_s: float = LOCKSTEP_DT_S) -> None:
+        """Set the wheel actuators for ``cmd`` (call once per physics step of ``dt_s``)."""
+        left, right = self.drive.wheels(cmd, dt_s)
+        self.data.ctrl[self._act[0]], self.data.ctrl[self._act[1]] = left, right
+
+    def follow(self, target: PathTarget, dt_s: float = LOCKSTEP_DT_S) -> UnicycleCommand:
+        """Track ``target`` (from :meth:`sitl.ugv_paths.UgvPath.target`); return the command used."""
+        cmd = unicycle_command(target, self.state().pose, self.limits)
+        self.command(cmd, dt_s)
+        return cmd
