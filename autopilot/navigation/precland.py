@@ -34,7 +34,14 @@ from autopilot.topics import VehicleEstimate
 PARAMS: tuple[ParamDef, ...] = (
     param("PLD_BTOUT", 5.0, 0.0, 50.0, "s", "Landing target lost longer than this: search"),
     param("PLD_HACC_RAD", 0.2, 0.0, 10.0, "m", "Horizontal acceptance radius above the target (PX4)"),
-    param("PLD_FAPPR_ALT", 0.1, 0.0, 10.0, "m", "Below this height above the target a lost target no longer stops the descent"),
+    param(
+        "PLD_FAPPR_ALT",
+        0.1,
+        0.0,
+        10.0,
+        "m",
+        "Below this height above the target a lost target no longer stops the descent",
+    ),
     param("PLD_SRCH_ALT", 10.0, 0.0, 100.0, "m", "Search height above the ground"),
     param("PLD_SRCH_TOUT", 10.0, 0.0, 100.0, "s", "Longest search (also the longest preparation without target)"),
     param("PLD_MAX_SRCH", 3, 0, 100, "", "Most searches before the fallback", ParamType.INT32),
@@ -44,7 +51,7 @@ PARAMS: tuple[ParamDef, ...] = (
     param("PLD_TRK_SPD", 1.0, 0.1, 10.0, "m/s", "Mean speed of the tracking and docking splines [F 3]"),
 )
 
-TARGET_FRESH_S = 0.5  # a target measurement older than this does not count as seen
+TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as seen
 APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
 DOCK_DONE_M = 0.02  # docking point reached: this close (m, vertically) to the deck
 SEARCH_ARRIVE_M = 0.5  # the search point (m) counted as reached for the "searching" event
@@ -129,6 +136,8 @@ class PrecLandTask:
         self._tgt_pos: np.ndarray | None = None  # target's latest absolute position, m NED
         self._tgt_vel = np.zeros(3)
         self._fallback: LandTask | None = None
+        self._last_us: int | None = None  # time of the previous update
+        self._used_us: int | None = None  # timestamp of the latest measurement taken
 
     # ---- interface -------------------------------------------------------------------------
     def activate(self, est: VehicleEstimate, now_us: int) -> None:
@@ -174,19 +183,25 @@ class PrecLandTask:
         self.events.append((now_us, f"Precland: {phase.value} ({why})"))
 
     def _observe(self, est: VehicleEstimate, now_us: int) -> bool:
-        """Update the target's absolute position from a fresh measurement; True if seen now."""
+        """Take a new measurement of the target (each once), else predict it on at its last velocity;
+        True while the latest measurement is younger than TARGET_FRESH_S."""
         t = self._target
-        if t is None or not t.valid or (now_us - t.timestamp_us) * 1e-6 > TARGET_FRESH_S:
-            return False
-        rel, vel = np.asarray(t.rel_pos_ned_m, float), np.asarray(t.vel_ned_m_s, float)
-        if not (np.all(np.isfinite(rel)) and np.all(np.isfinite(vel))):
-            return False
-        # The measurement is as old as its timestamp: move it on to now at the target's velocity.
-        age_s = max(0.0, (now_us - t.timestamp_us) * 1e-6)
-        self._tgt_pos = est.pos_ned_m + rel + vel * age_s
-        self._tgt_vel = vel
-        self._seen_us = now_us
-        return True
+        new = t is not None and t.valid and t.timestamp_us != self._used_us and t.timestamp_us <= now_us
+        if new and t is not None:
+            rel, vel = np.asarray(t.rel_pos_ned_m, float), np.asarray(t.vel_ned_m_s, float)
+            if np.all(np.isfinite(rel)) and np.all(np.isfinite(vel)):
+                # The measurement is as old as its timestamp: move it on to now at the target's velocity.
+                self._tgt_pos = est.pos_ned_m + rel + vel * ((now_us - t.timestamp_us) * 1e-6)
+                self._tgt_vel = vel
+                self._used_us = t.timestamp_us
+                self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
+            else:
+                new = False
+        if not new and self._tgt_pos is not None and self._last_us is not None:
+            # Unseen: the target's point moves on at its last velocity (as an estimator predicts it).
+            self._tgt_pos = self._tgt_pos + self._tgt_vel * max(0.0, (now_us - self._last_us) * 1e-6)
+        self._last_us = now_us
+        return self._lost_s(now_us) <= TARGET_FRESH_S
 
     def _lost_s(self, now_us: int) -> float:
         return math.inf if self._seen_us is None else (now_us - self._seen_us) * 1e-6
@@ -266,7 +281,6 @@ class PrecLandTask:
         if ph in (PrecLandPhase.PREPARATION, PrecLandPhase.SEARCH, PrecLandPhase.FALLBACK):
             return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
         base = self._above_target(self.cfg.trk_alt_m)
-        # While the target is unseen its point moves on at its last velocity (feed-forward kept).
         vel = self._tgt_vel.copy()
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
