@@ -219,3 +219,14 @@ def test_shift_moves_the_points_not_the_vehicle():
     sim.task.shift(np.array([1.0, -2.0, 0.5]))
     after = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us).pos_ned_m
     np.testing.assert_allclose(after - before, [1.0, -2.0, 0.5])
+
+
+def test_docking_returns_to_approaching_when_the_target_jumps_beyond_pld_hacc_rad():
+    sim = Sim(target0=(1.0, 0.0, 0.0))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 10.0)
+    sim.step()
+    sim.target = sim.target + np.array([0.0, 0.5, 0.0])  # farther than PLD_HACC_RAD (0.2 m)
+    sim.step()
+    assert sim.task.phase is PrecLandPhase.APPROACHING and "above 0.20 m" in sim.task.events[-1][1]
+    assert sim.run_until(lambda s: s.task.done, 15.0)
+    assert sim.horizontal_error() < 0.05

@@ -5,7 +5,8 @@ ground until the target is seen; TRACKING flies the cubic spline of [F eq. 3.1] 
 PLD_TRK_ALT (1 m) above the target in td = horizontal error / PLD_TRK_SPD (1 m/s), re-planned
 each step on the target's latest position, plus the target's velocity as feed-forward;
 APPROACHING holds the point above the target until the horizontal error stays below
-PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S; DOCKING descends on a cubic spline onto the deck
+PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S (and DOCKING returns to it when the error exceeds
+PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck
 while tracking the target horizontally and reports ``done`` (``motors_cut``) at the docking
 point.  A target unseen for PLD_BTOUT starts a SEARCH (PLD_SRCH_ALT above the ground, up to
 PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
@@ -54,7 +55,6 @@ PARAMS: tuple[ParamDef, ...] = (
 TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as seen
 APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
 DOCK_DONE_M = 0.02  # docking point reached: this close (m, vertically) to the deck
-SEARCH_ARRIVE_M = 0.5  # the search point (m) counted as reached for the "searching" event
 
 
 class PrecLandPhase(Enum):
@@ -269,7 +269,11 @@ class PrecLandTask:
             if self._close_since_us is not None and (now_us - self._close_since_us) * 1e-6 >= APPROACH_HOLD_S:
                 self._start_docking(est, now_us)
         elif ph is PrecLandPhase.DOCKING:
-            if self._tgt_pos is not None and float(self._tgt_pos[2] - est.pos_ned_m[2]) <= DOCK_DONE_M:
+            err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+            if err > cfg.hacc_rad_m and visible:
+                self._enter(PrecLandPhase.APPROACHING, now_us, f"horizontal error above {cfg.hacc_rad_m:.2f} m")
+                self._close_since_us = None
+            elif self._tgt_pos is not None and float(self._tgt_pos[2] - est.pos_ned_m[2]) <= DOCK_DONE_M:
                 self.motors_cut = True
                 self._enter(PrecLandPhase.DONE, now_us, "docking point reached, motors off")
 
