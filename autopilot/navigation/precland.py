@@ -1,0 +1,299 @@
+"""Precision landing (PX4's AUTO.PRECLAND) with the landing phases of [F 3].
+
+Phases (:class:`PrecLandPhase`): PREPARATION hovers PLD_PREP_ALT (2.8 m, [F 3]) above the
+ground until the target is seen; TRACKING flies the cubic spline of [F eq. 3.1] to the point
+PLD_TRK_ALT (1 m) above the target in td = horizontal error / PLD_TRK_SPD (1 m/s), re-planned
+each step on the target's latest position, plus the target's velocity as feed-forward;
+APPROACHING holds the point above the target until the horizontal error stays below
+PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S (and DOCKING returns to it when the error exceeds
+PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck
+while tracking the target horizontally and reports ``done`` (``motors_cut``) at the docking
+point.  A target unseen for PLD_BTOUT starts a SEARCH (PLD_SRCH_ALT above the ground, up to
+PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
+(opportunistic) or holds and reports ``failed`` (required).  Every phase change is appended to
+``events`` as (time_us, text).
+
+Frames and units: metres NED relative to the estimator origin, m/s, seconds; ``ground_down_m``
+is the ground's down coordinate (NED).  The target's position is relative to the vehicle
+(target minus vehicle, NED m), its velocity is over the ground (NED m/s).  Time is an input.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from autopilot.navigation.cubic_spline import CubicSpline, duration_s
+from autopilot.navigation.flight_task import PositionSetpoint
+from autopilot.navigation.land import LandTask
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
+from autopilot.topics import VehicleEstimate
+
+PARAMS: tuple[ParamDef, ...] = (
+    param("PLD_BTOUT", 5.0, 0.0, 50.0, "s", "Landing target lost longer than this: search"),
+    param("PLD_HACC_RAD", 0.2, 0.0, 10.0, "m", "Horizontal acceptance radius above the target (PX4)"),
+    param(
+        "PLD_FAPPR_ALT",
+        0.1,
+        0.0,
+        10.0,
+        "m",
+        "Below this height above the target a lost target no longer stops the descent",
+    ),
+    param("PLD_SRCH_ALT", 10.0, 0.0, 100.0, "m", "Search height above the ground"),
+    param("PLD_SRCH_TOUT", 10.0, 0.0, 100.0, "s", "Longest search (also the longest preparation without target)"),
+    param("PLD_MAX_SRCH", 3, 0, 100, "", "Most searches before the fallback", ParamType.INT32),
+    param("PLD_PREP_ALT", 2.8, 0.5, 20.0, "m", "Preparation hover height above the ground [F 3]"),
+    param("PLD_TRK_ALT", 1.0, 0.2, 10.0, "m", "Tracking height above the target [F 3]"),
+    param("PLD_APPR_RAD", 0.05, 0.01, 1.0, "m", "Approach: horizontal error below this starts the docking [F 3]"),
+    param("PLD_TRK_SPD", 1.0, 0.1, 10.0, "m/s", "Mean speed of the tracking and docking splines [F 3]"),
+)
+
+TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as seen
+APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
+DOCK_DONE_M = 0.02  # docking point reached: this close (m, vertically) to the deck
+
+
+class PrecLandPhase(Enum):
+    PREPARATION = "preparation"
+    TRACKING = "tracking"
+    APPROACHING = "approaching"
+    DOCKING = "docking"
+    SEARCH = "search"
+    FALLBACK = "fallback"
+    DONE = "done"
+
+
+class PrecLandMode(Enum):
+    """NAV_LAND param 2 as in PX4: 1 opportunistic, 2 required."""
+
+    OPPORTUNISTIC = 1
+    REQUIRED = 2
+
+
+@dataclass(frozen=True, slots=True)
+class LandingTargetInput:
+    """The landing target as the task reads it: position relative to the vehicle (target minus
+    vehicle, m NED), velocity over the ground (m/s NED), validity and time (µs)."""
+
+    timestamp_us: int
+    rel_pos_ned_m: np.ndarray
+    vel_ned_m_s: np.ndarray
+    valid: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class PrecLandConfig:
+    """The PARAMS' values (see PARAMS for units); ``from_store`` reads them, defaults otherwise."""
+
+    btout_s: float = 5.0
+    hacc_rad_m: float = 0.2
+    fappr_alt_m: float = 0.1
+    srch_alt_m: float = 10.0
+    srch_tout_s: float = 10.0
+    max_srch: int = 3
+    prep_alt_m: float = 2.8
+    trk_alt_m: float = 1.0
+    appr_rad_m: float = 0.05
+    trk_spd_m_s: float = 1.0
+
+    @staticmethod
+    def from_store(store: ParameterStore) -> PrecLandConfig:
+        names = [d.name for d in PARAMS]
+        vals = [store.get(n) for n in names]
+        return PrecLandConfig(*vals[:5], int(vals[5]), *vals[6:])
+
+
+class PrecLandTask:
+    """The precision-landing flight task (FlightTask interface plus the target input).
+
+    ``params`` gives the fallback landing's MPC_LAND_* values; ``config`` the PLD_* values.
+    """
+
+    def __init__(
+        self,
+        ground_down_m: float,
+        params: ParameterStore,
+        config: PrecLandConfig | None = None,
+        mode: PrecLandMode = PrecLandMode.OPPORTUNISTIC,
+        yaw_rad: float | None = None,
+    ) -> None:
+        self.ground_down_m = ground_down_m
+        self.params = params
+        self.cfg = config or PrecLandConfig()
+        self.mode = mode
+        self.yaw_rad = yaw_rad
+        self.events: list[tuple[int, str]] = []
+        self.phase = PrecLandPhase.PREPARATION
+        self.searches = 0
+        self.motors_cut = False
+        self._failed = False
+        self._target: LandingTargetInput | None = None
+        self._seen_us: int | None = None  # time of the latest fresh, valid target
+        self._tgt_pos: np.ndarray | None = None  # target's latest absolute position, m NED
+        self._tgt_vel = np.zeros(3)
+        self._fallback: LandTask | None = None
+        self._last_us: int | None = None  # time of the previous update
+        self._used_us: int | None = None  # timestamp of the latest measurement taken
+
+    # ---- interface -------------------------------------------------------------------------
+    def activate(self, est: VehicleEstimate, now_us: int) -> None:
+        """Start in PREPARATION over the vehicle's position, PLD_PREP_ALT above the ground."""
+        if self.yaw_rad is None:
+            self.yaw_rad = est.yaw_rad
+        self._hold = np.array([est.pos_ned_m[0], est.pos_ned_m[1], self.ground_down_m - self.cfg.prep_alt_m])
+        self._enter(PrecLandPhase.PREPARATION, now_us, "hover above the ground until the target is seen")
+
+    def feed_target(self, target: LandingTargetInput | None) -> None:
+        """The latest landing-target estimate (None or invalid: not seen)."""
+        self._target = target
+
+    def update(self, est: VehicleEstimate, now_us: int, target: LandingTargetInput | None = None) -> PositionSetpoint:
+        """The setpoint for this step; ``target`` (if given) is fed first."""
+        if target is not None:
+            self._target = target
+        visible = self._observe(est, now_us)
+        self._transitions(est, now_us, visible)
+        return self._setpoint(est, now_us)
+
+    @property
+    def done(self) -> bool:
+        return self.motors_cut
+
+    @property
+    def failed(self) -> bool:
+        return self._failed
+
+    def shift(self, delta_ned_m: np.ndarray) -> None:
+        """Move the held point, the target and the ground with an estimator reset."""
+        self._hold = self._hold + delta_ned_m
+        if self._tgt_pos is not None:
+            self._tgt_pos = self._tgt_pos + delta_ned_m
+        self.ground_down_m += float(delta_ned_m[2])
+        if self._fallback is not None:
+            self._fallback.shift(delta_ned_m)
+
+    # ---- internals -------------------------------------------------------------------------
+    def _enter(self, phase: PrecLandPhase, now_us: int, why: str) -> None:
+        self.phase = phase
+        self._phase_us = now_us
+        self.events.append((now_us, f"Precland: {phase.value} ({why})"))
+
+    def _observe(self, est: VehicleEstimate, now_us: int) -> bool:
+        """Take a new measurement of the target (each once), else predict it on at its last velocity;
+        True while the latest measurement is younger than TARGET_FRESH_S."""
+        t = self._target
+        new = t is not None and t.valid and t.timestamp_us != self._used_us and t.timestamp_us <= now_us
+        if new and t is not None:
+            rel, vel = np.asarray(t.rel_pos_ned_m, float), np.asarray(t.vel_ned_m_s, float)
+            if np.all(np.isfinite(rel)) and np.all(np.isfinite(vel)):
+                # The measurement is as old as its timestamp: move it on to now at the target's velocity.
+                self._tgt_pos = est.pos_ned_m + rel + vel * ((now_us - t.timestamp_us) * 1e-6)
+                self._tgt_vel = vel
+                self._used_us = t.timestamp_us
+                self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
+            else:
+                new = False
+        if not new and self._tgt_pos is not None and self._last_us is not None:
+            # Unseen: the target's point moves on at its last velocity (as an estimator predicts it).
+            self._tgt_pos = self._tgt_pos + self._tgt_vel * max(0.0, (now_us - self._last_us) * 1e-6)
+        self._last_us = now_us
+        return self._lost_s(now_us) <= TARGET_FRESH_S
+
+    def _lost_s(self, now_us: int) -> float:
+        return math.inf if self._seen_us is None else (now_us - self._seen_us) * 1e-6
+
+    def _above_target(self, height_m: float) -> np.ndarray:
+        assert self._tgt_pos is not None
+        return self._tgt_pos - np.array([0.0, 0.0, height_m])
+
+    def _start_tracking(self, est: VehicleEstimate, now_us: int, why: str) -> None:
+        offset = est.pos_ned_m - self._above_target(self.cfg.trk_alt_m)
+        td = duration_s(float(np.linalg.norm(offset[:2])), self.cfg.trk_spd_m_s)
+        self._spline = CubicSpline(offset, np.zeros(3), td)
+        self._enter(PrecLandPhase.TRACKING, now_us, f"{why}; td {td:.1f} s")
+
+    def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
+        h = float(self._tgt_pos[2] - est.pos_ned_m[2]) if self._tgt_pos is not None else self.cfg.trk_alt_m
+        td = duration_s(h, self.cfg.trk_spd_m_s)
+        self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
+        self._enter(PrecLandPhase.DOCKING, now_us, f"horizontal error below {self.cfg.appr_rad_m:.2f} m")
+
+    def _lose(self, est: VehicleEstimate, now_us: int) -> None:
+        """The target is gone for longer than PLD_BTOUT (or never came): search or fall back."""
+        if self.searches < self.cfg.max_srch:
+            self.searches += 1
+            down = self.ground_down_m - self.cfg.srch_alt_m
+            self._hold = np.array([est.pos_ned_m[0], est.pos_ned_m[1], down])
+            self._enter(PrecLandPhase.SEARCH, now_us, f"target lost, search {self.searches} of {self.cfg.max_srch}")
+            return
+        self._enter_fallback(est, now_us)
+
+    def _enter_fallback(self, est: VehicleEstimate, now_us: int) -> None:
+        self._hold = est.pos_ned_m.astype(float).copy()
+        if self.mode is PrecLandMode.OPPORTUNISTIC:
+            self._fallback = LandTask(self.ground_down_m, self.params, yaw_rad=self.yaw_rad)
+            self._fallback.activate(est, now_us)
+            self._enter(PrecLandPhase.FALLBACK, now_us, "target not found, normal landing")
+        else:
+            self._failed = True
+            self._enter(PrecLandPhase.FALLBACK, now_us, "target not found, holding (precision landing required)")
+
+    def _transitions(self, est: VehicleEstimate, now_us: int, visible: bool) -> None:
+        cfg, ph = self.cfg, self.phase
+        in_phase_s = (now_us - self._phase_us) * 1e-6
+        if ph is PrecLandPhase.PREPARATION or ph is PrecLandPhase.SEARCH:
+            if visible:
+                self._start_tracking(est, now_us, "target seen")
+            elif in_phase_s > cfg.srch_tout_s:
+                self._lose(est, now_us)
+            return
+        if ph in (PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
+            height_above_target = float(self._tgt_pos[2] - est.pos_ned_m[2]) if self._tgt_pos is not None else math.inf
+            final = ph is PrecLandPhase.DOCKING and height_above_target < cfg.fappr_alt_m
+            if self._lost_s(now_us) > cfg.btout_s and not final:
+                self._lose(est, now_us)
+                return
+        if ph is PrecLandPhase.TRACKING and in_phase_s >= self._spline.td_s:
+            self._enter(PrecLandPhase.APPROACHING, now_us, "spline flown")
+            self._close_since_us: int | None = None
+        elif ph is PrecLandPhase.APPROACHING:
+            err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+            if err >= cfg.appr_rad_m or not visible:
+                self._close_since_us = None
+            elif self._close_since_us is None:
+                self._close_since_us = now_us
+            if self._close_since_us is not None and (now_us - self._close_since_us) * 1e-6 >= APPROACH_HOLD_S:
+                self._start_docking(est, now_us)
+        elif ph is PrecLandPhase.DOCKING:
+            err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+            if err > cfg.hacc_rad_m and visible:
+                self._enter(PrecLandPhase.APPROACHING, now_us, f"horizontal error above {cfg.hacc_rad_m:.2f} m")
+                self._close_since_us = None
+            elif self._tgt_pos is not None and float(self._tgt_pos[2] - est.pos_ned_m[2]) <= DOCK_DONE_M:
+                self.motors_cut = True
+                self._enter(PrecLandPhase.DONE, now_us, "docking point reached, motors off")
+
+    def _setpoint(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
+        ph, zero = self.phase, np.zeros(3)
+        in_phase_s = (now_us - self._phase_us) * 1e-6
+        if ph is PrecLandPhase.FALLBACK and self._fallback is not None:
+            return self._fallback.update(est, now_us)
+        if ph in (PrecLandPhase.PREPARATION, PrecLandPhase.SEARCH, PrecLandPhase.FALLBACK):
+            return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
+        base = self._above_target(self.cfg.trk_alt_m)
+        vel = self._tgt_vel.copy()
+        if ph is PrecLandPhase.TRACKING:
+            p = self._spline.at(in_phase_s)
+            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc)
+        if ph is PrecLandPhase.APPROACHING:
+            return PositionSetpoint(base, vel, self.yaw_rad)
+        deck = self._above_target(0.0)
+        if ph is PrecLandPhase.DOCKING:
+            p = self._spline.at(in_phase_s)
+            pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
+            return PositionSetpoint(pos, vel + np.array([0.0, 0.0, float(p.vel[0])]), self.yaw_rad)
+        return PositionSetpoint(deck, vel, self.yaw_rad)  # DONE: the deck (motors are off)

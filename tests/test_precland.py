@@ -1,0 +1,232 @@
+"""The cubic spline of [F eq. 3.1] and the precision-landing task, with nothing running.
+
+A synthetic vehicle follows the task's setpoint with a first-order lag (time constant TAU_S)
+plus the setpoint's velocity; the landing target is a point on the ground (down 0) that may
+move at a constant velocity.  Frames NED, metres, seconds; the commander's 50 Hz step.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.navigation.cubic_spline import MIN_DURATION_S, CubicSpline, duration_s
+from autopilot.navigation.flight_task import FlightTask
+from autopilot.navigation.precland import (
+    PARAMS,
+    LandingTargetInput,
+    PrecLandConfig,
+    PrecLandMode,
+    PrecLandPhase,
+    PrecLandTask,
+)
+from autopilot.param_catalogue import default_store
+from autopilot.topics import VehicleEstimate
+
+STEP_US = 20_000
+DT_S = STEP_US * 1e-6
+TAU_S = 0.3
+T0_US = 3_000_000
+
+
+def estimate(t_us: int, pos: np.ndarray, vel: np.ndarray) -> VehicleEstimate:
+    return VehicleEstimate(
+        timestamp_us=t_us,
+        q_wxyz=np.array([1.0, 0.0, 0.0, 0.0]),
+        rate_frd_rad_s=np.zeros(3),
+        accel_ned_m_s2=np.zeros(3),
+        pos_ned_m=pos.copy(),
+        vel_ned_m_s=vel.copy(),
+        attitude_valid=True,
+        position_valid=True,
+        origin_lat_deg=47.0,
+        origin_lon_deg=8.0,
+        origin_alt_amsl_m=400.0,
+    )
+
+
+class Sim:
+    """The task, a lagging vehicle and a ground target moving at ``target_vel`` (m/s NED)."""
+
+    def __init__(self, target0, target_vel=(0.0, 0.0, 0.0), mode=PrecLandMode.OPPORTUNISTIC, start=(0.0, 0.0, -2.8)):
+        self.t_us = T0_US
+        self.pos = np.array(start, dtype=float)
+        self.vel = np.zeros(3)
+        self.target = np.array(target0, dtype=float)
+        self.target_vel = np.array(target_vel, dtype=float)
+        self.visible = lambda sim: True
+        self.task = PrecLandTask(0.0, default_store(), mode=mode)
+        self.task.activate(estimate(self.t_us, self.pos, self.vel), self.t_us)
+        self.phases = [self.task.phase]
+
+    def step(self) -> None:
+        est = estimate(self.t_us, self.pos, self.vel)
+        tgt = None
+        if self.visible(self):
+            tgt = LandingTargetInput(self.t_us, self.target - self.pos, self.target_vel.copy())
+        sp = self.task.update(est, self.t_us, tgt)
+        sp_vel = np.nan_to_num(sp.vel_ned_m_s)
+        err = np.where(np.isfinite(sp.pos_ned_m), sp.pos_ned_m - self.pos, 0.0)
+        self.vel = err / TAU_S + sp_vel
+        self.pos = self.pos + self.vel * DT_S
+        self.target = self.target + self.target_vel * DT_S
+        self.t_us += STEP_US
+        if self.task.phase is not self.phases[-1]:
+            self.phases.append(self.task.phase)
+
+    def run_until(self, cond, max_s: float) -> bool:
+        for _ in range(int(max_s / DT_S)):
+            if cond(self):
+                return True
+            self.step()
+        return cond(self)
+
+    def horizontal_error(self) -> float:
+        return float(np.linalg.norm(self.pos[:2] - self.target[:2]))
+
+
+# ---- the spline ------------------------------------------------------------------------------
+
+
+def test_spline_meets_eq_3_1_and_its_boundary_conditions():
+    p0, pd, td = np.array([1.0, -2.0, -3.0]), np.array([4.0, 2.0, -1.0]), 2.5
+    s = CubicSpline(p0, pd, td)
+    for t in (0.0, 0.7, 1.3, 2.1):
+        eq = p0 + 3 * (pd - p0) * t**2 / td**2 - 2 * (pd - p0) * t**3 / td**3
+        np.testing.assert_allclose(s.at(t).pos, eq, atol=1e-12)
+    np.testing.assert_allclose(s.at(0.0).pos, p0)
+    np.testing.assert_allclose(s.at(td).pos, pd)
+    np.testing.assert_allclose(s.at(0.0).vel, 0.0, atol=1e-12)
+    np.testing.assert_allclose(s.at(td - 1e-9).vel, 0.0, atol=1e-6)
+    np.testing.assert_allclose(s.at(td / 2).acc, 0.0, atol=1e-12)  # the inflection at half time
+    # numerical derivative of position is the velocity, of velocity the acceleration
+    h = 1e-6
+    np.testing.assert_allclose((s.at(1.0 + h).pos - s.at(1.0 - h).pos) / (2 * h), s.at(1.0).vel, atol=1e-5)
+    np.testing.assert_allclose((s.at(1.0 + h).vel - s.at(1.0 - h).vel) / (2 * h), s.at(1.0).acc, atol=1e-4)
+
+
+def test_spline_with_end_velocities_meets_them():
+    s = CubicSpline(np.zeros(2), np.array([3.0, 0.0]), 2.0, v0=np.array([0.5, 1.0]), vd=np.array([1.0, -1.0]))
+    np.testing.assert_allclose(s.at(0.0).vel, [0.5, 1.0], atol=1e-12)
+    np.testing.assert_allclose(s.at(2.0 - 1e-9).vel, [1.0, -1.0], atol=1e-6)
+    np.testing.assert_allclose(s.at(2.0).pos, [3.0, 0.0])
+
+
+def test_td_gives_a_mean_speed_of_1_m_s_with_a_floor():
+    assert duration_s(4.0) == pytest.approx(4.0)
+    assert duration_s(0.01) == MIN_DURATION_S
+    assert duration_s(math.nan) == MIN_DURATION_S
+    s = CubicSpline(np.zeros(3), np.array([3.0, 4.0, 0.0]), duration_s(5.0))
+    n = 1000
+    ts = np.linspace(0.0, s.td_s, n + 1)
+    path = sum(np.linalg.norm(s.at(b).pos - s.at(a).pos) for a, b in zip(ts[:-1], ts[1:], strict=True))
+    assert path / s.td_s == pytest.approx(1.0, rel=1e-6)
+
+
+# ---- the task --------------------------------------------------------------------------------
+
+
+def test_parameters_have_px4_defaults_and_the_document_numbers():
+    d = {p.name: p.default for p in PARAMS}
+    assert d["PLD_BTOUT"] == 5.0 and d["PLD_HACC_RAD"] == 0.2 and d["PLD_FAPPR_ALT"] == 0.1
+    assert d["PLD_SRCH_ALT"] == 10.0 and d["PLD_SRCH_TOUT"] == 10.0 and d["PLD_MAX_SRCH"] == 3
+    assert d["PLD_PREP_ALT"] == 2.8 and d["PLD_TRK_ALT"] == 1.0 and d["PLD_APPR_RAD"] == 0.05
+    cfg = PrecLandConfig()
+    assert (cfg.btout_s, cfg.prep_alt_m, cfg.trk_alt_m, cfg.appr_rad_m) == (5.0, 2.8, 1.0, 0.05)
+
+
+def test_preparation_hovers_at_2_8_m_until_the_target_appears_then_each_phase_to_docking():
+    sim = Sim(target0=(3.0, -1.0, 0.0), start=(0.0, 0.0, -1.5))
+    assert isinstance(sim.task, FlightTask)
+    sim.visible = lambda s: s.t_us >= T0_US + 3_000_000
+    assert sim.run_until(lambda s: s.t_us >= T0_US + 2_900_000, 5.0)
+    assert sim.task.phase is PrecLandPhase.PREPARATION
+    assert sim.pos[2] == pytest.approx(-2.8, abs=0.02) and np.linalg.norm(sim.pos[:2]) < 0.01
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.TRACKING, 1.0)
+    t_track = sim.t_us
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.APPROACHING, 10.0)
+    # td = horizontal error / 1 m/s (sqrt(10) m), then approaching
+    assert (sim.t_us - t_track) * 1e-6 == pytest.approx(math.sqrt(10.0), abs=0.05)
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 5.0)
+    assert sim.horizontal_error() < 0.05
+    assert sim.pos[2] == pytest.approx(-1.0, abs=0.05)  # 1 m above the target
+    assert sim.run_until(lambda s: s.task.done, 5.0)
+    assert sim.task.motors_cut and not sim.task.failed
+    assert sim.pos[2] > -0.1 and sim.horizontal_error() < 0.05
+    assert sim.phases == [
+        PrecLandPhase.PREPARATION,
+        PrecLandPhase.TRACKING,
+        PrecLandPhase.APPROACHING,
+        PrecLandPhase.DOCKING,
+        PrecLandPhase.DONE,
+    ]
+    texts = [text for _, text in sim.task.events]
+    assert len(texts) == 5 and all(t.startswith("Precland: ") for t in texts)
+    assert [t for t, _ in sim.task.events] == sorted(t for t, _ in sim.task.events)
+
+
+def test_target_lost_searches_at_the_search_height_and_reacquires():
+    sim = Sim(target0=(2.0, 0.0, 0.0))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.TRACKING, 1.0)
+    lost_us = sim.t_us + 1_000_000  # half way along the spline
+    assert sim.run_until(lambda s: s.t_us >= lost_us, 2.0)
+    sim.visible = lambda s: s.t_us < lost_us or s.t_us > lost_us + 9_000_000
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.SEARCH, 7.0)
+    assert (sim.t_us - lost_us) * 1e-6 == pytest.approx(5.0, abs=0.1)  # PLD_BTOUT
+    assert sim.run_until(lambda s: s.t_us > lost_us + 8_900_000, 5.0)
+    assert sim.pos[2] == pytest.approx(-10.0, abs=0.1)  # PLD_SRCH_ALT
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.TRACKING, 1.0)
+    assert sim.task.searches == 1
+    assert sim.run_until(lambda s: s.task.done, 30.0)
+    assert sim.horizontal_error() < 0.05
+
+
+@pytest.mark.parametrize("mode", [PrecLandMode.OPPORTUNISTIC, PrecLandMode.REQUIRED])
+def test_target_never_found_again_falls_back_after_pld_max_srch_searches(mode):
+    sim = Sim(target0=(1.0, 0.0, 0.0), mode=mode)
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.TRACKING, 1.0)
+    seen_until = sim.t_us + 200_000
+    sim.visible = lambda s: s.t_us < seen_until
+    # PLD_BTOUT, then PLD_MAX_SRCH searches of PLD_SRCH_TOUT each
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.FALLBACK, 40.0)
+    assert sim.task.searches == 3
+    assert (sim.t_us - seen_until) * 1e-6 == pytest.approx(5.0 + 10.0 + 10.0 + 10.0, abs=0.2)
+    assert PrecLandPhase.SEARCH in sim.phases
+    start_down = sim.pos[2]
+    sim.run_until(lambda s: False, 5.0)
+    if mode is PrecLandMode.OPPORTUNISTIC:
+        assert not sim.task.failed and sim.pos[2] > start_down + 2.0  # descending: an ordinary landing
+    else:
+        assert sim.task.failed and sim.pos[2] == pytest.approx(start_down, abs=0.05)  # holding
+    assert not sim.task.done
+    assert "fallback" in sim.task.events[-1][1]
+
+
+def test_lands_on_a_target_moving_at_1_m_s_in_a_straight_line():
+    sim = Sim(target0=(2.0, 1.0, 0.0), target_vel=(0.6, 0.8, 0.0))
+    assert sim.run_until(lambda s: s.task.done, 30.0)
+    assert sim.horizontal_error() < 0.1
+    assert PrecLandPhase.DOCKING in sim.phases
+
+
+def test_shift_moves_the_points_not_the_vehicle():
+    sim = Sim(target0=(1.0, 0.0, 0.0))
+    sim.visible = lambda s: False
+    sim.step()
+    before = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us).pos_ned_m
+    sim.task.shift(np.array([1.0, -2.0, 0.5]))
+    after = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us).pos_ned_m
+    np.testing.assert_allclose(after - before, [1.0, -2.0, 0.5])
+
+
+def test_docking_returns_to_approaching_when_the_target_jumps_beyond_pld_hacc_rad():
+    sim = Sim(target0=(1.0, 0.0, 0.0))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 10.0)
+    sim.step()
+    sim.target = sim.target + np.array([0.0, 0.5, 0.0])  # farther than PLD_HACC_RAD (0.2 m)
+    sim.step()
+    assert sim.task.phase is PrecLandPhase.APPROACHING and "above 0.20 m" in sim.task.events[-1][1]
+    assert sim.run_until(lambda s: s.task.done, 15.0)
+    assert sim.horizontal_error() < 0.05
