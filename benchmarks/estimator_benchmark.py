@@ -41,18 +41,12 @@ from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
 from mavsim_core import quaternion as quat  # noqa: E402
+from sitl.scenario import load_scenario  # noqa: E402
 
 ALT_M = 5.0
 SQUARE_M = 10.0
 HOVER_S = 20.0
-WIND = {
-    "SIM_WIND_SPD": 5.0,
-    "SIM_WIND_DIR": 270.0,
-    "SIM_WIND_TURB": 1.0,
-    "SIM_GUST_SPD": 2.0,
-    "SIM_GUST_DUR": 2.0,
-    "SIM_GUST_INT": 10.0,
-}
+WIND = load_scenario("windy").parameters  # params/scenarios/windy.toml: the same wind as `sitl --scenario windy`
 EARTH_RADIUS_M = 6_378_137.0
 ESTIMATORS = {2: "EKF", 1: "Mahony"}
 

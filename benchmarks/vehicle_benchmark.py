@@ -34,17 +34,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
+from sitl.scenario import load_scenario  # noqa: E402
 
 ALT_M = 5.0
 STEP_M = 10.0
-WIND = {
-    "SIM_WIND_SPD": 5.0,
-    "SIM_WIND_DIR": 270.0,
-    "SIM_WIND_TURB": 1.0,
-    "SIM_GUST_SPD": 2.0,
-    "SIM_GUST_DUR": 2.0,
-    "SIM_GUST_INT": 10.0,
-}
+WIND = load_scenario("windy").parameters  # params/scenarios/windy.toml: the same wind as `sitl --scenario windy`
 
 
 def rms(a) -> float:

@@ -18,12 +18,12 @@ altitudes metres.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from typing import Any, Callable
 
 from mavsim_core import px4_modes as modes
 
-from .connection import DEFAULT_TIMEOUT_S, VEHICLE_COMPONENT_ID, VEHICLE_SYSTEM_ID, Connection, mavlink
-from .errors import CommandResult, StatusText
+from .connection import DEFAULT_TIMEOUT_S, Connection, mavlink
+from .errors import CommandResult
 from .plugins.action import Action
 from .plugins.param import Param, VehicleParam
 from .plugins.telemetry import Home, Telemetry
@@ -42,28 +42,9 @@ class VehicleClient(Connection):
     each :class:`~gcs.errors.StatusText`.
     """
 
-    def __init__(
-        self,
-        url: str,
-        timeout_s: float = DEFAULT_TIMEOUT_S,
-        *,
-        target_system: int = VEHICLE_SYSTEM_ID,
-        target_component: int = VEHICLE_COMPONENT_ID,
-        wait_heartbeat: bool = True,
-        idle: Callable[[], None] | None = None,
-        on_statustext: Callable[[StatusText], None] | None = None,
-        heartbeat_period_s: float = 1.0,
-    ) -> None:
-        super().__init__(
-            url,
-            timeout_s,
-            target_system=target_system,
-            target_component=target_component,
-            wait_heartbeat=wait_heartbeat,
-            idle=idle,
-            on_statustext=on_statustext,
-            heartbeat_period_s=heartbeat_period_s,
-        )
+    def __init__(self, url: str, timeout_s: float = DEFAULT_TIMEOUT_S, **options: Any) -> None:
+        """``options``: the keyword options of :class:`~gcs.connection.Connection`."""
+        super().__init__(url, timeout_s, **options)
         self.telemetry = Telemetry(self)
         self.action = Action(self, self.telemetry)
         self.param = Param(self)
