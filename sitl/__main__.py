@@ -9,7 +9,7 @@ import sys
 from params.vehicle import VehicleFileError, load_vehicle
 from sitl.scenario import Scenario, ScenarioError, list_scenarios, load_scenario
 from sitl.sim_params import SimParamError, SimParameters, format_table
-from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
+from sitl.sim_settings import MotorSettings, SensorSettings, UgvSettings, WindSettings
 
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4's default SITL home, Zurich
 
@@ -100,12 +100,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def configure(args: argparse.Namespace) -> tuple[tuple[WindSettings, SensorSettings, MotorSettings], Scenario | None]:
+def configure(
+    args: argparse.Namespace,
+) -> tuple[tuple[WindSettings, SensorSettings, MotorSettings, UgvSettings], Scenario | None]:
     """The settings objects with the scenario's parameters, then ``--param``, applied.
 
     Raises ScenarioError or SimParamError (nothing is half-applied: each step checks all its values first).
     """
-    settings = (WindSettings(), SensorSettings(), MotorSettings())
+    settings = (WindSettings(), SensorSettings(), MotorSettings(), UgvSettings())
     params = SimParameters(*settings)
     scenario = load_scenario(args.scenario, params) if args.scenario else None
     if scenario is not None:
@@ -117,7 +119,7 @@ def configure(args: argparse.Namespace) -> tuple[tuple[WindSettings, SensorSetti
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        (wind, sensors, motors), scenario = configure(args)
+        (wind, sensors, motors, ugv), scenario = configure(args)
     except ScenarioError as exc:
         print(f"sitl: scenario {exc}", file=sys.stderr)
         return 2
@@ -125,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sitl: --param {exc}", file=sys.stderr)
         return 2
     if args.list_params:
-        print(format_table(SimParameters(wind, sensors, motors).describe()))
+        print(format_table(SimParameters(wind, sensors, motors, ugv).describe()))
         return 0
     try:
         spec = load_vehicle(args.vehicle)
@@ -135,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     from sitl.lockstep import LockstepServer
     from sitl.simulation import Simulation
 
-    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors)
+    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv)
     truth = (args.truth_host, args.truth_port + args.instance) if args.truth_port else None
     truth_bind = ("0.0.0.0", args.truth_local_port + args.instance if args.truth_local_port else 0)
     try:
@@ -154,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         from sitl.truth_log import TruthRecorder
 
         try:
-            server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance)
+            server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance, ugv=sim.ugv is not None)
         except OSError as exc:
             print(f"sitl: cannot write ground-truth logs to {args.log_dir}: {exc}", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C

@@ -33,10 +33,11 @@ from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
 from sitl.gps import GpsReading, course_over_ground_deg
-from sitl.param_server import SIM_COMPID, SIM_SYSID, SimParamServer
+from sitl.param_server import SIM_COMPID, SIM_SYSID, UGV_COMPID, SimParamServer
 from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
+from sitl.ugv_world import ugv_truth_messages
 
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
@@ -83,7 +84,8 @@ class LockstepServer:
         self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
         # The settings objects the models read on every step; a set acts on the next step.
-        self.params = SimParameters(sim.wind_settings, sim.sensors.settings, sim.motor_settings)
+        self.params = SimParameters(sim.wind_settings, sim.sensors.settings, sim.motor_settings, sim.ugv_settings)
+        self.params.started = True  # start-only parameters (SIM_UGV_EN) are refused from now on
         self.events = EventSchedule(events)
         self.param_server: SimParamServer | None = None
         self.conn: socket.socket | None = None
@@ -187,7 +189,7 @@ class LockstepServer:
         )
         self.conn.sendall(out)
         if self.truth_log is not None:  # while the flight controller computes its step
-            self.truth_log.record(time_us, t, self.armed, self.motor_commands)
+            self.truth_log.record(time_us, t, self.armed, self.motor_commands, self.sim.ugv_truth())
         if time_us % TRUTH_PERIOD_US == 0:
             self._every_truth_period(time_us)
 
@@ -274,6 +276,9 @@ class LockstepServer:
         ]
         server = self.param_server
         server.send(server.encode(msgs))
+        ugv = self.sim.ugv_truth()
+        if ugv is not None:  # the ground vehicle, as its own component (UGV_COMPID)
+            server.send(server.encode(ugv_truth_messages(ugv), compid=UGV_COMPID))
 
     def _wait_actuators(self) -> bool:
         """Block until HIL_ACTUATOR_CONTROLS arrives; False if the link closed."""

@@ -46,6 +46,7 @@ from mavsim_core.statustext import StatustextChunker
 from sitl.sim_params import SimParam, SimParamError, SimParameters
 
 SIM_SYSID, SIM_COMPID = 1, 51  # 51 = MAV_COMP_ID_USER27, the simulator component
+UGV_COMPID = 52  # MAV_COMP_ID_USER28: the ground vehicle's truth (sitl.ugv_world), same socket
 HEARTBEAT_PERIOD_S = 1.0
 MAX_DATAGRAMS_PER_POLL = 64  # a flood of requests cannot stall the simulation
 
@@ -95,6 +96,7 @@ class SimParamServer:
         self._poller = select.poll()
         self._poller.register(self.sock, select.POLLIN)
         self.mav = mavlink.MAVLink(None, sysid, compid)  # the one encoder: continuous sequence numbers
+        self._others: dict[int, mavlink.MAVLink] = {}  # encoders of other components (encode(compid=...))
         self._next_heartbeat_s = -math.inf
         self._statustext = StatustextChunker()
         self._addr: Address = default_peer  # sender of the datagram being handled
@@ -145,9 +147,18 @@ class SimParamServer:
         """One datagram to the default peer and every remembered peer (best effort)."""
         self.endpoint.send_datagram(data)
 
-    def encode(self, msgs: Iterable[mavlink.MAVLink_message]) -> bytes:
-        """Messages packed as this component (use it for anything sent with :meth:`send`)."""
-        return b"".join(m.pack(self.mav) for m in msgs)
+    def encode(self, msgs: Iterable[mavlink.MAVLink_message], compid: int | None = None) -> bytes:
+        """Messages packed as this component, or as ``compid`` of the same system (the UGV's truth)."""
+        if compid is None or compid == self.mav.srcComponent:
+            return b"".join(m.pack(self.mav) for m in msgs)
+        mav = self._others.get(compid)
+        if mav is None:
+            mav = self._others[compid] = mavlink.MAVLink(None, self.mav.srcSystem, compid)
+        out = b""
+        for m in msgs:
+            out += m.pack(mav)
+            mav.seq = (mav.seq + 1) % 256
+        return out
 
     def send_message(self, msg: mavlink.MAVLink_message) -> None:
         self.send(msg.pack(self.mav))

@@ -53,6 +53,7 @@ class SimParam:
     description: str
     owner: object  # the settings dataclass instance holding the value
     attr: str  # its field name
+    start_only: bool = False  # read once when the simulator starts (refused in flight)
 
 
 class ParamRow(NamedTuple):
@@ -84,10 +85,12 @@ def format_value(value: int | float, ptype: str) -> str:
 class SimParameters:
     """The ``SIM_*`` parameters of one simulation, in a fixed order (wind, sensors, motors)."""
 
-    def __init__(self, wind: WindSettings, sensors: SensorSettings, motors: MotorSettings) -> None:
+    def __init__(self, wind: WindSettings, sensors: SensorSettings, motors: MotorSettings, *more: object) -> None:
+        """``more``: further settings objects (the UGV's, the camera's), listed after the motors'."""
         self._params: list[SimParam] = []
         self._by_name: dict[str, SimParam] = {}
-        for owner in (wind, sensors, motors):
+        self.started = False  # set by the simulator once it runs: start-only parameters are then refused
+        for owner in (wind, sensors, motors, *more):
             for f in param_fields(owner):
                 md = f.metadata
                 name = md["param"]
@@ -111,6 +114,7 @@ class SimParameters:
                     md["description"],
                     owner,
                     f.name,
+                    bool(md.get("start_only", False)),
                 )
                 self._params.append(p)
                 self._by_name[name] = p
@@ -154,6 +158,8 @@ class SimParameters:
         v = float(value)
         if not math.isfinite(v):
             raise SimParamError(name, f"value must be finite, not {v}")
+        if self.started and p.start_only and v != getattr(p.owner, p.attr):
+            raise SimParamError(name, "read only at start: restart the simulator to change it")
         if p.type == ParamType.INT32 and v != math.floor(v):
             raise SimParamError(name, f"{v:g} is not an integer (INT32 parameter)")
         if not p.min <= v <= p.max:

@@ -13,19 +13,35 @@ FRD, world vectors NED.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields
 
 from mavsim_core.param_types import ParamType
 
 
 def sim_param(
-    name: str, default: float, lo: float, hi: float, unit: str, description: str, kind: ParamType = ParamType.REAL32
+    name: str,
+    default: float,
+    lo: float,
+    hi: float,
+    unit: str,
+    description: str,
+    kind: ParamType = ParamType.REAL32,
+    start_only: bool = False,
 ):
-    """A dataclass field that is also the MAVLink parameter ``name``."""
+    """A dataclass field that is also the MAVLink parameter ``name`` (``start_only``: refused in flight)."""
     assert len(name) <= 16 and name.startswith("SIM_"), name
     return field(
         default=default,
-        metadata={"param": name, "type": kind, "min": lo, "max": hi, "unit": unit, "description": description},
+        metadata={
+            "param": name,
+            "type": kind,
+            "min": lo,
+            "max": hi,
+            "unit": unit,
+            "description": description,
+            "start_only": start_only,
+        },
     )
 
 
@@ -170,6 +186,39 @@ class MotorSettings:
     fail_efficiency: float = sim_param(
         "SIM_ENGINE_MUL", 0.0, 0.0, 1.0, "", "Thrust multiplier of the failed motor (0 = stopped, 1 = healthy)"
     )
+
+
+PATH_STOP, PATH_LINE, PATH_CIRCLE, PATH_FIGURE8, PATH_RANDOM, PATH_MANUAL = range(6)
+
+
+@dataclass
+class UgvSettings:
+    """The UGV's ``SIM_UGV_*`` parameters (see the module docstring)."""
+
+    enabled: int = sim_param(
+        "SIM_UGV_EN", 0, 0, 1, "", "1: the world holds the ground vehicle (read at start)", ParamType.INT32, True
+    )
+    north_m: float = sim_param("SIM_UGV_X", 3.0, -1000.0, 1000.0, "m", "UGV start: north of the multicopter's start")
+    east_m: float = sim_param("SIM_UGV_Y", 0.0, -1000.0, 1000.0, "m", "UGV start: east of the multicopter's start")
+    yaw_deg: float = sim_param("SIM_UGV_YAW", 0.0, 0.0, 360.0, "deg", "UGV start heading, degrees from North")
+    path: int = sim_param(
+        "SIM_UGV_PATH",
+        PATH_STOP,
+        PATH_STOP,
+        PATH_MANUAL,
+        "",
+        "UGV path: 0 stop, 1 straight line, 2 circle, 3 figure-8, 4 random waypoints, 5 manual (MANUAL_CONTROL)",
+        ParamType.INT32,
+    )
+    speed_m_s: float = sim_param("SIM_UGV_SPD", 1.0, 0.0, 4.0, "m/s", "UGV speed along its path")
+    radius_m: float = sim_param("SIM_UGV_RAD", 2.0, 0.5, 100.0, "m", "Radius of the UGV's circle and figure-8")
+    accel_m_s2: float = sim_param("SIM_UGV_ACC", 1.5, 0.1, 5.0, "m/s^2", "UGV acceleration limit")
+
+    def start_pose(self):
+        """The start pose as :class:`sitl.ugv_paths.Pose2` (NED m, yaw rad)."""
+        from sitl.ugv_paths import Pose2
+
+        return Pose2(self.north_m, self.east_m, math.radians(self.yaw_deg))
 
 
 def param_fields(settings) -> list:

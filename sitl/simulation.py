@@ -24,6 +24,7 @@ from sitl.model import PHYSICS_DT_S, build_model
 from sitl.rotors import RotorModel
 from sitl.sensors import SensorSuite
 from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
+from sitl.ugv_world import UgvDriver, UgvSettings, UgvTruth
 from sitl.wind import WindModel
 
 
@@ -67,12 +68,17 @@ class Simulation:
         wind: WindSettings | None = None,
         sensors: SensorSettings | None = None,
         motors: MotorSettings | None = None,
+        ugv: UgvSettings | None = None,
     ) -> None:
         self.spec = spec
-        self.model = build_model(spec)
+        self.ugv_settings = ugv if ugv is not None else UgvSettings()
+        ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
+        self.model = build_model(spec, ugv_start=ugv_start)
         self.data = mujoco.MjData(self.model)
         self._body = self.model.body("vehicle").id
         self._settle()
+        # The ground vehicle (SIM_UGV_EN=1), driven from its SIM_UGV_* settings every period.
+        self.ugv = UgvDriver(self.model, self.data, self.ugv_settings, self._start_xy_enu, seed) if ugv_start else None
         self.rotors = RotorModel(spec)
         self.aero = Aerodynamics(spec)
         self.battery = Battery(spec.battery_cells, spec.battery_capacity_mah, spec.battery_resistance_ohm)
@@ -125,12 +131,19 @@ class Simulation:
         """Advance one lockstep period with motor commands 0..1 (one per rotor)."""
         cmds = np.asarray(motor_commands, dtype=float)[: self.rotors.n].tolist()
         self._apply_motor_failure()
+        if self.ugv is not None:
+            self.ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
+        n = self.rotors.n
         for _ in range(self.substeps):
-            self.data.ctrl[:] = self.rotors.step(cmds, PHYSICS_DT_S)  # a list of thrusts, N
+            self.data.ctrl[:n] = self.rotors.step(cmds, PHYSICS_DT_S)  # a list of thrusts, N
             self._apply_aerodynamics(PHYSICS_DT_S)
             mujoco.mj_step(self.model, self.data)
         self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S)
         self.time_us += int(LOCKSTEP_DT_S * 1e6)
+
+    def ugv_truth(self) -> UgvTruth | None:
+        """The ground vehicle's truth (deck centre, NED from the start point), None without one."""
+        return self.ugv.truth(self.time_us) if self.ugv is not None else None
 
     def sensor_truth(self) -> SensorTruth:
         """The true state the sensors need, as plain floats (cheap: called every lockstep period).

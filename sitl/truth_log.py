@@ -10,7 +10,9 @@ Times are the same simulated microseconds as the flight controller's log, so
 ground, FRD body, radians):
 
 time_us, armed, pos_{n,e,d}_m, vel_{n,e,d}_m_s, roll_rad, pitch_rad, yaw_rad,
-rate_{p,q,r}_rad_s, motor_0 ... motor_{N-1} (the commands the simulator applied, 0..1).
+rate_{p,q,r}_rad_s, motor_0 ... motor_{N-1} (the commands the simulator applied, 0..1);
+with the ground vehicle (``SIM_UGV_EN=1``) also ugv_{n,e,d}_m (the marker's centre on its deck),
+ugv_v{n,e}_m_s and ugv_yaw_rad.
 """
 
 from __future__ import annotations
@@ -43,11 +45,15 @@ _STATE_FIELDS = (
 )
 
 
-def truth_log_fields(n_motors: int) -> list[tuple[str, str]]:
+UGV_FIELDS = ("ugv_n_m", "ugv_e_m", "ugv_d_m", "ugv_vn_m_s", "ugv_ve_m_s", "ugv_yaw_rad")
+
+
+def truth_log_fields(n_motors: int, ugv: bool = False) -> list[tuple[str, str]]:
     return (
         [("time_us", "q"), ("armed", "B")]
         + [(name, "f") for name in _STATE_FIELDS]
         + [(f"motor_{i}", "f") for i in range(n_motors)]
+        + ([(name, "f") for name in UGV_FIELDS] if ugv else [])
     )
 
 
@@ -58,18 +64,20 @@ class TruthRecorder:
     error switches logging off (reported once), never the simulation.
     """
 
-    def __init__(self, log_dir: str | Path, n_motors: int, instance: int = 0) -> None:
+    def __init__(self, log_dir: str | Path, n_motors: int, instance: int = 0, ugv: bool = False) -> None:
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.n_motors = n_motors
         self.instance = instance
-        self.fields = truth_log_fields(n_motors)
+        self.fields = truth_log_fields(n_motors, ugv)
+        self.ugv = ugv
         self._w: NpyLogWriter | None = None
         self._close_at_us: int | None = None
         self.files: list[Path] = []
         self.disabled = False
 
-    def record(self, time_us: int, t, armed: bool, motor_commands: Sequence[float]) -> None:
+    def record(self, time_us: int, t, armed: bool, motor_commands: Sequence[float], ugv=None) -> None:
+        """One period: ``t`` a :class:`sitl.simulation.SensorTruth`, ``ugv`` a :class:`sitl.ugv_world.UgvTruth`."""
         if self.disabled:
             return
         try:
@@ -90,7 +98,12 @@ class TruthRecorder:
             yaw = math.atan2(r10, r00)
             motors = list(motor_commands[: self.n_motors])
             motors += [0.0] * (self.n_motors - len(motors))
-            w.append(time_us, armed, *t.pos_ned_m, *t.vel_ned_m_s, roll, pitch, yaw, *t.rate_frd_rad_s, *motors)
+            extra: list[float] = []
+            if self.ugv:
+                extra = [math.nan] * len(UGV_FIELDS)
+                if ugv is not None:
+                    extra = [*ugv.deck_pos_ned_m.tolist(), *ugv.vel_ned_m_s[:2].tolist(), ugv.yaw_rad]
+            w.append(time_us, armed, *t.pos_ned_m, *t.vel_ned_m_s, roll, pitch, yaw, *t.rate_frd_rad_s, *motors, *extra)
             if self._close_at_us is not None and time_us >= self._close_at_us:
                 self._close()
         except Exception as exc:

@@ -39,7 +39,7 @@ class UgvGeometry:
     wheel_x_m: float = 0.15  # axle ahead of the chassis centre (body x)
     caster_x_m: float = -0.3
     chassis_half_m: tuple[float, float, float] = (0.38, 0.26, 0.07)
-    deck_side_m: float = 0.8
+    deck_side_m: float = 1.3  # the quadcopter's legs span 1.01 m: room for 15 cm of error each way
     chassis_mass_kg: float = 20.0
     wheel_mass_kg: float = 1.0
 
@@ -49,15 +49,15 @@ class UgvGeometry:
         return self.wheel_radius_m + 0.05 + 2 * self.chassis_half_m[2] + 0.01
 
 
-def marker_png(cell_px: int = 16) -> tuple[bytes, float]:
+def marker_png(cell_px: int = 16, deck_side_m: float = UgvGeometry.deck_side_m) -> tuple[bytes, float]:
     """The deck texture as PNG bytes (marker id 76 centred on white) and the deck side (m).
 
     The marker has 7 cells (5 data + border); with ``cell_px`` pixels per cell the image is
-    sized so that the marker is exactly 0.333 m of a deck of about 0.8 m.
+    sized so that the marker is exactly 0.333 m of a deck of about ``deck_side_m``.
     """
     marker_px = 7 * cell_px
     m_per_px = MARKER_SIZE_M / marker_px
-    side_px = int(round(0.8 / m_per_px / 2)) * 2 + marker_px % 2
+    side_px = int(round(deck_side_m / m_per_px / 2)) * 2 + marker_px % 2
     img = np.full((side_px, side_px), 255, np.uint8)
     marker = cv2.aruco.generateImageMarker(cv2.aruco.getPredefinedDictionary(MARKER_DICT), MARKER_ID, marker_px)
     o = (side_px - marker_px) // 2
@@ -89,7 +89,7 @@ class UgvMjcf:
 def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry()) -> UgvMjcf:
     """The UGV's MJCF parts, its body ``ugv`` placed at ``start`` (NED m, yaw rad) on the ground."""
     deck_png, white_png = "ugv_deck_marker76.png", "ugv_white.png"
-    deck_bytes, deck = marker_png()
+    deck_bytes, deck = marker_png(deck_side_m=geom.deck_side_m)
     side_px = cv2.imdecode(np.frombuffer(deck_bytes, np.uint8), cv2.IMREAD_GRAYSCALE).shape[0]
     white = cv2.imencode(".png", np.full((side_px, side_px, 3), 255, np.uint8))[1].tobytes()  # cube faces: same size
     g, r = geom, geom.wheel_radius_m

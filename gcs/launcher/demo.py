@@ -25,7 +25,9 @@ import time
 from dataclasses import dataclass, field
 
 from ..client import VehicleClient
+from ..sim_client import SimClient
 from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
+from .landing_run import LandingSetup, fly_landing
 from .stack import Stack, StackError
 
 ARRIVAL_RADIUS_M = 0.5
@@ -74,6 +76,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--wait", action="store_true", help="only start the stack and print how to connect; run until Ctrl-C"
+    )
+    parser.add_argument(
+        "--scenario",
+        choices=("square", "ugv-landing"),
+        default="square",
+        help="square: the 10 m square (default); ugv-landing: find the UGV driving a circle with the camera "
+        "and land on its deck (prints the touchdown error from the truth)",
     )
     return parser
 
@@ -258,11 +267,12 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     speed = args.speed or ("1" if args.wait else "max")
     wall_start = time.monotonic()
+    landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1) if args.scenario == "ugv-landing" else None
     stack = Stack(
         args.instance,
         speed,
         args.vehicle,
-        args.sitl_arg,
+        (landing.sim_args() if landing else []) + args.sitl_arg,
         args.autopilot_arg,
         home=args.home,
         seed=args.seed,
@@ -288,6 +298,8 @@ def main(argv: list[str] | None = None) -> int:
         client.wait_until(lambda: client.sim_time_s() is not None, args.step_timeout, "vehicle time")
         wall_flight_start, sim_flight_start = time.monotonic(), client.sim_time_s()
         demo.say(f"connected to {client.url}")
+        if landing is not None:
+            return landing_demo(client, landing, demo, stack)
         demo.run()
         wall_flight = time.monotonic() - wall_flight_start
         sim_flight = client.sim_time_s() - sim_flight_start
@@ -317,6 +329,23 @@ def main(argv: list[str] | None = None) -> int:
         if client is not None:
             client.close()
         stack.stop()
+
+
+def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: Stack) -> int:
+    """``--scenario ugv-landing``: one precision landing on the UGV; exit 0 only if it stayed on the deck."""
+    demo.step = "precision landing on the UGV"
+    with SimClient(14560 + stack.instance) as truth:
+        result = fly_landing(client, truth, setup, say=demo.say, timeout_s=demo.args.step_timeout)
+    print(f"touchdown error: {result.touchdown_error_m:.3f} m")
+    print(f"time to land: {result.time_to_land_s:.1f} s (simulated, from NAV_LAND to the motors cut)")
+    print(f"UGV speed at touchdown: {result.ugv_speed_at_touchdown_m_s:.2f} m/s")
+    print(f"real-time factor: {result.real_time_factor:.2f}")
+    print(f"flight logs (.tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
+    if not result.success:
+        print(f"flight demo FAILED (step: {demo.step}): {result.reason}", file=sys.stderr)
+        return 1
+    print("flight demo: OK (landed on the UGV's deck)")
+    return 0
 
 
 def _step(demo: Demo | None) -> str:

@@ -1,0 +1,212 @@
+"""One precision landing on the ground vehicle (UGV), flown through MAVLink and scored from the truth.
+
+Used by ``flight-demo --scenario ugv-landing`` and ``benchmarks/landing_benchmark.py``.
+
+The flight, as a user would fly it with any ground station: arm, take off to the preparation
+height (``PLD_PREP_ALT``, 2.8 m), fly to the meeting point (a point on the UGV's path a few metres
+ahead of it, where a crew would send the multicopter), start the UGV (``SIM_UGV_SPD`` over the
+simulator's MAVLink port), then MAV_CMD_NAV_LAND with param 2 = 2 (precision landing, target
+required) and wait until the flight controller cuts the motors on the deck.  Nothing here
+steers the multicopter towards the UGV: the camera, the vision companion and the flight
+controller's landing state machine do.
+
+Scoring (simulator truth on UDP 14560+I, NED metres from the multicopter's start point): the
+touchdown error is the horizontal distance from the multicopter's centre to the marker's centre
+at the disarm; success means disarmed on the deck and still on it ``STAY_ON_DECK_S`` later (its
+centre within the deck's square, above the ground).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from pymavlink.dialects.v20 import common as mavlink
+
+from sitl.ugv import UgvGeometry
+from sitl.ugv_paths import Pose2, UgvPath, circle, figure8, straight_line
+
+from ..client import VehicleClient
+from ..errors import GcsTimeout
+from ..sim_client import SimClient
+
+PATH_CODES = {"static": 0, "line": 1, "circle": 2, "figure8": 3, "random": 4}
+PREP_ALT_M = 2.8  # PLD_PREP_ALT's default, [F 3]
+STAY_ON_DECK_S = 5.0
+ARRIVAL_RADIUS_M = 0.3
+WINDY = {  # params/scenarios/windy.toml's wind: 5 m/s from the West, turbulence and gusts
+    "SIM_WIND_SPD": 5.0,
+    "SIM_WIND_DIR": 270.0,
+    "SIM_WIND_TURB": 1.0,
+    "SIM_GUST_SPD": 2.0,
+}
+
+
+@dataclass(frozen=True)
+class LandingSetup:
+    """One landing: vehicle, UGV path and speed, wind, seeds and the randomised geometry.
+
+    ``ugv_start``: the UGV's start pose (NED m from the multicopter's start point, yaw rad);
+    ``meet_after_m``: how far along its path (m) the UGV passes under the meeting point;
+    ``meet_offset_m``: the meeting point's (north, east) offset from that point on the path (m).
+    """
+
+    vehicle: str = "quad_x"
+    path: str = "circle"
+    speed_m_s: float = 1.0
+    radius_m: float = 2.0
+    windy: bool = False
+    seed: int = 1
+    ugv_start: Pose2 = Pose2(4.0, 0.0, math.pi / 2)
+    meet_after_m: float = 3.0
+    meet_offset_m: tuple[float, float] = (0.0, 0.0)
+    mode: int = 2  # NAV_LAND param 2: 1 opportunistic, 2 required
+    extra_sim_params: dict[str, float] = field(default_factory=dict)
+
+    def sim_params(self) -> dict[str, float]:
+        """The simulator's ``SIM_*`` parameters at start: the UGV parked at its start pose."""
+        p = {
+            "SIM_UGV_EN": 1,
+            "SIM_UGV_X": self.ugv_start.north_m,
+            "SIM_UGV_Y": self.ugv_start.east_m,
+            "SIM_UGV_YAW": math.degrees(self.ugv_start.yaw_rad) % 360.0,
+            "SIM_UGV_PATH": PATH_CODES[self.path],
+            "SIM_UGV_RAD": self.radius_m,
+            "SIM_UGV_SPD": 0.0,
+        }
+        if self.windy:
+            p.update(WINDY)
+        p.update(self.extra_sim_params)
+        return p
+
+    def sim_args(self) -> list[str]:
+        args: list[str] = []
+        for name, value in self.sim_params().items():
+            args += ["--param", f"{name}={value:g}"]
+        return args
+
+    def _path(self) -> UgvPath | None:
+        start, v = self.ugv_start, max(self.speed_m_s, 0.1)
+        if self.path in ("line", "random"):  # a random path's first leg is straight for at least 3 m
+            return straight_line(start, v)
+        if self.path == "circle":
+            return circle(start, self.radius_m, v)
+        if self.path == "figure8":
+            return figure8(start, self.radius_m, v)
+        return None
+
+    def meeting_point(self) -> tuple[float, float]:
+        """Where the multicopter waits (north, east m): over the UGV's path, ``meet_after_m`` ahead of it."""
+        path = self._path()
+        if path is None or self.speed_m_s <= 0.0:
+            # A parked UGV: wait next to it (the UGV's body centre is behind the deck's marker by at most cm).
+            base = (self.ugv_start.north_m, self.ugv_start.east_m)
+        else:
+            pose, _ = path.pose_at(self.meet_after_m)
+            base = (pose.north_m, pose.east_m)
+        return base[0] + self.meet_offset_m[0], base[1] + self.meet_offset_m[1]
+
+
+@dataclass
+class LandingResult:
+    """What one landing gave (simulated seconds, metres from the truth)."""
+
+    success: bool = False
+    touchdown_error_m: float = math.nan
+    time_to_land_s: float = math.nan  # from NAV_LAND to the disarm
+    ugv_speed_at_touchdown_m_s: float = math.nan
+    reason: str = ""
+    phases: list[str] = field(default_factory=list)
+    sim_s: float = math.nan
+    wall_s: float = math.nan
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_s / self.wall_s if self.wall_s > 0 else math.nan
+
+
+def on_deck(vehicle_ned_m: np.ndarray, ugv_ned_m: np.ndarray, ugv_yaw_rad: float, geom: UgvGeometry) -> bool:
+    """The multicopter's centre is over the deck (within its square, in the UGV's frame) and off the ground."""
+    dn, de = vehicle_ned_m[0] - ugv_ned_m[0], vehicle_ned_m[1] - ugv_ned_m[1]
+    c, s = math.cos(ugv_yaw_rad), math.sin(ugv_yaw_rad)
+    fwd, right = c * dn + s * de, -s * dn + c * de
+    half = geom.deck_side_m / 2
+    return abs(fwd) <= half and abs(right) <= half and -vehicle_ned_m[2] > 0.5 * geom.deck_top_m
+
+
+def _wait(cond: Callable[[], bool], client: VehicleClient, timeout_s: float, what: str) -> None:
+    client.wait_until(cond, timeout_s, what)
+
+
+def fly_landing(
+    client: VehicleClient,
+    truth: SimClient,
+    setup: LandingSetup,
+    say: Callable[[str], None] = lambda _t: None,
+    timeout_s: float = 180.0,
+    geom: UgvGeometry | None = None,
+) -> LandingResult:
+    """Fly one precision landing (see the module docstring) and score it."""
+    result = LandingResult()
+    geom = geom or UgvGeometry()
+    client.add_listener(lambda m: _phase_listener(m, result))
+    wall0 = time.monotonic()
+    client.wait_until(client.prearm_ok, timeout_s, "the vehicle to be ready to arm")
+    home = client.wait_home(timeout_s)
+    sim0 = client.sim_time_s() or 0.0
+    client.arm(timeout_s=10).check()
+    client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
+    _wait(lambda: client.takeoff_done(PREP_ALT_M), client, timeout_s, f"takeoff to {PREP_ALT_M} m")
+    meet_n, meet_e = setup.meeting_point()
+    client.goto_ned(meet_n, meet_e, -PREP_ALT_M, timeout_s=10).check()
+    say(f"flying to the meeting point N {meet_n:.2f} E {meet_e:.2f} at {PREP_ALT_M} m")
+    _wait(lambda: client.arrived(meet_n, meet_e, ARRIVAL_RADIUS_M, 0.3), client, timeout_s, "the meeting point")
+    if setup.speed_m_s > 0.0:
+        truth.set("SIM_UGV_SPD", setup.speed_m_s)
+        say(f"UGV driving: {setup.path} at {setup.speed_m_s:g} m/s")
+    t_land = client.sim_time_s() or 0.0
+    client.command_long(mavlink.MAV_CMD_NAV_LAND, 0, setup.mode, 0, math.nan, math.nan, math.nan, math.nan).check()
+    say("precision landing")
+    try:
+        _wait(lambda: not client.armed(), client, timeout_s, "the motors cut on the deck")
+    except GcsTimeout:
+        result.reason = "no touchdown in time"
+        return _finish(result, client, sim0, wall0)
+    t_touch = client.sim_time_s() or 0.0
+    result.time_to_land_s = t_touch - t_land
+    score = _score(truth, geom)
+    if score is None:
+        result.reason = "no truth at touchdown"
+        return _finish(result, client, sim0, wall0)
+    result.touchdown_error_m, result.ugv_speed_at_touchdown_m_s, landed_on_deck = score
+    client.wait_sim_time(STAY_ON_DECK_S, timeout_s, f"{STAY_ON_DECK_S:g} s on the deck")
+    later = _score(truth, geom)
+    result.success = bool(landed_on_deck and later is not None and later[2])
+    if not result.success:
+        result.reason = "touched down off the deck" if not landed_on_deck else "fell off the deck"
+    return _finish(result, client, sim0, wall0)
+
+
+def _finish(result: LandingResult, client: VehicleClient, sim0: float, wall0: float) -> LandingResult:
+    result.sim_s = (client.sim_time_s() or sim0) - sim0
+    result.wall_s = time.monotonic() - wall0
+    return result
+
+
+def _score(truth: SimClient, geom: UgvGeometry) -> tuple[float, float, bool] | None:
+    """Touchdown error (m), UGV speed (m/s) and on-deck from the latest vehicle and UGV truth."""
+    veh, ugv = truth.latest(), truth.ugv_latest()
+    if veh is None or ugv is None:
+        return None
+    v = np.asarray(veh.pos_ned_m)
+    u = np.asarray(ugv.pos_ned_m)
+    err = float(math.hypot(v[0] - u[0], v[1] - u[1]))
+    return err, float(math.hypot(*ugv.vel_ned_m_s[:2])), on_deck(v, u, ugv.yaw_rad, geom)
+
+
+def _phase_listener(msg, result: LandingResult) -> None:
+    if msg.get_type() == "STATUSTEXT" and msg.text.lower().startswith("precland"):
+        result.phases.append(msg.text)
