@@ -36,6 +36,19 @@ class Rotor:
 
 
 @dataclass(frozen=True)
+class CameraSpec:
+    """The downward camera ([camera] of the vehicle file): rate (Hz of simulated time; 0 = no
+    camera), image size (px), horizontal field of view (deg) and the optical centre in body FRD
+    (m).  It looks straight down, the top of the image towards the nose."""
+
+    rate_hz: float = 0.0
+    width_px: int = 640
+    height_px: int = 480
+    hfov_deg: float = 53.13
+    position_frd_m: tuple[float, float, float] = (0.0, 0.0, 0.1)
+
+
+@dataclass(frozen=True)
 class VehicleSpec:
     name: str
     mav_type: str
@@ -58,6 +71,7 @@ class VehicleSpec:
     battery_cells: int
     battery_capacity_mah: float
     battery_resistance_ohm: float
+    camera: CameraSpec = CameraSpec()
 
     @property
     def mass_kg(self) -> float:
@@ -125,6 +139,25 @@ def _num(table: dict, key: str, where: str, positive: bool = True) -> float:
     return v
 
 
+def _camera(table: object, where: str) -> CameraSpec:
+    """[camera]: absent means no camera."""
+    if table is None:
+        return CameraSpec()
+    if not isinstance(table, dict):
+        raise VehicleFileError(f"{where}: [camera] must be a table")
+    w = f"{where} [camera]"
+    cam = CameraSpec(
+        rate_hz=_num(table, "rate_hz", w, positive=False),
+        width_px=int(_num(table, "width_px", w)),
+        height_px=int(_num(table, "height_px", w)),
+        hfov_deg=_num(table, "hfov_deg", w),
+        position_frd_m=_vec(table, "position_frd_m", 3, w),
+    )
+    if not 0.0 <= cam.rate_hz <= 100.0 or not 1.0 <= cam.hfov_deg <= 170.0:
+        raise VehicleFileError(f"{w}: rate_hz must be 0..100 and hfov_deg 1..170")
+    return cam
+
+
 def vehicle_path(name_or_path: str) -> Path:
     """Resolve a vehicle name (``quad_x``) or a path to a TOML file."""
     p = Path(name_or_path)
@@ -186,6 +219,7 @@ def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
         battery_cells=int(_num(batt, "cells", where)),
         battery_capacity_mah=_num(batt, "capacity_mah", where),
         battery_resistance_ohm=_num(batt, "internal_resistance_ohm", where),
+        camera=_camera(data.get("camera"), where),
     )
     if spec.hover_thrust_fraction >= 0.9:
         raise VehicleFileError(

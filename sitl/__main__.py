@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+from pathlib import Path
 
 from params.vehicle import VehicleFileError, load_vehicle
 from sitl.scenario import Scenario, ScenarioError, list_scenarios, load_scenario
 from sitl.sim_params import SimParamError, SimParameters, format_table
-from sitl.sim_settings import MotorSettings, SensorSettings, UgvSettings, WindSettings
+from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, UgvSettings, WindSettings
 
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4's default SITL home, Zurich
 
@@ -97,17 +98,23 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="write a ground-truth log (.truth.npy) per arming here (default: none)",
     )
+    p.add_argument(
+        "--save-frames",
+        metavar="DIR",
+        default=None,
+        help="save every 10th camera frame, annotated by the vision companion, as PNG here (default: none)",
+    )
     return p
 
 
 def configure(
     args: argparse.Namespace,
-) -> tuple[tuple[WindSettings, SensorSettings, MotorSettings, UgvSettings], Scenario | None]:
+) -> tuple[tuple[WindSettings, SensorSettings, MotorSettings, UgvSettings, CameraSettings], Scenario | None]:
     """The settings objects with the scenario's parameters, then ``--param``, applied.
 
     Raises ScenarioError or SimParamError (nothing is half-applied: each step checks all its values first).
     """
-    settings = (WindSettings(), SensorSettings(), MotorSettings(), UgvSettings())
+    settings = (WindSettings(), SensorSettings(), MotorSettings(), UgvSettings(), CameraSettings())
     params = SimParameters(*settings)
     scenario = load_scenario(args.scenario, params) if args.scenario else None
     if scenario is not None:
@@ -119,7 +126,7 @@ def configure(
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        (wind, sensors, motors, ugv), scenario = configure(args)
+        (wind, sensors, motors, ugv, camera), scenario = configure(args)
     except ScenarioError as exc:
         print(f"sitl: scenario {exc}", file=sys.stderr)
         return 2
@@ -127,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sitl: --param {exc}", file=sys.stderr)
         return 2
     if args.list_params:
-        print(format_table(SimParameters(wind, sensors, motors, ugv).describe()))
+        print(format_table(SimParameters(wind, sensors, motors, ugv, camera).describe()))
         return 0
     try:
         spec = load_vehicle(args.vehicle)
@@ -137,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     from sitl.lockstep import LockstepServer
     from sitl.simulation import Simulation
 
-    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv)
+    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera)
     truth = (args.truth_host, args.truth_port + args.instance) if args.truth_port else None
     truth_bind = ("0.0.0.0", args.truth_local_port + args.instance if args.truth_local_port else 0)
     try:
@@ -152,6 +159,11 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
         return 2
+    if sim.ugv is not None and spec.camera.rate_hz > 0:  # a marker to see: the camera and the vision companion
+        from sitl.companion import LockstepCompanion
+
+        save = Path(args.save_frames) if args.save_frames else None
+        server.companion = LockstepCompanion(sim.model, spec.camera, camera, seed=args.seed, save_dir=save)
     if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
         from sitl.truth_log import TruthRecorder
 

@@ -84,7 +84,10 @@ class LockstepServer:
         self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
         self.mav.robust_parsing = True
         # The settings objects the models read on every step; a set acts on the next step.
-        self.params = SimParameters(sim.wind_settings, sim.sensors.settings, sim.motor_settings, sim.ugv_settings)
+        self.params = SimParameters(
+            sim.wind_settings, sim.sensors.settings, sim.motor_settings, sim.ugv_settings, sim.camera_settings
+        )
+        self.companion = None  # sitl.companion.LockstepCompanion: camera + vision, when the world has the UGV
         self.params.started = True  # start-only parameters (SIM_UGV_EN) are refused from now on
         self.events = EventSchedule(events)
         self.param_server: SimParamServer | None = None
@@ -107,6 +110,9 @@ class LockstepServer:
         self.truth_log = None  # sitl.truth_log.TruthRecorder (sitl --log-dir): fed every period
 
     def close(self) -> None:
+        if self.companion is not None:
+            self.companion.close()
+            self.companion = None
         for s in (self.conn, self.listener):
             if s is not None:
                 s.close()
@@ -165,6 +171,8 @@ class LockstepServer:
             out += self._hil_gps(time_us, fix)
         if time_us % BATTERY_PERIOD_US == 0:
             out += self._battery_status()
+        if self.companion is not None:  # LANDING_TARGET whose simulated latency has passed
+            out += self.companion.step(sim.data, time_us)
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
         out += _HIL_SENSOR.encode(
             self.mav,

@@ -10,6 +10,8 @@ turns counter-clockwise seen from above, whose reaction turns the body clockwise
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
@@ -46,6 +48,15 @@ def build_mjcf(spec: VehicleSpec, ugv: UgvMjcf | None = None) -> str:
             f'size="{_v(s / 2 for s in spec.leg_size_m)}" mass="0" friction="0.8 0.01 0.001" rgba="0.2 0.2 0.2 1"/>'
         )
     sites = ['<site name="imu" pos="0 0 0" size="0.01"/>']
+    cam = spec.camera
+    if cam.rate_hz > 0:
+        # MuJoCo's camera looks along its -z with image x right and y up: y = body forward (FLU +x),
+        # z = body up, so it looks down with the top of the image towards the nose.
+        fovy = math.degrees(2 * math.atan(math.tan(math.radians(cam.hfov_deg) / 2) * cam.height_px / cam.width_px))
+        sites.append(
+            f'<camera name="downward" pos="{_v(frd_to_flu(cam.position_frd_m))}" xyaxes="0 -1 0 1 0 0" '
+            f'fovy="{fovy:.6g}"/>'
+        )
     actuators = []
     for i, r in enumerate(spec.rotors):
         p = frd_to_flu(r.position_frd_m)
@@ -64,7 +75,8 @@ def build_mjcf(spec: VehicleSpec, ugv: UgvMjcf | None = None) -> str:
     ugv_actuators = f"\n{ugv.actuator}" if ugv else ""
     return f"""<mujoco model="{spec.name}">
   <option timestep="{PHYSICS_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
-  <visual><global offwidth="640" offheight="480"/></visual>{ugv_asset}
+  <visual><global offwidth="{max(640, spec.camera.width_px)}" offheight="{max(480, spec.camera.height_px)}"/>
+    <quality shadowsize="0" offsamples="0"/><map znear="0.0005"/></visual>{ugv_asset}
   <worldbody>
     <light pos="0 0 20" dir="0 0 -1" directional="true"/>
     <geom name="ground" type="plane" size="500 500 0.1" friction="1 0.01 0.001" rgba="0.5 0.6 0.5 1"/>

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import params as params_package
 from sitl.sim_params import SimParamError, SimParameters
-from sitl.sim_settings import MotorSettings, SensorSettings, UgvSettings, WindSettings
+from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, UgvSettings, WindSettings
 
 SCENARIO_DIR = Path(params_package.__file__).resolve().parent / "scenarios"  # shipped as package data
 _TOP_KEYS = ("description", "parameters", "events")
@@ -93,7 +93,7 @@ def load_scenario(name_or_path: str | Path, params: SimParameters | None = None)
     except (OSError, UnicodeDecodeError) as e:
         raise ScenarioError(path, None, f"cannot read: {e}") from None
     if params is None:
-        params = SimParameters(WindSettings(), SensorSettings(), MotorSettings(), UgvSettings())
+        params = SimParameters(WindSettings(), SensorSettings(), MotorSettings(), UgvSettings(), CameraSettings())
 
     for key in doc:
         if key not in _TOP_KEYS:

@@ -221,6 +221,23 @@ class UgvSettings:
         return Pose2(self.north_m, self.east_m, math.radians(self.yaw_deg))
 
 
+@dataclass
+class CameraSettings:
+    """The downward camera's errors and the vision companion's latency (sitl.camera, sitl.companion)."""
+
+    latency_ms: int = sim_param(
+        "SIM_CAM_LAT_MS",
+        50,
+        0,
+        1000,
+        "ms",
+        "Capture to LANDING_TARGET at the flight controller (render, detect, send)",
+        ParamType.INT32,
+    )
+    noise_grey: float = sim_param("SIM_CAM_NOISE", 2.0, 0.0, 50.0, "grey", "Pixel noise, standard deviation (0-255)")
+    fail: int = sim_param("SIM_CAM_FAIL", 0, 0, 1, "", "1: the camera delivers no frames", ParamType.INT32)
+
+
 def param_fields(settings) -> list:
     """The dataclass fields of a settings object that are SIM_* parameters."""
     return [f for f in fields(settings) if "param" in f.metadata]

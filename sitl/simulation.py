@@ -23,7 +23,7 @@ from sitl.battery import Battery
 from sitl.model import PHYSICS_DT_S, build_model
 from sitl.rotors import RotorModel
 from sitl.sensors import SensorSuite
-from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings
+from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, WindSettings
 from sitl.ugv_world import UgvDriver, UgvSettings, UgvTruth
 from sitl.wind import WindModel
 
@@ -69,9 +69,11 @@ class Simulation:
         sensors: SensorSettings | None = None,
         motors: MotorSettings | None = None,
         ugv: UgvSettings | None = None,
+        camera: CameraSettings | None = None,
     ) -> None:
         self.spec = spec
         self.ugv_settings = ugv if ugv is not None else UgvSettings()
+        self.camera_settings = camera if camera is not None else CameraSettings()
         ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
         self.model = build_model(spec, ugv_start=ugv_start)
         self.data = mujoco.MjData(self.model)

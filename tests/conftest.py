@@ -5,10 +5,14 @@ Instance numbers of tests that bind ports are in ``instances.py`` beside this fi
 
 from __future__ import annotations
 
-import pytest
+import os
 
-from autopilot.param_catalogue import default_store
-from params.vehicle import load_vehicle
+os.environ.setdefault("MUJOCO_GL", "egl")  # camera tests render headless (before anything imports MuJoCo)
+
+import pytest  # noqa: E402
+
+from autopilot.param_catalogue import default_store  # noqa: E402
+from params.vehicle import load_vehicle  # noqa: E402
 
 
 @pytest.fixture(scope="module")

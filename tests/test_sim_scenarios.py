@@ -15,7 +15,7 @@ from types import SimpleNamespace
 import pytest
 
 from sitl.scenario import EventSchedule, ScenarioError, ScenarioEvent, list_scenarios, load_scenario
-from sitl.sim_settings import MotorSettings, SensorSettings, UgvSettings, WindSettings
+from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, UgvSettings, WindSettings
 
 from sim_params_helpers import make_params, write  # tests/sim_params_helpers.py
 
@@ -136,6 +136,7 @@ def test_lockstep_applies_events_at_50hz_periods():
         sensors=SimpleNamespace(settings=sensors),
         motor_settings=motors,
         ugv_settings=UgvSettings(),
+        camera_settings=CameraSettings(),
         rotors=SimpleNamespace(n=6),
     )
     server = LockstepServer(

@@ -25,8 +25,8 @@ import time
 from dataclasses import dataclass, field
 
 from ..client import VehicleClient
-from ..sim_client import SimClient
 from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
+from ..sim_client import SimClient
 from .landing_run import LandingSetup, fly_landing
 from .stack import Stack, StackError
 

@@ -1,0 +1,189 @@
+"""The vision companion in lockstep: camera frames -> ArUco -> LANDING_TARGET, after a simulated latency.
+
+A real companion computer grabs a frame, finds the marker and sends LANDING_TARGET to the
+flight controller some tens of milliseconds later.  Here the simulator plays both the
+camera and that computer, with the companion's own code (:mod:`vision`): at each capture
+time (``rate_hz`` of the vehicle file's [camera], simulated time) the state is copied; a
+worker thread renders the frame (:mod:`sitl.camera`), runs the detector and builds the
+message; the message goes out on the simulator link in the first period at or after
+capture + ``SIM_CAM_LAT_MS``, before that period's HIL_SENSOR.  The worker runs while the
+simulator waits for the flight controller, so rendering costs little wall time, and nothing
+depends on thread timing: the frame is rendered from the copy taken at capture, and the
+message waits for its release time (the main thread blocks if the worker is late).  Same
+seed, same frames, same messages.
+
+LANDING_TARGET is sent in ArduPilot's body form (MAV_FRAME_BODY_FRD: x/y/z the marker's
+centre from the vehicle's centre of mass along body FRD axes, m; angle_x/angle_y/distance
+filled too; ``time_usec`` = capture time, the lockstep clock) from the vehicle's system
+(1) as MAV_COMP_ID_ONBOARD_COMPUTER (191), as a companion computer wired to the flight
+controller would.  With no marker in view nothing is sent.
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from pymavlink.dialects.v20 import common as mavlink
+
+from params.vehicle import CameraSpec
+from sitl.camera import DownwardCamera
+from sitl.sim_settings import CameraSettings
+from vision.camera_model import pinhole
+from vision.detector import MarkerDetector
+from vision.landing_target import CameraMount, landing_target_message
+
+COMPANION_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER  # 191
+IN_FLIGHT = 3  # state copies: captures that may wait for their release at once (latency / period + 1)
+
+
+@dataclass
+class CompanionStats:
+    frames: int = 0
+    detections: int = 0
+    render_s: float = 0.0
+    detect_s: float = 0.0
+    max_range_m: float = 0.0
+
+    def line(self) -> str:
+        n = max(self.frames, 1)
+        return (
+            f"camera: {self.frames} frames, {self.detections} with the marker "
+            f"({100.0 * self.detections / n:.0f} %, farthest {self.max_range_m:.2f} m); "
+            f"{1e3 * self.render_s / n:.1f} ms render + {1e3 * self.detect_s / n:.1f} ms detect per frame"
+        )
+
+
+class LockstepCompanion:
+    """Camera + vision companion for one simulation (see the module docstring)."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        camera: CameraSpec,
+        settings: CameraSettings,
+        seed: int = 0,
+        sysid: int = 1,
+        save_dir: Path | None = None,
+        save_every: int = 10,
+    ) -> None:
+        self.model, self.spec, self.settings = model, camera, settings
+        self.period_us = round(1e6 / camera.rate_hz)
+        self.next_capture_us = 0
+        self.mav = mavlink.MAVLink(None, sysid, COMPANION_COMPID)
+        self.stats = CompanionStats()
+        self.save_dir, self.save_every = save_dir, save_every
+        self._copies = [mujoco.MjData(model) for _ in range(IN_FLIGHT)]
+        self._free: deque[mujoco.MjData] = deque(self._copies)
+        self._pending: deque[tuple[int, queue.Queue]] = deque()  # (release time, the worker's answer)
+        self._jobs: queue.Queue = queue.Queue()
+        self._seed = seed
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
+        self._thread.start()
+
+    # -- main thread ---------------------------------------------------------------------------
+    def step(self, data: mujoco.MjData, time_us: int) -> bytes:
+        """Called once per period before HIL_SENSOR: capture if due; return the messages now due."""
+        if time_us >= self.next_capture_us:
+            self.next_capture_us += self.period_us * max(1, (time_us - self.next_capture_us) // self.period_us + 1)
+            if not self.settings.fail:
+                self._capture(data, time_us)
+        out = b""
+        while self._pending and self._pending[0][0] <= time_us:
+            _, answer = self._pending.popleft()
+            result = answer.get()
+            if isinstance(result, BaseException):
+                raise RuntimeError("vision companion failed") from result
+            copy, packed = result
+            self._free.append(copy)
+            out += packed
+        return out
+
+    def _capture(self, data: mujoco.MjData, time_us: int) -> None:
+        if not self._free:  # every copy still waits for its release: drop this frame (a busy companion)
+            return
+        copy = self._free.popleft()
+        mujoco.mj_copyData(copy, self.model, data)
+        answer: queue.Queue = queue.Queue(maxsize=1)
+        release = time_us + 1000 * int(self.settings.latency_ms)
+        self._pending.append((release, answer))
+        self._jobs.put((time_us, copy, float(self.settings.noise_grey), answer))
+
+    def close(self) -> None:
+        self._jobs.put(None)
+        self._thread.join(timeout=5.0)
+        print(f"[sitl] {self.stats.line()}", file=sys.stderr, flush=True)
+
+    # -- worker thread -------------------------------------------------------------------------
+    def _work(self) -> None:
+        """Owns the renderer (its GL context belongs to this thread) and the detector."""
+        try:
+            camera = DownwardCamera(self.model, self.spec, self._seed)
+            spec = self.spec
+            detector = MarkerDetector(pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)))
+        except BaseException as exc:  # reported to the main thread at the first release
+            camera, detector, self._error = None, None, exc
+        mount = CameraMount(position_frd_m=self.spec.position_frd_m)
+        while (job := self._jobs.get()) is not None:
+            time_us, copy, noise, answer = job
+            if camera is None or detector is None:
+                answer.put(self._error)
+                continue
+            try:
+                answer.put((copy, self._process(camera, detector, mount, copy, time_us, noise)))
+            except BaseException as exc:
+                answer.put(exc)
+        if camera is not None:
+            camera.close()
+
+    def _process(
+        self,
+        camera: DownwardCamera,
+        detector: MarkerDetector,
+        mount: CameraMount,
+        data: mujoco.MjData,
+        time_us: int,
+        noise: float,
+    ) -> bytes:
+        frame = camera.capture(data, noise)
+        t0 = time.perf_counter()
+        det = detector.detect(frame)
+        st = self.stats
+        st.detect_s += time.perf_counter() - t0
+        st.frames, st.render_s = camera.frames, camera.render_s
+        if self.save_dir is not None and st.frames % self.save_every == 1:
+            self._save(frame, det, detector, time_us)
+        if det is None:
+            return b""
+        st.detections += 1
+        st.max_range_m = max(st.max_range_m, det.distance_m)
+        q_ned_frd = _attitude(data)
+        msg = landing_target_message(det, mount, q_ned_frd, time_us, frame=mavlink.MAV_FRAME_BODY_FRD)
+        packed = msg.pack(self.mav)
+        self.mav.seq = (self.mav.seq + 1) % 256
+        return packed
+
+    def _save(self, frame: np.ndarray, det, detector: MarkerDetector, time_us: int) -> None:
+        import cv2
+
+        from vision.annotate import annotate
+
+        self.save_dir.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(self.save_dir / f"frame_{time_us // 1000:08d}ms.png"), annotate(frame, det, detector.camera))
+
+
+def _attitude(data: mujoco.MjData) -> np.ndarray:
+    """The vehicle's attitude (w, x, y, z), FRD -> NED, at capture (the free joint's quaternion)."""
+    from mavsim_core.frames import quat_enu_flu_to_ned_frd
+
+    return quat_enu_flu_to_ned_frd(np.array(data.qpos[3:7]))
