@@ -26,6 +26,7 @@ from autopilot.control.gains_from_params import GainsFromParams
 from autopilot.control.mixer import Mixer
 from autopilot.control.position_control import attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
+from autopilot.landing_target_input import LandingTargetInput
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import NO_ACTUATORS, ActuatorStatus, ControlSetpoints, GpsSample, ImuSample
 from mavsim_core import quaternion as quat
@@ -51,6 +52,7 @@ class FlightController:
         self.estimator = Estimator(params)
         self.estimator.defer_filters = True  # its 50 Hz work runs in after_step, off the critical path
         self.commander = Commander(params, spec.mav_type)
+        self.commander.feet_below_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
         self.inertia = spec.inertia_kg_m2
         self.weight_n = spec.mass_kg * GRAVITY_M_S2
         self.mixer = Mixer(spec)
@@ -74,6 +76,10 @@ class FlightController:
         self.last_outer_us: int | None = None
         self._gps_pending: GpsSample | None = None  # the latest fix, for the next outer loop
         self._outer_slot: int | None = None  # the 20 ms slot the outer loops last ran in
+        # LANDING_TARGET from a companion computer -> the landing target estimate (precision landing)
+        self.landing_target = LandingTargetInput(params)
+        self._pos_ned_m = np.zeros(3)  # the latest outer-loop position estimate (for the target's history)
+        self._height_m = float("nan")
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -89,6 +95,7 @@ class FlightController:
         self.estimator.update_imu(imu)
         if gps is not None:
             self.estimator.update_gps(gps)
+        self.landing_target.record_state(now, self.estimator.q, self._pos_ned_m, self._height_m)
         rate = self.gyro_filter.apply(self.estimator.rate_frd)  # every sample, so its state stays current
         self._gps_pending = gps or self._gps_pending
         if self.last_outer_us is None:
@@ -140,6 +147,13 @@ class FlightController:
         estimator.events.clear()
         estimator.set_in_air(self.commander.status.in_air)
         est = estimator.estimate()
+        commander = self.commander
+        self._pos_ned_m = est.pos_ned_m
+        home = commander.home
+        self._height_m = float(home.pos_ned_m[2] - est.pos_ned_m[2]) if home is not None else float("nan")
+        commander.landing_target = self.landing_target.update(now, est)
+        for reason in self.landing_target.pop_events():
+            commander.say(S.MAV_SEVERITY_WARNING, reason)
         checks = tuple(estimator.prearm_failures()) if estimator.use_ekf and not self.commander.status.armed else ()
         sp = self.commander.update(now, est, gps, estimator.gps_ok(now), self.actuators, checks)
         if sp is None or not est.attitude_valid or not self.commander.status.armed:
@@ -148,6 +162,10 @@ class FlightController:
         self.setpoint = sp
         self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt).thrust_ned_n
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
+
+    def on_landing_target(self, msg, src_sysid: int) -> None:
+        """A LANDING_TARGET received from the simulator link or a ground/companion link (any sender)."""
+        self.landing_target.on_message(msg, src_sysid, self.last_us or 0)
 
     def _publish(self, commands: np.ndarray, thrust_n: float) -> None:
         """Keep the step's outputs; the :attr:`actuators` record is built when first read, after the

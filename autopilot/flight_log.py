@@ -22,6 +22,12 @@ vel_{n,e,d}_m_s            velocity estimate (likewise)
 q_{w,x,y,z}                attitude estimate
 rate_{p,q,r}_rad_s         body rates, bias-corrected
 motor_0 ... motor_{N-1}    motor commands 0..1
+tgt_{n,e,d}_m              landing target relative to the vehicle (target minus vehicle, NED),
+                           the estimate of :mod:`autopilot.landing_target_input` (NaN: none)
+tgt_v{n,e}_m_s             the target's velocity over the ground (NaN: none)
+tgt_meas                   LANDING_TARGET measurements fused so far (a counter)
+precland_phase             the precision landing's phase (0 none, 1 preparation, 2 tracking,
+                           3 approaching, 4 docking, 5 search, 6 fallback, 7 done)
 =========================  ===================================================================
 
 The values are read after each step from the records the flight controller and the
@@ -78,13 +84,34 @@ _NO_SETPOINT = (math.nan,) * len(_SETPOINT_FIELDS)
 _NO_POS_VEL = (math.nan,) * 6
 
 
+_TARGET_FIELDS = ("tgt_n_m", "tgt_e_m", "tgt_d_m", "tgt_vn_m_s", "tgt_ve_m_s")
+_NO_TARGET = (math.nan,) * len(_TARGET_FIELDS)
+PRECLAND_PHASES = ("preparation", "tracking", "approaching", "docking", "search", "fallback", "done")
+
+
 def flight_log_fields(n_motors: int) -> list[tuple[str, str]]:
     """(name, struct code) of every column, for a vehicle with ``n_motors`` rotors."""
     return (
         [("time_us", "q"), ("armed", "B"), ("main_mode", "B"), ("sub_mode", "B")]
         + [(name, "f") for name in _SETPOINT_FIELDS + _ESTIMATE_FIELDS]
         + [(f"motor_{i}", "f") for i in range(n_motors)]
+        + [(name, "f") for name in _TARGET_FIELDS]
+        + [("tgt_meas", "I"), ("precland_phase", "B")]
     )
+
+
+def _target_columns(fc) -> list:
+    """The landing target estimate, the measurement count and the precision-landing phase code."""
+    lt = fc.landing_target
+    e = lt.estimate
+    row = list(_NO_TARGET)
+    if e is not None and e.valid:
+        row[:3] = e.rel_pos_ned_m.tolist()
+        if e.target_vel_ned_m_s is not None:
+            row[3:] = e.target_vel_ned_m_s[:2].tolist()
+    phase = getattr(fc.commander.task, "phase", None)
+    code = PRECLAND_PHASES.index(phase.value) + 1 if phase is not None and phase.value in PRECLAND_PHASES else 0
+    return row + [lt.accepted, code]
 
 
 class FlightLogWriter:
@@ -143,6 +170,7 @@ class FlightLogWriter:
         row += (q if q is not None else est.attitude.q).tolist()
         row += est.rate_frd.tolist()
         row += (actuators.motor_outputs or self._idle_motors)[: self.n_motors]
+        row += _target_columns(fc)
         self.writer.append(*row)
 
     def flush(self) -> None:

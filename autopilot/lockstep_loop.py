@@ -62,3 +62,5 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 gps = gps_from_msg(m)
             elif t == "BATTERY_STATUS":
                 fc.commander.set_battery(battery_from_msg(m))
+            elif t == "LANDING_TARGET":  # the simulated companion computer's (sitl/companion.py)
+                fc.on_landing_target(m, m.get_srcSystem())

@@ -11,11 +11,20 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot import flight_controller
+from autopilot import flight_controller, landing_target_input
 from autopilot.commander import commander, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
-from autopilot.navigation import goto, land, land_detector, loiter, rtl, takeoff
+from autopilot.navigation import (
+    goto,
+    land,
+    land_detector,
+    landing_target_estimator,
+    loiter,
+    precland,
+    rtl,
+    takeoff,
+)
 from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions
 
 # Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
@@ -34,6 +43,9 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     land_detector.PARAMS,
     commander.PARAMS,
     health.PARAMS,
+    precland.PARAMS,
+    landing_target_estimator.PARAMS,
+    landing_target_input.PARAMS,
 )
 
 

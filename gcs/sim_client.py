@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pymavlink.dialects.v20 import common as mavlink
 
 SIM_COMPONENT_ID = 51
+UGV_COMPONENT_ID = 52  # the ground vehicle's truth (SIM_UGV_EN=1), same system and socket
 
 
 class SimParamError(RuntimeError):
@@ -30,6 +31,17 @@ class TruthSample:
     time_ms: int
     pos_ned_m: tuple[float, float, float]
     vel_ned_m_s: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class UgvSample:
+    """The UGV's truth: the marker's centre on its deck (NED m from the multicopter's start),
+    velocity (NED m/s) and yaw (rad)."""
+
+    time_ms: int
+    pos_ned_m: tuple[float, float, float]
+    vel_ned_m_s: tuple[float, float, float]
+    yaw_rad: float
 
 
 class SimClient:
@@ -48,6 +60,8 @@ class SimClient:
         self.lock = threading.Lock()
         self.param_values: queue.Queue = queue.Queue()
         self.statustexts: list[str] = []
+        self.ugv: dict[int, UgvSample] = {}  # the ground vehicle's truth by simulated time, ms
+        self._ugv_yaw = 0.0
         self._types: dict[str, int] = {}
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, name="sim-client", daemon=True)
@@ -64,6 +78,9 @@ class SimClient:
             except mavlink.MAVError:
                 continue
             for msg in msgs:
+                if msg.get_srcComponent() == UGV_COMPONENT_ID:
+                    self._on_ugv(msg)
+                    continue
                 if msg.get_srcComponent() != SIM_COMPONENT_ID:
                     continue
                 self.sim_addr = addr
@@ -81,6 +98,28 @@ class SimClient:
                     self.param_values.put(msg)
                 elif kind == "STATUSTEXT":
                     self.statustexts.append(msg.text)
+
+    def _on_ugv(self, msg) -> None:
+        kind = msg.get_type()
+        if kind == "ATTITUDE":
+            self._ugv_yaw = msg.yaw
+        elif kind == "LOCAL_POSITION_NED":
+            sample = UgvSample(msg.time_boot_ms, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz), self._ugv_yaw)
+            with self.lock:
+                self.ugv[msg.time_boot_ms] = sample
+
+    def ugv_latest(self) -> UgvSample | None:
+        """The UGV's latest truth (None: no UGV in the world, or nothing received yet)."""
+        with self.lock:
+            return self.ugv[max(self.ugv)] if self.ugv else None
+
+    def ugv_at(self, time_ms: int, within_ms: int = 10) -> UgvSample | None:
+        """The UGV's truth nearest this simulated time, if one is within ``within_ms``."""
+        with self.lock:
+            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
+                if time_ms + dt in self.ugv:
+                    return self.ugv[time_ms + dt]
+        return None
 
     # -- truth -------------------------------------------------------------------------
     def at(self, time_ms: int, within_ms: int = 10) -> TruthSample | None:

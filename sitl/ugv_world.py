@@ -54,9 +54,9 @@ def ugv_truth_messages(t: UgvTruth) -> list:
     n, e, d = t.deck_pos_ned_m.tolist()
     vn, ve, vd = t.vel_ned_m_s.tolist()
     ms = t.time_us // 1000
-    return [
-        mavlink.MAVLink_local_position_ned_message(ms, n, e, d, vn, ve, vd),
+    return [  # the attitude first: a client pairs each position with the yaw before it
         mavlink.MAVLink_attitude_message(ms, 0.0, 0.0, t.yaw_rad, 0.0, 0.0, 0.0),
+        mavlink.MAVLink_local_position_ned_message(ms, n, e, d, vn, ve, vd),
     ]
 
 

@@ -26,6 +26,10 @@ REGENERATE = "python -m autopilot.param_catalogue --markdown > docs/parameters.m
 # use) for dimensionless values; "norm" for a fraction of full scale; "SD" for standard deviations.
 UNITS = {
     "",
+    "m^2",  # variances of the landing-target estimator (LTEST_*, PX4's units)
+    "(m/s)^2",
+    "(m/s^2)^2",
+    "tan(rad)^2",
     "-",
     "norm",
     "SD",

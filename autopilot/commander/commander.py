@@ -19,11 +19,12 @@ from __future__ import annotations
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.commander import health, prearm_checks
+from autopilot.commander import health, prearm_checks, precision_landing
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.control.position_control import PositionSetpoint
 from autopilot.navigation import LandTask, LoiterTask, ReturnTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
+from autopilot.navigation.precland import LandingTargetInput, PrecLandConfig, PrecLandMode, PrecLandTask
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (
     NO_ACTUATORS,
@@ -49,7 +50,7 @@ PARAMS: tuple[ParamDef, ...] = (
 )
 
 # Modes this flight controller can fly today (no RC input yet: POSCTL holds position).
-AVAILABLE = {Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_RTL, Mode.AUTO_LAND}
+AVAILABLE = {Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_RTL, Mode.AUTO_LAND, Mode.AUTO_PRECLAND}
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
@@ -76,6 +77,11 @@ class Commander(FlightCommands):
         self.setpoint: PositionSetpoint | None = None
         self.estimator_checks: tuple[str, ...] = ()  # the estimator's own pre-arm failures, latest update
         self._reset_count = 0
+        # Precision landing: the target the flight controller measured this update (None: no new
+        # measurement), NAV_LAND param 2's mode, and the feet's depth below the reference point.
+        self.landing_target: LandingTargetInput | None = None
+        self.precland_mode = PrecLandMode.REQUIRED
+        self.feet_below_m = 0.0
         self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
@@ -173,7 +179,11 @@ class Commander(FlightCommands):
             self._follow_reset(est)
         before = self.land_detector.state
         state = self.land_detector.update(
-            now_us, self.armed, est.vel_ned_m_s, float(est.pos_ned_m[2]), actuators.thrust_frac_of_hover
+            now_us,
+            self.armed,
+            precision_landing.velocity_over_ground_below(self.task, est),
+            float(est.pos_ned_m[2]),
+            actuators.thrust_frac_of_hover,
         )
         if state is not before and self.armed:
             self.say(S.MAV_SEVERITY_INFO, "Takeoff detected" if state is Landed.IN_AIR else "Landing detected")
@@ -200,6 +210,9 @@ class Commander(FlightCommands):
         if not self.in_air and self.mode is not Mode.AUTO_TAKEOFF:
             self.setpoint = None
             return None
+        if isinstance(self.task, PrecLandTask):
+            self.setpoint = precision_landing.step(self, self.task, est, now_us)
+            return self.setpoint
         self.setpoint = self.task.update(est, now_us)
         return self.setpoint
 
@@ -320,6 +333,14 @@ class Commander(FlightCommands):
             )
         elif mode is Mode.AUTO_RTL:
             self.task = started(ReturnTask(self.home.pos_ned_m, self.params), e, self.now_us)
+        elif mode is Mode.AUTO_PRECLAND:
+            if not (self.armed and self.in_air):
+                self.say(S.MAV_SEVERITY_CRITICAL, "Precision landing denied: vehicle not flying")
+                return S.MAV_RESULT_DENIED
+            ground = self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2]
+            cfg = PrecLandConfig.from_store(self.params)
+            task = PrecLandTask(ground, self.params, cfg, self.precland_mode, feet_below_m=self.feet_below_m)
+            self.task = started(task, e, self.now_us)
         if mode is not self.mode:
             self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
         self.mode = mode
@@ -331,6 +352,9 @@ class Commander(FlightCommands):
         disarmed, an available mode is accepted and acts once armed, as in PX4."""
         if mode is self.mode:
             return S.MAV_RESULT_ACCEPTED
+        if mode is Mode.AUTO_PRECLAND:  # as PX4's navigator: the mode itself requires the target
+            self.precland_mode = PrecLandMode.REQUIRED
+            return self._enter(mode)
         if self.armed or mode not in AVAILABLE:
             return self._enter(mode)  # starts the mode's task, or refuses with a reason
         self.mode = mode  # on the ground, disarmed: PX4 accepts the mode; it acts once armed

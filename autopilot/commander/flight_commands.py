@@ -22,6 +22,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.navigation import GotoTask, started
+from autopilot.navigation.precland import PrecLandMode
 from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
 
@@ -59,6 +60,7 @@ class FlightCommands:
     mode: Mode
     now_us: int
     task: FlightTask | None
+    precland_mode: PrecLandMode
     setpoint: PositionSetpoint | None
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
@@ -78,11 +80,16 @@ class FlightCommands:
         return self._takeoff(rel_alt_m)
 
     @publishes
-    def land(self) -> int:
-        """Land where the vehicle is (AUTO.LAND)."""
+    def land(self, precision: int = 0) -> int:
+        """Land where the vehicle is (AUTO.LAND), or on the landing target (AUTO.PRECLAND) with
+        ``precision`` = NAV_LAND param 2 as in PX4: 1 opportunistic (an ordinary landing when no target
+        is found), 2 required (hold and report)."""
         if not self.armed:
             self.say(S.MAV_SEVERITY_CRITICAL, "Land denied: vehicle not armed")
             return S.MAV_RESULT_DENIED
+        if precision in (1, 2):
+            self.precland_mode = PrecLandMode(precision)
+            return self._enter(Mode.AUTO_PRECLAND)
         return self._enter(Mode.AUTO_LAND)
 
     @publishes

@@ -159,6 +159,8 @@ class GcsLink:
             "PARAM_REQUEST_READ": self._for_us(self._params.on_request_read),
             "PARAM_SET": self._for_us(self._params.on_set),
             "TIMESYNC": self._on_timesync,
+            # a companion computer's landing target (vision): the vehicle checks the sender's system id
+            "LANDING_TARGET": lambda ep, msg: self.vehicle.on_landing_target(msg, msg.get_srcSystem()),
         }
         handlers.update({name: self._for_us(h) for name, h in mission_protocol.HANDLERS.items()})
         return handlers

@@ -10,7 +10,7 @@ command table (:mod:`autopilot.mavlink.commands`) on the commander's typed metho
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -45,6 +45,9 @@ class VehicleInterface(Protocol):
 
     def pop_events(self) -> list[tuple[int, str]]:
         """STATUSTEXT events (severity, text) queued since the last call."""
+
+    def on_landing_target(self, msg: Any, src_sysid: int) -> None:
+        """A LANDING_TARGET from a companion computer (any sender: the vehicle checks the system id)."""
 
 
 def telemetry_snapshot(
@@ -103,3 +106,6 @@ class FlightControllerVehicle:
 
     def pop_events(self) -> list[tuple[int, str]]:
         return self.fc.commander.pop_events()
+
+    def on_landing_target(self, msg: Any, src_sysid: int) -> None:
+        self.fc.on_landing_target(msg, src_sysid)

@@ -55,6 +55,7 @@ PARAMS: tuple[ParamDef, ...] = (
 TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as seen
 APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
 DOCK_DONE_M = 0.02  # docking point reached: this close (m, vertically) to the deck
+DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 
 
 class PrecLandPhase(Enum):
@@ -83,6 +84,7 @@ class LandingTargetInput:
     rel_pos_ned_m: np.ndarray
     vel_ned_m_s: np.ndarray
     valid: bool = True
+    acc_ned_m_s2: np.ndarray | None = None  # the target's acceleration over the ground (a turning UGV)
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,8 +122,10 @@ class PrecLandTask:
         config: PrecLandConfig | None = None,
         mode: PrecLandMode = PrecLandMode.OPPORTUNISTIC,
         yaw_rad: float | None = None,
+        feet_below_m: float = 0.0,
     ) -> None:
         self.ground_down_m = ground_down_m
+        self.feet_below_m = feet_below_m  # the vehicle's feet below its reference point: docked when they touch
         self.params = params
         self.cfg = config or PrecLandConfig()
         self.mode = mode
@@ -135,6 +139,7 @@ class PrecLandTask:
         self._seen_us: int | None = None  # time of the latest fresh, valid target
         self._tgt_pos: np.ndarray | None = None  # target's latest absolute position, m NED
         self._tgt_vel = np.zeros(3)
+        self._tgt_acc = np.zeros(3)  # fed forward while tracking, approaching and docking
         self._fallback: LandTask | None = None
         self._last_us: int | None = None  # time of the previous update
         self._used_us: int | None = None  # timestamp of the latest measurement taken
@@ -167,6 +172,11 @@ class PrecLandTask:
     def failed(self) -> bool:
         return self._failed
 
+    @property
+    def target_velocity_ned_m_s(self) -> np.ndarray:
+        """The target's latest velocity over the ground (m/s NED; zero before it is seen)."""
+        return self._tgt_vel.copy()
+
     def shift(self, delta_ned_m: np.ndarray) -> None:
         """Move the held point, the target and the ground with an estimator reset."""
         self._hold = self._hold + delta_ned_m
@@ -193,6 +203,8 @@ class PrecLandTask:
                 # The measurement is as old as its timestamp: move it on to now at the target's velocity.
                 self._tgt_pos = est.pos_ned_m + rel + vel * ((now_us - t.timestamp_us) * 1e-6)
                 self._tgt_vel = vel
+                acc = t.acc_ned_m_s2
+                self._tgt_acc = np.asarray(acc, float) if acc is not None and np.all(np.isfinite(acc)) else np.zeros(3)
                 self._used_us = t.timestamp_us
                 self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
             else:
@@ -206,18 +218,24 @@ class PrecLandTask:
     def _lost_s(self, now_us: int) -> float:
         return math.inf if self._seen_us is None else (now_us - self._seen_us) * 1e-6
 
+    def _feet_above_target(self, est: VehicleEstimate) -> float:
+        assert self._tgt_pos is not None
+        return float(self._tgt_pos[2] - est.pos_ned_m[2]) - self.feet_below_m
+
     def _above_target(self, height_m: float) -> np.ndarray:
         assert self._tgt_pos is not None
         return self._tgt_pos - np.array([0.0, 0.0, height_m])
 
     def _start_tracking(self, est: VehicleEstimate, now_us: int, why: str) -> None:
         offset = est.pos_ned_m - self._above_target(self.cfg.trk_alt_m)
-        td = duration_s(float(np.linalg.norm(offset[:2])), self.cfg.trk_spd_m_s)
+        # [F eq. 3.1]'s td is the horizontal error over the mean speed; a larger height change
+        # sets it instead, so the descent to the tracking height is as gentle as the approach.
+        td = duration_s(max(float(np.linalg.norm(offset[:2])), abs(float(offset[2]))), self.cfg.trk_spd_m_s)
         self._spline = CubicSpline(offset, np.zeros(3), td)
         self._enter(PrecLandPhase.TRACKING, now_us, f"{why}; td {td:.1f} s")
 
     def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
-        h = float(self._tgt_pos[2] - est.pos_ned_m[2]) if self._tgt_pos is not None else self.cfg.trk_alt_m
+        h = self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m
         td = duration_s(h, self.cfg.trk_spd_m_s)
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
         self._enter(PrecLandPhase.DOCKING, now_us, f"horizontal error below {self.cfg.appr_rad_m:.2f} m")
@@ -252,7 +270,7 @@ class PrecLandTask:
                 self._lose(est, now_us)
             return
         if ph in (PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
-            height_above_target = float(self._tgt_pos[2] - est.pos_ned_m[2]) if self._tgt_pos is not None else math.inf
+            height_above_target = self._feet_above_target(est) if self._tgt_pos is not None else math.inf
             final = ph is PrecLandPhase.DOCKING and height_above_target < cfg.fappr_alt_m
             if self._lost_s(now_us) > cfg.btout_s and not final:
                 self._lose(est, now_us)
@@ -273,7 +291,9 @@ class PrecLandTask:
             if err > cfg.hacc_rad_m and visible:
                 self._enter(PrecLandPhase.APPROACHING, now_us, f"horizontal error above {cfg.hacc_rad_m:.2f} m")
                 self._close_since_us = None
-            elif self._tgt_pos is not None and float(self._tgt_pos[2] - est.pos_ned_m[2]) <= DOCK_DONE_M:
+            elif self._tgt_pos is not None and (
+                self._feet_above_target(est) <= DOCK_DONE_M or in_phase_s >= self._spline.td_s + DOCK_SETTLE_S
+            ):
                 self.motors_cut = True
                 self._enter(PrecLandPhase.DONE, now_us, "docking point reached, motors off")
 
@@ -286,14 +306,15 @@ class PrecLandTask:
             return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
         base = self._above_target(self.cfg.trk_alt_m)
         vel = self._tgt_vel.copy()
+        acc = self._tgt_acc.copy()
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc)
+            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(base, vel, self.yaw_rad)
-        deck = self._above_target(0.0)
+            return PositionSetpoint(base, vel, self.yaw_rad, acc)
+        deck = self._above_target(self.feet_below_m)  # the reference point with the feet on the deck
         if ph is PrecLandPhase.DOCKING:
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
-            return PositionSetpoint(pos, vel + np.array([0.0, 0.0, float(p.vel[0])]), self.yaw_rad)
+            return PositionSetpoint(pos, vel + np.array([0.0, 0.0, float(p.vel[0])]), self.yaw_rad, acc)
         return PositionSetpoint(deck, vel, self.yaw_rad)  # DONE: the deck (motors are off)

@@ -1,0 +1,44 @@
+"""The commander's side of AUTO.PRECLAND: run the task, report its phases, cut the motors when docked.
+
+The task (:class:`autopilot.navigation.precland.PrecLandTask`) flies the phases; here its phase
+changes become STATUSTEXTs ("Precland: tracking (...)"), a required landing that found no
+target is reported once, and the docking point disarms the vehicle, as [F 3] cuts the motors
+there.  Frames: NED, m/s.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from pymavlink.dialects.v20 import common as S
+
+from autopilot.navigation.precland import PrecLandPhase, PrecLandTask
+from autopilot.topics import VehicleEstimate
+
+if TYPE_CHECKING:
+    from autopilot.commander.commander import Commander
+    from autopilot.control.position_control import PositionSetpoint
+
+
+def step(commander: Commander, task: PrecLandTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
+    """One update of the precision landing; the setpoint, or None once the motors are cut."""
+    failed_before = task.failed
+    setpoint = task.update(est, now_us, commander.landing_target)
+    for _t, text in task.events:
+        commander.say(S.MAV_SEVERITY_INFO, text)
+    task.events.clear()
+    if task.failed and not failed_before:
+        commander.say(S.MAV_SEVERITY_CRITICAL, "Precision landing failed: no landing target, holding position")
+    if task.done:
+        commander._disarm("docked on the landing target")
+        return None
+    return setpoint
+
+
+def velocity_over_ground_below(task: object, est: VehicleEstimate) -> np.ndarray:
+    """The velocity the land detector judges: over the ground, or over the deck while a precision
+    landing docks (landed means at rest relative to the ground below)."""
+    if isinstance(task, PrecLandTask) and task.phase in (PrecLandPhase.DOCKING, PrecLandPhase.DONE):
+        return est.vel_ned_m_s - task.target_velocity_ned_m_s
+    return est.vel_ned_m_s

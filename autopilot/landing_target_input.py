@@ -1,0 +1,176 @@
+"""LANDING_TARGET messages -> the landing-target estimate the precision landing flies on.
+
+Pure (no sockets, no clock): the process loop hands each received LANDING_TARGET to
+:meth:`LandingTargetInput.on_message` with its sender's system id; the flight controller
+calls :meth:`record_state` every control step and :meth:`update` in its 50 Hz outer loop.
+
+- Only our own system's messages count (a companion computer is a component of the vehicle);
+  others are counted in ``ignored_other_system`` and change nothing.
+- Each message is decoded by :func:`autopilot.mavlink.landing_target.decode_landing_target`
+  (PX4's LOCAL_NED form, ArduPilot's BODY_FRD form, the angular form) with the attitude and
+  position the vehicle had **at the message's ``time_usec``** (the capture time; in lockstep the
+  simulator's clock is ours), looked up in a one-second history of control steps.  A
+  ``time_usec`` of 0, in the future or older than the history is taken as the receipt time.
+- A refusal (NaN, an unknown frame, ...) is reported once per distinct reason as a STATUSTEXT
+  (``events``), never once per message.
+- The measurement, as old as its capture time, is moved on to now with the estimated relative
+  velocity, then fused by the Kalman filter (:mod:`autopilot.navigation.landing_target_estimator`,
+  ``LTEST_*``), or, with ``PLD_PREDICTOR`` = 1, the target's track feeds the document's 4th-order
+  polynomial predictor (:mod:`autopilot.navigation.target_predictor`, [F 3]).
+
+Frames: NED metres and m/s relative to the estimator origin; attitude (w, x, y, z) FRD -> NED.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from autopilot.mavlink.landing_target import LandingTargetRefusal, decode_landing_target
+from autopilot.navigation.landing_target_estimator import LandingTargetEstimator, LandingTargetSettings
+from autopilot.navigation.precland import LandingTargetInput as TargetForTask
+from autopilot.navigation.target_predictor import PolynomialTargetPredictor
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
+from autopilot.topics import LandingTargetEstimate, LandingTargetMeasurement, VehicleEstimate
+
+PARAMS: tuple[ParamDef, ...] = (
+    param(
+        "PLD_PREDICTOR",
+        0,
+        0,
+        1,
+        "",
+        "Landing target predictor: 0 Kalman filter (LTEST_*), 1 4th-order polynomial of the track [F 3] (ours)",
+        ParamType.INT32,
+    ),
+)
+
+HISTORY_US = 1_000_000  # attitude/position history kept for delayed measurements
+ACC_TAU_S = 0.3  # low-pass time constant of the target's acceleration (differenced velocity estimate)
+
+
+class LandingTargetInput:
+    """See the module docstring."""
+
+    def __init__(self, params: ParameterStore, own_sysid: int = 1) -> None:
+        self.params = params
+        self.own_sysid = own_sysid
+        self.estimator = LandingTargetEstimator(LandingTargetSettings.from_params(params.get))
+        self.predictor = PolynomialTargetPredictor()
+        self._t: deque[int] = deque()
+        self._state: deque[tuple[np.ndarray, np.ndarray, float]] = deque()  # q, position, height above ground
+        self._pending: list[LandingTargetMeasurement] = []
+        self.events: list[str] = []
+        self._said: set[str] = set()
+        self.received = 0
+        self.accepted = 0
+        self.ignored_other_system = 0
+        self.estimate: LandingTargetEstimate | None = None
+        self.target_acc_ned_m_s2 = np.zeros(3)  # the target's acceleration over the ground, low-passed
+        self._prev_vel: tuple[int, np.ndarray] | None = None
+
+    # ---- inputs ------------------------------------------------------------------------------
+    def record_state(self, time_us: int, q_wxyz: np.ndarray, pos_ned_m: np.ndarray, height_m: float) -> None:
+        """The vehicle's attitude, position and height above ground at one control step."""
+        if self._t and time_us <= self._t[-1]:
+            if time_us < self._t[-1]:  # time went back (a new simulator): forget the history
+                self._t.clear()
+                self._state.clear()
+            else:
+                return
+        self._t.append(time_us)
+        self._state.append((q_wxyz, pos_ned_m, height_m))
+        while self._t and self._t[0] < time_us - HISTORY_US:
+            self._t.popleft()
+            self._state.popleft()
+
+    def on_message(self, msg: Any, src_sysid: int, now_us: int) -> None:
+        """One received LANDING_TARGET (a pymavlink message or anything with its fields)."""
+        self.received += 1
+        if src_sysid != self.own_sysid:
+            self.ignored_other_system += 1
+            return
+        if not self._t:
+            return  # no attitude yet
+        stamp = int(getattr(msg, "time_usec", 0) or 0)
+        if not (self._t[0] <= stamp <= now_us):
+            stamp = now_us
+        q, pos, height = self._state_at(stamp)
+        result = decode_landing_target(msg, q, height, pos, timestamp_us=stamp)
+        if isinstance(result, LandingTargetRefusal):
+            self._say_once(result.reason)
+            return
+        self._pending.append(result)
+
+    def _state_at(self, time_us: int) -> tuple[np.ndarray, np.ndarray, float]:
+        i = bisect.bisect_left(self._t, time_us)
+        i = min(i, len(self._t) - 1)
+        if i > 0 and abs(self._t[i - 1] - time_us) < abs(self._t[i] - time_us):
+            i -= 1
+        return self._state[i]
+
+    def _say_once(self, reason: str) -> None:
+        if reason not in self._said:
+            self._said.add(reason)
+            self.events.append(reason)
+
+    # ---- the 50 Hz update --------------------------------------------------------------------
+    def update(self, now_us: int, est: VehicleEstimate) -> TargetForTask | None:
+        """Fuse what arrived since the last call; the target as the precision landing reads it (None: unknown)."""
+        self.estimator.set_settings(LandingTargetSettings.from_params(self.params.get))
+        self.estimator.predict(now_us, est.accel_ned_m_s2)
+        fresh = False
+        for meas in self._pending:
+            rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
+            self.predictor.add_sample(meas.timestamp_us, rel + self._state_at(meas.timestamp_us)[1])
+            # As old as its capture: the target where it was then (from the vehicle's position then),
+            # moved on at its estimated velocity over the ground, seen from where the vehicle is now.
+            prior = self.estimator.estimate(now_us, est.vel_ned_m_s)
+            age_s = max(0.0, (now_us - meas.timestamp_us) * 1e-6)
+            target_then = rel + self._state_at(meas.timestamp_us)[1]
+            drift = prior.target_vel_ned_m_s * age_s if prior.valid and prior.target_vel_ned_m_s is not None else 0.0
+            moved = target_then + drift - est.pos_ned_m
+            now_meas = LandingTargetMeasurement(now_us, moved, meas.std_m, meas.source_frame, meas.valid, meas.angular)
+            if self.estimator.update(now_meas):
+                self.accepted += 1
+                fresh = True
+        self._pending.clear()
+        e = self.estimator.estimate(now_us, est.vel_ned_m_s)
+        if int(self.params.get("PLD_PREDICTOR")) == 1:
+            poly = self.predictor.predict(now_us, 0.0, est.pos_ned_m, est.vel_ned_m_s)
+            e = poly if poly.valid else e  # the fit needs 100 samples first; the filter until then
+        self.estimate = e
+        self._track_acceleration(now_us, e)
+        if not fresh or not e.valid or e.target_vel_ned_m_s is None:
+            return None  # no new measurement: the task predicts the target on by itself
+        # Stamped now: the estimate is already moved on to now (the task must not move it again).
+        return TargetForTask(now_us, e.rel_pos_ned_m, e.target_vel_ned_m_s, True, self.target_acc_ned_m_s2.copy())
+
+    def _track_acceleration(self, now_us: int, e: LandingTargetEstimate) -> None:
+        """The target's acceleration: its velocity estimate differenced and low-passed (ACC_TAU_S)."""
+        if not e.valid or e.target_vel_ned_m_s is None:
+            self._prev_vel, self.target_acc_ned_m_s2 = None, np.zeros(3)
+            return
+        vel = np.asarray(e.target_vel_ned_m_s, dtype=float)
+        if self._prev_vel is not None:
+            dt = (now_us - self._prev_vel[0]) * 1e-6
+            if dt > 0.0:
+                raw = (vel - self._prev_vel[1]) / dt
+                k = dt / (ACC_TAU_S + dt)
+                self.target_acc_ned_m_s2 = self.target_acc_ned_m_s2 + k * (raw - self.target_acc_ned_m_s2)
+        self._prev_vel = (now_us, vel)
+
+    def pop_events(self) -> list[str]:
+        out, self.events = self.events, []
+        return out
+
+
+def height_above_ground(est: VehicleEstimate, ground_down_m: float | None) -> float:
+    """Height of the vehicle above the ground (m) from the estimate and the ground's down coordinate."""
+    if ground_down_m is None:
+        return math.nan
+    return ground_down_m - float(est.pos_ned_m[2])
