@@ -6,6 +6,7 @@ Examples::
     gcs arm && gcs takeoff 5   # arm, climb to 5 m above home
     gcs mode HOLD              # any PX4 mode name: POSCTL, AUTO.LOITER, RTL ...
     gcs land                   # land here and wait for the automatic disarm
+    gcs land --precision       # land on the landing target (AUTO.PRECLAND; 'required': no fallback)
     gcs --instance 2 rtl       # the vehicle of instance 2 (UDP 14552)
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
@@ -99,7 +100,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--arm", action="store_true", help="arm first if disarmed")
 
-    sub.add_parser("land", help="land where the vehicle is and wait until landed and disarmed")
+    p = sub.add_parser("land", help="land where the vehicle is and wait until landed and disarmed")
+    p.add_argument(
+        "--precision",
+        nargs="?",
+        const="opportunistic",
+        choices=("opportunistic", "required"),
+        default=None,
+        help="precision landing on the landing target (AUTO.PRECLAND, NAV_LAND param 2): 'opportunistic' "
+        "(the default) lands normally if no target is found, 'required' holds and reports",
+    )
     sub.add_parser("rtl", help="return to launch and wait until landed and disarmed")
 
     p = sub.add_parser("mode", help="switch flight mode and wait until the heartbeat shows it")
@@ -223,8 +233,9 @@ class _Cli:
 
     def land(self) -> int:
         c = self.client
-        c.land().check()
-        print("landing", flush=True)
+        precision = {None: 0, "opportunistic": 1, "required": 2}[self.args.precision]
+        c.land(precision=precision).check()
+        print("precision landing" if precision else "landing", flush=True)
         return self._wait_landed_disarmed(self.effect_timeout("land"))
 
     def rtl(self) -> int:

@@ -192,9 +192,9 @@ class VehicleClient(Connection):
         """NAV_TAKEOFF to an altitude AMSL, m (:meth:`Action.takeoff`)."""
         return self.action.takeoff(alt_amsl_m, timeout_s)
 
-    def land(self, timeout_s: float | None = None) -> CommandResult:
-        """NAV_LAND here (:meth:`Action.land`)."""
-        return self.action.land(timeout_s)
+    def land(self, timeout_s: float | None = None, precision: int = 0) -> CommandResult:
+        """NAV_LAND here; ``precision`` 1 opportunistic, 2 required (:meth:`Action.land`)."""
+        return self.action.land(timeout_s, precision)
 
     def return_to_launch(self, timeout_s: float | None = None) -> CommandResult:
         """NAV_RETURN_TO_LAUNCH (:meth:`Action.return_to_launch`)."""

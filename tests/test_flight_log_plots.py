@@ -77,6 +77,9 @@ def _synthetic_flight(tmp_path: Path, stem: str = "2026-01-02_03-04-05") -> tupl
             0.52,
             0.48,
             0.5,
+            *[math.nan] * 5,  # no landing target
+            0,
+            0,
         )
     w.close()
     w = NpyLogWriter(truth_path, truth_log_fields(4), chunk_rows=500)

@@ -166,10 +166,11 @@ class Action:
         nan = math.nan
         return self.command_long(mavlink.MAV_CMD_NAV_TAKEOFF, nan, 0, 0, nan, nan, nan, alt_amsl_m, timeout_s=timeout_s)
 
-    def land(self, timeout_s: float | None = None) -> CommandResult:
-        """NAV_LAND where the vehicle is (yaw, lat, lon, alt NaN = keep current)."""
+    def land(self, timeout_s: float | None = None, precision: int = 0) -> CommandResult:
+        """NAV_LAND where the vehicle is (yaw, lat, lon, alt NaN = keep current); ``precision`` is
+        param 2 as in PX4: 0 ordinary, 1 precision landing if the target is found, 2 precision required."""
         nan = math.nan
-        return self.command_long(mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, nan, nan, nan, nan, timeout_s=timeout_s)
+        return self.command_long(mavlink.MAV_CMD_NAV_LAND, 0, precision, 0, nan, nan, nan, nan, timeout_s=timeout_s)
 
     def return_to_launch(self, timeout_s: float | None = None) -> CommandResult:
         """NAV_RETURN_TO_LAUNCH."""

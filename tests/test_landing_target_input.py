@@ -1,0 +1,90 @@
+"""LANDING_TARGET in the flight controller (autopilot/landing_target_input.py): what counts, what is
+refused (once per reason), and the attitude at capture."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.landing_target_input import LandingTargetInput
+from autopilot.param_catalogue import default_store
+from autopilot.topics import VehicleEstimate
+from mavsim_core import quaternion
+
+
+def _estimate(t_us: int, pos=(0.0, 0.0, -3.0)) -> VehicleEstimate:
+    return VehicleEstimate(
+        timestamp_us=t_us,
+        q_wxyz=np.array([1.0, 0.0, 0.0, 0.0]),
+        rate_frd_rad_s=np.zeros(3),
+        accel_ned_m_s2=np.zeros(3),
+        pos_ned_m=np.array(pos),
+        vel_ned_m_s=np.zeros(3),
+        attitude_valid=True,
+        position_valid=True,
+        origin_lat_deg=47.0,
+        origin_lon_deg=8.0,
+        origin_alt_amsl_m=400.0,
+    )
+
+
+def _body_msg(x: float, y: float, z: float, t_us: int, frame: int = mavlink.MAV_FRAME_BODY_FRD):
+    return mavlink.MAVLink_landing_target_message(
+        t_us, 0, frame, 0.0, 0.0, math.hypot(x, y, z), 0.1, 0.1, x, y, z, [1, 0, 0, 0], 4, 1
+    )
+
+
+def _with_history(lt: LandingTargetInput, q=(1.0, 0.0, 0.0, 0.0), until_us: int = 500_000) -> None:
+    for t in range(0, until_us + 1, 4000):
+        lt.record_state(t, np.array(q), np.array([0.0, 0.0, -3.0]), 3.0)
+
+
+def test_body_form_is_rotated_with_the_attitude_at_capture_not_at_receipt():
+    lt = LandingTargetInput(default_store())
+    yaw90 = quaternion.from_euler(0.0, 0.0, math.pi / 2)
+    for t in range(0, 500_001, 4000):  # yaw 0 until 0.3 s, then 90 deg
+        lt.record_state(t, np.array([1.0, 0, 0, 0]) if t < 300_000 else yaw90, np.array([0.0, 0.0, -3.0]), 3.0)
+    lt.on_message(_body_msg(1.0, 0.0, 2.7, 250_000), 1, 500_000)  # captured at yaw 0: 1 m ahead = north
+    target = lt.update(500_000, _estimate(500_000))
+    assert target is not None
+    assert target.rel_pos_ned_m[0] == pytest.approx(1.0, abs=0.05) and abs(target.rel_pos_ned_m[1]) < 0.05
+
+
+@pytest.mark.parametrize(
+    "msg, reason",
+    [
+        (_body_msg(math.nan, 0.0, 2.0, 100_000), "not finite"),
+        (_body_msg(0.1, 0.0, 2.0, 100_000, frame=mavlink.MAV_FRAME_GLOBAL_INT), "unsupported"),
+    ],
+)
+def test_bad_landing_target_changes_nothing_and_is_reported_once(msg, reason):
+    lt = LandingTargetInput(default_store())
+    _with_history(lt)
+    for _ in range(5):
+        lt.on_message(msg, 1, 400_000)
+    assert lt.update(400_000, _estimate(400_000)) is None and not lt.estimate.valid
+    events = lt.pop_events()
+    assert len(events) == 1 and reason in events[0]
+    lt.on_message(msg, 1, 420_000)
+    assert lt.pop_events() == []  # the same reason is not repeated
+
+
+def test_landing_target_from_another_system_is_ignored():
+    lt = LandingTargetInput(default_store())
+    _with_history(lt)
+    lt.on_message(_body_msg(0.2, 0.1, 2.0, 400_000), 42, 400_000)
+    assert lt.update(400_000, _estimate(400_000)) is None
+    assert lt.ignored_other_system == 1 and lt.accepted == 0 and lt.pop_events() == []
+
+
+def test_a_measurement_is_moved_on_to_now_from_where_the_vehicle_was_at_capture():
+    """Captured 0.1 s ago from 0.1 m further south: the target is 0.1 m less north of the vehicle now."""
+    lt = LandingTargetInput(default_store())
+    for t in range(0, 500_001, 4000):
+        lt.record_state(t, np.array([1.0, 0, 0, 0]), np.array([-0.1 if t <= 400_000 else 0.0, 0.0, -3.0]), 3.0)
+    lt.on_message(_body_msg(0.5, 0.0, 2.7, 400_000), 1, 500_000)
+    target = lt.update(500_000, _estimate(500_000))
+    assert target is not None and target.rel_pos_ned_m[0] == pytest.approx(0.4, abs=0.02)
