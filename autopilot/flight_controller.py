@@ -79,6 +79,8 @@ class FlightController:
         # LANDING_TARGET from a companion computer -> the landing target estimate (precision landing)
         self.landing_target = LandingTargetInput(params)
         self._pos_ned_m = np.zeros(3)  # the latest outer-loop position estimate (for the target's history)
+        self._vel_ned_m_s = np.zeros(3)
+        self._pos_us = 0
         self._height_m = float("nan")
 
     def _reset_controllers(self) -> None:
@@ -95,7 +97,11 @@ class FlightController:
         self.estimator.update_imu(imu)
         if gps is not None:
             self.estimator.update_gps(gps)
-        self.landing_target.record_state(now, self.estimator.q, self._pos_ned_m, self._height_m)
+        # The outer loop's position, carried on at its velocity to this step (the target's history needs
+        # where the vehicle was at each capture: 20 ms of staleness is 2 cm at 1 m/s).
+        since_s = (now - self._pos_us) * 1e-6
+        pos = self._pos_ned_m + self._vel_ned_m_s * since_s if 0.0 < since_s < 0.1 else self._pos_ned_m
+        self.landing_target.record_state(now, self.estimator.q, pos, self._height_m)
         rate = self.gyro_filter.apply(self.estimator.rate_frd)  # every sample, so its state stays current
         self._gps_pending = gps or self._gps_pending
         if self.last_outer_us is None:
@@ -148,7 +154,7 @@ class FlightController:
         estimator.set_in_air(self.commander.status.in_air)
         est = estimator.estimate()
         commander = self.commander
-        self._pos_ned_m = est.pos_ned_m
+        self._pos_ned_m, self._vel_ned_m_s, self._pos_us = est.pos_ned_m, est.vel_ned_m_s, now
         home = commander.home
         self._height_m = float(home.pos_ned_m[2] - est.pos_ned_m[2]) if home is not None else float("nan")
         commander.landing_target = self.landing_target.update(now, est)

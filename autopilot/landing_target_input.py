@@ -145,6 +145,9 @@ class LandingTargetInput:
             e = poly if poly.valid else e  # the fit needs 100 samples first; the filter until then
         self.estimate = e
         self._track_acceleration(now_us, e)
+        if e is not None and e.valid and int(self.params.get("PLD_PREDICTOR")) == 1 and e.is_static is False:
+            if e.rel_pos_var_m2 is not None and len(self.predictor._t_us) >= self.predictor.min_samples:
+                self.target_acc_ned_m_s2 = self.predictor.last_acc_ned_m_s2.copy()
         if not fresh or not e.valid or e.target_vel_ned_m_s is None:
             return None  # no new measurement: the task predicts the target on by itself
         # Stamped now: the estimate is already moved on to now (the task must not move it again).

@@ -54,6 +54,8 @@ PARAMS: tuple[ParamDef, ...] = (
 
 TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as seen
 APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
+APPROACH_SLIP_M_S = 0.1  # ... and the vehicle moves with the target to within this (m/s) before docking
+APPROACH_PATIENCE_S = 5.0  # approaching longer than this: within PLD_HACC_RAD (and twice the slip) will do
 DOCK_DONE_M = 0.02  # docking point reached: this close (m, vertically) to the deck
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 
@@ -238,7 +240,8 @@ class PrecLandTask:
         h = self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m
         td = duration_s(h, self.cfg.trk_spd_m_s)
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
-        self._enter(PrecLandPhase.DOCKING, now_us, f"horizontal error below {self.cfg.appr_rad_m:.2f} m")
+        err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+        self._enter(PrecLandPhase.DOCKING, now_us, f"{err:.2f} m from the target, moving with it")
 
     def _lose(self, est: VehicleEstimate, now_us: int) -> None:
         """The target is gone for longer than PLD_BTOUT (or never came): search or fall back."""
@@ -280,7 +283,13 @@ class PrecLandTask:
             self._close_since_us: int | None = None
         elif ph is PrecLandPhase.APPROACHING:
             err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
-            if err >= cfg.appr_rad_m or not visible:
+            slip = float(np.linalg.norm(est.vel_ned_m_s[:2] - self._tgt_vel[:2]))  # speed over the deck
+            # [F 3]: within PLD_APPR_RAD; a deck that turns may keep the error above that for good,
+            # so after APPROACH_PATIENCE_S PX4's acceptance radius PLD_HACC_RAD will do.
+            patient = in_phase_s >= APPROACH_PATIENCE_S
+            close = err < cfg.appr_rad_m and slip < APPROACH_SLIP_M_S
+            close_enough = patient and err < cfg.hacc_rad_m and slip < 2 * APPROACH_SLIP_M_S
+            if not (close or close_enough) or not visible:
                 self._close_since_us = None
             elif self._close_since_us is None:
                 self._close_since_us = now_us

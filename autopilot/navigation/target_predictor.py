@@ -30,6 +30,7 @@ class PolynomialTargetPredictor:
         self.min_samples = min_samples
         self._t_us: deque[int] = deque(maxlen=window)
         self._pos: deque[np.ndarray] = deque(maxlen=window)
+        self.last_acc_ned_m_s2 = np.zeros(3)  # acceleration of the latest prediction (m/s^2, NED)
 
     def add_sample(self, timestamp_us: int, target_pos_ned_m: np.ndarray) -> None:
         p = np.asarray(target_pos_ned_m, dtype=float)
@@ -58,6 +59,7 @@ class PolynomialTargetPredictor:
         fits = [Polynomial.fit(t, pos_hist[:, i], DEGREE) for i in range(3)]
         target_pos = np.array([f(t_pred) for f in fits])
         target_vel = np.array([f.deriv()(t_pred) for f in fits])
+        self.last_acc_ned_m_s2 = np.array([f.deriv(2)(t_pred) for f in fits])  # the fit's own acceleration
         resid_var = np.array([np.mean((f(t) - pos_hist[:, i]) ** 2) for i, f in enumerate(fits[:2])])
         v_vel = np.zeros(3) if vehicle_vel_ned_m_s is None else np.asarray(vehicle_vel_ned_m_s, dtype=float)
         rel_pos = target_pos - np.asarray(vehicle_pos_ned_m, dtype=float)
