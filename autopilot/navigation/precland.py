@@ -241,7 +241,7 @@ class PrecLandTask:
         td = duration_s(h, self.cfg.trk_spd_m_s)
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
         err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
-        self._enter(PrecLandPhase.DOCKING, now_us, f"{err:.2f} m from the target, moving with it")
+        self._enter(PrecLandPhase.DOCKING, now_us, f"{err:.2f} m off, moving with it")
 
     def _lose(self, est: VehicleEstimate, now_us: int) -> None:
         """The target is gone for longer than PLD_BTOUT (or never came): search or fall back."""
