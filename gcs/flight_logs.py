@@ -73,6 +73,7 @@ class FlightData:
     truth: Series | None = None
     motors: Series | None = None  # motor_0 ... (0..1)
     modes: list[tuple[float, str]] = field(default_factory=list)  # (time, mode name) at each change
+    landing: Series | None = None  # precision landing: tgt_n_m, tgt_e_m (target - vehicle), phase (code)
     source: str = ""
     truth_source: str = ""
 
@@ -129,7 +130,17 @@ def load_fc_log(path: Path) -> FlightData:
         motors=Series(t, {n: f(n) for n in motors}) if motors else None,
         modes=_mode_changes(t, (encode_custom_mode(m, s) for m, s in zip(a["main_mode"], a["sub_mode"]))),
         source="flight controller log (250 Hz)",
+        landing=_landing_series(a, t),
     )
+
+
+def _landing_series(a: np.ndarray, t: np.ndarray) -> Series | None:
+    """The precision landing's columns (autopilot/flight_log.py), if the flight had one."""
+    names = a.dtype.names or ()
+    if "precland_phase" not in names or not np.any(a["precland_phase"] > 0):
+        return None
+    cols = {k: a[k].astype(float) for k in ("tgt_n_m", "tgt_e_m", "precland_phase")}
+    return Series(t, cols)
 
 
 def load_truth_log(path: Path) -> Series:
@@ -143,17 +154,17 @@ def load_truth_log(path: Path) -> Series:
         raise FlightLogError(f"{path}: the truth log holds no rows")
     f = lambda name: a[name].astype(float)  # noqa: E731
     alt = -f("pos_d_m")
-    return Series(
-        a["time_us"] / 1e6,
-        dict(
-            alt_m=alt - alt[0],
-            n_m=f("pos_n_m"),
-            e_m=f("pos_e_m"),
-            roll_deg=np.degrees(f("roll_rad")),
-            pitch_deg=np.degrees(f("pitch_rad")),
-            yaw_deg=np.degrees(f("yaw_rad")),
-        ),
+    cols = dict(
+        alt_m=alt - alt[0],
+        n_m=f("pos_n_m"),
+        e_m=f("pos_e_m"),
+        roll_deg=np.degrees(f("roll_rad")),
+        pitch_deg=np.degrees(f("pitch_rad")),
+        yaw_deg=np.degrees(f("yaw_rad")),
     )
+    if "ugv_n_m" in (a.dtype.names or ()):  # the ground vehicle's deck (sitl/truth_log.py)
+        cols.update(ugv_n_m=f("ugv_n_m"), ugv_e_m=f("ugv_e_m"), armed=f("armed"))
+    return Series(a["time_us"] / 1e6, cols)
 
 
 # --------------------------------------------------------------------------- tlogs

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .flight_logs import FlightData, FlightLogError, load, log_stem, resolve_log
+from .plot_landing import fig_landing, has_landing
 
 FIGURES = ("overview", "altitude", "attitude", "position", "errors", "motors")
 MAX_GAP_S = 1.0  # samples further apart than this are not joined by a line
@@ -260,11 +261,13 @@ _BUILDERS = {
     "position": _fig_position,
     "errors": _fig_errors,
     "motors": _fig_motors,
+    "landing": fig_landing,  # only for a flight with a precision landing on the UGV
 }
 
 
 def write_figures(data: FlightData, out_dir: Path, dpi: int = 100) -> list[Path]:
-    """Write every figure of :data:`FIGURES` as ``out_dir/<name>.png``; return the paths."""
+    """Write every figure of :data:`FIGURES` (and ``landing`` after a precision landing on the UGV) as
+    ``out_dir/<name>.png``; return the paths."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -272,7 +275,8 @@ def write_figures(data: FlightData, out_dir: Path, dpi: int = 100) -> list[Path]
 
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name in FIGURES:
+    names = FIGURES + (("landing",) if has_landing(data) else ())
+    for name in names:
         fig = _BUILDERS[name](plt, data)
         try:
             fig.tight_layout()
