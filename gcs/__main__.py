@@ -7,6 +7,7 @@ Examples::
     gcs mode HOLD              # any PX4 mode name: POSCTL, AUTO.LOITER, RTL ...
     gcs land                   # land here and wait for the automatic disarm
     gcs land --precision       # land on the landing target (AUTO.PRECLAND; 'required': no fallback)
+    gcs ugv drive              # drive the simulated ground vehicle from the keyboard (MANUAL_CONTROL)
     gcs --instance 2 rtl       # the vehicle of instance 2 (UDP 14552)
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
@@ -28,7 +29,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core import px4_modes as modes
 
-from . import param_cli
+from . import param_cli, ugv_cli
 from .client import VehicleClient
 from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
 from .plugins.telemetry import GPS_FIX_NAMES
@@ -68,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--instance",
+        "-i",
         type=int,
         default=0,
         metavar="N",
@@ -122,6 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     param_cli.add_param_parser(sub)
+    ugv_cli.add_ugv_parser(sub)
     # -- gcs plot (gcs/plot.py): figures from a flight log, no vehicle needed
     from . import plot
 
@@ -303,6 +306,8 @@ def main(argv: list[str] | None = None) -> int:
         from . import plot
 
         return plot.run(args)
+    if args.command == "ugv":  # the simulator's own port, not the vehicle's
+        return ugv_cli.run_ugv_command(args)
     if args.command == "mode":
         try:
             modes.lookup_mode(args.name)

@@ -87,6 +87,7 @@ class LockstepServer:
         self.params = SimParameters(
             sim.wind_settings, sim.sensors.settings, sim.motor_settings, sim.ugv_settings, sim.camera_settings
         )
+        self._said_no_ugv = False
         self.companion = None  # sitl.companion.LockstepCompanion: camera + vision, when the world has the UGV
         self.params.started = True  # start-only parameters (SIM_UGV_EN) are refused from now on
         self.events = EventSchedule(events)
@@ -96,6 +97,7 @@ class LockstepServer:
             self.param_server = SimParamServer(
                 self.params, bind=truth_bind, default_peer=truth_addr, on_param_set=_log_param_set
             )
+            self.param_server.on_manual_control = self._on_manual_control
         self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         try:
             self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -287,6 +289,18 @@ class LockstepServer:
         ugv = self.sim.ugv_truth()
         if ugv is not None:  # the ground vehicle, as its own component (UGV_COMPID)
             server.send(server.encode(ugv_truth_messages(ugv), compid=UGV_COMPID))
+
+    def _on_manual_control(self, msg) -> None:
+        """MANUAL_CONTROL to the simulator's component: the UGV's joystick ([F 2.2]); x forward, r yaw."""
+        ugv = self.sim.ugv
+        if ugv is None:
+            if not self._said_no_ugv:
+                self._said_no_ugv = True
+                self.param_server.send_statustext(
+                    mavlink.MAV_SEVERITY_WARNING, "MANUAL_CONTROL ignored: no UGV (start with SIM_UGV_EN=1)"
+                )
+            return
+        ugv.manual(float(msg.x), float(msg.r), self.sim.time_us * 1e-6)
 
     def _wait_actuators(self) -> bool:
         """Block until HIL_ACTUATOR_CONTROLS arrives; False if the link closed."""

@@ -110,7 +110,10 @@ class SimParamServer:
             "COMMAND_LONG": self._on_command_long,
             "COMMAND_INT": self._on_command_int,
             "FILE_TRANSFER_PROTOCOL": self._on_file_transfer_protocol,
+            "MANUAL_CONTROL": self._on_manual_control,
         }
+        # MANUAL_CONTROL addressed to this system drives the ground vehicle (set by the process loop).
+        self.on_manual_control: Callable[[mavlink.MAVLink_message], None] | None = None
 
     # ------------------------------------------------------------------ public API
 
@@ -188,6 +191,10 @@ class SimParamServer:
             except Exception:
                 self.rx_errors += 1
 
+    def _on_manual_control(self, msg) -> None:
+        if msg.target in (0, self.sysid) and self.on_manual_control is not None:
+            self.on_manual_control(msg)
+
     def _for_us(self, msg) -> bool:
         """Addressed to our system (or broadcast) and our component (or all)."""
         return msg.target_system in (0, self.sysid) and msg.target_component in (0, self.compid)
@@ -236,9 +243,9 @@ class SimParamServer:
             self.params_set += 1
             if value != before and self.on_param_set is not None:
                 self.on_param_set(name, value, self._addr)
-        self.send_message(self._param_value(p))  # the value in force, new or old
-        if refused is not None:
+        if refused is not None:  # the reason first: a client reacting to the PARAM_VALUE has it
             self.send_statustext(mavlink.MAV_SEVERITY_ERROR, refused)
+        self.send_message(self._param_value(p))  # the value in force, new or old
 
     # -- commands
 

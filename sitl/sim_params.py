@@ -159,7 +159,7 @@ class SimParameters:
         if not math.isfinite(v):
             raise SimParamError(name, f"value must be finite, not {v}")
         if self.started and p.start_only and v != getattr(p.owner, p.attr):
-            raise SimParamError(name, "read only at start: restart the simulator to change it")
+            raise SimParamError(name, "set at start only: restart to change")
         if p.type == ParamType.INT32 and v != math.floor(v):
             raise SimParamError(name, f"{v:g} is not an integer (INT32 parameter)")
         if not p.min <= v <= p.max:

@@ -41,12 +41,9 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_setpoint_streams": {"link": 170},
     "test_sitl_cli": {"sitl": 171},
     "test_gcs_cli": {"nobody": 172, "demo": 173},
-    "test_mavlink_commands": {"link": 174},
-    "test_e2e_precland": {
-        "static": 175,
-        "moving": 176,
-        "loss": 177,
-    },  # "nobody": a ground-station port nothing sends to
+    "test_mavlink_commands": {"link": 174},  # "nobody": a ground-station port nothing sends to
+    "test_e2e_precland": {"static": 175, "moving": 176, "loss": 177},
+    "test_e2e_ugv": {"stack": 178},
     # GcsLink on real UDP sockets (no stack running); a file may reuse its own numbers in turn
     "test_gcs_link_telemetry": {f"link{k}": 120 + k for k in range(6)},
     "test_gcs_link_params": {f"link{k}": 126 + k for k in range(4)},
