@@ -118,12 +118,12 @@ def summarise(rows: list[dict]) -> str:
         rs = [r for r in rows if r["cell"] == label]
         ok = [r for r in rs if r["success"]]
         err = np.array([r["touchdown_error_m"] for r in rs if math.isfinite(r["touchdown_error_m"])])
-        t = np.array([r["time_to_land_s"] for r in ok]) if ok else np.array([math.nan])
+        t_land = float(np.mean([r["time_to_land_s"] for r in ok])) if ok else math.nan
         rtf = np.array([r["real_time_factor"] for r in rs if math.isfinite(r["real_time_factor"])])
         e = (err.mean(), np.percentile(err, 95), err.max()) if len(err) else (math.nan,) * 3
         lines.append(
             f"{label:<34} {len(rs):>4} {len(ok):>3}/{len(rs):<4} {e[0]:>8.3f}m {e[1]:>7.3f}m {e[2]:>7.3f}m "
-            f"{np.nanmean(t):>6.1f}s {np.mean(rtf) if len(rtf) else math.nan:>5.1f}"
+            f"{t_land:>6.1f}s {np.mean(rtf) if len(rtf) else math.nan:>5.1f}"
         )
     return "\n".join(lines)
 

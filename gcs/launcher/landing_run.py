@@ -170,10 +170,14 @@ def fly_landing(
     t_land = client.sim_time_s() or 0.0
     client.command_long(mavlink.MAV_CMD_NAV_LAND, 0, setup.mode, 0, math.nan, math.nan, math.nan, math.nan).check()
     say("precision landing")
+    gave_up = lambda: any("Precision landing failed" in p for p in result.phases)  # noqa: E731
     try:
-        _wait(lambda: not client.armed(), client, timeout_s, "the motors cut on the deck")
+        _wait(lambda: not client.armed() or gave_up(), client, timeout_s, "the motors cut on the deck")
     except GcsTimeout:
         result.reason = "no touchdown in time"
+        return _finish(result, client, sim0, wall0)
+    if gave_up():
+        result.reason = "target lost: " + " | ".join(result.phases[-2:])
         return _finish(result, client, sim0, wall0)
     t_touch = client.sim_time_s() or 0.0
     result.time_to_land_s = t_touch - t_land
@@ -208,5 +212,5 @@ def _score(truth: SimClient, geom: UgvGeometry) -> tuple[float, float, bool] | N
 
 
 def _phase_listener(msg, result: LandingResult) -> None:
-    if msg.get_type() == "STATUSTEXT" and msg.text.lower().startswith("precland"):
+    if msg.get_type() == "STATUSTEXT" and msg.text.lower().startswith(("precland", "precision landing")):
         result.phases.append(msg.text)
