@@ -327,11 +327,11 @@ def test_mavproxy_param_set_and_show(client):
         session.send("param set MPC_XY_P 1.3")
         wait_for(lambda: client.param_get("MPC_XY_P") == pytest.approx(1.3), what="MAVProxy's set")
         session.send("param show MPC_XY_P")
-        assert float(session.expect(r"^(?:\S+> )*MPC_XY_P\s+(\S+)").group(1)) == pytest.approx(1.3)
+        assert float(session.expect(r"^(?:\S+> )*MPC_XY_P\s+([-+0-9.eE]+)").group(1)) == pytest.approx(1.3)
         session.send("param set SYS_AUTOSTART 4006")
         wait_for(lambda: client.param_get("SYS_AUTOSTART") == 4006, what="MAVProxy's set")
         session.send("param show SYS_AUTOSTART")
-        assert session.expect(r"^(?:\S+> )*SYS_AUTOSTART\s+(\S+)").group(1) == "4006"  # byte-wise integer
+        assert session.expect(r"^(?:\S+> )*SYS_AUTOSTART\s+([-+0-9.eE]+)").group(1) == "4006"  # byte-wise integer
         session.send("param set MPC_XY_P 7")  # refused: the vehicle's reason is shown
         session.expect(r"MPC_XY_P: 7 outside range \[0, 2\]")
         assert client.param_get("MPC_XY_P") == pytest.approx(1.3)

@@ -56,8 +56,11 @@ TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as s
 APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
 APPROACH_SLIP_M_S = 0.1  # ... and the vehicle moves with the target to within this (m/s) before docking
 APPROACH_PATIENCE_S = 5.0  # approaching longer than this: within PLD_HACC_RAD (and twice the slip) will do
-DOCK_DONE_M = 0.02  # docking point reached: this close (m, vertically) to the deck
+DOCK_HOVER_M = 0.03  # the docking point: the feet this high (m) above the deck
+DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
+DOCK_WAIT_S = 2.0  # at the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long
+STILL_TARGET_M_S = 0.2  # ... over a deck slower than this; over a moving deck at once
 
 
 class PrecLandPhase(Enum):
@@ -237,7 +240,7 @@ class PrecLandTask:
         self._enter(PrecLandPhase.TRACKING, now_us, f"{why}; td {td:.1f} s")
 
     def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
-        h = self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m
+        h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - DOCK_HOVER_M
         td = duration_s(h, self.cfg.trk_spd_m_s)
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
         err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
@@ -300,11 +303,15 @@ class PrecLandTask:
             if err > cfg.hacc_rad_m and visible:
                 self._enter(PrecLandPhase.APPROACHING, now_us, f"horizontal error above {cfg.hacc_rad_m:.2f} m")
                 self._close_since_us = None
-            elif self._tgt_pos is not None and (
-                self._feet_above_target(est) <= DOCK_DONE_M or in_phase_s >= self._spline.td_s + DOCK_SETTLE_S
-            ):
-                self.motors_cut = True
-                self._enter(PrecLandPhase.DONE, now_us, "docking point reached, motors off")
+            elif self._tgt_pos is not None:
+                settled_s = in_phase_s - self._spline.td_s - DOCK_SETTLE_S
+                there = self._feet_above_target(est) <= DOCK_HOVER_M + DOCK_DONE_M or settled_s >= 0.0
+                # Over a still deck, wait there for the error to shrink (a gust); a moving deck is
+                # tracked blind (the camera is too close to see the marker whole): cut at once.
+                still = float(np.linalg.norm(self._tgt_vel[:2])) < STILL_TARGET_M_S
+                if there and (not still or err <= 2.0 * cfg.appr_rad_m or settled_s >= DOCK_WAIT_S):
+                    self.motors_cut = True
+                    self._enter(PrecLandPhase.DONE, now_us, f"docking point reached {err:.2f} m off, motors off")
 
     def _setpoint(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
         ph, zero = self.phase, np.zeros(3)
@@ -321,7 +328,7 @@ class PrecLandTask:
             return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc)
         if ph is PrecLandPhase.APPROACHING:
             return PositionSetpoint(base, vel, self.yaw_rad, acc)
-        deck = self._above_target(self.feet_below_m)  # the reference point with the feet on the deck
+        deck = self._above_target(self.feet_below_m + DOCK_HOVER_M)  # the reference point at the docking point
         if ph is PrecLandPhase.DOCKING:
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
