@@ -28,6 +28,7 @@ import csv
 import math
 import os
 import queue
+import re
 import sys
 import threading
 import time
@@ -78,25 +79,52 @@ def randomised_setup(cell: Cell, run: int) -> LandingSetup:
     )
 
 
-def run_one(setup: LandingSetup, instance: int, log_dir: Path | None) -> LandingResult:
+CAMERA_LINE = re.compile(
+    r"camera: (\d+) frames, (\d+) with the marker .*farthest ([\d.]+) m\).*error against the truth "
+    r"([\d.]+) cm mean, ([\d.]+) cm max"
+)
+
+
+def camera_figures(sitl_log: str) -> dict[str, float]:
+    """The simulator's camera line (sitl/companion.py): detections per second of flight, the farthest
+    detection, and the detections' position error against the truth."""
+    m = CAMERA_LINE.search(sitl_log)
+    if m is None:
+        return {"detections_per_s": math.nan, "farthest_m": math.nan, "pose_err_mean_cm": math.nan}
+    frames, found = int(m.group(1)), int(m.group(2))
+    return {
+        "detections_per_s": found / (frames / 20.0) if frames else math.nan,  # 20 Hz camera
+        "farthest_m": float(m.group(3)),
+        "pose_err_mean_cm": float(m.group(4)),
+        "pose_err_max_cm": float(m.group(5)),
+    }
+
+
+def run_one(
+    setup: LandingSetup, instance: int, log_dir: Path | None, fc_params: Path | None
+) -> tuple[LandingResult, dict]:
     """One landing on its own stack; an infrastructure failure is a failed landing with its reason."""
+    stack = Stack(
+        instance=instance,
+        speed="max",
+        vehicle=setup.vehicle,
+        seed=setup.seed,
+        extra_sitl_args=setup.sim_args(),
+        extra_autopilot_args=["--params", str(fc_params)] if fc_params else [],
+        log_dir=log_dir,
+        flight_logs=log_dir is not None,
+    )
     try:
-        with (
-            Stack(
-                instance=instance,
-                speed="max",
-                vehicle=setup.vehicle,
-                seed=setup.seed,
-                extra_sitl_args=setup.sim_args(),
-                log_dir=log_dir,
-                flight_logs=log_dir is not None,
-            ) as stack,
-            SimClient(14560 + instance) as truth,
-            VehicleClient(stack.api_url, timeout_s=120, idle=stack.check_alive) as client,
-        ):
-            return fly_landing(client, truth, setup, timeout_s=240)
+        with stack, SimClient(14560 + instance) as truth:
+            with VehicleClient(stack.api_url, timeout_s=120, idle=stack.check_alive) as client:
+                result = fly_landing(client, truth, setup, timeout_s=240)
     except Exception as exc:  # noqa: BLE001 - recorded as the run's failure, the campaign goes on
-        return LandingResult(reason=f"{type(exc).__name__}: {exc}"[:200])
+        result = LandingResult(reason=f"{type(exc).__name__}: {exc}"[:200])
+    try:
+        camera = camera_figures(stack.log_path("sitl").read_text())
+    except Exception:  # noqa: BLE001 - no log (the stack did not start)
+        camera = camera_figures("")
+    return result, camera
 
 
 def cells_from(args: argparse.Namespace) -> list[Cell]:
@@ -112,7 +140,7 @@ def cells_from(args: argparse.Namespace) -> list[Cell]:
 def summarise(rows: list[dict]) -> str:
     lines = [
         f"{'cell':<34} {'runs':>4} {'success':>8} {'err mean':>9} {'err p95':>8} {'err max':>8} "
-        f"{'t land':>7} {'RTF':>5}"
+        f"{'t land':>7} {'RTF':>5} {'det/s':>6} {'range':>6} {'pose err':>8}"
     ]
     for label in dict.fromkeys(r["cell"] for r in rows):
         rs = [r for r in rows if r["cell"] == label]
@@ -123,9 +151,21 @@ def summarise(rows: list[dict]) -> str:
         e = (err.mean(), np.percentile(err, 95), err.max()) if len(err) else (math.nan,) * 3
         lines.append(
             f"{label:<34} {len(rs):>4} {len(ok):>3}/{len(rs):<4} {e[0]:>8.3f}m {e[1]:>7.3f}m {e[2]:>7.3f}m "
-            f"{t_land:>6.1f}s {np.mean(rtf) if len(rtf) else math.nan:>5.1f}"
+            f"{t_land:>6.1f}s {np.mean(rtf) if len(rtf) else math.nan:>5.1f} "
+            f"{_mean(rs, 'detections_per_s'):>6.1f} {_max(rs, 'farthest_m'):>5.2f}m "
+            f"{_mean(rs, 'pose_err_mean_cm'):>6.1f}cm"
         )
     return "\n".join(lines)
+
+
+def _mean(rows: list[dict], key: str) -> float:
+    v = [r[key] for r in rows if math.isfinite(r[key])]
+    return float(np.mean(v)) if v else math.nan
+
+
+def _max(rows: list[dict], key: str) -> float:
+    v = [r[key] for r in rows if math.isfinite(r[key])]
+    return float(np.max(v)) if v else math.nan
 
 
 def plot(rows: list[dict], path: Path) -> None:
@@ -165,6 +205,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--base-instance", type=int, default=BASE_INSTANCE)
     ap.add_argument("--out", type=Path, default=Path("landing_benchmark"), help="CSV, PNG and logs go here")
     ap.add_argument("--keep-logs", action="store_true", help="keep each landing's flight logs under --out")
+    ap.add_argument(
+        "--fc-param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a flight-controller parameter for every landing (e.g. PLD_PREDICTOR=1: the polynomial predictor)",
+    )
     args = ap.parse_args(argv)
     if args.jobs > 10:
         ap.error("--jobs at most 10 (instances base..base+9 must not collide)")
@@ -172,6 +219,10 @@ def main(argv: list[str] | None = None) -> int:
     work = [(cell, k) for cell in cells_from(args) for k in range(args.runs)]
     csv_path = args.out / "landings.csv"
     csv_path.unlink(missing_ok=True)  # one campaign per file
+    fc_params = None
+    if args.fc_param:  # MAVProxy's "NAME VALUE" format, read by autopilot --params
+        fc_params = args.out / "fc.params"
+        fc_params.write_text("".join(f"{a.split('=', 1)[0]} {a.split('=', 1)[1]}\n" for a in args.fc_param))
     print(f"{len(work)} landings, {args.jobs} at a time; results in {csv_path}", flush=True)
     todo: queue.Queue = queue.Queue()
     for item in work:
@@ -188,8 +239,8 @@ def main(argv: list[str] | None = None) -> int:
                 return
             setup = randomised_setup(cell, k)
             logs = args.out / "logs" / f"{cell.label().replace(' ', '_')}_{k}" if args.keep_logs else None
-            res = run_one(setup, args.base_instance + slot, logs)
-            row = {"cell": cell.label(), "run": k, **asdict(res), "real_time_factor": res.real_time_factor}
+            res, camera = run_one(setup, args.base_instance + slot, logs, fc_params)
+            row = {"cell": cell.label(), "run": k, **asdict(res), "real_time_factor": res.real_time_factor, **camera}
             row["phases"] = " | ".join(res.phases)
             with lock:
                 rows.append(row)

@@ -37,9 +37,10 @@ from pymavlink.dialects.v20 import common as mavlink
 from params.vehicle import CameraSpec
 from sitl.camera import DownwardCamera
 from sitl.sim_settings import CameraSettings
+from sitl.ugv import UgvGeometry
 from vision.camera_model import pinhole
 from vision.detector import MarkerDetector
-from vision.landing_target import CameraMount, landing_target_message
+from vision.landing_target import CameraMount, landing_target_message, target_offset
 
 COMPANION_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER  # 191
 IN_FLIGHT = 3  # state copies: captures that may wait for their release at once (latency / period + 1)
@@ -52,13 +53,18 @@ class CompanionStats:
     render_s: float = 0.0
     detect_s: float = 0.0
     max_range_m: float = 0.0
+    waited_s: float = 0.0  # the lockstep loop waiting for the worker (wall seconds)
+    pose_err_sum_m: float = 0.0  # the detections' marker position against the truth the frame was rendered from
+    pose_err_max_m: float = 0.0
 
     def line(self) -> str:
         n = max(self.frames, 1)
         return (
             f"camera: {self.frames} frames, {self.detections} with the marker "
             f"({100.0 * self.detections / n:.0f} %, farthest {self.max_range_m:.2f} m); "
-            f"{1e3 * self.render_s / n:.1f} ms render + {1e3 * self.detect_s / n:.1f} ms detect per frame"
+            f"{1e3 * self.render_s / n:.1f} ms render + {1e3 * self.detect_s / n:.1f} ms detect per frame; "
+            f"the simulator waited {self.waited_s:.2f} s for it; marker position error against the truth "
+            f"{100 * self.pose_err_sum_m / max(self.detections, 1):.1f} cm mean, {100 * self.pose_err_max_m:.1f} cm max"
         )
 
 
@@ -101,7 +107,9 @@ class LockstepCompanion:
         out = b""
         while self._pending and self._pending[0][0] <= time_us:
             _, answer = self._pending.popleft()
+            t0 = time.perf_counter()
             result = answer.get()
+            self.stats.waited_s += time.perf_counter() - t0
             if isinstance(result, BaseException):
                 raise RuntimeError("vision companion failed") from result
             copy, packed = result
@@ -168,10 +176,22 @@ class LockstepCompanion:
         st.detections += 1
         st.max_range_m = max(st.max_range_m, det.distance_m)
         q_ned_frd = _attitude(data)
+        err = float(np.linalg.norm(target_offset(det, mount, q_ned_frd).frd_m - self._truth_frd(data)))
+        st.pose_err_sum_m += err
+        st.pose_err_max_m = max(st.pose_err_max_m, err)
         msg = landing_target_message(det, mount, q_ned_frd, time_us, frame=mavlink.MAV_FRAME_BODY_FRD)
         packed = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) % 256
         return packed
+
+    def _truth_frd(self, data: mujoco.MjData) -> np.ndarray:
+        """The marker's centre from the vehicle's centre of mass along body FRD axes, from the state copy."""
+        ugv, veh = self.model.body("ugv").id, self.model.body("vehicle").id
+        geom = UgvGeometry()
+        up = np.array([0.0, 0.0, geom.deck_top_m - geom.wheel_radius_m])
+        deck_enu = data.xpos[ugv] + data.xmat[ugv].reshape(3, 3) @ up
+        flu = data.xmat[veh].reshape(3, 3).T @ (deck_enu - data.xpos[veh])
+        return np.array([flu[0], -flu[1], -flu[2]])
 
     def _save(self, frame: np.ndarray, det, detector: MarkerDetector, time_us: int) -> None:
         import cv2
