@@ -44,6 +44,14 @@ class UgvSample:
     yaw_rad: float
 
 
+def _nearest(table: dict, time_ms: int, within_ms: int):
+    """The entry of ``table`` (keyed by simulated ms) nearest ``time_ms``, if one is within ``within_ms``."""
+    for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
+        if time_ms + dt in table:
+            return table[time_ms + dt]
+    return None
+
+
 class SimClient:
     """Ground truth and SIM_* parameters of one simulator instance."""
 
@@ -116,27 +124,18 @@ class SimClient:
     def ugv_at(self, time_ms: int, within_ms: int = 10) -> UgvSample | None:
         """The UGV's truth nearest this simulated time, if one is within ``within_ms``."""
         with self.lock:
-            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
-                if time_ms + dt in self.ugv:
-                    return self.ugv[time_ms + dt]
-        return None
+            return _nearest(self.ugv, time_ms, within_ms)
 
     # -- truth -------------------------------------------------------------------------
     def at(self, time_ms: int, within_ms: int = 10) -> TruthSample | None:
         """The truth sample nearest this simulated time, if one is within ``within_ms``."""
         with self.lock:
-            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
-                if time_ms + dt in self.positions:
-                    return self.positions[time_ms + dt]
-        return None
+            return _nearest(self.positions, time_ms, within_ms)
 
     def state_at(self, time_ms: int, within_ms: int = 10):
         """The HIL_STATE_QUATERNION nearest this simulated time (attitude quaternion FRD->NED, body rates)."""
         with self.lock:
-            for dt in sorted(range(-within_ms, within_ms + 1), key=abs):
-                if time_ms + dt in self.states:
-                    return self.states[time_ms + dt]
-        return None
+            return _nearest(self.states, time_ms, within_ms)
 
     def latest(self) -> TruthSample | None:
         with self.lock:
