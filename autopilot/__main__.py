@@ -33,7 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--state-dir",
         metavar="DIR",
-        help="save changed parameters in DIR/<vehicle>-<instance>.params and load them at start-up "
+        help="save changed parameters in DIR/<vehicle>-<instance>.params and the uploaded mission, fence and "
+        "rally plans in DIR/<vehicle>-<instance>.plan.json, and load them at start-up "
         "(default: nothing saved, every run starts from the defaults)",
     )
     # -- flight logs (autopilot/flight_recorder.py)
@@ -75,6 +76,30 @@ def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str):
     return ParamSaver(params, state_path, vehicle_name=vehicle_name, initial_save=True)
 
 
+def _keep_plans(fc, args: argparse.Namespace, vehicle_name: str) -> None:
+    """Load the plans an earlier run saved in --state-dir and save every accepted change there."""
+    from autopilot.plan_storage import load_plans, plan_file, save_plans
+
+    path = plan_file(args.state_dir, vehicle_name, args.instance)
+    try:
+        plans = load_plans(path)
+    except ValueError as exc:
+        print(f"autopilot: ignoring the saved plans: {exc}", file=sys.stderr)
+        plans = {}
+    if plans:
+        fc.commander.plans.load(plans)
+        counts = ", ".join(f"{len(v)} {k}" for k, v in zip(("mission", "fence", "rally"), plans.values()))
+        print(f"[autopilot] plans loaded from {path}: {counts} items", flush=True)
+
+    def save(items) -> None:
+        try:
+            save_plans(path, items)
+        except OSError as exc:
+            print(f"autopilot: cannot save the plans to {path}: {exc}", file=sys.stderr)
+
+    fc.commander.plans.save = save
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if not 1 <= args.sysid <= 255:
@@ -97,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     if saver is False:
         return 2
     fc = FlightController(spec, params)
+    if args.state_dir:
+        _keep_plans(fc, args, spec.name)
     try:
         link = GcsLink(
             FlightControllerVehicle(fc),

@@ -16,11 +16,13 @@ from autopilot.commander import commander, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.navigation import (
+    geofence,
     goto,
     land,
     land_detector,
     landing_target_estimator,
     loiter,
+    mission,
     precland,
     rtl,
     takeoff,
@@ -40,6 +42,8 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     goto.PARAMS,
     land.PARAMS,
     rtl.PARAMS,
+    mission.PARAMS,
+    geofence.PARAMS,
     land_detector.PARAMS,
     commander.PARAMS,
     health.PARAMS,

@@ -148,6 +148,33 @@ class ActuatorStatus:
 NO_ACTUATORS = ActuatorStatus(0, (), 0.0, 0.0, 0.0)
 
 
+class MissionState(IntEnum):
+    """MISSION_CURRENT.mission_state (MAVLink MISSION_STATE)."""
+
+    UNKNOWN = 0
+    NO_MISSION = 1
+    NOT_STARTED = 2
+    ACTIVE = 3
+    PAUSED = 4
+    COMPLETE = 5
+
+
+@dataclass(frozen=True, slots=True)
+class MissionStatus:
+    """The stored plans and the mission's progress (MISSION_CURRENT), and the geofence (SYS_STATUS)."""
+
+    seq: int = 0  # the current mission item (== total once complete)
+    total: int = 0  # mission items stored
+    state: MissionState = MissionState.NO_MISSION
+    in_mission_mode: bool = False
+    fence_items: int = 0
+    rally_items: int = 0
+    fence_breached: bool = False  # a breach (or a predicted one) was reported and not yet cleared
+
+
+NO_MISSION_STATUS = MissionStatus()
+
+
 @dataclass(frozen=True, slots=True)
 class CommanderStatus:
     """What the commander decided (PX4's vehicle_status, vehicle_land_detected and home_position).
@@ -173,6 +200,7 @@ class CommanderStatus:
     battery_warning: BatteryWarning
     prearm_failures: tuple[str, ...]  # why arming would be refused now (empty while armed)
     position_setpoint_ned_m: np.ndarray | None  # the active flight task's, None when not flying one
+    mission: MissionStatus = NO_MISSION_STATUS
 
 
 @dataclass(frozen=True, slots=True)
@@ -219,6 +247,7 @@ class TelemetrySnapshot:
     control: ControlSetpoints | None = None  # None while the controllers are not flying
     estimator_status: EstimatorStatus | None = None
     battery_warning: BatteryWarning = BatteryWarning.NONE
+    mission: MissionStatus = NO_MISSION_STATUS
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,7 +18,9 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
+from autopilot.commander.mission_control import Plans  # noqa: E402
 from autopilot.mavlink.link import GcsLink  # noqa: E402
+from autopilot.param_catalogue import default_store  # noqa: E402
 from autopilot.parameters import ParamDef, ParameterStore, ParamType  # noqa: E402
 from autopilot.topics import (  # noqa: E402
     BatteryState,
@@ -28,6 +30,7 @@ from autopilot.topics import (  # noqa: E402
     TelemetrySnapshot,
     VehicleEstimate,
 )
+from mavsim_core.mission_items import MissionItem  # noqa: E402
 
 ORIGIN = (47.397742, 8.545594, 488.0)  # the estimate's origin (lat deg, lon deg, alt m AMSL), also home
 CUSTOM_MODE_POSCTL = 3 << 16
@@ -98,6 +101,8 @@ class StubVehicle:
         self.results: dict[int, int] = {}  # command -> MAV_RESULT; unknown ones UNSUPPORTED
         self.events: list[tuple[int, str]] = []
         self.snapshot_calls = 0
+        # The real plan store of the commander (pure: no flight), so the mission protocol is tested whole.
+        self.plans = Plans(default_store())
 
     def snapshot(self) -> TelemetrySnapshot:
         self.snapshot_calls += 1
@@ -114,6 +119,25 @@ class StubVehicle:
     def pop_events(self) -> list[tuple[int, str]]:
         events, self.events = self.events, []
         return events
+
+    def on_landing_target(self, msg, src_sysid: int) -> None:
+        pass
+
+    def plan(self, mission_type: int) -> list[MissionItem]:
+        return self.plans.plan(mission_type)
+
+    def check_item(self, item: MissionItem) -> tuple[int, str]:
+        return self.plans.check_item(item, self.snap.home)
+
+    def replace_plan(self, mission_type: int, items: list[MissionItem]) -> tuple[int, str]:
+        return self.plans.replace(mission_type, items, mission_active=False)
+
+    def set_mission_current(self, seq: int) -> tuple[bool, str]:
+        return self.plans.set_current(seq)
+
+    def pop_mission_reached(self) -> list[int]:
+        out, self.plans.reached = self.plans.reached, []
+        return out
 
 
 class Harness:

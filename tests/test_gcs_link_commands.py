@@ -85,7 +85,7 @@ def test_set_mode_message_acked_with_id_11(make_harness):
     assert [(a.command, a.result) for a in of_type(got, "COMMAND_ACK")] == [(11, mavlink.MAV_RESULT_ACCEPTED)]
 
 
-def test_timesync_and_empty_mission(make_harness):
+def test_timesync_and_empty_plans(make_harness):
     h = make_harness(LINK[3])
     c = h.connect("gcs")
     c.mav.timesync_send(0, 123456789)
@@ -97,10 +97,10 @@ def test_timesync_and_empty_mission(make_harness):
     assert ts.ts1 == 123456789 and 0 < ts.tc1 <= h.t_us * 1000
     (count,) = of_type(got, "MISSION_COUNT")
     assert (count.count, count.mission_type, count.target_system) == (0, mavlink.MAV_MISSION_TYPE_FENCE, GCS_SYS)
-    assert [a.type for a in of_type(got, "MISSION_ACK")] == [
-        mavlink.MAV_MISSION_ACCEPTED,
-        mavlink.MAV_MISSION_UNSUPPORTED,
-    ]
+    assert [a.type for a in of_type(got, "MISSION_ACK")] == [mavlink.MAV_MISSION_ACCEPTED]
+    # the upload of 3 items has begun: the vehicle asks for the first one
+    (request,) = of_type(got, "MISSION_REQUEST_INT")
+    assert (request.seq, request.mission_type, request.target_system) == (0, mavlink.MAV_MISSION_TYPE_MISSION, GCS_SYS)
 
 
 # --------------------------------------------------------------------------- robustness and endpoints

@@ -206,15 +206,17 @@ def test_request_message_and_capabilities(make_harness):
     versions = of_type(got, "AUTOPILOT_VERSION")
     assert len(versions) == 1
     v = versions[0]
-    for cap in (
-        mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2,
-        mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE,
-        mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
-        mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT,
-        mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED,
-        mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT,
-    ):
-        assert v.capabilities & cap
+    # Exactly what is implemented: no offboard (SET_POSITION_TARGET_*, SET_ATTITUDE_TARGET), no FTP, ...
+    assert v.capabilities == (
+        mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+        | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+        | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
+        | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+        | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+        | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+        | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+        | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+    )
     assert v.flight_sw_version != 0 and v.uid != 0
     assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE)] == [mavlink.MAV_RESULT_ACCEPTED]
 

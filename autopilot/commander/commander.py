@@ -19,11 +19,13 @@ from __future__ import annotations
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.commander import health, prearm_checks, precision_landing
+from autopilot.commander import health, mission_control, prearm_checks, precision_landing
 from autopilot.commander.flight_commands import FlightCommands, publishes
+from autopilot.commander.mission_control import Plans
 from autopilot.control.position_control import PositionSetpoint
 from autopilot.navigation import LandTask, LoiterTask, ReturnTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
+from autopilot.navigation.mission import MissionTask
 from autopilot.navigation.precland import LandingTargetInput, PrecLandConfig, PrecLandMode, PrecLandTask
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (
@@ -50,7 +52,11 @@ PARAMS: tuple[ParamDef, ...] = (
 )
 
 # Modes this flight controller can fly today (no RC input yet: POSCTL holds position).
-AVAILABLE = {Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_RTL, Mode.AUTO_LAND, Mode.AUTO_PRECLAND}
+AVAILABLE = {
+    Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_MISSION, Mode.AUTO_RTL, Mode.AUTO_LAND,
+    Mode.AUTO_PRECLAND,
+}  # fmt: skip
+CLIMBS_FROM_GROUND = (Mode.AUTO_TAKEOFF, Mode.AUTO_MISSION)  # modes that take off by themselves
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
@@ -82,6 +88,7 @@ class Commander(FlightCommands):
         self.landing_target: LandingTargetInput | None = None
         self.precland_mode = PrecLandMode.REQUIRED
         self.feet_below_m = 0.0
+        self.plans = Plans(params)  # mission, fence, rally (mission_control)
         self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
@@ -111,6 +118,7 @@ class Commander(FlightCommands):
             battery_warning=health.battery_warning(self.battery.remaining_frac, self.params),
             prearm_failures=() if armed else tuple(self.prearm_failures()),
             position_setpoint_ned_m=None if self.setpoint is None else self.setpoint.pos_ned_m,
+            mission=self.plans.status(self.mode),
         )
 
     def _publish(self) -> None:
@@ -133,7 +141,7 @@ class Commander(FlightCommands):
             self.estimator_checks,
             p.get("COM_ARM_TILT_MAX"),
             p.get("BAT_LOW_THR"),
-        )
+        ) + mission_control.fence_prearm_failures(self)
 
     @property
     def in_air(self) -> bool:
@@ -187,10 +195,16 @@ class Commander(FlightCommands):
         )
         if state is not before and self.armed:
             self.say(S.MAV_SEVERITY_INFO, "Takeoff detected" if state is Landed.IN_AIR else "Landing detected")
-            if state is Landed.ON_GROUND and self.mode in (Mode.AUTO_LAND, Mode.AUTO_RTL):
+            if state is Landed.ON_GROUND and self.mode in (Mode.AUTO_LAND, Mode.AUTO_RTL, Mode.AUTO_MISSION):
+                if self.mode is Mode.AUTO_MISSION:
+                    mission_control.on_landed(self)
                 self.task = None
         if self.armed:
-            self._auto_disarm(now_us)
+            reason = health.auto_disarm_reason(
+                self.land_detector, self.armed_at_us, now_us, self.mode in CLIMBS_FROM_GROUND, self.params
+            )
+            if reason:
+                self._disarm(reason)
         if self.armed and self.in_air and not est.position_valid and self.mode is not Mode.AUTO_LAND:
             self.say(S.MAV_SEVERITY_CRITICAL, "Position estimate lost: landing")
             self._enter(Mode.AUTO_LAND)
@@ -207,9 +221,14 @@ class Commander(FlightCommands):
         if not self.armed or self.task is None:
             self.setpoint = None
             return None
-        if not self.in_air and self.mode is not Mode.AUTO_TAKEOFF:
+        if not self.in_air and self.mode not in CLIMBS_FROM_GROUND:
             self.setpoint = None
             return None
+        if self.in_air:
+            mission_control.check_geofence(self, est, now_us)
+        if isinstance(self.task, MissionTask):
+            self.setpoint = mission_control.step(self, self.task, est, now_us)
+            return self.setpoint
         if isinstance(self.task, PrecLandTask):
             self.setpoint = precision_landing.step(self, self.task, est, now_us)
             return self.setpoint
@@ -227,27 +246,16 @@ class Commander(FlightCommands):
             h = self.home
             self.home = HomePosition(h.lat_deg, h.lon_deg, h.alt_amsl_m, h.pos_ned_m + delta, h.yaw_rad)
 
-    def _auto_disarm(self, now_us: int) -> None:
-        p = self.params
-        if self.land_detector.state is Landed.ON_GROUND:
-            since = self.land_detector.landed_since_us
-            limit = p.get("COM_DISARM_LAND")
-            if since is not None and since > self.armed_at_us and limit >= 0 and now_us - since >= limit * 1e6:
-                self._disarm("landed")
-            elif (
-                since is not None
-                and since <= self.armed_at_us
-                and p.get("COM_DISARM_PRFLT") >= 0
-                and self.mode is not Mode.AUTO_TAKEOFF
-                and now_us - self.armed_at_us >= p.get("COM_DISARM_PRFLT") * 1e6
-            ):
-                self._disarm("no takeoff")
-
     def _set_home(self, est: VehicleEstimate) -> None:
-        lat, lon, alt = ned_to_geodetic(est.pos_ned_m, est.origin_lat_deg, est.origin_lon_deg, est.origin_alt_amsl_m)
-        first = self.home is None
-        self.home = HomePosition(lat, lon, alt, est.pos_ned_m.copy(), est.yaw_rad)
-        if first:
+        self._set_home_at(est.pos_ned_m, quiet=self.home is not None)
+
+    def _set_home_at(self, pos_ned_m: np.ndarray, quiet: bool = False) -> None:
+        """Home at ``pos_ned_m`` (m NED; DO_SET_HOME, arming, the first position)."""
+        est = self.est
+        assert est is not None
+        lat, lon, alt = ned_to_geodetic(pos_ned_m, est.origin_lat_deg, est.origin_lon_deg, est.origin_alt_amsl_m)
+        self.home = HomePosition(lat, lon, alt, pos_ned_m.astype(float).copy(), est.yaw_rad)
+        if not quiet:
             self.say(S.MAV_SEVERITY_INFO, f"Home set: {lat:.7f}, {lon:.7f}, {alt:.1f} m")
 
     # -- arming -----------------------------------------------------------------------
@@ -268,9 +276,11 @@ class Commander(FlightCommands):
         self.land_detector.on_arm(float(self.est.pos_ned_m[2]))
         self.land_detector.landed_since_us = self.now_us
         self.task = None
-        if self.mode not in (Mode.AUTO_TAKEOFF, Mode.POSCTL):
+        if self.mode not in (Mode.AUTO_TAKEOFF, Mode.POSCTL, Mode.AUTO_MISSION):
             self.mode = Mode.AUTO_LOITER
         self.say(S.MAV_SEVERITY_INFO, "Armed")
+        if self.mode is Mode.AUTO_MISSION and mission_control.start_mission(self) != S.MAV_RESULT_ACCEPTED:
+            self.mode = Mode.AUTO_LOITER  # armed in MISSION: the mission starts (take-off first), as in PX4
         return S.MAV_RESULT_ACCEPTED
 
     def _disarm(self, why: str) -> None:
@@ -332,7 +342,9 @@ class Commander(FlightCommands):
                 LandTask(self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params), e, self.now_us
             )
         elif mode is Mode.AUTO_RTL:
-            self.task = started(ReturnTask(self.home.pos_ned_m, self.params), e, self.now_us)
+            self.task = started(ReturnTask(mission_control.return_destination(self, e), self.params), e, self.now_us)
+        elif mode is Mode.AUTO_MISSION and (result := mission_control.start_mission(self)) != S.MAV_RESULT_ACCEPTED:
+            return result
         elif mode is Mode.AUTO_PRECLAND:
             if not (self.armed and self.in_air):
                 self.say(S.MAV_SEVERITY_CRITICAL, "Precision landing denied: vehicle not flying")
@@ -343,6 +355,7 @@ class Commander(FlightCommands):
             self.task = started(task, e, self.now_us)
         if mode is not self.mode:
             self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
+            mission_control.on_mode_change(self, self.mode, mode)
         self.mode = mode
         return S.MAV_RESULT_ACCEPTED
 
@@ -370,8 +383,10 @@ class Commander(FlightCommands):
             return LandedState.ON_GROUND
         if self.mode is Mode.AUTO_TAKEOFF:
             return LandedState.TAKEOFF
-        if self.mode is Mode.AUTO_LAND or (
-            self.mode is Mode.AUTO_RTL and getattr(self.task, "phase", None) and self.task.phase.value == "land"
+        if (
+            self.mode is Mode.AUTO_LAND
+            or getattr(self.task, "landing", False)
+            or (self.mode is Mode.AUTO_RTL and getattr(self.task, "phase", None) and self.task.phase.value == "land")
         ):
             return LandedState.LANDING
         return LandedState.IN_AIR

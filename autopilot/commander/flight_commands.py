@@ -27,6 +27,7 @@ from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
+    from autopilot.commander.mission_control import Plans
     from autopilot.control.position_control import PositionSetpoint
     from autopilot.navigation.flight_task import FlightTask
     from autopilot.parameters import ParameterStore
@@ -62,6 +63,7 @@ class FlightCommands:
     task: FlightTask | None
     precland_mode: PrecLandMode
     setpoint: PositionSetpoint | None
+    plans: Plans
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
 
@@ -91,6 +93,17 @@ class FlightCommands:
             self.precland_mode = PrecLandMode(precision)
             return self._enter(Mode.AUTO_PRECLAND)
         return self._enter(Mode.AUTO_LAND)
+
+    @publishes
+    def set_mission_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]:
+        """Make mission item ``seq`` the current one (MISSION_SET_CURRENT, DO_SET_MISSION_CURRENT); a mission
+        being flown goes there at once.  ``reset_jumps``: DO_JUMP counters start again.  (done, why not)."""
+        from autopilot.commander import mission_control
+
+        done, why = self.plans.set_current(seq, reset_jumps)
+        if done and self.mode is Mode.AUTO_MISSION and self.armed:
+            mission_control.start_mission(self)  # type: ignore[arg-type]
+        return done, why
 
     @publishes
     def return_to_launch(self) -> int:

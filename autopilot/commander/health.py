@@ -5,13 +5,15 @@ pre-arm result into the MAV_SYS_STATUS_SENSOR bits a ground station shows as gre
 red.  :func:`battery_warning` grades the remaining charge with PX4's thresholds
 (``BAT_LOW_THR``, ``BAT_CRIT_THR``, ``BAT_EMERGEN_THR``: fractions of capacity): the
 pre-arm battery check uses BAT_LOW_THR and BATTERY_STATUS reports the level as its
-charge state.  No failsafe acts on the battery yet.
+charge state.  No failsafe acts on the battery yet.  :func:`auto_disarm_reason`: when an
+armed vehicle on the ground disarms by itself (COM_DISARM_LAND, COM_DISARM_PRFLT).
 """
 
 from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as S
 
+from autopilot.navigation.land_detector import LandDetector, Landed
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import BatteryWarning, EstimatorStatus, VehicleEstimate
 
@@ -103,3 +105,20 @@ def battery_warning(remaining_frac: float, params: ParameterStore) -> BatteryWar
     if remaining_frac < params.get("BAT_LOW_THR"):
         return BatteryWarning.LOW
     return BatteryWarning.NONE
+
+
+def auto_disarm_reason(
+    detector: LandDetector, armed_at_us: int, now_us: int, climbing_mode: bool, params: ParameterStore
+) -> str | None:
+    """Why an armed vehicle on the ground disarms now, or None: COM_DISARM_LAND seconds after a landing,
+    COM_DISARM_PRFLT seconds after arming without a take-off (not in a mode that climbs by itself)."""
+    if detector.state is not Landed.ON_GROUND or detector.landed_since_us is None:
+        return None
+    since = detector.landed_since_us
+    limit = params.get("COM_DISARM_LAND")
+    if since > armed_at_us and limit >= 0 and now_us - since >= limit * 1e6:
+        return "landed"
+    preflight = params.get("COM_DISARM_PRFLT")
+    if since <= armed_at_us and preflight >= 0 and not climbing_mode and now_us - armed_at_us >= preflight * 1e6:
+        return "no takeoff"
+    return None

@@ -8,7 +8,7 @@
   vehicle's state (:class:`autopilot.topics.TelemetrySnapshot`) and time;
 * :mod:`~autopilot.mavlink.commands`: the one table from MAV_CMD to handler;
 * :mod:`~autopilot.mavlink.param_service`: the parameter protocol;
-* :mod:`~autopilot.mavlink.mission_protocol`: the mission protocol (empty mission for now);
+* :mod:`~autopilot.mavlink.mission_protocol`: the mission protocol (mission, fence, rally plans);
 * :mod:`~autopilot.mavlink.vehicle_interface`: what the link needs from the vehicle, and its
   implementation for a :class:`~autopilot.flight_controller.FlightController`;
 * :mod:`~autopilot.mavlink.sim_link`: the simulator link (PX4's simulator MAVLink API, TCP).

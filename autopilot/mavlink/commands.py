@@ -78,6 +78,7 @@ class CommanderCommands(Protocol):
     def land(self, precision: int = 0) -> int: ...
     def return_to_launch(self) -> int: ...
     def set_mode(self, mode: Mode) -> int: ...
+    def set_mission_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]: ...
     def reposition(
         self,
         lat_deg: float | None,
@@ -210,6 +211,22 @@ def _reposition(cmd: CommanderCommands, p: Params) -> int:
     return cmd.reposition(lat, lon, given(p[6]), yaw, speed)
 
 
+def _set_mission_current(cmd: CommanderCommands, p: Params) -> int:
+    """param1 the item (-1 or NaN: keep), param2 1: reset the mission (DO_JUMP counters), as PX4."""
+    status = cmd.status.mission
+    seq = int_param(p[0], -1)
+    reset = int_param(p[1]) == 1
+    if seq == -1:
+        seq = min(status.seq, max(status.total - 1, 0))
+        if status.total == 0:
+            cmd.say(mavlink.MAV_SEVERITY_CRITICAL, "Set current mission item denied: no mission")
+            return mavlink.MAV_RESULT_DENIED
+    done, why = cmd.set_mission_current(seq, reset)
+    if not done:
+        cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Set current mission item denied: {why}")
+    return mavlink.MAV_RESULT_ACCEPTED if done else mavlink.MAV_RESULT_DENIED
+
+
 def handle_set_mode(cmd: CommanderCommands, base_mode: int, custom_mode: int) -> int:
     """SET_MODE / MAV_CMD_DO_SET_MODE: PX4's custom_mode (main << 16 | sub << 24) to a mode; a MAV_RESULT."""
     if not base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
@@ -234,6 +251,7 @@ COMMANDS: dict[int, Command] = {
     mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: Command(By.VEHICLE, _return_to_launch),
     mavlink.MAV_CMD_DO_SET_MODE: Command(By.VEHICLE, _do_set_mode),
     mavlink.MAV_CMD_DO_REPOSITION: Command(By.VEHICLE, _reposition),
+    mavlink.MAV_CMD_DO_SET_MISSION_CURRENT: Command(By.VEHICLE, _set_mission_current),
 }
 
 

@@ -12,9 +12,10 @@ clients on any port.  The link has no flight logic: telemetry comes from
 :meth:`VehicleInterface.snapshot` through the pure builders of
 :mod:`autopilot.mavlink.telemetry`, commands go through the one command table
 (:mod:`autopilot.mavlink.commands`) to the link itself or to the vehicle, parameters
-are served by :mod:`autopilot.mavlink.param_service` from ``vehicle.params``, missions
-by :mod:`autopilot.mavlink.mission_protocol`.  The link itself keeps the sockets
-(:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and
+are served by :mod:`autopilot.mavlink.param_service` from ``vehicle.params``, mission, fence
+and rally plans by :mod:`autopilot.mavlink.mission_protocol` (MISSION_CURRENT goes out at once
+when the item changes, MISSION_ITEM_REACHED for each item the vehicle reports reached).  The
+link itself keeps the sockets (:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and
 requests, AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT and the traffic tap.
 
 What one :meth:`GcsLink.update` sends to a destination goes out packed into as few
@@ -32,8 +33,9 @@ from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.mavlink import commands, mission_protocol, telemetry
+from autopilot.mavlink import commands, telemetry
 from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION, DEFAULT_STREAM_RATES_HZ
 from autopilot.mavlink.vehicle_interface import VehicleInterface
@@ -139,6 +141,9 @@ class GcsLink:
         self._home_key: tuple[float, float, float] | None = None
         self._statustext = StatustextChunker()
         self._params = ParamService(vehicle.params, self.send_statustext, self._broadcast)
+        self._missions = MissionService(vehicle, self.send_statustext, sysid, compid)
+        self._missions.on_current_changed = self._mission_current_now
+        self._mission_key: tuple[int, int, int, bool] | None = None
         self._tap: Callable[[int, str, bool, bytes], None] | None = None
         self._handlers = self._message_handlers()
 
@@ -162,7 +167,7 @@ class GcsLink:
             # a companion computer's landing target (vision): the vehicle checks the sender's system id
             "LANDING_TARGET": lambda ep, msg: self.vehicle.on_landing_target(msg, msg.get_srcSystem()),
         }
-        handlers.update({name: self._for_us(h) for name, h in mission_protocol.HANDLERS.items()})
+        handlers.update({name: self._for_us(h) for name, h in self._missions.handlers().items()})
         return handlers
 
     # ------------------------------------------------------------------ public API
@@ -207,9 +212,12 @@ class GcsLink:
                     break
                 self._handle_datagram(ep, *got)
         self._params.update(self._endpoints)
+        self._missions.update()
         events = self.vehicle.pop_events()
         for severity, text in events:
             self.send_statustext(severity, text)
+        for seq in self.vehicle.pop_mission_reached():
+            self._broadcast(mavlink.MAVLink_mission_item_reached_message(seq))
         for ep in self._endpoints:
             if now_us >= ep.next_due_us:
                 self._send_due_streams(ep, now_us)
@@ -315,7 +323,27 @@ class GcsLink:
             self._snap = self.vehicle.snapshot()
             self._snap_valid = True
             self._check_home(self._snap)
+            self._check_mission(self._snap)
         return self._snap
+
+    def _check_mission(self, snap: TelemetrySnapshot) -> None:
+        """A new current item, total or state goes out at once as MISSION_CURRENT (as PX4 does)."""
+        m = snap.mission
+        key = (m.seq, m.total, int(m.state), m.in_mission_mode)
+        if key != self._mission_key:
+            self._mission_key = key
+            self._mission_current_now()
+
+    def _mission_current_now(self) -> None:
+        """MISSION_CURRENT goes out in this update (both endpoints), not at the next 1 Hz slot."""
+        self._due_now(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+
+    def _due_now(self, mid: int) -> None:
+        for ep in self._endpoints:
+            stream = ep.streams.get(mid)
+            if stream is not None and stream.interval_us > 0:
+                stream.next_due_us = min(stream.next_due_us, self._now_us)
+                ep.next_due_us = min(ep.next_due_us, self._now_us)
 
     def _check_home(self, snap: TelemetrySnapshot) -> None:
         """A new or moved home goes out at once, not at the next 0.5 Hz slot."""
@@ -324,13 +352,8 @@ class GcsLink:
         if key == self._home_key:
             return
         self._home_key = key
-        if key is None:
-            return
-        for ep in self._endpoints:
-            stream = ep.streams.get(mavlink.MAVLINK_MSG_ID_HOME_POSITION)
-            if stream is not None and stream.interval_us > 0:
-                stream.next_due_us = min(stream.next_due_us, self._now_us)
-                ep.next_due_us = min(ep.next_due_us, self._now_us)
+        if key is not None:
+            self._due_now(mavlink.MAVLINK_MSG_ID_HOME_POSITION)
 
     def _send_due_streams(self, ep: LinkEndpoint, now_us: int) -> None:
         for mid, stream in ep.streams.items():

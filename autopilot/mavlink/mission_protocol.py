@@ -1,37 +1,280 @@
-"""The MAVLink mission protocol, as far as it exists today: an empty mission.
+"""The MAVLink mission protocol (mission, geofence and rally plans) on the ground-station link.
 
-Missions are not flown yet; these answers make sure a client never waits for one:
-MISSION_REQUEST_LIST gets MISSION_COUNT 0 (any mission type), MISSION_CLEAR_ALL is
-accepted, and an upload (MISSION_COUNT) is accepted only when empty.  The link calls
-these only for messages addressed to this system and component.
+Upload: the client sends MISSION_COUNT, the vehicle asks for each item in turn with
+MISSION_REQUEST_INT (MISSION_REQUEST once a client answers with legacy MISSION_ITEMs), checks
+each item as it arrives and ends with MISSION_ACK.  The new plan replaces the old one only
+when every item has arrived and the whole plan passed its checks: a transfer that fails or
+stalls leaves the previous plan as it was.  Download: MISSION_REQUEST_LIST is answered with
+MISSION_COUNT, each MISSION_REQUEST_INT / MISSION_REQUEST with the item.  Also
+MISSION_CLEAR_ALL (MAV_MISSION_TYPE_ALL clears the three) and MISSION_SET_CURRENT (answered
+with MISSION_CURRENT, as PX4 does).
+
+One upload at a time: another client (system, component) starting one meanwhile gets
+MAV_MISSION_DENIED; the same client sending MISSION_COUNT again restarts its own.  A request
+that gets no item within :data:`RETRY_S` is sent again, up to :data:`MAX_RETRIES` times; then
+the transfer ends with MAV_MISSION_OPERATION_CANCELLED.  An item arriving after the transfer
+has completed (the client missed our ACK) is answered with the same ACK again.
+
+Time: the retries run on the wall clock (``clock``, :func:`time.monotonic` by default), not on
+the simulated time of the rest of the link, because the client on the other side waits in wall
+time.  The plans themselves are the vehicle's (:class:`PlanHolder`); this module only moves and
+checks items.  pymavlink 2.4.50's ``common`` dialect has no opaque plan ids (``opaque_id``), so
+none are sent.
 """
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.navigation.mission_checks import MAX_ITEMS
+from mavsim_core import mission_items as mi
+from mavsim_core.mission_items import MissionItem, item_from_float
+
+RETRY_S = 0.25  # wall seconds without the requested item before the request is sent again
+MAX_RETRIES = 8  # then the upload ends with MAV_MISSION_OPERATION_CANCELLED (about 2 s of silence)
+PLAN_TYPES = (mi.MISSION, mi.FENCE, mi.RALLY)
 
 
-def on_mission_request_list(ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
-    ep.send(mavlink.MAVLink_mission_count_message(msg.get_srcSystem(), msg.get_srcComponent(), 0, msg.mission_type))
+class PlanHolder(Protocol):
+    """What the protocol needs from the vehicle: the stored plans and their checks."""
+
+    def plan(self, mission_type: int) -> list[MissionItem]:
+        """The stored plan of this type (a copy or an immutable list)."""
+
+    def check_item(self, item: MissionItem) -> tuple[int, str]:
+        """One arriving item: (MAV_MISSION_RESULT, reason)."""
+
+    def replace_plan(self, mission_type: int, items: list[MissionItem]) -> tuple[int, str]:
+        """Store a complete plan (checked as a whole first): (MAV_MISSION_RESULT, reason); not
+        ACCEPTED means the old plan stays."""
+
+    def set_mission_current(self, seq: int) -> tuple[bool, str]:
+        """Make ``seq`` the current mission item: (done, reason if not)."""
 
 
-def on_mission_clear_all(ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
-    _mission_ack(ep, msg, mavlink.MAV_MISSION_ACCEPTED)
+@dataclass
+class _Upload:
+    ep: LinkEndpoint
+    peer: tuple[int, int]  # (system, component) of the client
+    mission_type: int
+    count: int
+    items: list[MissionItem] = field(default_factory=list)
+    legacy: bool = False  # the client sends MISSION_ITEM: ask with MISSION_REQUEST
+    sent_at: float = 0.0
+    retries: int = 0
 
 
-def on_mission_count(ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
-    _mission_ack(ep, msg, mavlink.MAV_MISSION_ACCEPTED if msg.count == 0 else mavlink.MAV_MISSION_UNSUPPORTED)
+class MissionService:
+    """The mission protocol of one link (both endpoints); call :meth:`update` every link update."""
+
+    def __init__(
+        self,
+        plans: PlanHolder,
+        say: Callable[[int, str], None],
+        sysid: int,
+        compid: int,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.plans = plans
+        self.say = say
+        self.sysid, self.compid = sysid, compid
+        self.clock = clock
+        self.upload: _Upload | None = None
+        # The latest completed upload: (peer, type, count, result), to answer a repeated last item.
+        self._completed: tuple[tuple[int, int], int, int, int] | None = None
+        self.on_current_changed: Callable[[], None] = lambda: None  # the link sends MISSION_CURRENT
+
+    def handlers(self) -> dict[str, Callable[[LinkEndpoint, mavlink.MAVLink_message], None]]:
+        """Message type -> handler (the link calls them only for messages addressed to it)."""
+        return {
+            "MISSION_REQUEST_LIST": self.on_request_list,
+            "MISSION_REQUEST_INT": lambda ep, msg: self.on_request(ep, msg, as_int=True),
+            "MISSION_REQUEST": lambda ep, msg: self.on_request(ep, msg, as_int=False),
+            "MISSION_COUNT": self.on_count,
+            "MISSION_ITEM_INT": lambda ep, msg: self.on_item(ep, msg, legacy=False),
+            "MISSION_ITEM": lambda ep, msg: self.on_item(ep, msg, legacy=True),
+            "MISSION_CLEAR_ALL": self.on_clear_all,
+            "MISSION_SET_CURRENT": self.on_set_current,
+            "MISSION_ACK": lambda ep, msg: None,  # the end of a download: nothing to do
+        }
+
+    # ------------------------------------------------------------------ download
+
+    def on_request_list(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        if msg.mission_type not in PLAN_TYPES:
+            return self._ack(ep, msg, mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type)
+        count = len(self.plans.plan(msg.mission_type))
+        ep.send(
+            mavlink.MAVLink_mission_count_message(msg.get_srcSystem(), msg.get_srcComponent(), count, msg.mission_type)
+        )
+
+    def on_request(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, as_int: bool) -> None:
+        up = self.upload
+        if up is not None and self._same_client(up, ep, msg):
+            return  # a vehicle-side message echoed back? not ours to answer
+        if msg.mission_type not in PLAN_TYPES:
+            return self._ack(ep, msg, mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type)
+        plan = self.plans.plan(msg.mission_type)
+        if not 0 <= msg.seq < len(plan):
+            return self._ack(ep, msg, mavlink.MAV_MISSION_INVALID_SEQUENCE, msg.mission_type)
+        ep.send(_item_message(plan[msg.seq], msg.get_srcSystem(), msg.get_srcComponent(), as_int))
+
+    # ------------------------------------------------------------------ upload
+
+    def on_count(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        mtype = msg.mission_type
+        up = self.upload
+        if up is not None and not self._same_client(up, ep, msg):
+            self.say(mavlink.MAV_SEVERITY_WARNING, "Mission upload denied: another upload is in progress")
+            return self._ack(ep, msg, mavlink.MAV_MISSION_DENIED, mtype)
+        if mtype not in PLAN_TYPES:
+            return self._ack(ep, msg, mavlink.MAV_MISSION_UNSUPPORTED, mtype)
+        if msg.count > MAX_ITEMS:
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"Mission upload refused: {msg.count} items, at most {MAX_ITEMS}")
+            return self._ack(ep, msg, mavlink.MAV_MISSION_NO_SPACE, mtype)
+        self.upload = None
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        if msg.count == 0:
+            result = self._store(mtype, [])
+            self._completed = (peer, mtype, 0, result)
+            return self._ack(ep, msg, result, mtype)
+        self.upload = _Upload(ep, peer, mtype, msg.count)
+        self._completed = None
+        self._request_next()
+
+    def on_item(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, legacy: bool) -> None:
+        up = self.upload
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        if up is None or not self._same_client(up, ep, msg):
+            done = self._completed
+            if done is not None and done[:2] == (peer, msg.mission_type) and msg.seq == done[2] - 1:
+                self._ack(ep, msg, done[3], msg.mission_type)  # our ACK was lost: say it again
+            return
+        if msg.mission_type != up.mission_type:
+            return self._fail(mavlink.MAV_MISSION_INVALID, f"item {msg.seq} has mission type {msg.mission_type}")
+        up.legacy = legacy
+        if msg.seq != len(up.items):
+            return self._request_next()  # a duplicate or one ahead: ask for the one we need
+        try:
+            item = _item_from_message(msg, legacy)
+        except ValueError as exc:
+            code = mavlink.MAV_MISSION_INVALID_PARAM5_X if str(exc) == "x" else mavlink.MAV_MISSION_INVALID_PARAM6_Y
+            return self._fail(code, f"item {msg.seq}: {'latitude' if str(exc) == 'x' else 'longitude'} not valid")
+        result, reason = self.plans.check_item(item)
+        if result != mavlink.MAV_MISSION_ACCEPTED:
+            return self._fail(result, reason)
+        up.items.append(item)
+        if len(up.items) < up.count:
+            return self._request_next()
+        self.upload = None
+        result = self._store(up.mission_type, up.items)
+        self._completed = (up.peer, up.mission_type, up.count, result)
+        self._send_ack(up, result)
+
+    def _store(self, mtype: int, items: list[MissionItem]) -> int:
+        result, reason = self.plans.replace_plan(mtype, items)
+        kind = mi.TYPE_NAMES[mtype]
+        if result == mavlink.MAV_MISSION_ACCEPTED:
+            self.say(mavlink.MAV_SEVERITY_INFO, f"{kind.capitalize()} plan: {len(items)} items stored")
+            self.on_current_changed()
+        else:
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{kind.capitalize()} upload refused: {reason}")
+        return result
+
+    def _fail(self, result: int, reason: str) -> None:
+        up = self.upload
+        assert up is not None
+        self.upload = None
+        self._completed = (up.peer, up.mission_type, up.count, result)
+        self.say(
+            mavlink.MAV_SEVERITY_CRITICAL, f"{mi.TYPE_NAMES[up.mission_type].capitalize()} upload refused: {reason}"
+        )
+        self._send_ack(up, result)
+
+    def _request_next(self) -> None:
+        up = self.upload
+        assert up is not None
+        seq = len(up.items)
+        sysid, compid = up.peer
+        if up.legacy:
+            msg = mavlink.MAVLink_mission_request_message(sysid, compid, seq, up.mission_type)
+        else:
+            msg = mavlink.MAVLink_mission_request_int_message(sysid, compid, seq, up.mission_type)
+        up.ep.send(msg)
+        up.sent_at = self.clock()
+
+    def update(self) -> None:
+        """Re-send a request that went unanswered; end a transfer that stalled."""
+        up = self.upload
+        if up is None or self.clock() - up.sent_at < RETRY_S:
+            return
+        up.retries += 1
+        if up.retries > MAX_RETRIES:
+            self.upload = None
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{mi.TYPE_NAMES[up.mission_type].capitalize()} upload timed out")
+            self._send_ack(up, mavlink.MAV_MISSION_OPERATION_CANCELLED)
+            return
+        self._request_next()
+
+    # ------------------------------------------------------------------ clear, current
+
+    def on_clear_all(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        types = PLAN_TYPES if msg.mission_type == mi.ALL_TYPES else (msg.mission_type,)
+        if any(t not in PLAN_TYPES for t in types):
+            return self._ack(ep, msg, mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type)
+        result = mavlink.MAV_MISSION_ACCEPTED
+        for t in types:
+            if self.plans.plan(t):
+                r = self._store(t, [])
+                result = r if result == mavlink.MAV_MISSION_ACCEPTED else result
+        self._ack(ep, msg, result, msg.mission_type)
+
+    def on_set_current(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        done, reason = self.plans.set_mission_current(msg.seq)
+        if not done:
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"Set current mission item denied: {reason}")
+        self.on_current_changed()  # MISSION_CURRENT is the answer either way (PX4)
+
+    # ------------------------------------------------------------------ helpers
+
+    def _same_client(self, up: _Upload, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> bool:
+        return ep is up.ep and (msg.get_srcSystem(), msg.get_srcComponent()) == up.peer
+
+    def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, result: int, mtype: int) -> None:
+        ep.send(mavlink.MAVLink_mission_ack_message(msg.get_srcSystem(), msg.get_srcComponent(), result, mtype))
+
+    def _send_ack(self, up: _Upload, result: int) -> None:
+        up.ep.send(mavlink.MAVLink_mission_ack_message(up.peer[0], up.peer[1], result, up.mission_type))
 
 
-def _mission_ack(ep: LinkEndpoint, msg: mavlink.MAVLink_message, result: int) -> None:
-    ep.send(mavlink.MAVLink_mission_ack_message(msg.get_srcSystem(), msg.get_srcComponent(), result, msg.mission_type))
+def _item_message(item: MissionItem, sysid: int, compid: int, as_int: bool) -> mavlink.MAVLink_message:
+    """MISSION_ITEM_INT, or the legacy MISSION_ITEM (x/y in degrees) for a MISSION_REQUEST."""
+    x: float = item.x
+    y: float = item.y
+    cls = mavlink.MAVLink_mission_item_int_message
+    if not as_int:
+        scale = 1e4 if item.frame == mi.FRAME_LOCAL_NED else mi.DEG_E7
+        x, y, cls = item.x / scale, item.y / scale, mavlink.MAVLink_mission_item_message
+    return cls(
+        sysid, compid, item.seq, item.frame, item.command, item.current, item.autocontinue,
+        item.param1, item.param2, item.param3, item.param4, x, y, item.z, item.mission_type,
+    )  # fmt: skip
 
 
-# Message type -> handler.
-HANDLERS = {
-    "MISSION_REQUEST_LIST": on_mission_request_list,
-    "MISSION_CLEAR_ALL": on_mission_clear_all,
-    "MISSION_COUNT": on_mission_count,
-}
+def _item_from_message(msg: mavlink.MAVLink_message, legacy: bool) -> MissionItem:
+    """MISSION_ITEM_INT or MISSION_ITEM as a MissionItem; ValueError("x"/"y") for a coordinate that
+    cannot be one."""
+    params = (msg.param1, msg.param2, msg.param3, msg.param4)
+    if legacy:
+        return item_from_float(
+            msg.seq, msg.frame, msg.command, params, msg.x, msg.y, msg.z, msg.mission_type, msg.current,
+            msg.autocontinue,
+        )  # fmt: skip
+    return MissionItem(
+        msg.seq, msg.frame, msg.command, *params, msg.x, msg.y, msg.z, msg.mission_type, msg.current, msg.autocontinue
+    )

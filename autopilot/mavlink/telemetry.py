@@ -31,14 +31,17 @@ REPORTED_LOAD_PERMILLE = 100  # SYS_STATUS.load: nothing to measure in simulatio
 PWM_MIN_US, PWM_MAX_US, PWM_DISARMED_US = 1000, 2000, 900  # PX4's PWM_MAIN_MIN/MAX/DISARM defaults
 
 # AUTOPILOT_VERSION.capabilities, as PX4 reports them (plus PARAM_FLOAT).
+# Exactly what is implemented: the mission protocol (MISSION_ITEM_INT and the legacy MISSION_ITEM) for
+# missions, fences and rally points, COMMAND_INT, the parameter protocol (floats, integers byte-wise),
+# MAVLink 2.  Not SET_POSITION_TARGET_* or SET_ATTITUDE_TARGET: offboard control does not exist yet.
 CAPABILITIES = (
     mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
     | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
     | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
     | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
     | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
-    | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
-    | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
     | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
 )
 # PX4 1.14.0, FIRMWARE_VERSION_TYPE_OFFICIAL: major << 24 | minor << 16 | patch << 8 | type
@@ -317,7 +320,16 @@ def battery_status(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message
 
 Builder = Callable[[TelemetrySnapshot, int], "mavlink.MAVLink_message | None"]
 
+
 # Message id -> builder: the messages the link can stream and send on REQUEST_MESSAGE.
+def mission_current(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message:
+    """MISSION_CURRENT: the current item (== total once complete), total, MISSION_STATE and whether the vehicle
+    is in mission mode (1) or the mission is suspended (2)."""
+    m = s.mission
+    mode = 1 if m.in_mission_mode else 2
+    return mavlink.MAVLink_mission_current_message(max(m.seq, 0) & 0xFFFF, m.total & 0xFFFF, int(m.state), mode)
+
+
 BUILDERS: dict[int, Builder] = {
     mavlink.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,
     mavlink.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
@@ -334,6 +346,7 @@ BUILDERS: dict[int, Builder] = {
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: position_target_local_ned,
     mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: servo_output_raw,
     mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS: estimator_status,
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
 }
 
 # Telemetry streams sent on every endpoint, rate in Hz of simulated time.
@@ -353,5 +366,6 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
     mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET: 20.0,
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: 10.0,
     mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: 5.0,  # motor outputs as PWM µs, as PX4 reports them
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,  # and at once when the item changes (the link)
     mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS: 2.0,  # the EKF's health (PX4 normal profile)
 }

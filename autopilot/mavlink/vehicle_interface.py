@@ -18,6 +18,8 @@ from autopilot.commander import health
 from autopilot.mavlink import commands
 from autopilot.parameters import ParameterStore
 from autopilot.topics import ActuatorStatus, CommanderStatus, ControlSetpoints, EstimatorStatus, TelemetrySnapshot
+from mavsim_core.mission_items import MissionItem
+from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
     from autopilot.flight_controller import FlightController
@@ -49,6 +51,15 @@ class VehicleInterface(Protocol):
     def on_landing_target(self, msg: Any, src_sysid: int) -> None:
         """A LANDING_TARGET from a companion computer (any sender: the vehicle checks the system id)."""
 
+    # The stored plans, for the mission protocol (autopilot.mavlink.mission_protocol.PlanHolder).
+    def plan(self, mission_type: int) -> list[MissionItem]: ...
+    def check_item(self, item: MissionItem) -> tuple[int, str]: ...
+    def replace_plan(self, mission_type: int, items: list[MissionItem]) -> tuple[int, str]: ...
+    def set_mission_current(self, seq: int) -> tuple[bool, str]: ...
+
+    def pop_mission_reached(self) -> list[int]:
+        """Mission items reached since the last call (MISSION_ITEM_REACHED)."""
+
 
 def telemetry_snapshot(
     status: CommanderStatus,
@@ -71,16 +82,19 @@ def telemetry_snapshot(
     else:
         system_status = mavlink.MAV_STATE_STANDBY
     sensors = health.SENSORS_PRESENT
+    fence_bit = mavlink.MAV_SYS_STATUS_GEOFENCE if status.mission.fence_items else 0
+    fence_ok = 0 if status.mission.fence_breached else fence_bit
     return TelemetrySnapshot(
         timestamp_us=status.timestamp_us, mav_type=status.mav_type, armed=armed,
         base_mode=status.mode.base_mode_flags(armed), custom_mode=status.mode.custom_mode,
         system_status=system_status, landed_state=status.landed_state, estimate=status.estimate, gps=status.gps,
-        home=status.home, battery=status.battery, throttle_frac=actuators.throttle_frac, sensors_present=sensors,
-        sensors_enabled=sensors,
-        sensors_health=health.sensors_health(status.estimate, status.gps_ok, estimator_status, ekf_in_use, prearm_ok),
+        home=status.home, battery=status.battery, throttle_frac=actuators.throttle_frac,
+        sensors_present=sensors | fence_bit, sensors_enabled=sensors | fence_bit,
+        sensors_health=fence_ok
+        | health.sensors_health(status.estimate, status.gps_ok, estimator_status, ekf_in_use, prearm_ok),
         prearm_ok=prearm_ok, position_setpoint_ned_m=status.position_setpoint_ned_m,
         motor_outputs=actuators.motor_outputs, control=control, estimator_status=estimator_status,
-        battery_warning=status.battery_warning,
+        battery_warning=status.battery_warning, mission=status.mission,
     )  # fmt: skip
 
 
@@ -109,3 +123,26 @@ class FlightControllerVehicle:
 
     def on_landing_target(self, msg: Any, src_sysid: int) -> None:
         self.fc.on_landing_target(msg, src_sysid)
+
+    def plan(self, mission_type: int) -> list[MissionItem]:
+        return self.fc.commander.plans.plan(mission_type)
+
+    def check_item(self, item: MissionItem) -> tuple[int, str]:
+        commander = self.fc.commander
+        return commander.plans.check_item(item, commander.home)
+
+    def replace_plan(self, mission_type: int, items: list[MissionItem]) -> tuple[int, str]:
+        commander = self.fc.commander
+        flying_it = commander.mode is Mode.AUTO_MISSION and commander.armed
+        try:
+            return commander.plans.replace(mission_type, items, mission_active=flying_it)
+        finally:
+            commander._publish()
+
+    def set_mission_current(self, seq: int) -> tuple[bool, str]:
+        return self.fc.commander.set_mission_current(seq)
+
+    def pop_mission_reached(self) -> list[int]:
+        plans = self.fc.commander.plans
+        out, plans.reached = plans.reached, []
+        return out

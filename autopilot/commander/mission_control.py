@@ -1,0 +1,258 @@
+"""The commander's side of missions, geofence and rally points.
+
+:class:`Plans` holds the three stored plans (mission, fence, rally) the mission protocol
+uploads and downloads, checks them (:mod:`autopilot.navigation.mission_checks`, the
+geofence's own geometry checks), keeps the mission's progress (current item, DO_JUMP
+counters, MISSION_STATE) and saves them with ``--state-dir``.  The functions below are what the
+commander calls: start AUTO.MISSION (:func:`start_mission`), run it (:func:`step`: the runner's
+requests for a return, a precision landing or a new home), pause it when another mode takes
+over, check the geofence every update (:func:`check_geofence`, GF_ACTION as in PX4) and choose
+where a return goes (:func:`return_destination`: the closest of home and the rally points, as
+PX4's RTL_TYPE 0).
+
+Frames: NED metres relative to the estimator origin; plans in MAVLink's units (degE7, m).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+from pymavlink.dialects.v20 import common as S
+
+from autopilot.navigation import mission_checks
+from autopilot.navigation.geofence import FenceError, Geofence, GfAction
+from autopilot.navigation.mission import MissionTask, item_position
+from autopilot.parameters import ParameterStore
+from autopilot.topics import HomePosition, MissionState, MissionStatus, VehicleEstimate
+from mavsim_core import mission_items as mi
+from mavsim_core.geodesy import geodetic_to_ned
+from mavsim_core.mission_items import MissionItem
+from mavsim_core.px4_modes import Mode
+
+if TYPE_CHECKING:
+    from autopilot.commander.commander import Commander
+    from autopilot.control.position_control import PositionSetpoint
+
+BREACH_REPORT_US = 5_000_000  # a continuing breach is reported again this often
+
+
+class Plans:
+    """The stored plans, their checks, the mission's progress and the geofence built from the fence plan."""
+
+    def __init__(self, params: ParameterStore) -> None:
+        self.params = params
+        self.items: dict[int, list[MissionItem]] = {mi.MISSION: [], mi.FENCE: [], mi.RALLY: []}
+        self.current = 0
+        self.jumps_left: dict[int, int] = {}
+        self.state = MissionState.NO_MISSION
+        self.reached: list[int] = []  # MISSION_ITEM_REACHED to send
+        self.save: Callable[[dict[int, list[MissionItem]]], None] | None = None  # set with --state-dir
+        self.breached = False
+        self._breach_said_us = -(2**62)
+        self._fence: Geofence | None = None
+        self._fence_origin: tuple[float, float] | None = None
+
+    def load(self, plans: dict[int, list[MissionItem]]) -> None:
+        """Plans saved by an earlier run (already checked when they were uploaded)."""
+        for mtype, items in plans.items():
+            self.items[mtype] = list(items)
+        self._plans_changed(mi.MISSION)
+        self._fence = None
+
+    def plan(self, mission_type: int) -> list[MissionItem]:
+        return self.items.get(mission_type, [])
+
+    def check_item(self, item: MissionItem, home: HomePosition | None) -> tuple[int, str]:
+        ceiling = self.params.get("GF_MAX_VER_DIST") or mission_checks.HARD_CEILING_M
+        return mission_checks.check_item(item, None if home is None else home.alt_amsl_m, ceiling)
+
+    def replace(self, mission_type: int, items: list[MissionItem], mission_active: bool) -> tuple[int, str]:
+        """Store a plan after its whole-plan checks; refused while a mission that would change is flown."""
+        if mission_type == mi.MISSION and mission_active:
+            return mi.DENIED, "the mission is being flown: pause it (LOITER) first"
+        result = mission_checks.check_plan(mission_type, items)
+        if result[0] != mi.ACCEPTED:
+            return result
+        if mission_type == mi.FENCE and items:
+            try:
+                Geofence.from_items(items, items[0].lat_deg, items[0].lon_deg)
+            except FenceError as exc:
+                return mi.INVALID, str(exc)
+        self.items[mission_type] = [it.renumbered(k) for k, it in enumerate(items)]
+        self._plans_changed(mission_type)
+        if self.save is not None:
+            self.save(self.items)
+        return mi.ACCEPTED, ""
+
+    def _plans_changed(self, mission_type: int) -> None:
+        if mission_type == mi.MISSION:
+            self.current = 0
+            self.jumps_left = {}
+            self.state = MissionState.NOT_STARTED if self.items[mi.MISSION] else MissionState.NO_MISSION
+        if mission_type == mi.FENCE:
+            self._fence = None
+            self.breached = False
+
+    def set_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]:
+        total = len(self.items[mi.MISSION])
+        if not 0 <= seq < total:
+            return False, f"item {seq} does not exist (mission of {total} items)"
+        self.current = seq
+        if reset_jumps:
+            self.jumps_left = {}
+        if self.state is MissionState.COMPLETE:
+            self.state = MissionState.PAUSED
+        return True, ""
+
+    def fence(self, est: VehicleEstimate) -> Geofence | None:
+        """The geofence in this estimate's frame (built once per origin), or None without fence items."""
+        if not self.items[mi.FENCE]:
+            return None
+        origin = (est.origin_lat_deg, est.origin_lon_deg)
+        if self._fence is None or self._fence_origin != origin:
+            self._fence = Geofence.from_items(self.items[mi.FENCE], *origin)
+            self._fence_origin = origin
+        return self._fence
+
+    def status(self, mode: Mode) -> MissionStatus:
+        return MissionStatus(
+            seq=self.current, total=len(self.items[mi.MISSION]), state=self.state,
+            in_mission_mode=mode is Mode.AUTO_MISSION, fence_items=len(self.items[mi.FENCE]),
+            rally_items=len(self.items[mi.RALLY]), fence_breached=self.breached,
+        )  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------- the mode
+
+
+def start_mission(cmd: Commander) -> int:
+    """Build the runner for AUTO.MISSION from the current item (a MAV_RESULT; refusals say why)."""
+    plans = cmd.plans
+    items = plans.items[mi.MISSION]
+    if not items:
+        cmd.say(S.MAV_SEVERITY_CRITICAL, "Mission denied: no mission uploaded")
+        return S.MAV_RESULT_DENIED
+    if cmd.home is None or cmd.est is None:
+        cmd.say(S.MAV_SEVERITY_CRITICAL, "Mission denied: no home position")
+        return S.MAV_RESULT_DENIED
+    if plans.state is MissionState.COMPLETE or plans.current >= len(items):
+        plans.current = 0
+        plans.jumps_left = {}
+    task = MissionTask(items, plans.current, cmd.home, cmd.params, plans.jumps_left, on_ground=not cmd.in_air)
+    task.activate(cmd.est, cmd.now_us)
+    cmd.task = task
+    plans.state = MissionState.ACTIVE
+    cmd.say(S.MAV_SEVERITY_INFO, f"Mission: executing from item {plans.current} of {len(items)}")
+    _sync(cmd, task)
+    return S.MAV_RESULT_ACCEPTED
+
+
+def step(cmd: Commander, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
+    """One update of the mission: the runner's setpoint, its progress and its requests."""
+    setpoint = task.update(est, now_us)
+    _sync(cmd, task)
+    request, task.request = task.request, None
+    if request is None:
+        return setpoint
+    if request[0] == "rtl":
+        cmd._enter(Mode.AUTO_RTL)
+    elif request[0] == "precland":
+        from autopilot.navigation.precland import PrecLandMode
+
+        cmd.precland_mode = PrecLandMode(request[1])
+        cmd._enter(Mode.AUTO_PRECLAND)
+    elif request[0] == "home":
+        item = request[1]
+        pos = est.pos_ned_m if item is None else item_position(item, est, cmd.home)
+        cmd._set_home_at(pos)
+    return cmd.task.update(est, now_us) if cmd.task is not task and cmd.task is not None else setpoint
+
+
+def _sync(cmd: Commander, task: MissionTask) -> None:
+    plans = cmd.plans
+    before = plans.current
+    plans.current = min(task.current, len(plans.items[mi.MISSION]))
+    plans.reached.extend(task.reached)
+    for seq in task.reached:
+        cmd.say(S.MAV_SEVERITY_INFO, f"Mission: item {seq} reached")
+    task.reached.clear()
+    if task.complete and plans.state is MissionState.ACTIVE:
+        plans.state = MissionState.COMPLETE
+        plans.current = len(plans.items[mi.MISSION])
+        cmd.say(S.MAV_SEVERITY_INFO, "Mission finished" + ("" if task.request else ": holding position"))
+    elif plans.current != before and plans.state is MissionState.ACTIVE:
+        pass  # MISSION_CURRENT goes out with the next link update
+
+
+def on_mode_change(cmd: Commander, old: Mode, new: Mode) -> None:
+    """A mission that was being flown and is left for another mode is paused (resumes at its item)."""
+    if old is Mode.AUTO_MISSION and new is not Mode.AUTO_MISSION and cmd.plans.state is MissionState.ACTIVE:
+        cmd.plans.state = MissionState.PAUSED
+
+
+def on_landed(cmd: Commander) -> None:
+    """Touchdown during a mission's landing: the mission is complete."""
+    plans = cmd.plans
+    if plans.state is MissionState.ACTIVE:
+        plans.reached.append(plans.current)
+        plans.state = MissionState.COMPLETE
+        plans.current = len(plans.items[mi.MISSION])
+        cmd.say(S.MAV_SEVERITY_INFO, "Mission finished: landed")
+
+
+# ---------------------------------------------------------------------------------- geofence and rally
+
+
+def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
+    """Predict a breach of the fence, GF_MAX_HOR_DIST or GF_MAX_VER_DIST and act as GF_ACTION says."""
+    p = cmd.params
+    fence = cmd.plans.fence(est)
+    max_hor, max_ver = p.get("GF_MAX_HOR_DIST"), p.get("GF_MAX_VER_DIST")
+    if fence is None and max_hor <= 0 and max_ver <= 0:
+        cmd.plans.breached = False
+        return
+    fence = fence or Geofence.from_items([], est.origin_lat_deg, est.origin_lon_deg)
+    home = None if cmd.home is None else cmd.home.pos_ned_m
+    breach = fence.check(
+        est.pos_ned_m, est.vel_ned_m_s, home, max_hor, max_ver, bool(p.get("GF_PREDICT")), p.get("MPC_ACC_HOR")
+    )
+    was = cmd.plans.breached
+    cmd.plans.breached = breach is not None
+    if breach is None:
+        return
+    action = GfAction(int(p.get("GF_ACTION")))
+    if not was or now_us - cmd.plans._breach_said_us >= BREACH_REPORT_US:
+        cmd.plans._breach_said_us = now_us
+        cmd.say(S.MAV_SEVERITY_CRITICAL, f"{breach.reason} ({action.name.lower()})")
+    if was or action in (GfAction.NONE, GfAction.WARNING):
+        return
+    if action is GfAction.HOLD and cmd.mode not in (Mode.AUTO_LOITER, Mode.AUTO_LAND, Mode.AUTO_RTL):
+        cmd._enter(Mode.AUTO_LOITER)
+    elif action is GfAction.RETURN and cmd.mode not in (Mode.AUTO_RTL, Mode.AUTO_LAND):
+        cmd._enter(Mode.AUTO_RTL)
+    elif action in (GfAction.LAND, GfAction.TERMINATE) and cmd.mode is not Mode.AUTO_LAND:
+        cmd._enter(Mode.AUTO_LAND)  # termination is not simulated: land instead
+
+
+def fence_prearm_failures(cmd: Commander) -> list[str]:
+    """Arming is refused outside an inclusion fence (or inside an exclusion)."""
+    est = cmd.est
+    if est is None or not est.position_valid or not cmd.plans.items[mi.FENCE]:
+        return []
+    fence = cmd.plans.fence(est)
+    return [] if fence is None or fence.inside(est.pos_ned_m) else ["vehicle outside the geofence"]
+
+
+def return_destination(cmd: Commander, est: VehicleEstimate) -> np.ndarray:
+    """Where a return goes (m NED): home or the closest rally point, whichever is closer (RTL_TYPE 0).
+    The rally point's ground is taken at home's height (the simulated world is flat)."""
+    assert cmd.home is not None
+    best = cmd.home.pos_ned_m.astype(float).copy()
+    best_d = float(np.linalg.norm(best[:2] - est.pos_ned_m[:2]))
+    for item in cmd.plans.items[mi.RALLY]:
+        pos = geodetic_to_ned(item.lat_deg, item.lon_deg, 0.0, est.origin_lat_deg, est.origin_lon_deg, 0.0)
+        d = float(np.linalg.norm(pos[:2] - est.pos_ned_m[:2]))
+        if d < best_d:
+            best_d, best = d, np.array([pos[0], pos[1], cmd.home.pos_ned_m[2]])
+    return best
