@@ -44,6 +44,8 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_mavlink_commands": {"link": 174},  # "nobody": a ground-station port nothing sends to
     "test_e2e_precland": {"static": 175, "moving": 176, "loss": 177},
     "test_e2e_ugv": {"stack": 178},
+    "test_e2e_missions": {"stack": 179},
+    "test_e2e_mission_clients": {"stack": 226},
     # GcsLink on real UDP sockets (no stack running); a file may reuse its own numbers in turn
     "test_gcs_link_telemetry": {f"link{k}": 120 + k for k in range(6)},
     "test_gcs_link_params": {f"link{k}": 126 + k for k in range(4)},

@@ -48,6 +48,11 @@ def at(north: float, east: float, down: float = -10.0) -> np.ndarray:
     return np.array([north, east, down])
 
 
+def predicted(b: Breach | None) -> bool:
+    """A predicted breach (the vehicle itself still inside)."""
+    return b is not None and b.predicted
+
+
 def check(
     f: Geofence, pos: np.ndarray, vel=(0.0, 0.0, 0.0), home=None, max_hor=0.0, max_ver=0.0, predict=True
 ) -> Breach | None:
@@ -86,10 +91,10 @@ def test_square_inclusion_inside_and_outside():
     assert f.has_inclusion and not f.empty
     (poly,) = f.inclusion_polygons
     assert np.allclose(poly.bounds, (-50, -50, 50, 50), atol=0.02)  # degE7 rounding: ~1 cm
-    for n, e in [(0, 0), (49, 49), (-49, 30), (0, -49.9)]:
+    for n, e in [(0.0, 0.0), (49.0, 49.0), (-49.0, 30.0), (0.0, -49.9)]:
         assert f.inside(at(n, e)), (n, e)
         assert check(f, at(n, e)) is None
-    for n, e in [(51, 0), (0, -51), (100, 100), (-50.5, -50.5)]:
+    for n, e in [(51.0, 0.0), (0.0, -51.0), (100.0, 100.0), (-50.5, -50.5)]:
         assert not f.inside(at(n, e)), (n, e)
         assert check(f, at(n, e)) == Breach("Geofence: outside the inclusion polygon", predicted=False)
 
@@ -121,12 +126,15 @@ def test_outside_and_flying_back_in_is_an_actual_breach():
 def test_at_rest_only_the_position_counts():
     f = fence(square(INC, 50.0))
     assert check(f, at(49.5, 0)) is None  # 0.5 m from the edge, no margin at rest
-    assert check(f, at(49.5, 0), (0.01, 0, 0)).predicted  # moving: the 1 m margin applies
+    assert predicted(check(f, at(49.5, 0), (0.01, 0, 0)))  # moving: the 1 m margin applies
 
 
 def test_zero_brake_does_not_divide_by_zero():
+    """A braking acceleration <= 0 (a bad MPC_ACC_HOR) is taken as a small one: a long stopping distance."""
     f = fence(square(INC, 50.0))
-    assert f.check(at(0, 0), np.array([1.0, 0, 0]), None, 0, 0, True, 0.0) is not None
+    assert f.check(at(0, 0), np.array([5.0, 0, 0]), None, 0, 0, True, 0.0) == Breach(
+        "Geofence: approaching the inclusion polygon boundary", True
+    )
 
 
 # ------------------------------------------------------------------------------------------ exclusions, circles
@@ -176,8 +184,8 @@ def test_two_inclusion_polygons_are_their_union():
     for n, e in [(0, -60), (0, 150), (150, 0), (60, 45)]:
         assert not f.inside(at(n, e)), (n, e)
     assert check(f, at(0, 45), (0, 5, 0)) is None  # past the first's edge, inside the second
-    assert check(f, at(0, 135), (0, 5, 0)).predicted  # toward the second's far edge
-    assert check(f, at(46, 0), (5, 0, 0)).predicted  # toward the north edge of both
+    assert predicted(check(f, at(0, 135), (0, 5, 0)))  # toward the second's far edge
+    assert predicted(check(f, at(46, 0), (5, 0, 0)))  # toward the north edge of both
 
 
 def test_polygon_and_circle_inclusions_are_named_together():
@@ -220,11 +228,12 @@ def test_max_height():
     home = np.array([0.0, 0.0, 2.0])  # home 2 m below the origin
     assert check(f, at(0, 0, -27), home=home, max_ver=30) is None  # 29 m above home
     assert check(f, at(0, 0, -29), home=home, max_ver=30) == Breach("Geofence: above max height 30 m", False)
-    assert check(f, at(0, 0, -20), (0, 0, -5), home=home, max_ver=30) == Breach(
+    assert check(f, at(0, 0, -23), (0, 0, -5), home=home, max_ver=30) == Breach(
         "Geofence: approaching max height 30 m", True
-    )  # 22 m + 6.25 m + 1 m
-    assert check(f, at(0, 0, -20), (0, 0, -5), home=home, max_ver=30, predict=False) is None
-    assert check(f, at(0, 0, -20), (0, 0, -2), home=home, max_ver=30) is None
+    )  # 25 m + 6.25 m + 1 m
+    assert check(f, at(0, 0, -20), (0, 0, -5), home=home, max_ver=30) is None  # 22 m + 7.25 m
+    assert check(f, at(0, 0, -23), (0, 0, -5), home=home, max_ver=30, predict=False) is None
+    assert check(f, at(0, 0, -23), (0, 0, -2), home=home, max_ver=30) is None  # 25 m + 1 m + 1 m
     assert check(f, at(0, 0, -27), (0, 0, 5), home=home, max_ver=30) is None  # descending: only upward counts
     assert check(f, at(0, 0, -27), (30, 0, 0), home=home, max_ver=30) is None  # horizontal speed: not upward
     assert check(f, at(0, 0, -40), home=None, max_ver=30) is None
@@ -249,7 +258,7 @@ def bow_tie() -> list[MissionItem]:
     ("items", "seq", "why"),
     [
         (square(INC, 10.0)[:3], 0, "only 3"),  # 3 vertices of a polygon of 4
-        (square(INC, 10.0)[:2] + square(EXC, 10.0, seq0=2)[2:], 0, "item 2 ends it"),  # the kind changes
+        (square(INC, 10.0)[:2] + square(EXC, 10.0)[2:], 0, "item 2 ends it"),  # the kind changes
         (square(INC, 10.0) + square(INC, 10.0, seq0=4)[:1], 4, "only 1"),  # one vertex too many
         (polygon(INC, [(0, 0), (10, 0)]), 0, ">= 3"),
         ([item(0, INC, float("nan"), 0, 0)] * 3, 0, ">= 3"),

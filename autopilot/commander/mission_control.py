@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.navigation import mission_checks
+from autopilot.navigation import LoiterTask, mission_checks, started
 from autopilot.navigation.geofence import FenceError, Geofence, GfAction
 from autopilot.navigation.mission import MissionTask, item_position
 from autopilot.parameters import ParameterStore
@@ -35,6 +35,8 @@ if TYPE_CHECKING:
     from autopilot.control.position_control import PositionSetpoint
 
 BREACH_REPORT_US = 5_000_000  # a continuing breach is reported again this often
+FENCE_MARGIN_M = 1.0  # the predicted stop must stay this far inside the fence ...
+FENCE_REACTION_S = 0.5  # ... plus this many seconds of flight at the current speed (controller lag)
 
 
 class Plans:
@@ -52,6 +54,7 @@ class Plans:
         self._breach_said_us = -(2**62)
         self._fence: Geofence | None = None
         self._fence_origin: tuple[float, float] | None = None
+        self.fence_hold: object | None = None  # the hold task a geofence breach started
 
     def load(self, plans: dict[int, list[MissionItem]]) -> None:
         """Plans saved by an earlier run (already checked when they were uploaded)."""
@@ -214,9 +217,12 @@ def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
         return
     fence = fence or Geofence.from_items([], est.origin_lat_deg, est.origin_lon_deg)
     home = None if cmd.home is None else cmd.home.pos_ned_m
+    speed = float(np.linalg.norm(est.vel_ned_m_s[:2]))
+    brake = p.get("MPC_ACC_HOR")
     breach = fence.check(
-        est.pos_ned_m, est.vel_ned_m_s, home, max_hor, max_ver, bool(p.get("GF_PREDICT")), p.get("MPC_ACC_HOR")
-    )
+        est.pos_ned_m, est.vel_ned_m_s, home, max_hor, max_ver, bool(p.get("GF_PREDICT")), brake,
+        margin_m=FENCE_MARGIN_M + FENCE_REACTION_S * speed,
+    )  # fmt: skip
     was = cmd.plans.breached
     cmd.plans.breached = breach is not None
     if breach is None:
@@ -225,14 +231,31 @@ def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
     if not was or now_us - cmd.plans._breach_said_us >= BREACH_REPORT_US:
         cmd.plans._breach_said_us = now_us
         cmd.say(S.MAV_SEVERITY_CRITICAL, f"{breach.reason} ({action.name.lower()})")
-    if was or action in (GfAction.NONE, GfAction.WARNING):
+    if action in (GfAction.NONE, GfAction.WARNING):
         return
-    if action is GfAction.HOLD and cmd.mode not in (Mode.AUTO_LOITER, Mode.AUTO_LAND, Mode.AUTO_RTL):
-        cmd._enter(Mode.AUTO_LOITER)
+    if action is GfAction.HOLD and cmd.mode not in (Mode.AUTO_LAND, Mode.AUTO_RTL):
+        if cmd.task is not None and cmd.task is cmd.plans.fence_hold:
+            return  # already stopping
+        # Stop where braking at MPC_ACC_HOR ends (PX4's loiter point for a multicopter), not beyond.
+        v = est.vel_ned_m_s.copy()
+        v[2] = 0.0
+        stop = est.pos_ned_m + v * (speed / (2 * max(brake, 0.1)))
+        if not fence.inside(stop):
+            stop = est.pos_ned_m.copy()
+        if cmd.mode is not Mode.AUTO_LOITER:
+            switch_mode_only(cmd, Mode.AUTO_LOITER)
+        cmd.task = cmd.plans.fence_hold = started(LoiterTask(stop, est.yaw_rad), est, now_us)
     elif action is GfAction.RETURN and cmd.mode not in (Mode.AUTO_RTL, Mode.AUTO_LAND):
         cmd._enter(Mode.AUTO_RTL)
     elif action in (GfAction.LAND, GfAction.TERMINATE) and cmd.mode is not Mode.AUTO_LAND:
         cmd._enter(Mode.AUTO_LAND)  # termination is not simulated: land instead
+
+
+def switch_mode_only(cmd: Commander, mode: Mode) -> None:
+    """Switch mode without starting the mode's own task (the caller sets the task)."""
+    cmd.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
+    on_mode_change(cmd, cmd.mode, mode)
+    cmd.mode = mode
 
 
 def fence_prearm_failures(cmd: Commander) -> list[str]:

@@ -52,7 +52,6 @@ PARAMS: tuple[ParamDef, ...] = (
 
 POLYGONS = (mi.FENCE_POLYGON_INCLUSION, mi.FENCE_POLYGON_EXCLUSION)
 CIRCLES = (mi.FENCE_CIRCLE_INCLUSION, mi.FENCE_CIRCLE_EXCLUSION)
-INCLUSIONS = (mi.FENCE_POLYGON_INCLUSION, mi.FENCE_CIRCLE_INCLUSION)
 REST_SPEED_M_S = 1e-6  # below this the vehicle is at rest: no direction to predict along, no margin
 MIN_BRAKE_M_S2 = 0.1  # a braking acceleration <= 0 (a bad parameter) is taken as this, never a division by 0
 
@@ -155,7 +154,9 @@ class Geofence:
             if item.command in POLYGONS:
                 n = _vertex_count(item)
                 run = items[i : i + n]
-                same = next((k for k, v in enumerate(run) if v.command != item.command or v.param1 != item.param1), n)
+                same = next(
+                    (k for k, v in enumerate(run) if v.command != item.command or v.param1 != item.param1), len(run)
+                )
                 if same < n:
                     where = f"item {run[same].seq} ends it" if same < len(run) else "the plan ends"
                     raise FenceError(

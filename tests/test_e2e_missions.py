@@ -1,0 +1,236 @@
+"""MAVSDK (4.x native binding) flies missions and a geofence on the real stack.
+
+What a MAVSDK user does with the Mission, MissionRaw and Geofence plugins: upload a
+10-waypoint square with a speed change, download it back unchanged, start it and follow
+``mission_progress`` to the end; upload a raw plan with a DO_JUMP; upload an inclusion
+polygon and fly toward it: the vehicle stops inside.  Where the vehicle went is checked
+against the simulator's ground truth, not against what the flight controller says.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import pytest
+
+from gcs.launcher import Stack
+from gcs.sim_client import SimClient
+
+mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
+from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
+from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
+from mavsdk.asyncio.plugins.geofence import GeofenceAsync  # noqa: E402
+from mavsdk.asyncio.plugins.mission import MissionAsync  # noqa: E402
+from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync  # noqa: E402
+from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
+from mavsdk.plugins import geofence as gf  # noqa: E402
+from mavsdk.plugins import mission_raw as raw  # noqa: E402
+from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
+from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_missions", "stack")
+HOME = (47.397742, 8.545594)  # the simulator's default home: truth NED is measured from here
+NAN = float("nan")
+ACCEPT_M = 2.0
+
+
+def latlon(north_m: float, east_m: float) -> tuple[float, float]:
+    """A point north/east of the simulator's home (spherical, good to mm over 100 m)."""
+    r = 6378137.0
+    return (
+        HOME[0] + math.degrees(north_m / r),
+        HOME[1] + math.degrees(east_m / (r * math.cos(math.radians(HOME[0])))),
+    )
+
+
+def waypoint(north: float, east: float, alt: float, speed: float = NAN) -> MissionItem:
+    lat, lon = latlon(north, east)
+    return MissionItem(
+        lat, lon, alt, speed, True, NAN, NAN, MissionItem.CameraAction.NONE, NAN, 1.0, ACCEPT_M, NAN, NAN,
+        MissionItem.VehicleAction.NONE,
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def truth():
+    with SimClient(14560 + INSTANCE) as listener:
+        yield listener
+
+
+@pytest.fixture(scope="module")
+def stack(truth):
+    with Stack(instance=INSTANCE, speed="max") as s:
+        yield s
+
+
+async def _until(predicate, timeout_s: float, what: str, period_s: float = 0.1):
+    async def loop():
+        while not await predicate():
+            await asyncio.sleep(period_s)
+
+    try:
+        await asyncio.wait_for(loop(), timeout_s)
+    except asyncio.TimeoutError:
+        raise AssertionError(f"timed out waiting for {what}") from None
+
+
+async def _session(body):
+    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        system = await sdk.first_autopilot(timeout_s=30.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        tel = TelemetryAsync(system)
+
+        async def ready():
+            h = await tel.health()
+            return h.is_global_position_ok and h.is_home_position_ok and h.is_armable and not await tel.armed()
+
+        await _until(ready, 90, "health: position, home, armable, disarmed")
+        return await body(system, tel)
+
+
+async def _land_and_disarm(system, tel) -> None:
+    await ActionAsync(system).return_to_launch()
+
+    async def disarmed():
+        return not await tel.armed()
+
+    await _until(disarmed, 120, "disarmed after the return")
+
+
+def _closest(truth: SimClient, since_ms: int, north: float, east: float) -> float:
+    """The closest horizontal approach of the true vehicle to a point since a time, m."""
+    return min(math.hypot(s.pos_ned_m[0] - north, s.pos_ned_m[1] - east) for s in truth.since(since_ms))
+
+
+SQUARE = [(0, 0), (15, 0), (30, 0), (30, 15), (30, 30), (15, 30), (0, 30), (0, 15), (0, 0), (5, 5)]
+
+
+def test_mavsdk_square_mission_upload_download_fly(stack, truth):
+    items = [waypoint(n, e, 6.0, 5.0 if k == 4 else NAN) for k, (n, e) in enumerate(SQUARE)]
+
+    async def body(system, tel):
+        mission = MissionAsync(system)
+        await mission.upload_mission(MissionPlan(items))
+        down = (await mission.download_mission()).mission_items
+        start_ms = truth.latest().time_ms
+        await ActionAsync(system).arm()
+        await mission.start_mission()
+        progress = []
+
+        async def finished():
+            p = await mission.mission_progress()
+            if not progress or progress[-1] != p.current:
+                progress.append(p.current)
+            return p.current == p.total and await mission.is_mission_finished()
+
+        await _until(finished, 180, "the mission's end")
+        await _land_and_disarm(system, tel)
+        return down, progress, start_ms
+
+    down, progress, start_ms = asyncio.run(_session(body))
+    stack.check_alive()
+    assert len(down) == len(items)
+    for up, back in zip(items, down):
+        assert back.latitude_deg == pytest.approx(up.latitude_deg, abs=2e-7)
+        assert back.longitude_deg == pytest.approx(up.longitude_deg, abs=2e-7)
+        assert back.relative_altitude_m == pytest.approx(up.relative_altitude_m)
+        assert back.acceptance_radius_m == pytest.approx(ACCEPT_M)
+        assert back.is_fly_through and (math.isnan(up.speed_m_s) or back.speed_m_s == pytest.approx(up.speed_m_s))
+    assert progress == sorted(progress) and progress[-1] == len(items)
+    for north, east in SQUARE:  # within the acceptance radius of every waypoint, by the ground truth
+        assert _closest(truth, start_ms, north, east) < ACCEPT_M, (north, east)
+
+
+def _raw_item(seq, command, p1=0.0, p2=0.0, north=None, east=None, alt=0.0, frame=6):
+    x = y = 0
+    if north is not None:
+        lat, lon = latlon(north, east)
+        x, y = round(lat * 1e7), round(lon * 1e7)
+    return raw.MissionItem(seq, frame, command, 1 if seq == 0 else 0, 1, p1, p2, 0.0, NAN, x, y, alt, 0)
+
+
+def test_mavsdk_raw_mission_with_do_jump_repeats_and_lands(stack, truth):
+    items = [
+        _raw_item(0, 22, north=0, east=0, alt=5.0),  # NAV_TAKEOFF
+        _raw_item(1, 16, north=12, east=0, alt=5.0),
+        _raw_item(2, 16, north=12, east=12, alt=5.0),
+        _raw_item(3, 177, p1=1, p2=1, frame=2),  # DO_JUMP to 1, once more
+        _raw_item(4, 16, north=0, east=12, alt=5.0),
+        _raw_item(5, 21, north=0, east=12, alt=0.0),  # NAV_LAND there
+    ]
+
+    async def body(system, tel):
+        mission = MissionRawAsync(system)
+        await mission.upload_mission(items)
+        down = await mission.download_mission()
+        start_ms = truth.latest().time_ms
+        await ActionAsync(system).arm()
+        await mission.start_mission()
+        seen = []
+
+        async def flying():
+            return await tel.in_air()
+
+        await _until(flying, 30, "take-off")
+
+        async def landed():
+            p = await mission.mission_progress()
+            if not seen or seen[-1] != p.current:
+                seen.append(p.current)
+            return not await tel.armed()
+
+        await _until(landed, 180, "landing and disarm at the mission's end")
+        return down, seen, start_ms
+
+    down, seen, start_ms = asyncio.run(_session(body))
+    stack.check_alive()
+    assert [(d.command, d.x, d.y, d.param1, d.param2) for d in down] == [
+        (i.command, i.x, i.y, i.param1, i.param2) for i in items
+    ]
+    # item 1 and 2 flown twice: 1, 2, (jump) 1, 2, 4, 5
+    flown = [s for s in seen if s in (1, 2, 4, 5)]
+    assert flown[:6] == [1, 2, 1, 2, 4, 5], seen
+    end = truth.latest()
+    assert math.hypot(end.pos_ned_m[0] - 0, end.pos_ned_m[1] - 12) < 1.5
+    assert abs(end.pos_ned_m[2]) < 0.5
+
+
+def test_mavsdk_geofence_stops_the_vehicle_at_an_inclusion_polygon(stack, truth):
+    half = 15.0
+    corners = [latlon(n, e) for n, e in ((-half, -half), (half, -half), (half, half), (-half, half))]
+    fence = gf.GeofenceData([gf.Polygon([gf.Point(lat, lon) for lat, lon in corners], gf.FenceType.INCLUSION)], [])
+
+    async def body(system, tel):
+        await GeofenceAsync(system).upload_geofence(fence)
+        action = ActionAsync(system)
+        await action.set_takeoff_altitude(5.0)
+        await action.arm()
+        await action.takeoff()
+
+        async def up():
+            return (await tel.position()).relative_altitude_m > 4.5
+
+        await _until(up, 60, "take-off to 5 m")
+        start_ms = truth.latest().time_ms
+        target = latlon(60.0, 0.0)
+        home_amsl = (await tel.home()).absolute_altitude_m
+        await action.goto_location(target[0], target[1], home_amsl + 5.0, NAN)
+
+        async def holding():
+            return await tel.flight_mode() == FlightMode.HOLD
+
+        await _until(holding, 60, "HOLD at the fence (GF_ACTION 2)")
+        await asyncio.sleep(3.0)  # let it brake and settle
+        await GeofenceAsync(system).clear_geofence()
+        await _land_and_disarm(system, tel)
+        return start_ms
+
+    start_ms = asyncio.run(_session(body))
+    stack.check_alive()
+    farthest = max(s.pos_ned_m[0] for s in truth.since(start_ms))
+    assert 5.0 < farthest < half, f"went {farthest:.1f} m north: the fence is at {half} m"
