@@ -41,25 +41,16 @@ WPL_COLUMNS = (
     "seq", "current", "frame", "command", "param1", "param2", "param3", "param4",
     "x (latitude)", "y (longitude)", "z (altitude)", "autocontinue",
 )  # fmt: skip
+WPL_INT_COLUMNS = frozenset({0, 1, 2, 3, 11})  # seq, current, frame, command, autocontinue
 FIRMWARE_PX4, VEHICLE_MULTIROTOR = 12, 2  # MAV_AUTOPILOT_PX4, MAV_TYPE_QUADROTOR
 CRUISE_SPEED_M_S, HOVER_SPEED_M_S = 15, 5  # QGroundControl's defaults (a Plan carries no speeds)
-ALTITUDE_MODES = {
-    mi.FRAME_GLOBAL_RELATIVE_ALT: 1,
-    mi.FRAME_GLOBAL_RELATIVE_ALT_INT: 1,
-    mi.FRAME_GLOBAL: 2,
-    mi.FRAME_GLOBAL_INT: 2,
-}
+ALTITUDE_MODES = {**dict.fromkeys(mi.RELATIVE_FRAMES, 1), **dict.fromkeys(mi.GLOBAL_FRAMES, 2)}  # QGC AltitudeMode
 POLYGON_COMMANDS = {True: mi.FENCE_POLYGON_INCLUSION, False: mi.FENCE_POLYGON_EXCLUSION}
 CIRCLE_COMMANDS = {True: mi.FENCE_CIRCLE_INCLUSION, False: mi.FENCE_CIRCLE_EXCLUSION}
-_REQUIRED = object()
 _KINDS = {
-    dict: "an object",
-    list: "a list",
-    bool: "true or false",
-    int: "an integer",
-    str: "a string",
-    object: "a value",
-}
+    dict: "an object", list: "a list", bool: "true or false", int: "an integer", float: "a number", str: "a string",
+    type(None): "null",
+}  # fmt: skip
 
 
 @dataclass
@@ -86,9 +77,6 @@ def _fail(name: str, where: str, message: str, line: int | None = None) -> NoRet
     raise PlanFileError(name, line, where, message)
 
 
-# --------------------------------------------------------------------------- files
-
-
 def read_plan_file(path: str | Path) -> Plan:
     """Read a plan file, either format, told apart by its content (OSError when it cannot be read)."""
     p = Path(path)
@@ -105,22 +93,14 @@ def read_plan_file(path: str | Path) -> Plan:
 def write_plan_file(path: str | Path, plan: Plan) -> None:
     """Write ``plan``: ``.plan`` as QGroundControl JSON, ``.waypoints``/``.txt``/``.wpl`` as QGC WPL 110."""
     p = Path(path)
-    suffix = p.suffix.lower()
+    writer = {**dict.fromkeys(PLAN_SUFFIXES, format_qgc_plan), **dict.fromkeys(WPL_SUFFIXES, format_wpl)}
     try:
-        if suffix in PLAN_SUFFIXES:
-            text = format_qgc_plan(plan)
-        elif suffix in WPL_SUFFIXES:
-            text = format_wpl(plan)
-        else:
-            _fail(
-                str(p), "suffix", f"{suffix or 'no suffix'!r}: use .plan (QGroundControl) or .waypoints (QGC WPL 110)"
-            )
+        if (write := writer.get(p.suffix.lower())) is None:
+            _fail(str(p), "suffix", f"{p.suffix!r}: use .plan (QGroundControl) or .waypoints (QGC WPL 110)")
+        text = write(plan)
     except PlanFileError as e:
         raise PlanFileError(p, e.line, e.field, e.message) from None
     p.write_text(text, encoding="utf-8")
-
-
-# --------------------------------------------------------------------------- shared checks
 
 
 def _scaled(value: float, axis: str, command: int, frame: int, name: str, where: str, line: int | None) -> int:
@@ -149,39 +129,25 @@ def _unscaled(value: int, frame: int) -> float:
     return value / (1e4 if frame == mi.FRAME_LOCAL_NED else mi.DEG_E7)
 
 
-def _home_or_none(lat: float, lon: float, alt: float) -> tuple[float, float, float] | None:
-    return None if (lat, lon, alt) == (0.0, 0.0, 0.0) else (lat, lon, alt)
-
-
 # --------------------------------------------------------------------------- .plan (JSON) reading
 
 
-def _json_type(value: Any) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true or false"
-    if isinstance(value, (int, float)):
-        return "a number"
-    return _KINDS.get(type(value), type(value).__name__)
-
-
-def _member(obj: dict, key: str, where: str, name: str, kind: type, default: Any = _REQUIRED) -> Any:
+def _member(obj: dict, key: str, where: str, name: str, kind: type, default: Any = ...) -> Any:
     """``obj[key]`` of type ``kind``; ``default`` when missing or null (if given), else an error."""
     path = f"{where}.{key}" if where else key
     value = obj.get(key)
     if value is None:
-        if default is _REQUIRED:
+        if default is ...:
             _fail(name, path, f"missing ({_KINDS[kind]})" if key not in obj else f"must be {_KINDS[kind]}, not null")
         return default
     if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-        _fail(name, path, f"must be {_KINDS[kind]}, not {_json_type(value)}")
+        _fail(name, path, f"must be {_KINDS[kind]}, not {_KINDS[type(value)]}")
     return value
 
 
 def _object(value: Any, where: str, name: str) -> dict:
     if not isinstance(value, dict):
-        _fail(name, where, f"must be an object, not {_json_type(value)}")
+        _fail(name, where, f"must be an object, not {_KINDS[type(value)]}")
     return value
 
 
@@ -189,7 +155,7 @@ def _number(value: Any, where: str, name: str, null_ok: bool = True) -> float:
     if value is None and null_ok:
         return math.nan
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        _fail(name, where, f"must be a number{' (or null)' if null_ok else ''}, not {_json_type(value)}")
+        _fail(name, where, f"must be a number{' (or null)' if null_ok else ''}, not {_KINDS[type(value)]}")
     return float(value)
 
 
@@ -224,7 +190,7 @@ def parse_qgc_plan(text: str, name: str = "<plan>") -> Plan:
     home = None
     if (planned := _member(mission, "plannedHomePosition", "mission", name, list, None)) is not None:
         x, y, alt = _point(planned, 3, mi.NAV_WAYPOINT, "mission.plannedHomePosition", name)
-        home = _home_or_none(float(planned[0]), float(planned[1]), alt)
+        home = (float(planned[0]), float(planned[1]), alt) if any(planned) else None  # all zeros: unknown
     return Plan(_mission_items(mission, name), _fence_items(doc, name), _rally_items(doc, name), home)
 
 
@@ -263,15 +229,17 @@ def _mission_items(mission: dict, name: str) -> list[MissionItem]:
         if item.command == mi.DO_JUMP:
             target = item.param1
             if not (target.is_integer() and int(target) in seq_of_id):
-                _fail(name, f"mission.items[{seq}].params[0]", f"mi.DO_JUMP target {target:g} is no item's doJumpId")
+                _fail(name, f"mission.items[{seq}].params[0]", f"DO_JUMP target {target:g} is no item's doJumpId")
             items[seq] = replace(item, param1=float(seq_of_id[int(target)]))
     return items
 
 
+def _fence_item(seq: int, command: int, param1: float, x: int, y: int) -> MissionItem:
+    return MissionItem(seq, mi.FRAME_GLOBAL, command, param1, x=x, y=y, mission_type=mi.FENCE)
+
+
 def _fence_items(doc: dict, name: str) -> list[MissionItem]:
-    fence = _member(doc, "geoFence", "", name, dict, None)
-    if fence is None:
-        return []
+    fence = _member(doc, "geoFence", "", name, dict, {})
     _version(fence, "geoFence", name)
     items: list[MissionItem] = []
     for i, entry in enumerate(_member(fence, "polygons", "geoFence", name, list, [])):
@@ -283,39 +251,29 @@ def _fence_items(doc: dict, name: str) -> list[MissionItem]:
             _fail(name, f"{where}.polygon", f"a polygon needs at least 3 vertices, not {len(vertices)}")
         for k, vertex in enumerate(vertices):
             x, y, _ = _point(vertex, 2, command, f"{where}.polygon[{k}]", name)
-            items.append(
-                MissionItem(len(items), mi.FRAME_GLOBAL, command, float(len(vertices)), x=x, y=y, mission_type=mi.FENCE)
-            )
+            items.append(_fence_item(len(items), command, float(len(vertices)), x, y))
     for i, entry in enumerate(_member(fence, "circles", "geoFence", name, list, [])):
         where = f"geoFence.circles[{i}]"
         entry = _object(entry, where, name)
         command = CIRCLE_COMMANDS[_member(entry, "inclusion", where, name, bool)]
         circle = _member(entry, "circle", where, name, dict)
-        x, y, _ = _point(
-            _member(circle, "center", f"{where}.circle", name, list), 2, command, f"{where}.circle.center", name
-        )
-        radius = _number(
-            _member(circle, "radius", f"{where}.circle", name, object), f"{where}.circle.radius", name, False
-        )
+        center = _member(circle, "center", f"{where}.circle", name, list)
+        x, y, _ = _point(center, 2, command, f"{where}.circle.center", name)
+        radius = _number(circle.get("radius"), f"{where}.circle.radius", name, null_ok=False)
         if not (math.isfinite(radius) and radius > 0):
             _fail(name, f"{where}.circle.radius", f"{radius!r} is not a positive radius (metres)")
-        items.append(MissionItem(len(items), mi.FRAME_GLOBAL, command, radius, x=x, y=y, mission_type=mi.FENCE))
+        items.append(_fence_item(len(items), command, radius, x, y))
     return items
 
 
 def _rally_items(doc: dict, name: str) -> list[MissionItem]:
-    rally = _member(doc, "rallyPoints", "", name, dict, None)
-    if rally is None:
-        return []
+    rally = _member(doc, "rallyPoints", "", name, dict, {})
     _version(rally, "rallyPoints", name)
     items = []
     for i, point in enumerate(_member(rally, "points", "rallyPoints", name, list, [])):
         x, y, z = _point(point, 3, mi.RALLY_POINT, f"rallyPoints.points[{i}]", name)
         items.append(MissionItem(i, mi.FRAME_GLOBAL_RELATIVE_ALT, mi.RALLY_POINT, x=x, y=y, z=z, mission_type=mi.RALLY))
     return items
-
-
-# --------------------------------------------------------------------------- .plan (JSON) writing
 
 
 def _json_number(value: float) -> int | float | None:
@@ -334,11 +292,8 @@ def _item_json(index: int, item: MissionItem) -> dict:
         "frame": item.frame, "params": [_json_number(p) for p in params], "type": "SimpleItem",
     }  # fmt: skip
     if item.frame in ALTITUDE_MODES:
-        out |= {
-            "AMSLAltAboveTerrain": None,
-            "Altitude": _json_number(item.z),
-            "AltitudeMode": ALTITUDE_MODES[item.frame],
-        }
+        out |= {"AMSLAltAboveTerrain": None, "Altitude": _json_number(item.z)}
+        out["AltitudeMode"] = ALTITUDE_MODES[item.frame]
     return out
 
 
@@ -351,22 +306,19 @@ def _fence_json(fence: list[MissionItem]) -> dict:
     i = 0
     while i < len(fence):
         item = fence[i]
-        if item.command in (mi.FENCE_CIRCLE_INCLUSION, mi.FENCE_CIRCLE_EXCLUSION):
-            inclusion = item.command == mi.FENCE_CIRCLE_INCLUSION
+        if item.command in CIRCLE_COMMANDS.values():
             circle = {"center": _lat_lon(item), "radius": _json_number(item.param1)}
-            circles.append({"circle": circle, "inclusion": inclusion, "version": 1})
+            circles.append({"circle": circle, "inclusion": item.command == mi.FENCE_CIRCLE_INCLUSION, "version": 1})
             i += 1
             continue
-        if item.command not in (mi.FENCE_POLYGON_INCLUSION, mi.FENCE_POLYGON_EXCLUSION):
+        if item.command not in POLYGON_COMMANDS.values():
             _fail("<plan>", f"fence[{i}]", f"{item.name} is not a fence command")
         n = item.param1
         group = fence[i : i + int(n)] if math.isfinite(n) and n.is_integer() and n >= 3 else []
         if len(group) != n or any(g.command != item.command or g.param1 != n for g in group):
             _fail("<plan>", f"fence[{i}]", f"vertex count (param1) {n:g} does not match the {item.name} items")
-        polygons.append(
-            {"inclusion": item.command == mi.FENCE_POLYGON_INCLUSION, "polygon": [_lat_lon(g) for g in group]}
-        )
-        polygons[-1]["version"] = 1
+        inclusion = item.command == mi.FENCE_POLYGON_INCLUSION
+        polygons.append({"inclusion": inclusion, "polygon": [_lat_lon(g) for g in group], "version": 1})
         i += len(group)
     return {"circles": circles, "polygons": polygons, "version": 2}
 
@@ -390,29 +342,24 @@ def format_qgc_plan(plan: Plan) -> str:
 # --------------------------------------------------------------------------- QGC WPL 110
 
 
-def _wpl_row(line: int, text: str, expected_seq: int, name: str) -> tuple[MissionItem, float, float]:
-    """One item line: the item (seq as in the file) and its latitude and longitude as written."""
+def _wpl_row(line: int, text: str, expected_seq: int, name: str) -> tuple[MissionItem, float, float, int]:
+    """One item line: the item (seq as in the file), its latitude and longitude as written, its line number."""
     cols = text.split()
     if len(cols) != len(WPL_COLUMNS):
         _fail(name, "columns", f"expected {len(WPL_COLUMNS)} ({', '.join(WPL_COLUMNS)}), found {len(cols)}", line)
-    ints, floats = {}, {}
+    values: list[Any] = []
     for k, col in enumerate(cols):
         try:
-            if k in (0, 1, 2, 3, 11):
-                ints[k] = int(col)
-            else:
-                floats[k] = float(col)
+            values.append(int(col) if k in WPL_INT_COLUMNS else float(col))
         except ValueError:
-            _fail(name, WPL_COLUMNS[k], f"{col!r} is not {'an integer' if k in (0, 1, 2, 3, 11) else 'a number'}", line)
-    seq, current, frame, command, autocontinue = ints[0], ints[1], ints[2], ints[3], ints[11]
+            _fail(name, WPL_COLUMNS[k], f"{col!r} is not {'an integer' if k in WPL_INT_COLUMNS else 'a number'}", line)
+    seq, current, frame, command, p1, p2, p3, p4, lat, lon, alt, autocontinue = values
     if seq != expected_seq:
         _fail(name, "seq", f"{seq} does not follow the line before: expected {expected_seq}", line)
-    x = _scaled(floats[8], "x", command, frame, name, WPL_COLUMNS[8], line)
-    y = _scaled(floats[9], "y", command, frame, name, WPL_COLUMNS[9], line)
-    z = _altitude(floats[10], command, name, WPL_COLUMNS[10], line)
-    p1, p2, p3, p4 = floats[4], floats[5], floats[6], floats[7]
-    item = MissionItem(seq, frame, command, p1, p2, p3, p4, x, y, z, mi.MISSION, current, autocontinue)
-    return item, floats[8], floats[9]
+    x = _scaled(lat, "x", command, frame, name, WPL_COLUMNS[8], line)
+    y = _scaled(lon, "y", command, frame, name, WPL_COLUMNS[9], line)
+    z = _altitude(alt, command, name, WPL_COLUMNS[10], line)
+    return MissionItem(seq, frame, command, p1, p2, p3, p4, x, y, z, mi.MISSION, current, autocontinue), lat, lon, line
 
 
 def parse_wpl(text: str, name: str = "<wpl>") -> Plan:
@@ -421,25 +368,19 @@ def parse_wpl(text: str, name: str = "<wpl>") -> Plan:
     if not lines or lines[0][1].strip() != WPL_HEADER:
         _fail(name, "header", f'first line must be "{WPL_HEADER}"', lines[0][0] if lines else 1)
     rows = [_wpl_row(n, line, k, name) for k, (n, line) in enumerate(lines[1:])]
-    numbers = [n for n, _ in lines[1:]]
     home, offset = None, 0  # offset: the line seq of mission item 0
     if rows and rows[0][0].command == mi.NAV_WAYPOINT and rows[0][0].current == 1:
-        home_item, lat, lon = rows.pop(0)
-        numbers.pop(0)
-        home, offset = _home_or_none(lat, lon, home_item.z), 1
+        home_item, lat, lon, _ = rows.pop(0)
+        home, offset = ((lat, lon, home_item.z) if any((lat, lon, home_item.z)) else None), 1  # zeros: unknown
     mission = []
-    for seq, ((item, _, _), line) in enumerate(zip(rows, numbers)):
+    for seq, (item, _, _, line) in enumerate(rows):
         if item.command == mi.DO_JUMP:
             target = item.param1 - offset  # line seq -> mission seq
             if not (target.is_integer() and 0 <= target < len(rows)):
-                _fail(name, "param1", f"mi.DO_JUMP target {item.param1:g} is not the seq of a mission item line", line)
+                _fail(name, "param1", f"DO_JUMP target {item.param1:g} is not the seq of a mission item line", line)
             item = replace(item, param1=target)
         mission.append(replace(item, seq=seq))
     return Plan(mission, [], [], home)
-
-
-def _wpl_float(value: float) -> str:
-    return repr(float(value))
 
 
 def format_wpl(plan: Plan) -> str:
@@ -449,11 +390,11 @@ def format_wpl(plan: Plan) -> str:
         _fail("<wpl>", "fence" if plan.fence else "rally", f"a QGC WPL 110 file holds no {what}: save to a .plan file")
     lat, lon, alt = plan.home if plan.home is not None else (0.0, 0.0, 0.0)
     home = ["0", "1", str(mi.FRAME_GLOBAL), str(mi.NAV_WAYPOINT), "0", "0", "0", "0"]
-    lines = [WPL_HEADER, "\t".join(home + [_wpl_float(lat), _wpl_float(lon), _wpl_float(alt), "1"])]
+    lines = [WPL_HEADER, "\t".join(home + [repr(float(v)) for v in (lat, lon, alt)] + ["1"])]
     for seq, item in enumerate(plan.mission, 1):
         param1 = item.param1 + 1 if item.command == mi.DO_JUMP else item.param1  # mission seq -> line seq
         cols = [str(seq), str(item.current), str(item.frame), str(item.command)]
-        cols += [_wpl_float(p) for p in (param1, item.param2, item.param3, item.param4)]
-        cols += [f"{_unscaled(item.x, item.frame):.8f}", f"{_unscaled(item.y, item.frame):.8f}", _wpl_float(item.z)]
+        cols += [repr(float(p)) for p in (param1, item.param2, item.param3, item.param4)]
+        cols += [f"{_unscaled(item.x, item.frame):.8f}", f"{_unscaled(item.y, item.frame):.8f}", repr(float(item.z))]
         lines.append("\t".join(cols + [str(item.autocontinue)]))
     return "\n".join(lines) + "\n"

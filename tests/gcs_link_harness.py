@@ -8,6 +8,7 @@ microseconds, one 250 Hz step per call) and drains the client sockets after each
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -31,6 +32,7 @@ from autopilot.topics import (  # noqa: E402
     VehicleEstimate,
 )
 from mavsim_core.mission_items import MissionItem  # noqa: E402
+from mavsim_core.px4_modes import Mode  # noqa: E402
 
 ORIGIN = (47.397742, 8.545594, 488.0)  # the estimate's origin (lat deg, lon deg, alt m AMSL), also home
 CUSTOM_MODE_POSCTL = 3 << 16
@@ -106,6 +108,10 @@ class StubVehicle:
 
     def snapshot(self) -> TelemetrySnapshot:
         self.snapshot_calls += 1
+        if self.plans.state is self.snap.mission.state and self.plans.current == self.snap.mission.seq:
+            if len(self.plans.items[0]) == self.snap.mission.total:
+                return self.snap
+        self.snap = dataclasses.replace(self.snap, mission=self.plans.status(Mode.POSCTL))
         return self.snap
 
     def handle_command(self, command: int, params: tuple[float, ...], frame: int) -> int:

@@ -50,6 +50,7 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_gcs_link_telemetry": {f"link{k}": 120 + k for k in range(6)},
     "test_gcs_link_params": {f"link{k}": 126 + k for k in range(4)},
     "test_gcs_link_commands": {f"link{k}": 220 + k for k in range(6)},
+    "test_gcs_link_missions": {"link": 227},
 }
 
 
