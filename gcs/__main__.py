@@ -29,7 +29,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core import px4_modes as modes
 
-from . import param_cli, ugv_cli
+from . import mission_cli, param_cli, ugv_cli
 from .client import VehicleClient
 from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
 from .plugins.telemetry import GPS_FIX_NAMES
@@ -125,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     param_cli.add_param_parser(sub)
     ugv_cli.add_ugv_parser(sub)
+    mission_cli.add_mission_parser(sub)
     # -- gcs plot (gcs/plot.py): figures from a flight log, no vehicle needed
     from . import plot
 
@@ -308,6 +309,8 @@ def main(argv: list[str] | None = None) -> int:
         return plot.run(args)
     if args.command == "ugv":  # the simulator's own port, not the vehicle's
         return ugv_cli.run_ugv_command(args)
+    if args.command == "mission" and args.mission_command == "upload" and mission_cli.load_file(args.file) is None:
+        return EXIT_REFUSED  # a broken file: said why, nothing sent
     if args.command == "mode":
         try:
             modes.lookup_mode(args.name)
@@ -329,6 +332,7 @@ def main(argv: list[str] | None = None) -> int:
             "rtl": cli.rtl,
             "mode": cli.mode,
             "param": cli.param,
+            "mission": lambda: mission_cli.run_mission_command(client, args),
         }[args.command]
         return handler()
     except CommandRefused as exc:

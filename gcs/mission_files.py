@@ -78,14 +78,16 @@ def _fail(name: str, where: str, message: str, line: int | None = None) -> NoRet
 
 
 def read_plan_file(path: str | Path) -> Plan:
-    """Read a plan file, either format, told apart by its content (OSError when it cannot be read)."""
+    """Read a plan file, either format, told apart by its content (OSError when it cannot be read).
+
+    A first line "QGC WPL ..." is WPL, "{" JSON; anything else is read as its suffix says (JSON for ``.plan``)."""
     p = Path(path)
     try:
         text = p.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError as e:
         raise PlanFileError(p, None, "", f"not a text file ({e.reason})") from None
     first = next((line.strip() for line in text.splitlines() if line.strip()), "")
-    if first.startswith("QGC WPL"):
+    if first.startswith("QGC WPL") or (not first.startswith(("{", "[")) and p.suffix.lower() in WPL_SUFFIXES):
         return parse_wpl(text, str(p))
     return parse_qgc_plan(text, str(p))
 
@@ -129,9 +131,6 @@ def _unscaled(value: int, frame: int) -> float:
     return value / (1e4 if frame == mi.FRAME_LOCAL_NED else mi.DEG_E7)
 
 
-# --------------------------------------------------------------------------- .plan (JSON) reading
-
-
 def _member(obj: dict, key: str, where: str, name: str, kind: type, default: Any = ...) -> Any:
     """``obj[key]`` of type ``kind``; ``default`` when missing or null (if given), else an error."""
     path = f"{where}.{key}" if where else key
@@ -154,7 +153,7 @@ def _object(value: Any, where: str, name: str) -> dict:
 def _number(value: Any, where: str, name: str, null_ok: bool = True) -> float:
     if value is None and null_ok:
         return math.nan
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or isinstance(value, int) and abs(value) > 1e308:
         _fail(name, where, f"must be a number{' (or null)' if null_ok else ''}, not {_KINDS[type(value)]}")
     return float(value)
 
@@ -278,7 +277,7 @@ def _rally_items(doc: dict, name: str) -> list[MissionItem]:
 
 def _json_number(value: float) -> int | float | None:
     """NaN (and infinities, which JSON lacks) as null, whole numbers without '.0' as QGroundControl writes them."""
-    if not math.isfinite(value):
+    if not math.isfinite(value := float(value)):
         return None
     return int(value) if value.is_integer() and abs(value) < 2**53 else value
 
@@ -313,7 +312,7 @@ def _fence_json(fence: list[MissionItem]) -> dict:
             continue
         if item.command not in POLYGON_COMMANDS.values():
             _fail("<plan>", f"fence[{i}]", f"{item.name} is not a fence command")
-        n = item.param1
+        n = float(item.param1)
         group = fence[i : i + int(n)] if math.isfinite(n) and n.is_integer() and n >= 3 else []
         if len(group) != n or any(g.command != item.command or g.param1 != n for g in group):
             _fail("<plan>", f"fence[{i}]", f"vertex count (param1) {n:g} does not match the {item.name} items")
@@ -336,10 +335,7 @@ def format_qgc_plan(plan: Plan) -> str:
         "fileType": "Plan", "geoFence": _fence_json(plan.fence), "groundStation": "QGroundControl",
         "mission": mission, "rallyPoints": rally, "version": 1,
     }  # fmt: skip
-    return json.dumps(doc, indent=4, allow_nan=False) + "\n"
-
-
-# --------------------------------------------------------------------------- QGC WPL 110
+    return json.dumps(doc, indent=4, sort_keys=True, allow_nan=False) + "\n"
 
 
 def _wpl_row(line: int, text: str, expected_seq: int, name: str) -> tuple[MissionItem, float, float, int]:

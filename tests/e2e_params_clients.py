@@ -44,9 +44,9 @@ async def mavsdk_params(port: int) -> dict:
 class MavproxySession:
     """MAVProxy driven through its stdin, its output read line by line."""
 
-    def __init__(self, master: str) -> None:
+    def __init__(self, master: str, modules: str = "param") -> None:
         self.proc = subprocess.Popen(
-            [sys.executable, MAVPROXY, "--master", master, "--no-state", "--default-modules=param"],
+            [sys.executable, MAVPROXY, "--master", master, "--no-state", f"--default-modules={modules}"],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,

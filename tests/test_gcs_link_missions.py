@@ -16,6 +16,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from autopilot.mavlink import mission_protocol  # noqa: E402
+
 from gcs_link_harness import ORIGIN, of_type  # tests/gcs_link_harness.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -83,8 +84,12 @@ def test_upload_download_each_plan_type(make_harness):
     assert [(m.seq, m.command, m.x, m.y, m.z, m.frame) for m in back] == [
         (m.seq, m.command, m.x, m.y, m.z, m.frame) for m in square(5)
     ]
-    fence = [item(k, mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, (4, 0, 0, 0), n, e, 0.0,
-                  mavlink.MAV_FRAME_GLOBAL_INT, FENCE) for k, (n, e) in enumerate([(-50, -50), (50, -50), (50, 50), (-50, 50)])]  # fmt: skip
+    corners = [(-50, -50), (50, -50), (50, 50), (-50, 50)]
+    vertex = mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    fence = [
+        item(k, vertex, (4, 0, 0, 0), n, e, 0.0, mavlink.MAV_FRAME_GLOBAL_INT, FENCE)
+        for k, (n, e) in enumerate(corners)
+    ]
     assert ack_types(upload(h, c, fence, FENCE)) == [mavlink.MAV_MISSION_ACCEPTED]
     rally = [item(0, mavlink.MAV_CMD_NAV_RALLY_POINT, north=30, east=0, z=0.0, mtype=RALLY)]
     assert ack_types(upload(h, c, rally, RALLY)) == [mavlink.MAV_MISSION_ACCEPTED]

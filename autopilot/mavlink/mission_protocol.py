@@ -36,7 +36,7 @@ from mavsim_core import mission_items as mi
 from mavsim_core.mission_items import MissionItem, item_from_float
 
 RETRY_S = 0.25  # wall seconds without the requested item before the request is sent again
-MAX_RETRIES = 8  # then the upload ends with MAV_MISSION_OPERATION_CANCELLED (about 2 s of silence)
+MAX_RETRIES = 8  # for one item; then the upload ends with MAV_MISSION_OPERATION_CANCELLED (about 2 s of silence)
 PLAN_TYPES = (mi.MISSION, mi.FENCE, mi.RALLY)
 
 
@@ -169,6 +169,7 @@ class MissionService:
         if result != mavlink.MAV_MISSION_ACCEPTED:
             return self._fail(result, reason)
         up.items.append(item)
+        up.retries = 0  # progress: the retry budget is per item
         if len(up.items) < up.count:
             return self._request_next()
         self.upload = None
