@@ -113,7 +113,8 @@ def main() -> int:
                     print(f"{n:4d} items: upload {up:.3f} s, download {down:.3f} s", flush=True)
                 r = fly_square(c, truth, args.side)
         print(
-            f"4-leg mission, {args.side:g} m square at cruise speed ({args.vehicle}): cross-track RMS {r['rms']:.3f} m, "
+            f"4-leg mission, {args.side:g} m square at cruise speed ({args.vehicle}): "
+            f"cross-track RMS {r['rms']:.3f} m, "
             f"max {r['max']:.3f} m; mean ground speed {r['mean_speed']:.2f} m/s over {r['duration_s']:.1f} s"
         )
         print("closest approach to each corner: " + ", ".join(f"{d:.2f} m" for d in r["closest"]))
