@@ -53,7 +53,7 @@ def test_table_covers_the_commands_of_px4_identity():
         mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_LAND,
         mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_CMD_DO_REPOSITION,
         mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_CMD_REQUEST_MESSAGE,
-        mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+        mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT,
     }  # fmt: skip
     assert set(commands.COMMANDS) == expected
     by_link = {c for c, row in commands.COMMANDS.items() if row.by is commands.By.LINK}

@@ -66,6 +66,9 @@ class _Vehicle:
     def pop_events(self) -> list:
         return []
 
+    def pop_mission_reached(self) -> list:
+        return []
+
 
 def _control_setpoints(q_sp) -> ControlSetpoints:
     """What the controllers publish in flight: a NaN down position (altitude not controlled)."""
