@@ -71,3 +71,34 @@ def wait_hovering(client: VehicleClient, alt_m: float) -> None:
 
 def horizontal(a, b) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])
+
+
+SIM_HOME = (47.397742, 8.545594)  # the simulator's default home: its truth NED is measured from here
+
+
+def latlon(north_m: float, east_m: float) -> tuple[float, float]:
+    """A point north/east of the simulator's home, degrees (spherical Earth: mm over 100 m)."""
+    r = 6378137.0
+    return (
+        SIM_HOME[0] + math.degrees(north_m / r),
+        SIM_HOME[1] + math.degrees(east_m / (r * math.cos(math.radians(SIM_HOME[0])))),
+    )
+
+
+def closest_approach(truth, since_ms: int, north: float, east: float) -> float:
+    """The closest horizontal approach of the true vehicle (a SimClient) to a point since a time, m."""
+    return min(math.hypot(s.pos_ned_m[0] - north, s.pos_ned_m[1] - east) for s in truth.since(since_ms))
+
+
+async def until(predicate, timeout_s: float, what: str, period_s: float = 0.1) -> None:
+    """Await ``predicate()`` (a coroutine function) until it is true; AssertionError after ``timeout_s``."""
+    import asyncio
+
+    async def loop():
+        while not await predicate():
+            await asyncio.sleep(period_s)
+
+    try:
+        await asyncio.wait_for(loop(), timeout_s)
+    except asyncio.TimeoutError:
+        raise AssertionError(f"timed out waiting for {what}") from None

@@ -19,21 +19,11 @@ from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.autopilot import Autopilot  # noqa: E402
 
+from e2e_flight_helpers import until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_mavsdk", "stack")
-
-
-async def _until(predicate, timeout_s: float, what: str, period_s: float = 0.2):
-    async def loop():
-        while not await predicate():
-            await asyncio.sleep(period_s)
-
-    try:
-        await asyncio.wait_for(loop(), timeout_s)
-    except asyncio.TimeoutError:
-        raise AssertionError(f"timed out waiting for {what}") from None
 
 
 async def _fly(port: int) -> dict:
@@ -49,7 +39,7 @@ async def _fly(port: int) -> dict:
             h = await tel.health()
             return h.is_global_position_ok and h.is_home_position_ok and h.is_armable
 
-        await _until(healthy, 60, "health: global position, home, armable")
+        await until(healthy, 60, "health: global position, home, armable")
         await action.set_takeoff_altitude(4.0)
         seen["takeoff_alt"] = await action.get_takeoff_altitude()
         await action.arm()
@@ -58,14 +48,14 @@ async def _fly(port: int) -> dict:
         async def at_altitude():
             return (await tel.position()).relative_altitude_m > 3.6
 
-        await _until(at_altitude, 60, "relative altitude above 3.6 m")
+        await until(at_altitude, 60, "relative altitude above 3.6 m")
         seen["altitude"] = (await tel.position()).relative_altitude_m
         await action.land()
 
         async def disarmed():
             return not await tel.armed()
 
-        await _until(disarmed, 90, "automatic disarm after landing")
+        await until(disarmed, 90, "automatic disarm after landing")
         seen["final_altitude"] = (await tel.position()).relative_altitude_m
     return seen
 

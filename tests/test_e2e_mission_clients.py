@@ -26,21 +26,13 @@ from gcs.mission_transfer import download, upload
 from gcs.sim_client import SimClient
 from mavsim_core import mission_items as mi
 
+from e2e_flight_helpers import SIM_HOME, closest_approach, latlon  # tests/e2e_flight_helpers.py
 from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_mission_clients", "stack")
-HOME = (47.397742, 8.545594)
 GCS = [sys.executable, "-m", "gcs", "-i", str(INSTANCE)]
-
-
-def latlon(north_m: float, east_m: float) -> tuple[float, float]:
-    r = 6378137.0
-    return (
-        HOME[0] + math.degrees(north_m / r),
-        HOME[1] + math.degrees(east_m / (r * math.cos(math.radians(HOME[0])))),
-    )
 
 
 @pytest.fixture(scope="module")
@@ -60,10 +52,6 @@ def vehicle(stack):
     with VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive) as c:
         c.wait_until(lambda: c.prearm_ok() and not c.armed(), 90, "ready to arm")
         yield c
-
-
-def _closest(truth: SimClient, since_ms: int, north: float, east: float) -> float:
-    return min(math.hypot(s.pos_ned_m[0] - north, s.pos_ned_m[1] - east) for s in truth.since(since_ms))
 
 
 def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
@@ -94,7 +82,7 @@ def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
     assert [int(m.group(1)) for m in listed] == [22, 16, 16, 16, 21]
     assert float(listed[2].group(2)) == pytest.approx(latlon(12, 0)[0], abs=1e-7)
     for n, e in points:
-        assert _closest(truth, start_ms, n, e) < 2.0, (n, e)
+        assert closest_approach(truth, start_ms, n, e) < 2.0, (n, e)
     end = truth.latest().pos_ned_m
     assert math.hypot(end[0] - 0, end[1] - 12) < 1.5 and abs(end[2]) < 0.5
 
@@ -113,9 +101,9 @@ def _plan_text(rally_ne: tuple[float, float]) -> str:
     return (
         '{"fileType": "Plan", "version": 1, "groundStation": "QGroundControl", "mission": {"version": 2,'
         ' "firmwareType": 12, "vehicleType": 2, "cruiseSpeed": 15, "hoverSpeed": 5,'
-        f' "plannedHomePosition": [{HOME[0]}, {HOME[1]}, 488.0], "items": [{", ".join(items)}]}},'
+        f' "plannedHomePosition": [{SIM_HOME[0]}, {SIM_HOME[1]}, 488.0], "items": [{", ".join(items)}]}},'
         ' "geoFence": {"version": 2, "polygons": [], "circles": [{"inclusion": true, "version": 1,'
-        f' "circle": {{"center": [{HOME[0]}, {HOME[1]}], "radius": 200}}}}]}},'
+        f' "circle": {{"center": [{SIM_HOME[0]}, {SIM_HOME[1]}], "radius": 200}}}}]}},'
         f' "rallyPoints": {{"version": 2, "points": [[{rlat}, {rlon}, 10]]}}}}'
     )
 
@@ -141,7 +129,7 @@ def test_gcs_mission_plan_with_fence_and_rally_then_return_goes_to_the_rally_poi
     vehicle.wait_until(lambda: not vehicle.armed(), 120, "landed after the return")
     end = truth.latest().pos_ned_m
     assert math.hypot(end[0] - rally[0], end[1] - rally[1]) < 1.5, end  # the rally point, not home
-    assert _closest(truth, start_ms, 0, 0) > 10.0
+    assert closest_approach(truth, start_ms, 0, 0) > 10.0
     upload(vehicle, [], mi.FENCE)
     upload(vehicle, [], mi.RALLY)
 

@@ -29,22 +29,13 @@ from mavsdk.plugins import mission_raw as raw  # noqa: E402
 from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
+from e2e_flight_helpers import closest_approach, latlon, until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_missions", "stack")
-HOME = (47.397742, 8.545594)  # the simulator's default home: truth NED is measured from here
 NAN = float("nan")
 ACCEPT_M = 2.0
-
-
-def latlon(north_m: float, east_m: float) -> tuple[float, float]:
-    """A point north/east of the simulator's home (spherical, good to mm over 100 m)."""
-    r = 6378137.0
-    return (
-        HOME[0] + math.degrees(north_m / r),
-        HOME[1] + math.degrees(east_m / (r * math.cos(math.radians(HOME[0])))),
-    )
 
 
 def waypoint(north: float, east: float, alt: float, speed: float = NAN) -> MissionItem:
@@ -67,17 +58,6 @@ def stack(truth):
         yield s
 
 
-async def _until(predicate, timeout_s: float, what: str, period_s: float = 0.1):
-    async def loop():
-        while not await predicate():
-            await asyncio.sleep(period_s)
-
-    try:
-        await asyncio.wait_for(loop(), timeout_s)
-    except asyncio.TimeoutError:
-        raise AssertionError(f"timed out waiting for {what}") from None
-
-
 async def _session(body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
         await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
@@ -89,7 +69,7 @@ async def _session(body):
             h = await tel.health()
             return h.is_global_position_ok and h.is_home_position_ok and h.is_armable and not await tel.armed()
 
-        await _until(ready, 90, "health: position, home, armable, disarmed")
+        await until(ready, 90, "health: position, home, armable, disarmed")
         return await body(system, tel)
 
 
@@ -99,12 +79,7 @@ async def _land_and_disarm(system, tel) -> None:
     async def disarmed():
         return not await tel.armed()
 
-    await _until(disarmed, 120, "disarmed after the return")
-
-
-def _closest(truth: SimClient, since_ms: int, north: float, east: float) -> float:
-    """The closest horizontal approach of the true vehicle to a point since a time, m."""
-    return min(math.hypot(s.pos_ned_m[0] - north, s.pos_ned_m[1] - east) for s in truth.since(since_ms))
+    await until(disarmed, 120, "disarmed after the return")
 
 
 SQUARE = [(0, 0), (15, 0), (30, 0), (30, 15), (30, 30), (15, 30), (0, 30), (0, 15), (0, 0), (5, 5)]
@@ -128,7 +103,7 @@ def test_mavsdk_square_mission_upload_download_fly(stack, truth):
                 progress.append(p.current)
             return p.current == p.total and await mission.is_mission_finished()
 
-        await _until(finished, 180, "the mission's end")
+        await until(finished, 180, "the mission's end")
         await _land_and_disarm(system, tel)
         return down, progress, start_ms
 
@@ -143,7 +118,7 @@ def test_mavsdk_square_mission_upload_download_fly(stack, truth):
         assert back.is_fly_through and (math.isnan(up.speed_m_s) or back.speed_m_s == pytest.approx(up.speed_m_s))
     assert progress == sorted(progress) and progress[-1] == len(items)
     for north, east in SQUARE:  # within the acceptance radius of every waypoint, by the ground truth
-        assert _closest(truth, start_ms, north, east) < ACCEPT_M, (north, east)
+        assert closest_approach(truth, start_ms, north, east) < ACCEPT_M, (north, east)
 
 
 def _raw_item(seq, command, p1=0.0, p2=0.0, north=None, east=None, alt=0.0, frame=6):
@@ -176,7 +151,7 @@ def test_mavsdk_raw_mission_with_do_jump_repeats_and_lands(stack, truth):
         async def flying():
             return await tel.in_air()
 
-        await _until(flying, 30, "take-off")
+        await until(flying, 30, "take-off")
 
         async def landed():
             p = await mission.mission_progress()
@@ -184,7 +159,7 @@ def test_mavsdk_raw_mission_with_do_jump_repeats_and_lands(stack, truth):
                 seen.append(p.current)
             return not await tel.armed()
 
-        await _until(landed, 180, "landing and disarm at the mission's end")
+        await until(landed, 180, "landing and disarm at the mission's end")
         return down, seen, start_ms
 
     down, seen, start_ms = asyncio.run(_session(body))
@@ -215,7 +190,7 @@ def test_mavsdk_geofence_stops_the_vehicle_at_an_inclusion_polygon(stack, truth)
         async def up():
             return (await tel.position()).relative_altitude_m > 4.5
 
-        await _until(up, 60, "take-off to 5 m")
+        await until(up, 60, "take-off to 5 m")
         start_ms = truth.latest().time_ms
         target = latlon(60.0, 0.0)
         home_amsl = (await tel.home()).absolute_altitude_m
@@ -224,7 +199,7 @@ def test_mavsdk_geofence_stops_the_vehicle_at_an_inclusion_polygon(stack, truth)
         async def holding():
             return await tel.flight_mode() == FlightMode.HOLD
 
-        await _until(holding, 60, "HOLD at the fence (GF_ACTION 2)")
+        await until(holding, 60, "HOLD at the fence (GF_ACTION 2)")
         await asyncio.sleep(3.0)  # let it brake and settle
         await GeofenceAsync(system).clear_geofence()
         await _land_and_disarm(system, tel)
