@@ -309,8 +309,10 @@ def main(argv: list[str] | None = None) -> int:
         return plot.run(args)
     if args.command == "ugv":  # the simulator's own port, not the vehicle's
         return ugv_cli.run_ugv_command(args)
-    if args.command == "mission" and args.mission_command == "upload" and mission_cli.load_file(args.file) is None:
-        return EXIT_REFUSED  # a broken file: said why, nothing sent
+    if args.command == "mission" and args.mission_command == "upload":
+        args.plan = mission_cli.load_file(args.file)  # read before connecting: a broken file sends nothing
+        if args.plan is None:
+            return EXIT_REFUSED
     if args.command == "mode":
         try:
             modes.lookup_mode(args.name)

@@ -56,7 +56,7 @@ def run_mission_command(client: VehicleClient, args: argparse.Namespace) -> int:
     action = args.mission_command
     try:
         if action == "upload":
-            return _upload(client, args.file)
+            return _upload(client, args.file, args.plan)
         if action == "download":
             return _download(client, args.file)
         if action == "clear":
@@ -80,10 +80,7 @@ def run_mission_command(client: VehicleClient, args: argparse.Namespace) -> int:
         return EXIT_REFUSED
 
 
-def _upload(client: VehicleClient, path: str) -> int:
-    plan = load_file(path)
-    if plan is None:
-        return EXIT_REFUSED
+def _upload(client: VehicleClient, path: str, plan: Plan) -> int:
     is_wpl = not path.endswith(".plan") and not plan.fence and not plan.rally
     parts = [(mi.MISSION, plan.mission)] + ([] if is_wpl else [(mi.FENCE, plan.fence), (mi.RALLY, plan.rally)])
     t0 = time.monotonic()

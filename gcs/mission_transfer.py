@@ -19,6 +19,7 @@ from gcs.connection import Connection
 from gcs.errors import GcsTimeout
 from mavsim_core import mission_items as mi
 from mavsim_core.mission_items import MissionItem
+from mavsim_core.mission_messages import item_from_message, item_message
 
 RETRY_S = 0.5  # wall seconds without an answer before asking again
 RETRIES = 10
@@ -36,13 +37,6 @@ class MissionRefused(RuntimeError):
         )
         why = f": {reason}" if reason else ""
         super().__init__(f"{mi.TYPE_NAMES.get(mission_type, mission_type)} upload refused ({name}){why}")
-
-
-def _item_message(c: Connection, item: MissionItem) -> mavlink.MAVLink_message:
-    return mavlink.MAVLink_mission_item_int_message(
-        c.target_system, c.target_component, item.seq, item.frame, item.command, item.current, item.autocontinue,
-        item.param1, item.param2, item.param3, item.param4, item.x, item.y, item.z, item.mission_type,
-    )  # fmt: skip
 
 
 def upload(c: Connection, items: list[MissionItem], mission_type: int) -> None:
@@ -69,7 +63,7 @@ def upload(c: Connection, items: list[MissionItem], mission_type: int) -> None:
             if not started:  # our MISSION_COUNT was lost
                 mav.mission_count_send(c.target_system, c.target_component, len(items), mission_type)
             elif last_sent is not None:  # our item, or the vehicle's next request or ACK, was lost
-                mav.send(_item_message(c, items[last_sent]))
+                mav.send(item_message(items[last_sent], c.target_system, c.target_component))
             continue
         if msg.get_type() == "MISSION_ACK":
             if msg.type != mavlink.MAV_MISSION_ACCEPTED:
@@ -77,7 +71,7 @@ def upload(c: Connection, items: list[MissionItem], mission_type: int) -> None:
             return
         tries, started = 0, True
         if 0 <= msg.seq < len(items):
-            mav.send(_item_message(c, items[msg.seq]))
+            mav.send(item_message(items[msg.seq], c.target_system, c.target_component))
             last_sent = msg.seq
     raise GcsTimeout(f"{mi.TYPE_NAMES.get(mission_type)} upload: the vehicle stopped answering")
 
@@ -104,10 +98,7 @@ def download(c: Connection, mission_type: int) -> list[MissionItem]:
                 condition=lambda m: m.mission_type == mission_type and m.seq == len(items),
             )  # fmt: skip
             if msg is not None:
-                items.append(MissionItem(
-                    msg.seq, msg.frame, msg.command, msg.param1, msg.param2, msg.param3, msg.param4, msg.x, msg.y,
-                    msg.z, msg.mission_type, msg.current, msg.autocontinue,
-                ))  # fmt: skip
+                items.append(item_from_message(msg))
                 break
         else:
             raise GcsTimeout(f"{mi.TYPE_NAMES.get(mission_type)} download: item {len(items)} never came")

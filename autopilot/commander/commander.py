@@ -353,11 +353,15 @@ class Commander(FlightCommands):
             cfg = PrecLandConfig.from_store(self.params)
             task = PrecLandTask(ground, self.params, cfg, self.precland_mode, feet_below_m=self.feet_below_m)
             self.task = started(task, e, self.now_us)
+        self._switch_mode(mode)
+        return S.MAV_RESULT_ACCEPTED
+
+    def _switch_mode(self, mode: Mode) -> None:
+        """Change the mode (the caller has set its task): say so, and pause a mission that was flown."""
         if mode is not self.mode:
             self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
             mission_control.on_mode_change(self, self.mode, mode)
         self.mode = mode
-        return S.MAV_RESULT_ACCEPTED
 
     @publishes
     def set_mode(self, mode: Mode) -> int:

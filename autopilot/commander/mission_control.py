@@ -21,7 +21,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.navigation import LoiterTask, mission_checks, started
-from autopilot.navigation.geofence import FenceError, Geofence, GfAction
+from autopilot.navigation.geofence import FenceError, Geofence, GfAction, stop_point
 from autopilot.navigation.mission import MissionTask, item_position
 from autopilot.parameters import ParameterStore
 from autopilot.topics import HomePosition, MissionState, MissionStatus, VehicleEstimate
@@ -51,7 +51,7 @@ class Plans:
         self.reached: list[int] = []  # MISSION_ITEM_REACHED to send
         self.save: Callable[[dict[int, list[MissionItem]]], None] | None = None  # set with --state-dir
         self.breached = False
-        self._breach_said_us = -(2**62)
+        self.breach_said_us = -(2**62)  # when the latest breach was reported
         self._fence: Geofence | None = None
         self._fence_origin: tuple[float, float] | None = None
         self.fence_hold: object | None = None  # the hold task a geofence breach started
@@ -60,8 +60,7 @@ class Plans:
         """Plans saved by an earlier run (already checked when they were uploaded)."""
         for mtype, items in plans.items():
             self.items[mtype] = list(items)
-        self._plans_changed(mi.MISSION)
-        self._fence = None
+            self._plans_changed(mtype)
 
     def plan(self, mission_type: int) -> list[MissionItem]:
         return self.items.get(mission_type, [])
@@ -94,7 +93,7 @@ class Plans:
             self.jumps_left = {}
             self.state = MissionState.NOT_STARTED if self.items[mi.MISSION] else MissionState.NO_MISSION
         if mission_type == mi.FENCE:
-            self._fence = None
+            self._fence = None  # rebuilt from the new plan at the next check
             self.breached = False
 
     def set_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]:
@@ -108,10 +107,8 @@ class Plans:
             self.state = MissionState.PAUSED
         return True, ""
 
-    def fence(self, est: VehicleEstimate) -> Geofence | None:
-        """The geofence in this estimate's frame (built once per origin), or None without fence items."""
-        if not self.items[mi.FENCE]:
-            return None
+    def fence(self, est: VehicleEstimate) -> Geofence:
+        """The geofence in this estimate's frame, built once per origin and fence plan (empty without one)."""
         origin = (est.origin_lat_deg, est.origin_lon_deg)
         if self._fence is None or self._fence_origin != origin:
             self._fence = Geofence.from_items(self.items[mi.FENCE], *origin)
@@ -174,7 +171,6 @@ def step(cmd: Commander, task: MissionTask, est: VehicleEstimate, now_us: int) -
 
 def _sync(cmd: Commander, task: MissionTask) -> None:
     plans = cmd.plans
-    before = plans.current
     plans.current = min(task.current, len(plans.items[mi.MISSION]))
     plans.reached.extend(task.reached)
     for seq in task.reached:
@@ -184,8 +180,6 @@ def _sync(cmd: Commander, task: MissionTask) -> None:
         plans.state = MissionState.COMPLETE
         plans.current = len(plans.items[mi.MISSION])
         cmd.say(S.MAV_SEVERITY_INFO, "Mission finished" + ("" if task.request else ": holding position"))
-    elif plans.current != before and plans.state is MissionState.ACTIVE:
-        pass  # MISSION_CURRENT goes out with the next link update
 
 
 def on_mode_change(cmd: Commander, old: Mode, new: Mode) -> None:
@@ -210,12 +204,11 @@ def on_landed(cmd: Commander) -> None:
 def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
     """Predict a breach of the fence, GF_MAX_HOR_DIST or GF_MAX_VER_DIST and act as GF_ACTION says."""
     p = cmd.params
-    fence = cmd.plans.fence(est)
     max_hor, max_ver = p.get("GF_MAX_HOR_DIST"), p.get("GF_MAX_VER_DIST")
-    if fence is None and max_hor <= 0 and max_ver <= 0:
+    if not cmd.plans.items[mi.FENCE] and max_hor <= 0 and max_ver <= 0:
         cmd.plans.breached = False
         return
-    fence = fence or Geofence.from_items([], est.origin_lat_deg, est.origin_lon_deg)
+    fence = cmd.plans.fence(est)
     home = None if cmd.home is None else cmd.home.pos_ned_m
     speed = float(np.linalg.norm(est.vel_ned_m_s[:2]))
     brake = p.get("MPC_ACC_HOR")
@@ -228,8 +221,8 @@ def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
     if breach is None:
         return
     action = GfAction(int(p.get("GF_ACTION")))
-    if not was or now_us - cmd.plans._breach_said_us >= BREACH_REPORT_US:
-        cmd.plans._breach_said_us = now_us
+    if not was or now_us - cmd.plans.breach_said_us >= BREACH_REPORT_US:
+        cmd.plans.breach_said_us = now_us
         cmd.say(S.MAV_SEVERITY_CRITICAL, f"{breach.reason} ({action.name.lower()})")
     if action in (GfAction.NONE, GfAction.WARNING):
         return
@@ -239,23 +232,16 @@ def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
         # Stop where braking at MPC_ACC_HOR ends (PX4's loiter point for a multicopter), not beyond.
         v = est.vel_ned_m_s.copy()
         v[2] = 0.0
-        stop = est.pos_ned_m + v * (speed / (2 * max(brake, 0.1)))
+        stop = np.array(stop_point(tuple(est.pos_ned_m), v, brake, 0.0))
         if not fence.inside(stop):
             stop = est.pos_ned_m.copy()
         if cmd.mode is not Mode.AUTO_LOITER:
-            switch_mode_only(cmd, Mode.AUTO_LOITER)
+            cmd._switch_mode(Mode.AUTO_LOITER)
         cmd.task = cmd.plans.fence_hold = started(LoiterTask(stop, est.yaw_rad), est, now_us)
     elif action is GfAction.RETURN and cmd.mode not in (Mode.AUTO_RTL, Mode.AUTO_LAND):
         cmd._enter(Mode.AUTO_RTL)
     elif action in (GfAction.LAND, GfAction.TERMINATE) and cmd.mode is not Mode.AUTO_LAND:
         cmd._enter(Mode.AUTO_LAND)  # termination is not simulated: land instead
-
-
-def switch_mode_only(cmd: Commander, mode: Mode) -> None:
-    """Switch mode without starting the mode's own task (the caller sets the task)."""
-    cmd.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
-    on_mode_change(cmd, cmd.mode, mode)
-    cmd.mode = mode
 
 
 def fence_prearm_failures(cmd: Commander) -> list[str]:

@@ -33,7 +33,8 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.mavlink.endpoint import LinkEndpoint
 from autopilot.navigation.mission_checks import MAX_ITEMS
 from mavsim_core import mission_items as mi
-from mavsim_core.mission_items import MissionItem, item_from_float
+from mavsim_core.mission_items import MissionItem
+from mavsim_core.mission_messages import item_from_message, item_message
 
 RETRY_S = 0.25  # wall seconds without the requested item before the request is sent again
 MAX_RETRIES = 8  # for one item; then the upload ends with MAV_MISSION_OPERATION_CANCELLED (about 2 s of silence)
@@ -114,15 +115,12 @@ class MissionService:
         )
 
     def on_request(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, as_int: bool) -> None:
-        up = self.upload
-        if up is not None and self._same_client(up, ep, msg):
-            return  # a vehicle-side message echoed back? not ours to answer
         if msg.mission_type not in PLAN_TYPES:
             return self._ack(ep, msg, mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type)
         plan = self.plans.plan(msg.mission_type)
         if not 0 <= msg.seq < len(plan):
             return self._ack(ep, msg, mavlink.MAV_MISSION_INVALID_SEQUENCE, msg.mission_type)
-        ep.send(_item_message(plan[msg.seq], msg.get_srcSystem(), msg.get_srcComponent(), as_int))
+        ep.send(item_message(plan[msg.seq], msg.get_srcSystem(), msg.get_srcComponent(), as_int))
 
     # ------------------------------------------------------------------ upload
 
@@ -161,7 +159,7 @@ class MissionService:
         if msg.seq != len(up.items):
             return self._request_next()  # a duplicate or one ahead: ask for the one we need
         try:
-            item = _item_from_message(msg, legacy)
+            item = item_from_message(msg, legacy)
         except ValueError as exc:
             code = mavlink.MAV_MISSION_INVALID_PARAM5_X if str(exc) == "x" else mavlink.MAV_MISSION_INVALID_PARAM6_Y
             return self._fail(code, f"item {msg.seq}: {'latitude' if str(exc) == 'x' else 'longitude'} not valid")
@@ -251,31 +249,3 @@ class MissionService:
 
     def _send_ack(self, up: _Upload, result: int) -> None:
         up.ep.send(mavlink.MAVLink_mission_ack_message(up.peer[0], up.peer[1], result, up.mission_type))
-
-
-def _item_message(item: MissionItem, sysid: int, compid: int, as_int: bool) -> mavlink.MAVLink_message:
-    """MISSION_ITEM_INT, or the legacy MISSION_ITEM (x/y in degrees) for a MISSION_REQUEST."""
-    x: float = item.x
-    y: float = item.y
-    cls = mavlink.MAVLink_mission_item_int_message
-    if not as_int:
-        scale = 1e4 if item.frame == mi.FRAME_LOCAL_NED else mi.DEG_E7
-        x, y, cls = item.x / scale, item.y / scale, mavlink.MAVLink_mission_item_message
-    return cls(
-        sysid, compid, item.seq, item.frame, item.command, item.current, item.autocontinue,
-        item.param1, item.param2, item.param3, item.param4, x, y, item.z, item.mission_type,
-    )  # fmt: skip
-
-
-def _item_from_message(msg: mavlink.MAVLink_message, legacy: bool) -> MissionItem:
-    """MISSION_ITEM_INT or MISSION_ITEM as a MissionItem; ValueError("x"/"y") for a coordinate that
-    cannot be one."""
-    params = (msg.param1, msg.param2, msg.param3, msg.param4)
-    if legacy:
-        return item_from_float(
-            msg.seq, msg.frame, msg.command, params, msg.x, msg.y, msg.z, msg.mission_type, msg.current,
-            msg.autocontinue,
-        )  # fmt: skip
-    return MissionItem(
-        msg.seq, msg.frame, msg.command, *params, msg.x, msg.y, msg.z, msg.mission_type, msg.current, msg.autocontinue
-    )

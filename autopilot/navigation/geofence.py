@@ -223,7 +223,7 @@ class Geofence:
         """
         north, east, down = float(pos_ned_m[0]), float(pos_ned_m[1]), float(pos_ned_m[2])
         actual = (north, east, down)
-        pred = _stop_point(actual, vel_ned_m_s, brake_accel_m_s2, margin_m) if predict else actual
+        pred = stop_point(actual, vel_ned_m_s, brake_accel_m_s2, margin_m) if predict else actual
         limits: list[Limit] = [self._fence_limit]
         if home_ned_m is not None and max_hor_m > 0:
             limits.append(_distance_limit(float(home_ned_m[0]), float(home_ned_m[1]), max_hor_m))
@@ -249,7 +249,7 @@ class Geofence:
         return None
 
 
-def _stop_point(
+def stop_point(
     pos: tuple[float, float, float], vel: np.ndarray, brake: float, margin: float
 ) -> tuple[float, float, float]:
     """Where the vehicle would stop: horizontally along its velocity, vertically only when climbing."""

@@ -113,8 +113,17 @@ class MissionTask:
         self.est = est
         dt = max((now_us - self.last_us) * 1e-6, 0.0)
         self.last_us = now_us
+        if self.land is None:  # once landing, the land task flies to the end
+            self._next_if_done(est, now_us)
+            self._slew_yaw(dt)
         if self.land is not None:
             return self.land.update(est, now_us)
+        if self.leg is not None:
+            return self.leg.setpoint(now_us, self.yaw_cmd)
+        return PositionSetpoint(self.sp.copy(), np.zeros(3), self.yaw_cmd, np.zeros(3))
+
+    def _next_if_done(self, est: VehicleEstimate, now_us: int) -> None:
+        """Go on when the leg has been accepted, the hold has run out or the CONDITION_YAW turn is done."""
         if self.leg is not None and self.leg.finished(now_us) and self._accepted(est):
             self._on_reached(now_us)
         elif self.hold_until_us is not None and now_us >= self.hold_until_us:
@@ -124,13 +133,6 @@ class MissionTask:
             self.yaw_target = None
             self.reached.append(self.current)
             self._advance(self.current + 1, now_us)
-        self._slew_yaw(dt)
-        if self.land is not None:
-            return self.land.update(est, now_us)
-        if self.leg is not None:
-            sp = self.leg.setpoint(now_us, self.yaw_cmd)
-            return sp
-        return PositionSetpoint(self.sp.copy(), np.zeros(3), self.yaw_cmd, np.zeros(3))
 
     @property
     def done(self) -> bool:
