@@ -4,7 +4,8 @@ Receive the simulator's messages; on each HIL_SENSOR run one iteration of the
 flight controller and answer with HIL_ACTUATOR_CONTROLS; then, while the
 simulator steps its physics, run the 50 Hz outer loops (``after_step``) and, in
 another 4 ms period, let the ground-station link receive, stream telemetry and
-send events.  HIL_GPS and BATTERY_STATUS are kept for the next step.  Times are
+send events; in the other periods the link only answers what has arrived
+(``poll``).  HIL_GPS and BATTERY_STATUS are kept for the next step.  Times are
 the simulator's (``time_usec`` of HIL_SENSOR, microseconds).
 """
 
@@ -58,6 +59,8 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 fc.after_step()
                 if (now_us // LOCKSTEP_DT_US) % LINK_EVERY == LINK_PHASE:
                     link.update(now_us)
+                else:
+                    link.poll(now_us)  # requests are answered within a step, streams stay at 50 Hz
             elif t == "HIL_GPS":
                 gps = gps_from_msg(m)
             elif t == "BATTERY_STATUS":

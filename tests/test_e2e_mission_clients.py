@@ -15,7 +15,6 @@ import socket
 import subprocess
 import sys
 import threading
-import time
 
 import pytest
 
@@ -186,13 +185,10 @@ def test_upload_and_download_through_a_link_that_drops_every_fifth_datagram(stac
     ]
     try:
         with VehicleClient(f"udpout:127.0.0.1:{proxy.port}", timeout_s=60) as lossy:
-            t0 = time.monotonic()
             upload(lossy, items, mi.MISSION)
             back = download(lossy, mi.MISSION)
-            took = time.monotonic() - t0
     finally:
         proxy.close()
     assert proxy.dropped["up"] > 5 and proxy.dropped["down"] > 5, proxy.dropped
     assert [(b.command, b.x, b.y, b.z) for b in back] == [(i.command, i.x, i.y, i.z) for i in items]
-    assert took < 60
     assert len(download(vehicle, mi.MISSION)) == len(items)  # what a direct client sees too

@@ -223,3 +223,25 @@ def test_set_current_answers_with_mission_current(make_harness):
     got = h.pump(0.05)["gcs"]
     assert "does not exist" in "".join(t.text for t in of_type(got, "STATUSTEXT"))
     assert h.vehicle.plans.current == 2
+
+
+def test_poll_answers_between_updates_without_streaming(make_harness):
+    """The lockstep loop calls poll() on the steps between link updates: requests are answered there,
+    one upload item per call, and nothing is streamed."""
+    h = make_harness(LINK)
+    c = h.connect("gcs")
+    items = square(3)
+    c.mav.mission_count_send(1, 1, len(items), MISSION)
+    got = []
+    for _ in range(200):
+        h.t_us += 4000
+        h.link.poll(h.t_us)
+        while (m := c.recv_match(blocking=True, timeout=0.01)) is not None:
+            got.append(m)
+            if m.get_type() == "MISSION_REQUEST_INT":
+                c.mav.send(items[m.seq])
+        if of_type(got, "MISSION_ACK"):
+            break
+    assert ack_types(got) == [mavlink.MAV_MISSION_ACCEPTED]
+    assert [m.seq for m in of_type(got, "MISSION_REQUEST_INT")] == [0, 1, 2]
+    assert not of_type(got, "ATTITUDE") and not of_type(got, "HEARTBEAT")  # streams wait for update()

@@ -7,28 +7,27 @@ Two UDP endpoints, offset by the instance number like PX4's ``-i``:
 * "api": bound to 0.0.0.0:(local_api_port + i), telemetry to 127.0.0.1:(api_port + i)
   (MAVSDK listens on 14540).
 
-Whoever talks to an endpoint becomes (also) a destination of it, so replies reach
-clients on any port.  The link has no flight logic: telemetry comes from
-:meth:`VehicleInterface.snapshot` through the pure builders of
-:mod:`autopilot.mavlink.telemetry`, commands go through the one command table
-(:mod:`autopilot.mavlink.commands`) to the link itself or to the vehicle, parameters
-are served by :mod:`autopilot.mavlink.param_service` from ``vehicle.params``, mission, fence
-and rally plans by :mod:`autopilot.mavlink.mission_protocol` (MISSION_CURRENT goes out at once
-when the item changes, MISSION_ITEM_REACHED for each item the vehicle reports reached).  The
-link itself keeps the sockets (:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and
-requests, AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT and the traffic tap.
+Whoever talks to an endpoint becomes (also) a destination of it, so replies reach clients on
+any port.  The link has no flight logic: telemetry comes from :meth:`VehicleInterface.snapshot`
+through the pure builders of :mod:`autopilot.mavlink.telemetry`, commands go through the one
+command table (:mod:`autopilot.mavlink.commands`), parameters are served by
+:mod:`autopilot.mavlink.param_service`, mission, fence and rally plans by
+:mod:`autopilot.mavlink.mission_protocol`.  The link keeps the sockets
+(:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and requests,
+AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT, MISSION_ITEM_REACHED and the traffic tap.
 
-What one :meth:`GcsLink.update` sends to a destination goes out packed into as few
-datagrams as fit MAX_DATAGRAM_BYTES, as PX4's UDP links buffer theirs: one system
-call per update instead of one per message.  Replies outside an update go out at once.
+:meth:`GcsLink.update` (50 Hz) receives, answers and streams; :meth:`GcsLink.poll` (the other
+steps) only answers what has arrived.  What one call sends to a destination goes out packed
+into as few datagrams as fit MAX_DATAGRAM_BYTES, as PX4's UDP links buffer theirs.
 
-Time: :meth:`GcsLink.update` receives the SIMULATED time (lockstep, microseconds).
-Stream intervals are measured in it; this module never reads the wall clock.
+Time: both receive the SIMULATED time (lockstep, microseconds); stream intervals are measured
+in it.  Only the mission protocol's retries run on the wall clock (the client waits in it).
 """
 
 from __future__ import annotations
 
 import logging
+import select
 from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -124,6 +123,9 @@ class GcsLink:
         except OSError:
             self.close()
             raise
+        self._readable = select.poll()  # both sockets, for poll()
+        for ep in self._endpoints:
+            self._readable.register(ep.sock, select.POLLIN)
         self._version = dict(
             flight_sw_version=flight_sw_version, middleware_sw_version=middleware_sw_version,
             os_sw_version=os_sw_version, board_version=board_version, flight_custom_version=flight_custom_version,
@@ -138,12 +140,11 @@ class GcsLink:
         self._snap: TelemetrySnapshot | None = None
         self._snap_valid = False  # _snap belongs to the current update()
         self._built: dict[int, mavlink.MAVLink_message | None] = {}  # stream messages of the current update()
-        self._home_key: tuple[float, float, float] | None = None
+        self._reported: dict[int, object] = {}  # what HOME_POSITION and MISSION_CURRENT last said (_check_changes)
         self._statustext = StatustextChunker()
         self._params = ParamService(vehicle.params, self.send_statustext, self._broadcast)
         self._missions = MissionService(vehicle, self.send_statustext, sysid, compid)
-        self._missions.on_current_changed = self._mission_current_now
-        self._mission_key: tuple[int, int, int, bool] | None = None
+        self._missions.on_current_changed = lambda: self._due_now(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
         self._tap: Callable[[int, str, bool, bytes], None] | None = None
         self._handlers = self._message_handlers()
 
@@ -204,20 +205,43 @@ class GcsLink:
             for ep in self._endpoints:
                 ep.flush()
 
-    def _update(self, now_us: int) -> None:
+    def poll(self, now_us: int) -> None:
+        """Answer what has arrived, without streaming: one poll(2) of both sockets when nothing came, so
+        it can run every step and a mission upload moves an item a step, not an update."""
+        if not self._readable.poll(0):  # one system call, no exception: 0.5 µs when nothing came
+            return
+        self._now_us = max(self._now_us, now_us)
+        self._snap_valid = False
+        self._built.clear()
         for ep in self._endpoints:
-            for _ in range(RX_DATAGRAMS_PER_UPDATE):
+            ep.begin_batch()
+        try:
+            self._receive(RX_DATAGRAMS_PER_UPDATE)
+            self._send_events()
+        finally:
+            for ep in self._endpoints:
+                ep.flush()
+
+    def _receive(self, datagrams_per_socket: int) -> None:
+        for ep in self._endpoints:
+            for _ in range(datagrams_per_socket):
                 got = ep.recv()
                 if got is None:
                     break
                 self._handle_datagram(ep, *got)
-        self._params.update(self._endpoints)
-        self._missions.update()
-        events = self.vehicle.pop_events()
-        for severity, text in events:
+
+    def _send_events(self) -> None:
+        """The vehicle's STATUSTEXTs and reached mission items since the last call."""
+        for severity, text in self.vehicle.pop_events():
             self.send_statustext(severity, text)
         for seq in self.vehicle.pop_mission_reached():
             self._broadcast(mavlink.MAVLink_mission_item_reached_message(seq))
+
+    def _update(self, now_us: int) -> None:
+        self._receive(RX_DATAGRAMS_PER_UPDATE)
+        self._params.update(self._endpoints)
+        self._missions.update()
+        self._send_events()
         for ep in self._endpoints:
             if now_us >= ep.next_due_us:
                 self._send_due_streams(ep, now_us)
@@ -322,38 +346,30 @@ class GcsLink:
         if not self._snap_valid:
             self._snap = self.vehicle.snapshot()
             self._snap_valid = True
-            self._check_home(self._snap)
-            self._check_mission(self._snap)
+            self._check_changes(self._snap)
         return self._snap
 
-    def _check_mission(self, snap: TelemetrySnapshot) -> None:
-        """A new current item, total or state goes out at once as MISSION_CURRENT (as PX4 does)."""
-        m = snap.mission
-        key = (m.seq, m.total, int(m.state), m.in_mission_mode)
-        if key != self._mission_key:
-            self._mission_key = key
-            self._mission_current_now()
-
-    def _mission_current_now(self) -> None:
-        """MISSION_CURRENT goes out in this update (both endpoints), not at the next 1 Hz slot."""
-        self._due_now(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
-
     def _due_now(self, mid: int) -> None:
+        """Message ``mid`` goes out on both endpoints in this update, not at its stream's next slot."""
         for ep in self._endpoints:
             stream = ep.streams.get(mid)
             if stream is not None and stream.interval_us > 0:
                 stream.next_due_us = min(stream.next_due_us, self._now_us)
                 ep.next_due_us = min(ep.next_due_us, self._now_us)
 
-    def _check_home(self, snap: TelemetrySnapshot) -> None:
-        """A new or moved home goes out at once, not at the next 0.5 Hz slot."""
-        home = snap.home
-        key = None if home is None else (home.lat_deg, home.lon_deg, home.alt_amsl_m)
-        if key == self._home_key:
-            return
-        self._home_key = key
-        if key is not None:
-            self._due_now(mavlink.MAVLINK_MSG_ID_HOME_POSITION)
+    def _check_changes(self, snap: TelemetrySnapshot) -> None:
+        """A new or moved home, a new current mission item, total or state: out at once (as PX4 sends
+        them), not at the stream's next slot."""
+        h, m = snap.home, snap.mission
+        keys = {
+            mavlink.MAVLINK_MSG_ID_HOME_POSITION: None if h is None else (h.lat_deg, h.lon_deg, h.alt_amsl_m),
+            mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: (m.seq, m.total, int(m.state), m.in_mission_mode),
+        }
+        for mid, key in keys.items():
+            if key != self._reported.get(mid):
+                self._reported[mid] = key
+                if key is not None:
+                    self._due_now(mid)
 
     def _send_due_streams(self, ep: LinkEndpoint, now_us: int) -> None:
         for mid, stream in ep.streams.items():
