@@ -102,3 +102,24 @@ async def until(predicate, timeout_s: float, what: str, period_s: float = 0.1) -
         await asyncio.wait_for(loop(), timeout_s)
     except asyncio.TimeoutError:
         raise AssertionError(f"timed out waiting for {what}") from None
+
+
+def truth_and_stack_fixtures(instance: int):
+    """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at full speed)
+    fixtures for one instance: ``truth, stack = truth_and_stack_fixtures(INSTANCE)`` in a test file."""
+    import pytest
+
+    from gcs.launcher import Stack
+    from gcs.sim_client import SimClient
+
+    @pytest.fixture(scope="module")
+    def truth():
+        with SimClient(14560 + instance) as listener:
+            yield listener
+
+    @pytest.fixture(scope="module")
+    def stack(truth):
+        with Stack(instance=instance, speed="max") as s:
+            yield s
+
+    return truth, stack

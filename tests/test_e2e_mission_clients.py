@@ -19,31 +19,23 @@ import threading
 import pytest
 
 from gcs.client import VehicleClient, mavlink
-from gcs.launcher import Stack
 from gcs.mission_files import parse_qgc_plan
 from gcs.mission_transfer import download, upload
-from gcs.sim_client import SimClient
 from mavsim_core import mission_items as mi
 
-from e2e_flight_helpers import SIM_HOME, closest_approach, latlon  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
+    SIM_HOME,
+    closest_approach,
+    latlon,
+    truth_and_stack_fixtures,
+)
 from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_mission_clients", "stack")
+truth, stack = truth_and_stack_fixtures(INSTANCE)
 GCS = [sys.executable, "-m", "gcs", "-i", str(INSTANCE)]
-
-
-@pytest.fixture(scope="module")
-def truth():
-    with SimClient(14560 + INSTANCE) as listener:
-        yield listener
-
-
-@pytest.fixture(scope="module")
-def stack(truth):
-    with Stack(instance=INSTANCE, speed="max") as s:
-        yield s
 
 
 @pytest.fixture()

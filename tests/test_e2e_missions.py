@@ -14,9 +14,6 @@ import math
 
 import pytest
 
-from gcs.launcher import Stack
-from gcs.sim_client import SimClient
-
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
@@ -29,11 +26,12 @@ from mavsdk.plugins import mission_raw as raw  # noqa: E402
 from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
-from e2e_flight_helpers import closest_approach, latlon, until  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import closest_approach, latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_missions", "stack")
+truth, stack = truth_and_stack_fixtures(INSTANCE)
 NAN = float("nan")
 ACCEPT_M = 2.0
 
@@ -44,18 +42,6 @@ def waypoint(north: float, east: float, alt: float, speed: float = NAN) -> Missi
         lat, lon, alt, speed, True, NAN, NAN, MissionItem.CameraAction.NONE, NAN, 1.0, ACCEPT_M, NAN, NAN,
         MissionItem.VehicleAction.NONE,
     )  # fmt: skip
-
-
-@pytest.fixture(scope="module")
-def truth():
-    with SimClient(14560 + INSTANCE) as listener:
-        yield listener
-
-
-@pytest.fixture(scope="module")
-def stack(truth):
-    with Stack(instance=INSTANCE, speed="max") as s:
-        yield s
 
 
 async def _session(body):
