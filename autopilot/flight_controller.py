@@ -28,7 +28,7 @@ from autopilot.control.position_control import attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
 from autopilot.landing_target_input import LandingTargetInput
 from autopilot.parameters import ParamDef, ParameterStore, param
-from autopilot.topics import NO_ACTUATORS, ActuatorStatus, ControlSetpoints, GpsSample, ImuSample
+from autopilot.topics import NO_ACTUATORS, ActuatorStatus, AttitudeSetpoint, ControlSetpoints, GpsSample, ImuSample
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 from params.vehicle import VehicleSpec
@@ -53,6 +53,10 @@ class FlightController:
         self.estimator.defer_filters = True  # its 50 Hz work runs in after_step, off the critical path
         self.commander = Commander(params, spec.mav_type)
         self.commander.feet_below_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
+        self.commander.hover_thrust_frac = (
+            spec.mass_kg * GRAVITY_M_S2 / (len(spec.rotors) * spec.max_thrust_per_rotor_n)
+        )
+        self.wall_s: float | None = None  # wall clock (time.monotonic) the process loop stamps: input-loss timers
         self.inertia = spec.inertia_kg_m2
         self.weight_n = spec.mass_kg * GRAVITY_M_S2
         self.mixer = Mixer(spec)
@@ -70,6 +74,9 @@ class FlightController:
         self.last_us: int | None = None
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
         self.rate_sp = np.zeros(3)
+        self.thrust_vec = np.zeros(3)  # wanted thrust vector, N NED (position or attitude setpoints)
+        self.rate_override: np.ndarray | None = None  # body rates flown directly (ACRO, offboard rates), rad/s FRD
+        self.collective_n = 0.0  # collective thrust while flying body rates, N
         self._outputs: tuple[int, tuple[float, ...], float] = (0, (), 0.0)  # the latest step's, for `actuators`
         self._actuators: ActuatorStatus | None = NO_ACTUATORS
         self.setpoint = None
@@ -119,13 +126,19 @@ class FlightController:
             return idle
         # Inner loops at the IMU rate, on the selected estimator's latest attitude.
         q = self.estimator.q
-        self.rate_sp = self.attitude_control.update(q, self.q_sp)
+        if self.rate_override is None:
+            self.rate_sp = self.attitude_control.update(q, self.q_sp)
+        else:
+            self.rate_sp = self.rate_override
         alpha = self.rate_control.update(
             rate, self.rate_sp, dt, self.sat_pos, self.sat_neg, integrate=not status.ground_contact
         )
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
-        body_up = -self.estimator.r_ned_frd[:, 2]
-        thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
+        if self.rate_override is None:
+            body_up = -self.estimator.r_ned_frd[:, 2]
+            thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
+        else:
+            thrust_n = self.collective_n
         out = self.mixer.mix(self.inertia * alpha, thrust_n)
         self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
         self._publish(out.commands, float(out.thrusts_n.sum()))
@@ -161,13 +174,31 @@ class FlightController:
         for reason in self.landing_target.pop_events():
             commander.say(S.MAV_SEVERITY_WARNING, reason)
         checks = tuple(estimator.prearm_failures()) if estimator.use_ekf and not self.commander.status.armed else ()
-        sp = self.commander.update(now, est, gps, estimator.gps_ok(now), self.actuators, checks)
+        sp = self.commander.update(now, est, gps, estimator.gps_ok(now), self.actuators, checks, self.wall_s)
+        if isinstance(sp, AttitudeSetpoint) and self.commander.status.armed:
+            self._fly_attitude(sp)
+            return
+        self.rate_override = None
         if sp is None or not est.attitude_valid or not self.commander.status.armed:
             self.setpoint = None
             return
         self.setpoint = sp
         self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt).thrust_ned_n
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
+
+    def _fly_attitude(self, sp: AttitudeSetpoint) -> None:
+        """An attitude or body-rate setpoint: the position loop is bypassed (and reset)."""
+        self.setpoint = sp
+        self.position_control.reset()
+        thrust_n = min(max(sp.thrust_frac, 0.0), 1.0) * len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
+        if sp.q_wxyz is None:
+            self.rate_override = np.asarray(sp.body_rate_frd_rad_s, dtype=float).copy()
+            self.collective_n = thrust_n
+            self.thrust_vec = quat.to_matrix(self.estimator.q) @ np.array([0.0, 0.0, -thrust_n])
+            return
+        self.rate_override = None
+        self.q_sp = np.asarray(sp.q_wxyz, dtype=float).copy()
+        self.thrust_vec = quat.to_matrix(self.q_sp) @ np.array([0.0, 0.0, -thrust_n])
 
     def on_landing_target(self, msg, src_sysid: int) -> None:
         """A LANDING_TARGET received from the simulator link or a ground/companion link (any sender)."""
@@ -202,15 +233,20 @@ class FlightController:
         if sp is None or not self.commander.status.armed:
             return None
         pc = self.position_control
+        if isinstance(sp, AttitudeSetpoint):
+            nan3 = np.full(3, np.nan)
+            pos, vel, acc, yaw = nan3, nan3, nan3, float("nan")
+        else:
+            pos, vel, acc, yaw = sp.pos_ned_m.copy(), pc.vel_sp.copy(), pc.acc_sp.copy(), sp.yaw_rad
         max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
         thrust_vec = getattr(self, "thrust_vec", None)
         thrust_frac = float(np.linalg.norm(thrust_vec)) / max_thrust_n if thrust_vec is not None else 0.0
         return ControlSetpoints(
             timestamp_us=self.last_us or 0,
-            pos_ned_m=sp.pos_ned_m.copy(),
-            vel_ned_m_s=pc.vel_sp.copy(),
-            acc_ned_m_s2=pc.acc_sp.copy(),
-            yaw_rad=sp.yaw_rad,
+            pos_ned_m=pos,
+            vel_ned_m_s=vel,
+            acc_ned_m_s2=acc,
+            yaw_rad=yaw,
             q_sp_wxyz=self.q_sp.copy(),
             rate_sp_frd_rad_s=self.rate_sp.copy(),
             thrust_frac=thrust_frac,

@@ -11,6 +11,7 @@ the simulator's (``time_usec`` of HIL_SENSOR, microseconds).
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING
 
 from autopilot.mavlink.sim_link import battery_from_msg, gps_from_msg, imu_from_msg
@@ -56,6 +57,7 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                     recorder.on_step()
                 # While the simulator steps its physics: the outer loops, and in another
                 # period the ground-station link (both 50 Hz), so the two never add up.
+                fc.wall_s = time.monotonic()  # the input-loss timers also measure the clients' clock
                 fc.after_step()
                 if (now_us // LOCKSTEP_DT_US) % LINK_EVERY == LINK_PHASE:
                     link.update(now_us)

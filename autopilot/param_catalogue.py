@@ -12,7 +12,7 @@ import argparse
 import sys
 
 from autopilot import flight_controller, landing_target_input
-from autopilot.commander import commander, health
+from autopilot.commander import commander, failsafes, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.navigation import (
@@ -22,7 +22,9 @@ from autopilot.navigation import (
     land_detector,
     landing_target_estimator,
     loiter,
+    manual_modes,
     mission,
+    offboard,
     precland,
     rtl,
     takeoff,
@@ -47,6 +49,9 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     land_detector.PARAMS,
     commander.PARAMS,
     health.PARAMS,
+    failsafes.PARAMS,
+    manual_modes.PARAMS,
+    offboard.PARAMS,
     precland.PARAMS,
     landing_target_estimator.PARAMS,
     landing_target_input.PARAMS,

@@ -7,6 +7,7 @@ FRD body; quaternions are (w, x, y, z) and rotate FRD vectors into NED.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import IntEnum
 
@@ -248,6 +249,91 @@ class TelemetrySnapshot:
     estimator_status: EstimatorStatus | None = None
     battery_warning: BatteryWarning = BatteryWarning.NONE
     mission: MissionStatus = NO_MISSION_STATUS
+
+
+def input_age_s(received_us: int, received_wall_s: float, now_us: int, wall_s: float | None) -> float:
+    """How long an input from outside (sticks, offboard setpoints, a ground station's heartbeat) has been
+    silent, in seconds: the lesser of its simulated and its wall-clock age (``wall_s`` None: simulated
+    only).  A client sends on the wall clock while the simulation may run many times faster (or slower),
+    so an input counts as lost only once it is silent on both clocks, never because the simulation
+    outran a client that kept sending.
+    """
+    sim_age = (now_us - received_us) * 1e-6
+    if wall_s is None:
+        return sim_age
+    return min(sim_age, wall_s - received_wall_s)
+
+
+@dataclass(frozen=True, slots=True)
+class ManualInput:
+    """One MANUAL_CONTROL message (a joystick, QGroundControl's virtual sticks, MAVSDK ManualControl).
+
+    Sticks as fractions: ``pitch`` forward +1, ``roll`` right +1, ``yaw`` clockwise +1 (each -1..1),
+    ``throttle`` 0..1 (0.5 centred: MANUAL_CONTROL.z 0..1000).  ``received_us`` is the simulated
+    time it arrived, ``received_wall_s`` the wall clock's (time.monotonic): the loss timers measure
+    both, because a client sends on the wall clock while the simulation may run faster.
+    """
+
+    received_us: int
+    received_wall_s: float
+    pitch: float
+    roll: float
+    throttle: float
+    yaw: float
+    buttons: int = 0
+
+
+class OffboardKind(IntEnum):
+    """What an offboard setpoint controls (the lowest level it gives decides)."""
+
+    POSITION = 0  # position (and velocity / acceleration feed-forward)
+    VELOCITY = 1
+    ACCELERATION = 2
+    ATTITUDE = 3  # attitude quaternion and collective thrust
+    BODY_RATES = 4  # body rates and collective thrust
+
+
+@dataclass(frozen=True, slots=True)
+class OffboardSetpoint:
+    """One SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT or SET_ATTITUDE_TARGET, decoded (PX4's
+    offboard_control_mode + trajectory_setpoint / vehicle_attitude_setpoint).
+
+    Vectors are NED (m, m/s, m/s^2) in ``frame`` (a MAV_FRAME value: LOCAL_NED; BODY_NED and
+    BODY_OFFSET_NED are turned into local NED by the offboard task, which knows the heading
+    and position; GLOBAL_* already converted to local NED by the receiver is sent as LOCAL_NED).
+    NaN marks a component the sender masked out.  ``q_wxyz`` / ``body_rate_frd_rad_s``: the
+    attitude target (FRD -> NED) or body rates, None when not given; ``thrust_frac`` 0..1
+    (NaN: not given).  Stamps as :class:`ManualInput`'s.
+    """
+
+    received_us: int
+    received_wall_s: float
+    kind: OffboardKind
+    frame: int
+    pos_ned_m: np.ndarray
+    vel_ned_m_s: np.ndarray
+    acc_ned_m_s2: np.ndarray
+    yaw_rad: float  # NaN: not given
+    yaw_rate_rad_s: float  # NaN: not given
+    q_wxyz: np.ndarray | None = None
+    body_rate_frd_rad_s: np.ndarray | None = None
+    thrust_frac: float = math.nan
+
+
+@dataclass(frozen=True, slots=True)
+class AttitudeSetpoint:
+    """An attitude-level setpoint for the inner loops (STABILIZED, ACRO, offboard attitude or rates,
+    the descend failsafe), in place of a :class:`PositionSetpoint` that the position loop flies.
+
+    ``q_wxyz``: the attitude (FRD -> NED), None to fly ``body_rate_frd_rad_s`` (rad/s) directly;
+    ``yaw_rate_rad_s``: yaw rate fed forward with an attitude; ``thrust_frac``: collective thrust as
+    a fraction of the vehicle's maximum, 0..1, along the body's -z axis.
+    """
+
+    q_wxyz: np.ndarray | None
+    body_rate_frd_rad_s: np.ndarray | None
+    thrust_frac: float
+    yaw_rate_rad_s: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)

@@ -103,6 +103,8 @@ class StubVehicle:
         self.results: dict[int, int] = {}  # command -> MAV_RESULT; unknown ones UNSUPPORTED
         self.events: list[tuple[int, str]] = []
         self.snapshot_calls = 0
+        self.control_messages: list[tuple[str, int]] = []  # (type, simulated µs) of sticks and setpoints received
+        self.gcs_heartbeats: list[int] = []
         # The real plan store of the commander (pure: no flight), so the mission protocol is tested whole.
         self.plans = Plans(default_store())
 
@@ -128,6 +130,12 @@ class StubVehicle:
 
     def on_landing_target(self, msg, src_sysid: int) -> None:
         pass
+
+    def on_control_message(self, msg, now_us: int) -> None:
+        self.control_messages.append((msg.get_type(), now_us))
+
+    def on_gcs_heartbeat(self, now_us: int) -> None:
+        self.gcs_heartbeats.append(now_us)
 
     def plan(self, mission_type: int) -> list[MissionItem]:
         return self.plans.plan(mission_type)

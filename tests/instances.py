@@ -14,7 +14,8 @@ file's.  The table also keeps clear of people's instances (0-9: ``flight-demo``,
 on 14550) and of the benchmarks' defaults (benchmarks/*.py), so a suite run next to either
 binds nothing they bind.
 
-Numbers: units 0-9 of the decades 70, 120, 170 and 220.  Within one decade they differ by less
+Numbers: units 0-9 of the decades 70, 120, 170, 220 and 270 (271-279: 270 is 40 from the mission
+benchmark's 310).  Within one decade they differ by less
 than 10; the decades are 50 apart, so numbers of neighbouring decades differ by 41-59 and others
 by 91 or more; from people's 0-9 and the benchmarks' 20-25 they are 45 or more apart.  So no
 pair differs by 10-40.  ``tests/test_instances.py`` checks all of it.  Instances above 99 are
@@ -27,7 +28,8 @@ from __future__ import annotations
 from itertools import combinations
 
 PEOPLE = tuple(range(10))  # what someone runs by hand while the suite runs
-BENCHMARKS = (20, 21, 22, 25)  # flight_benchmark 20, vehicle_benchmark 21+ (one per vehicle), estimator 25
+# flight_benchmark 20, vehicle_benchmark 21+ (one per vehicle), estimator 25, mission 310, command latency 362
+BENCHMARKS = (20, 21, 22, 25, 310, 362)
 
 INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_estimation": {"quad_x": 70},
@@ -51,6 +53,11 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_gcs_link_params": {f"link{k}": 126 + k for k in range(4)},
     "test_gcs_link_commands": {f"link{k}": 220 + k for k in range(6)},
     "test_gcs_link_missions": {"link": 227},
+    "test_e2e_offboard": {"stack": 228},
+    "test_e2e_manual_control": {"stack": 229},
+    "test_e2e_failsafes": {f"stack{k}": 271 + k for k in range(3)},
+    "test_e2e_commands": {"stack": 274},
+    "test_gcs_link_control": {"link": 275},
 }
 
 

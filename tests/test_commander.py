@@ -180,8 +180,12 @@ def test_mode_changes_on_the_ground():
     b.run(0.5)
     assert b.set_mode(Mode.AUTO_RTL) == ACCEPTED  # disarmed: accepted, acts once armed (as PX4)
     assert b.cmd.status.mode is Mode.AUTO_RTL and b.texts()[-1] == "Mode AUTO.RTL"
-    assert b.set_mode(Mode.OFFBOARD) == DENIED
-    assert b.texts()[-1] == "Mode OFFBOARD not available on this vehicle"
+    assert b.set_mode(Mode.MANUAL) == DENIED
+    assert b.texts()[-1] == "Mode MANUAL not available on this vehicle"
+    assert b.set_mode(Mode.OFFBOARD) == DENIED  # no setpoints streaming (PX4's rule, armed or not)
+    assert b.texts()[-1].startswith("Mode OFFBOARD denied: ")
+    assert b.set_mode(Mode.STABILIZED) == DENIED
+    assert b.texts()[-1] == "Mode STABILIZED denied: no manual control input"
     assert b.cmd.status.mode is Mode.AUTO_RTL
     # DO_SET_MODE: base mode, PX4 main mode, sub mode
     assert b.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4, 3) == ACCEPTED

@@ -19,18 +19,20 @@ from __future__ import annotations
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.commander import health, mission_control, prearm_checks, precision_landing
+from autopilot.commander import failsafes, health, mission_control, mode_entry, prearm_checks, precision_landing
+from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.commander.mission_control import Plans
 from autopilot.control.position_control import PositionSetpoint
-from autopilot.navigation import LandTask, LoiterTask, ReturnTask, TakeoffTask, started
+from autopilot.navigation import LoiterTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
 from autopilot.navigation.mission import MissionTask
-from autopilot.navigation.precland import LandingTargetInput, PrecLandConfig, PrecLandMode, PrecLandTask
+from autopilot.navigation.precland import LandingTargetInput, PrecLandMode, PrecLandTask
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import (
     NO_ACTUATORS,
     ActuatorStatus,
+    AttitudeSetpoint,
     BatteryState,
     CommanderStatus,
     GpsSample,
@@ -51,12 +53,14 @@ PARAMS: tuple[ParamDef, ...] = (
     ),
 )
 
-# Modes this flight controller can fly today (no RC input yet: POSCTL holds position).
+# Modes this flight controller can fly (POSCTL without sticks holds position).
 AVAILABLE = {
-    Mode.POSCTL, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER, Mode.AUTO_MISSION, Mode.AUTO_RTL, Mode.AUTO_LAND,
-    Mode.AUTO_PRECLAND,
+    Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO, Mode.OFFBOARD, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER,
+    Mode.AUTO_MISSION, Mode.AUTO_RTL, Mode.AUTO_LAND, Mode.AUTO_PRECLAND,
 }  # fmt: skip
 CLIMBS_FROM_GROUND = (Mode.AUTO_TAKEOFF, Mode.AUTO_MISSION)  # modes that take off by themselves
+# Modes whose task flies from the ground too: the pilot's sticks or offboard setpoints lift off.
+FLY_FROM_GROUND = (*CLIMBS_FROM_GROUND, Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO, Mode.OFFBOARD)
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
@@ -89,6 +93,10 @@ class Commander(FlightCommands):
         self.precland_mode = PrecLandMode.REQUIRED
         self.feet_below_m = 0.0
         self.plans = Plans(params)  # mission, fence, rally (mission_control)
+        self.inputs = ExternalInputs()  # sticks, offboard setpoints, ground-station heartbeats
+        self.wall_s: float | None = None  # wall clock (s) of the latest update, for the input-loss timers
+        self.hover_thrust_frac = 0.5  # weight / maximum thrust (the flight controller sets the vehicle's)
+        self.failsafe = failsafes.FailsafeState()
         self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
@@ -117,7 +125,7 @@ class Commander(FlightCommands):
             battery=self.battery,
             battery_warning=health.battery_warning(self.battery.remaining_frac, self.params),
             prearm_failures=() if armed else tuple(self.prearm_failures()),
-            position_setpoint_ned_m=None if self.setpoint is None else self.setpoint.pos_ned_m,
+            position_setpoint_ned_m=getattr(self.setpoint, "pos_ned_m", None),
             mission=self.plans.status(self.mode),
         )
 
@@ -156,13 +164,16 @@ class Commander(FlightCommands):
         gps_ok: bool,
         actuators: ActuatorStatus = NO_ACTUATORS,
         estimator_checks: tuple[str, ...] = (),
-    ) -> PositionSetpoint | None:
-        """Advance the state machines and publish the status; return the position setpoint, or None for
-        motors idle/off.
+        wall_s: float | None = None,
+    ) -> PositionSetpoint | AttitudeSetpoint | None:
+        """Advance the state machines and publish the status; return the setpoint (position, or attitude for
+        the stick, offboard-attitude and descend modes), or None for motors idle/off.
 
         ``actuators``: the flight controller's latest outputs (the land detector reads the thrust);
-        ``estimator_checks``: the estimator's own pre-arm failures (empty when it has none to report).
+        ``estimator_checks``: the estimator's own pre-arm failures (empty when it has none to report);
+        ``wall_s``: the wall clock (time.monotonic) for the input-loss timers (None: simulated time only).
         """
+        self.wall_s = wall_s
         try:
             return self._update(now_us, est, gps, gps_ok, actuators, estimator_checks)
         finally:
@@ -176,7 +187,7 @@ class Commander(FlightCommands):
         gps_ok: bool,
         actuators: ActuatorStatus,
         estimator_checks: tuple[str, ...],
-    ) -> PositionSetpoint | None:
+    ) -> PositionSetpoint | AttitudeSetpoint | None:
         self.now_us, self.est, self.gps_ok = now_us, est, gps_ok
         self.estimator_checks = estimator_checks
         if gps is not None:
@@ -205,9 +216,7 @@ class Commander(FlightCommands):
             )
             if reason:
                 self._disarm(reason)
-        if self.armed and self.in_air and not est.position_valid and self.mode is not Mode.AUTO_LAND:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Position estimate lost: landing")
-            self._enter(Mode.AUTO_LAND)
+        failsafes.check(self, now_us)
         if (
             self.armed
             and self.mode is Mode.AUTO_TAKEOFF
@@ -221,7 +230,7 @@ class Commander(FlightCommands):
         if not self.armed or self.task is None:
             self.setpoint = None
             return None
-        if not self.in_air and self.mode not in CLIMBS_FROM_GROUND:
+        if not self.in_air and self.mode not in FLY_FROM_GROUND:
             self.setpoint = None
             return None
         if self.in_air:
@@ -232,6 +241,8 @@ class Commander(FlightCommands):
         if isinstance(self.task, PrecLandTask):
             self.setpoint = precision_landing.step(self, self.task, est, now_us)
             return self.setpoint
+        if hasattr(self.task, "on_ground"):
+            self.task.on_ground = not self.in_air  # stick and offboard tasks stay idle until lift-off
         self.setpoint = self.task.update(est, now_us)
         return self.setpoint
 
@@ -276,9 +287,13 @@ class Commander(FlightCommands):
         self.land_detector.on_arm(float(self.est.pos_ned_m[2]))
         self.land_detector.landed_since_us = self.now_us
         self.task = None
-        if self.mode not in (Mode.AUTO_TAKEOFF, Mode.POSCTL, Mode.AUTO_MISSION):
+        if self.mode not in FLY_FROM_GROUND:
             self.mode = Mode.AUTO_LOITER
         self.say(S.MAV_SEVERITY_INFO, "Armed")
+        if self.mode in FLY_FROM_GROUND and self.mode not in CLIMBS_FROM_GROUND:
+            mode = self.mode  # the stick and offboard modes fly from the ground: their task starts now
+            if mode_entry.enter(self, mode) != S.MAV_RESULT_ACCEPTED:
+                self.mode = Mode.AUTO_LOITER
         if self.mode is Mode.AUTO_MISSION and mission_control.start_mission(self) != S.MAV_RESULT_ACCEPTED:
             self.mode = Mode.AUTO_LOITER  # armed in MISSION: the mission starts (take-off first), as in PX4
         return S.MAV_RESULT_ACCEPTED
@@ -308,53 +323,9 @@ class Commander(FlightCommands):
         return S.MAV_RESULT_ACCEPTED
 
     # -- modes ------------------------------------------------------------------------
-    def _hold_here(self) -> LoiterTask:
-        return started(LoiterTask(), self.est, self.now_us)
-
     def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int:
-        """Switch mode and start its task; refuse (with a reason) if it cannot run now."""
-        e = self.est
-        if mode not in AVAILABLE:
-            self.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} not available on this vehicle")
-            return S.MAV_RESULT_DENIED
-        if e is None or not (e.position_valid or (mode is Mode.AUTO_LAND and e.height_valid)):
-            self.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} denied: no position estimate")
-            return S.MAV_RESULT_DENIED
-        if mode is Mode.AUTO_RTL and self.home is None:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Return denied: no home position")
-            return S.MAV_RESULT_DENIED
-        if mode is Mode.AUTO_TAKEOFF:
-            if not self.armed:
-                self.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: vehicle not armed")
-                return S.MAV_RESULT_DENIED
-            if self.in_air:
-                self.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: already flying")
-                return S.MAV_RESULT_DENIED
-            if takeoff_down_m is None:
-                takeoff_down_m = self.home.pos_ned_m[2] - self.params.get("MIS_TAKEOFF_ALT")
-            self.task = started(TakeoffTask(takeoff_down_m, self.params), e, self.now_us)
-            self.say(S.MAV_SEVERITY_INFO, f"Taking off to {self.home.pos_ned_m[2] - takeoff_down_m:.1f} m above home")
-        elif mode in (Mode.AUTO_LOITER, Mode.POSCTL):
-            if mode is not self.mode or self.task is None:
-                self.task = self._hold_here()
-        elif mode is Mode.AUTO_LAND:
-            self.task = started(
-                LandTask(self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2], self.params), e, self.now_us
-            )
-        elif mode is Mode.AUTO_RTL:
-            self.task = started(ReturnTask(mission_control.return_destination(self, e), self.params), e, self.now_us)
-        elif mode is Mode.AUTO_MISSION and (result := mission_control.start_mission(self)) != S.MAV_RESULT_ACCEPTED:
-            return result
-        elif mode is Mode.AUTO_PRECLAND:
-            if not (self.armed and self.in_air):
-                self.say(S.MAV_SEVERITY_CRITICAL, "Precision landing denied: vehicle not flying")
-                return S.MAV_RESULT_DENIED
-            ground = self.home.pos_ned_m[2] if self.home else e.pos_ned_m[2]
-            cfg = PrecLandConfig.from_store(self.params)
-            task = PrecLandTask(ground, self.params, cfg, self.precland_mode, feet_below_m=self.feet_below_m)
-            self.task = started(task, e, self.now_us)
-        self._switch_mode(mode)
-        return S.MAV_RESULT_ACCEPTED
+        """Switch mode and start its task; refuse (with a reason) if it cannot run now (:mod:`.mode_entry`)."""
+        return mode_entry.enter(self, mode, takeoff_down_m)
 
     def _switch_mode(self, mode: Mode) -> None:
         """Change the mode (the caller has set its task): say so, and pause a mission that was flown."""
@@ -374,6 +345,9 @@ class Commander(FlightCommands):
             return self._enter(mode)
         if self.armed or mode not in AVAILABLE:
             return self._enter(mode)  # starts the mode's task, or refuses with a reason
+        if (why := mode_entry.input_refusal(self, mode)) is not None:
+            self.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} denied: {why}")
+            return S.MAV_RESULT_DENIED
         self.mode = mode  # on the ground, disarmed: PX4 accepts the mode; it acts once armed
         self.task = None
         self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")

@@ -11,11 +11,15 @@ the position in a parameter list being served, and the traffic tap.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.mavlink import telemetry
 from mavsim_core.mavlink_udp import UdpEndpoint
+
+if TYPE_CHECKING:
+    from autopilot.mavlink.link import GcsLink
 
 MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
 
@@ -98,4 +102,42 @@ class LinkEndpoint(UdpEndpoint):
         stream.interval_us = interval_us
         stream.next_due_us = now_us  # first one at the next update
         self.refresh_next_due()
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def discard(self, most: int) -> int:
+        """Read and drop up to ``most`` queued datagrams unparsed (a flood past the budget); how many."""
+        n = 0
+        while n < most and self.recv() is not None:
+            n += 1
+        return n
+
+
+class EndpointCommands:
+    """The link's own commands (:class:`commands.LinkCommands`) on the endpoint a command came in on."""
+
+    def __init__(self, link: "GcsLink", ep: LinkEndpoint) -> None:
+        self.link, self.ep = link, ep
+
+    def set_message_interval(self, msg_id: int, interval_us: int) -> int:
+        return self.ep.set_interval(msg_id, interval_us, self.link._now_us)
+
+    def request_message(self, msg_id: int, param2: float) -> int:
+        """MAV_CMD_REQUEST_MESSAGE: send the message once on this endpoint."""
+        link, ep = self.link, self.ep
+        if msg_id == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            ep.send(link._autopilot_version())
+            return mavlink.MAV_RESULT_ACCEPTED
+        if msg_id == mavlink.MAVLINK_MSG_ID_PARAM_VALUE:
+            return link._params.request_message(ep, param2)
+        builder = telemetry.BUILDERS.get(msg_id)
+        if builder is None:
+            return mavlink.MAV_RESULT_UNSUPPORTED
+        msg = builder(link._snapshot(), link._now_us)
+        if msg is None:  # e.g. HOME_POSITION before home is set
+            return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+        ep.send(msg)
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def send_autopilot_version(self) -> int:
+        self.ep.send(self.link._autopilot_version())
         return mavlink.MAV_RESULT_ACCEPTED

@@ -28,12 +28,13 @@ from __future__ import annotations
 
 import logging
 import select
+import time
 from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink import commands, telemetry
-from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.mavlink.endpoint import EndpointCommands, LinkEndpoint
 from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION, DEFAULT_STREAM_RATES_HZ
@@ -43,26 +44,13 @@ from mavsim_core.statustext import StatustextChunker
 
 log = logging.getLogger(__name__)
 
-RX_DATAGRAMS_PER_UPDATE = 2  # recvfrom calls per socket and update() at most
+# Each call drains every socket: at most RX_BUDGET_S of wall time handling datagrams (so a flood cannot
+# starve the control loop); what is still queued after that is read and discarded, counted in
+# ``rx_dropped``, so the next call starts from what is new (a command is answered within one call).
+RX_BUDGET_S = 0.004
+RX_DISCARD_MAX = 2000  # datagrams discarded per socket and call at most
 
 Handler = Callable[[LinkEndpoint, mavlink.MAVLink_message], None]
-
-
-class _EndpointCommands:
-    """The link's own commands (:class:`commands.LinkCommands`) on the endpoint a command came in on."""
-
-    def __init__(self, link: "GcsLink", ep: LinkEndpoint) -> None:
-        self.link, self.ep = link, ep
-
-    def set_message_interval(self, msg_id: int, interval_us: int) -> int:
-        return self.ep.set_interval(msg_id, interval_us, self.link._now_us)
-
-    def request_message(self, msg_id: int, param2: float) -> int:
-        return self.link._request_message(self.ep, msg_id, param2)
-
-    def send_autopilot_version(self) -> int:
-        self.ep.send(self.link._autopilot_version())
-        return mavlink.MAV_RESULT_ACCEPTED
 
 
 class GcsLink:
@@ -134,6 +122,7 @@ class GcsLink:
         )  # fmt: skip
         self.rx_errors = 0
         self.rx_messages = 0
+        self.rx_dropped = 0  # datagrams discarded unread because a call's RX_BUDGET_S was spent
         self.tx_build_errors = 0  # stream messages that could not be built (bug in a snapshot?)
         self._build_failures: set[int] = set()
         self._now_us = 0
@@ -152,7 +141,12 @@ class GcsLink:
         """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
         component."""
         handlers: dict[str, Handler] = {
-            "HEARTBEAT": lambda ep, msg: None,  # the sender is registered as a peer, nothing else
+            "HEARTBEAT": self._on_heartbeat,
+            # sticks (RC) and offboard setpoints: the vehicle decodes them (vehicle_interface)
+            "MANUAL_CONTROL": self._on_control,
+            "SET_POSITION_TARGET_LOCAL_NED": self._on_control,
+            "SET_POSITION_TARGET_GLOBAL_INT": self._on_control,
+            "SET_ATTITUDE_TARGET": self._on_control,
             "PING": lambda ep, msg: None,
             "COMMAND_LONG": self._for_us(
                 lambda ep, msg: self._run_command(ep, msg, commands.command_long_params(msg), mavlink.MAV_FRAME_GLOBAL)
@@ -216,19 +210,21 @@ class GcsLink:
         for ep in self._endpoints:
             ep.begin_batch()
         try:
-            self._receive(RX_DATAGRAMS_PER_UPDATE)
+            self._receive()
             self._send_events()
         finally:
             for ep in self._endpoints:
                 ep.flush()
 
-    def _receive(self, datagrams_per_socket: int) -> None:
+    def _receive(self) -> None:
+        """Drain both sockets within RX_BUDGET_S (wall clock); discard and count what is left after it."""
+        deadline = time.perf_counter() + RX_BUDGET_S
         for ep in self._endpoints:
-            for _ in range(datagrams_per_socket):
-                got = ep.recv()
-                if got is None:
-                    break
+            while (got := ep.recv()) is not None:
                 self._handle_datagram(ep, *got)
+                if time.perf_counter() > deadline:
+                    self.rx_dropped += ep.discard(RX_DISCARD_MAX)
+                    break
 
     def _send_events(self) -> None:
         """The vehicle's STATUSTEXTs and reached mission items since the last call."""
@@ -238,7 +234,7 @@ class GcsLink:
             self._broadcast(mavlink.MAVLink_mission_item_reached_message(seq))
 
     def _update(self, now_us: int) -> None:
-        self._receive(RX_DATAGRAMS_PER_UPDATE)
+        self._receive()
         self._params.update(self._endpoints)
         self._missions.update()
         self._send_events()
@@ -292,7 +288,7 @@ class GcsLink:
         """Execute a command through the command table and send exactly one COMMAND_ACK."""
         command = msg.command
         try:
-            result = commands.run(command, params, frame, _EndpointCommands(self, ep), self.vehicle)
+            result = commands.run(command, params, frame, EndpointCommands(self, ep), self.vehicle)
         except Exception:
             log.exception("gcs_link: command %d failed", command)
             result = mavlink.MAV_RESULT_FAILED
@@ -300,22 +296,6 @@ class GcsLink:
 
     def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int) -> None:
         ep.send(mavlink.MAVLink_command_ack_message(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
-
-    def _request_message(self, ep: LinkEndpoint, mid: int, param2: float) -> int:
-        """MAV_CMD_REQUEST_MESSAGE: send the message once on this endpoint."""
-        if mid == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            ep.send(self._autopilot_version())
-            return mavlink.MAV_RESULT_ACCEPTED
-        if mid == mavlink.MAVLINK_MSG_ID_PARAM_VALUE:
-            return self._params.request_message(ep, param2)
-        builder = telemetry.BUILDERS.get(mid)
-        if builder is None:
-            return mavlink.MAV_RESULT_UNSUPPORTED
-        msg = builder(self._snapshot(), self._now_us)
-        if msg is None:  # e.g. HOME_POSITION before home is set
-            return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
-        ep.send(msg)
-        return mavlink.MAV_RESULT_ACCEPTED
 
     def _on_set_mode(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         if msg.target_system not in (0, self.sysid):
@@ -326,6 +306,17 @@ class GcsLink:
             log.exception("gcs_link: SET_MODE failed")
             result = mavlink.MAV_RESULT_FAILED
         self._ack(ep, msg, mavlink.MAVLINK_MSG_ID_SET_MODE, result)
+
+    def _on_heartbeat(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        """A ground station's HEARTBEAT keeps the data link alive (COM_DL_LOSS_T); others only register a peer."""
+        if msg.type == mavlink.MAV_TYPE_GCS:
+            self.vehicle.on_gcs_heartbeat(self._now_us)
+
+    def _on_control(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
+        """MANUAL_CONTROL (target = our system) and SET_* setpoints (to us): the vehicle decodes and keeps them."""
+        target = msg.target if msg.get_type() == "MANUAL_CONTROL" else msg.target_system
+        if target in (0, self.sysid) and getattr(msg, "target_component", 0) in (0, self.compid):
+            self.vehicle.on_control_message(msg, self._now_us)
 
     def _on_timesync(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         """Answer a request (tc1 == 0) with our clock in ns, echoing ts1."""

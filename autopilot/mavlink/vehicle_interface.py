@@ -10,12 +10,13 @@ command table (:mod:`autopilot.mavlink.commands`) on the commander's typed metho
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING, Any, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander import health
-from autopilot.mavlink import commands
+from autopilot.mavlink import commands, control_messages, offboard_messages
 from autopilot.parameters import ParameterStore
 from autopilot.topics import ActuatorStatus, CommanderStatus, ControlSetpoints, EstimatorStatus, TelemetrySnapshot
 from mavsim_core.mission_items import MissionItem
@@ -50,6 +51,13 @@ class VehicleInterface(Protocol):
 
     def on_landing_target(self, msg: Any, src_sysid: int) -> None:
         """A LANDING_TARGET from a companion computer (any sender: the vehicle checks the system id)."""
+
+    def on_control_message(self, msg: Any, now_us: int) -> None:
+        """MANUAL_CONTROL, SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT or SET_ATTITUDE_TARGET addressed to us,
+        received at simulated time ``now_us``."""
+
+    def on_gcs_heartbeat(self, now_us: int) -> None:
+        """A ground station's HEARTBEAT arrived (the data-link-loss failsafe's input)."""
 
     # The stored plans, for the mission protocol (autopilot.mavlink.mission_protocol.PlanHolder).
     def plan(self, mission_type: int) -> list[MissionItem]: ...
@@ -123,6 +131,18 @@ class FlightControllerVehicle:
 
     def on_landing_target(self, msg: Any, src_sysid: int) -> None:
         self.fc.on_landing_target(msg, src_sysid)
+
+    def on_control_message(self, msg: Any, now_us: int) -> None:
+        inputs, wall_s = self.fc.commander.inputs, time.monotonic()
+        if msg.get_type() == "MANUAL_CONTROL":
+            inputs.on_manual(control_messages.manual_input(msg, now_us, wall_s))
+            return
+        setpoint = offboard_messages.offboard_setpoint(msg, now_us, wall_s, self.fc.commander.est)
+        if setpoint is not None:
+            inputs.on_offboard(setpoint)
+
+    def on_gcs_heartbeat(self, now_us: int) -> None:
+        self.fc.commander.inputs.on_gcs_heartbeat(now_us, time.monotonic())
 
     def plan(self, mission_type: int) -> list[MissionItem]:
         return self.fc.commander.plans.plan(mission_type)

@@ -1,0 +1,56 @@
+"""What arrives from outside the vehicle and steers it: sticks, offboard setpoints, ground-station heartbeats.
+
+:class:`ExternalInputs` keeps the latest MANUAL_CONTROL (:class:`~autopilot.topics.ManualInput`),
+the latest offboard setpoint (:class:`~autopilot.topics.OffboardSetpoint`) with the arrival times
+of the recent ones (OFFBOARD may be entered only while they stream, as in PX4), and when a ground
+station's HEARTBEAT last arrived (the data-link-loss failsafe).  The link writes into it through the
+vehicle interface; the commander's mode tasks and failsafes read it.  Every arrival carries its
+simulated time (µs) and wall-clock time (s, time.monotonic): ages are
+:func:`autopilot.topics.input_age_s` of both.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from autopilot.topics import ManualInput, OffboardSetpoint, input_age_s
+
+OFFBOARD_HISTORY = 8  # arrival times kept to judge whether setpoints are streaming
+
+
+class ExternalInputs:
+    """The latest sticks, offboard setpoint and ground-station heartbeat (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self.manual: ManualInput | None = None
+        self.offboard: OffboardSetpoint | None = None
+        self.offboard_arrivals: deque[tuple[int, float]] = deque(maxlen=OFFBOARD_HISTORY)  # (sim µs, wall s)
+        self.gcs_heartbeat: tuple[int, float] | None = None  # (sim µs, wall s) of the latest
+
+    def on_manual(self, sticks: ManualInput) -> None:
+        self.manual = sticks
+
+    def on_offboard(self, setpoint: OffboardSetpoint) -> None:
+        self.offboard = setpoint
+        self.offboard_arrivals.append((setpoint.received_us, setpoint.received_wall_s))
+
+    def on_gcs_heartbeat(self, now_us: int, wall_s: float) -> None:
+        self.gcs_heartbeat = (now_us, wall_s)
+
+    # -- ages (s); None when the input never arrived
+    def manual_age_s(self, now_us: int, wall_s: float | None) -> float | None:
+        m = self.manual
+        return None if m is None else input_age_s(m.received_us, m.received_wall_s, now_us, wall_s)
+
+    def offboard_age_s(self, now_us: int, wall_s: float | None) -> float | None:
+        o = self.offboard
+        return None if o is None else input_age_s(o.received_us, o.received_wall_s, now_us, wall_s)
+
+    def gcs_age_s(self, now_us: int, wall_s: float | None) -> float | None:
+        h = self.gcs_heartbeat
+        return None if h is None else input_age_s(h[0], h[1], now_us, wall_s)
+
+    def offboard_streaming(self, now_us: int, wall_s: float | None, window_s: float, count: int = 2) -> bool:
+        """At least ``count`` setpoints arrived within the last ``window_s`` (on either clock)."""
+        recent = [a for a in self.offboard_arrivals if input_age_s(a[0], a[1], now_us, wall_s) <= window_s]
+        return len(recent) >= count

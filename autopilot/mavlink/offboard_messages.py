@@ -1,0 +1,5 @@
+"""PLACEHOLDER (being written): offboard setpoint messages."""
+
+
+def offboard_setpoint(msg, now_us, wall_s, est):
+    return None
