@@ -177,6 +177,20 @@ NO_MISSION_STATUS = MissionStatus()
 
 
 @dataclass(frozen=True, slots=True)
+class FailsafeStatus:
+    """The failsafes' state (autopilot.commander.failsafes): HEARTBEAT system_status and SYS_STATUS bits."""
+
+    action_in_force: bool = False  # a failsafe's mode is being flown (MAV_STATE_CRITICAL)
+    emergency: bool = False  # battery emergency while armed, or motors stopped by a failsafe (MAV_STATE_EMERGENCY)
+    rc_seen: bool = False  # MANUAL_CONTROL arrived at least once (the RC receiver counts as present)
+    rc_lost: bool = False  # ... and is silent now (COM_RC_LOSS_T)
+    gcs_lost: bool = False  # the ground station's HEARTBEATs are silent (COM_DL_LOSS_T)
+
+
+NO_FAILSAFE = FailsafeStatus()
+
+
+@dataclass(frozen=True, slots=True)
 class CommanderStatus:
     """What the commander decided (PX4's vehicle_status, vehicle_land_detected and home_position).
 
@@ -202,6 +216,7 @@ class CommanderStatus:
     prearm_failures: tuple[str, ...]  # why arming would be refused now (empty while armed)
     position_setpoint_ned_m: np.ndarray | None  # the active flight task's, None when not flying one
     mission: MissionStatus = NO_MISSION_STATUS
+    failsafe: FailsafeStatus = NO_FAILSAFE
 
 
 @dataclass(frozen=True, slots=True)

@@ -8,6 +8,7 @@ Examples::
     gcs land                   # land here and wait for the automatic disarm
     gcs land --precision       # land on the landing target (AUTO.PRECLAND; 'required': no fallback)
     gcs ugv drive              # drive the simulated ground vehicle from the keyboard (MANUAL_CONTROL)
+    gcs fly                    # pilot the vehicle from the keyboard (MANUAL_CONTROL; keys: gcs fly -h)
     gcs --instance 2 rtl       # the vehicle of instance 2 (UDP 14552)
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
@@ -29,7 +30,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core import px4_modes as modes
 
-from . import mission_cli, param_cli, ugv_cli
+from . import fly_cli, mission_cli, param_cli, ugv_cli
 from .client import VehicleClient
 from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
 from .plugins.telemetry import GPS_FIX_NAMES
@@ -125,6 +126,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     param_cli.add_param_parser(sub)
     ugv_cli.add_ugv_parser(sub)
+    fly_cli.add_fly_parser(sub)
     mission_cli.add_mission_parser(sub)
     # -- gcs plot (gcs/plot.py): figures from a flight log, no vehicle needed
     from . import plot
@@ -335,6 +337,7 @@ def main(argv: list[str] | None = None) -> int:
             "mode": cli.mode,
             "param": cli.param,
             "mission": lambda: mission_cli.run_mission_command(client, args),
+            "fly": lambda: fly_cli.run_fly_command(client, args),
         }[args.command]
         return handler()
     except CommandRefused as exc:

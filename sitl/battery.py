@@ -2,7 +2,8 @@
 
 Open-circuit voltage per cell is a piecewise-linear function of state of charge
 (typical LiPo curve, 4.2 V full, 3.5 V empty); terminal voltage is that minus
-I R.  Current comes from the rotors' shaft power divided by an efficiency.
+I R.  Current comes from the rotors' shaft power divided by an efficiency.  For tests the charge
+can instead fall at a steady rate and stop at a floor (PX4 SITL's SIM_BAT_DRAIN, SIM_BAT_MIN_PCT).
 """
 
 from __future__ import annotations
@@ -50,9 +51,16 @@ class Battery:
     def open_circuit_v(self) -> float:
         return self.cells * cell_ocv_v(self.remaining_frac)
 
-    def step(self, shaft_power_w: float, dt_s: float) -> None:
-        """Draw the current the rotors need for dt_s seconds."""
+    def step(self, shaft_power_w: float, dt_s: float, drain_s: float = 0.0, min_frac: float = 0.0) -> None:
+        """Draw the current the rotors need for dt_s seconds.
+
+        ``drain_s`` > 0: the charge falls at a steady rate that empties the full pack in ``drain_s``
+        seconds, whatever the load (PX4 SITL's SIM_BAT_DRAIN; the current and the sag still follow the
+        rotors).  ``min_frac``: the charge never falls below this fraction, and rises to it when it is
+        raised above the charge (SIM_BAT_MIN_PCT).
+        """
         ocv = self.open_circuit_v()
         self.current_a = self.idle_current_a + shaft_power_w / self.efficiency / max(ocv, 1.0)
         self.voltage_v = ocv - self.current_a * self.r_ohm
-        self.used_as += self.current_a * dt_s
+        self.used_as += self.capacity_as * dt_s / drain_s if drain_s > 0.0 else self.current_a * dt_s
+        self.used_as = min(self.used_as, self.capacity_as * (1.0 - min(max(min_frac, 0.0), 1.0)))

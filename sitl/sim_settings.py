@@ -172,7 +172,7 @@ class SensorSettings:
 
 @dataclass
 class MotorSettings:
-    """Motor failures (sitl.simulation applies them to sitl.rotors)."""
+    """Motor failures (sitl.simulation applies them to sitl.rotors) and the battery's drain (sitl.battery)."""
 
     fail_motor: int = sim_param(
         "SIM_ENGINE_FAIL",
@@ -185,6 +185,23 @@ class MotorSettings:
     )
     fail_efficiency: float = sim_param(
         "SIM_ENGINE_MUL", 0.0, 0.0, 1.0, "", "Thrust multiplier of the failed motor (0 = stopped, 1 = healthy)"
+    )
+    # The battery (sitl.battery): PX4 SITL's drain parameters, to run the pack down in a test.
+    battery_drain_s: float = sim_param(
+        "SIM_BAT_DRAIN",
+        0.0,
+        0.0,
+        86400.0,
+        "s",
+        "Time to drain the full pack at a steady rate, whatever the load (0 = the physical model: rotor power)",
+    )
+    battery_min_pct: float = sim_param(
+        "SIM_BAT_MIN_PCT",
+        0.0,
+        0.0,
+        100.0,
+        "%",
+        "The pack stops draining at this charge; raised above the charge, the charge rises to it (PX4: 50)",
     )
 
 

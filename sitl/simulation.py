@@ -140,7 +140,8 @@ class Simulation:
             self.data.ctrl[:n] = self.rotors.step(cmds, PHYSICS_DT_S)  # a list of thrusts, N
             self._apply_aerodynamics(PHYSICS_DT_S)
             mujoco.mj_step(self.model, self.data)
-        self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S)
+        m = self.motor_settings
+        self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S, m.battery_drain_s, m.battery_min_pct / 100.0)
         self.time_us += int(LOCKSTEP_DT_S * 1e6)
 
     def ugv_truth(self) -> UgvTruth | None:

@@ -187,7 +187,7 @@ def test_cli_parsing():
     assert p.parse_args(["mode", "AUTO.LOITER"]).name == "AUTO.LOITER"
     a = p.parse_args(["param", "set", "MPC_XY_P", "0.95"])
     assert (a.param_command, a.name, a.value) == ("set", "MPC_XY_P", 0.95)
-    for bad in ([], ["fly"], ["mode"], ["--timeout", "0", "arm"], ["takeoff", "inf"]):
+    for bad in ([], ["fly", "--stick"], ["mode"], ["--timeout", "0", "arm"], ["takeoff", "inf"]):
         with pytest.raises(SystemExit) as exc:
             p.parse_args(bad)
         assert exc.value.code == 2

@@ -127,6 +127,7 @@ class Commander(FlightCommands):
             prearm_failures=() if armed else tuple(self.prearm_failures()),
             position_setpoint_ned_m=getattr(self.setpoint, "pos_ned_m", None),
             mission=self.plans.status(self.mode),
+            failsafe=failsafes.status(self),
         )
 
     def _publish(self) -> None:

@@ -5,8 +5,9 @@ pre-arm result into the MAV_SYS_STATUS_SENSOR bits a ground station shows as gre
 red.  :func:`battery_warning` grades the remaining charge with PX4's thresholds
 (``BAT_LOW_THR``, ``BAT_CRIT_THR``, ``BAT_EMERGEN_THR``: fractions of capacity): the
 pre-arm battery check uses BAT_LOW_THR and BATTERY_STATUS reports the level as its
-charge state.  No failsafe acts on the battery yet.  :func:`auto_disarm_reason`: when an
-armed vehicle on the ground disarms by itself (COM_DISARM_LAND, COM_DISARM_PRFLT).
+charge state, and the battery failsafe (:mod:`.failsafes`, COM_LOW_BAT_ACT) acts on it.
+:func:`auto_disarm_reason`: when an armed vehicle on the ground disarms by itself
+(COM_DISARM_LAND, COM_DISARM_PRFLT).
 """
 
 from __future__ import annotations

@@ -18,7 +18,14 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander import health
 from autopilot.mavlink import commands, control_messages, offboard_messages
 from autopilot.parameters import ParameterStore
-from autopilot.topics import ActuatorStatus, CommanderStatus, ControlSetpoints, EstimatorStatus, TelemetrySnapshot
+from autopilot.topics import (
+    ActuatorStatus,
+    BatteryWarning,
+    CommanderStatus,
+    ControlSetpoints,
+    EstimatorStatus,
+    TelemetrySnapshot,
+)
 from mavsim_core.mission_items import MissionItem
 from mavsim_core.px4_modes import Mode
 
@@ -78,13 +85,19 @@ def telemetry_snapshot(
 ) -> TelemetrySnapshot:
     """Everything the link reports, from the records of the commander, the controllers and the estimator.
 
-    MAV_STATE: BOOT before the first estimate, ACTIVE armed, STANDBY disarmed; PX4's base_mode
-    flags and custom_mode of the commander's mode; SYS_STATUS bits by :mod:`autopilot.commander.health`.
+    MAV_STATE: BOOT before the first estimate, EMERGENCY at battery emergency or after a failsafe stopped
+    the motors, CRITICAL while a failsafe action is flown, ACTIVE armed, STANDBY disarmed; PX4's base_mode
+    flags and custom_mode of the commander's mode; SYS_STATUS bits by :mod:`autopilot.commander.health`,
+    the RC receiver's once sticks were seen (unhealthy when lost), the battery's unhealthy from critical.
     """
     armed = status.armed
     prearm_ok = armed or not status.prearm_failures
     if status.estimate is None:
         system_status = mavlink.MAV_STATE_BOOT
+    elif status.failsafe.emergency:
+        system_status = mavlink.MAV_STATE_EMERGENCY
+    elif armed and status.failsafe.action_in_force:
+        system_status = mavlink.MAV_STATE_CRITICAL
     elif armed:
         system_status = mavlink.MAV_STATE_ACTIVE
     else:
@@ -92,6 +105,10 @@ def telemetry_snapshot(
     sensors = health.SENSORS_PRESENT
     fence_bit = mavlink.MAV_SYS_STATUS_GEOFENCE if status.mission.fence_items else 0
     fence_ok = 0 if status.mission.fence_breached else fence_bit
+    rc_bit = mavlink.MAV_SYS_STATUS_SENSOR_RC_RECEIVER if status.failsafe.rc_seen else 0
+    fence_bit |= rc_bit  # (the geofence's and the RC receiver's bits: present when used)
+    fence_ok |= 0 if status.failsafe.rc_lost else rc_bit
+    battery_bad = mavlink.MAV_SYS_STATUS_SENSOR_BATTERY if status.battery_warning >= BatteryWarning.CRITICAL else 0
     return TelemetrySnapshot(
         timestamp_us=status.timestamp_us, mav_type=status.mav_type, armed=armed,
         base_mode=status.mode.base_mode_flags(armed), custom_mode=status.mode.custom_mode,
@@ -99,7 +116,7 @@ def telemetry_snapshot(
         home=status.home, battery=status.battery, throttle_frac=actuators.throttle_frac,
         sensors_present=sensors | fence_bit, sensors_enabled=sensors | fence_bit,
         sensors_health=fence_ok
-        | health.sensors_health(status.estimate, status.gps_ok, estimator_status, ekf_in_use, prearm_ok),
+        | health.sensors_health(status.estimate, status.gps_ok, estimator_status, ekf_in_use, prearm_ok) & ~battery_bad,
         prearm_ok=prearm_ok, position_setpoint_ned_m=status.position_setpoint_ned_m,
         motor_outputs=actuators.motor_outputs, control=control, estimator_status=estimator_status,
         battery_warning=status.battery_warning, mission=status.mission,

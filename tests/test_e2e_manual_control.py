@@ -1,0 +1,245 @@
+"""A pilot's sticks fly the real stack: MAVSDK's ManualControl plugin in POSCTL and ALTCTL, and ``gcs fly``.
+
+What a MAVSDK user with a joystick does: send MANUAL_CONTROL continuously (``set_manual_control_input``,
+here at about 25 Hz: stopping is a manual-control loss), switch to position or altitude control and
+steer.  In POSCTL full forward stick flies at MPC_VEL_MANUAL and centred sticks hold the position; in
+ALTCTL forward stick tilts the vehicle and accelerates it forward and centred sticks hold the altitude;
+``gcs fly`` with a key script holding ``w`` moves the vehicle forward.  Where the vehicle went is the
+simulator's ground truth; durations are simulated seconds (truth time), wall clock only as a safety net.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import subprocess
+import sys
+
+import pytest
+
+mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
+from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
+from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
+from mavsdk.asyncio.plugins.manual_control import ManualControlAsync  # noqa: E402
+from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
+from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+
+from e2e_flight_helpers import truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_manual_control", "stack")
+truth, stack = truth_and_stack_fixtures(INSTANCE)
+STICK_PERIOD_S = 0.04  # MAVSDK sticks at 25 Hz (wall clock)
+MPC_VEL_MANUAL = 1.0  # the default full-stick speed, m/s
+WAIT_S = 120.0  # wall-clock safety net of each wait
+
+
+class Sticks:
+    """Send ``value`` (x pitch, y roll, z throttle 0..1, r yaw) through MAVSDK continuously."""
+
+    def __init__(self, system) -> None:
+        self.mc = ManualControlAsync(system)
+        self.value = (0.0, 0.0, 0.5, 0.0)
+        self._task: asyncio.Task | None = None
+
+    async def _run(self) -> None:
+        while True:
+            await self.mc.set_manual_control_input(*self.value)
+            await asyncio.sleep(STICK_PERIOD_S)
+
+    async def start(self) -> None:
+        await self.mc.set_manual_control_input(*self.value)  # MAVSDK switches modes only once it has input
+        self._task = asyncio.ensure_future(self._run())
+
+    async def stop(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            try:
+                await self._task
+            except asyncio.CancelledError:
+                pass
+
+
+def sim_ms(truth) -> int:
+    s = truth.latest()
+    return s.time_ms if s is not None else 0
+
+
+async def sim_sleep(truth, seconds: float) -> int:
+    """Wait ``seconds`` of simulated time (truth clock); the truth time at the end, ms."""
+    end = sim_ms(truth) + round(seconds * 1000)
+
+    async def passed():
+        return sim_ms(truth) >= end
+
+    await until(passed, WAIT_S, f"{seconds:g} simulated seconds", period_s=0.01)
+    return sim_ms(truth)
+
+
+def truth_yaw(truth) -> float:
+    w, x, y, z = truth.latest_state.attitude_quaternion
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+async def _session(body):
+    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        system = await sdk.first_autopilot(timeout_s=30.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        tel, action = TelemetryAsync(system), ActionAsync(system)
+
+        async def ready():
+            h = await tel.health()
+            return h.is_global_position_ok and h.is_home_position_ok and h.is_armable and not await tel.armed()
+
+        await until(ready, WAIT_S, "health: position, home, armable, disarmed")
+        sticks = Sticks(system)
+        await sticks.start()
+        try:
+            result = await body(system, tel, action, sticks)
+            await action.return_to_launch()
+
+            async def disarmed():
+                return not await tel.armed()
+
+            await until(disarmed, WAIT_S, "disarmed after the return")  # sticks keep coming: no RC loss
+            return result
+        finally:
+            await sticks.stop()
+
+
+async def _mode(tel, mode) -> None:
+    async def in_mode():
+        return await tel.flight_mode() == mode
+
+    await until(in_mode, WAIT_S, f"flight mode {mode}")
+
+
+async def _altitude_above(tel, alt_m: float) -> None:
+    async def high():
+        return (await tel.position()).relative_altitude_m > alt_m
+
+    await until(high, WAIT_S, f"relative altitude above {alt_m:g} m")
+
+
+def test_posctl_throttle_takes_off_full_stick_flies_mpc_vel_manual_centred_holds(stack, truth):
+    async def body(system, tel, action, sticks):
+        out = {}
+        await sticks.mc.start_position_control()  # disarmed: accepted, acts once armed
+        await _mode(tel, FlightMode.POSCTL)
+        sticks.value = (0.0, 0.0, 0.8, 0.0)  # throttle up: climb from the ground
+        await action.arm()
+        await _altitude_above(tel, 4.0)
+        sticks.value = (0.0, 0.0, 0.5, 0.0)
+        await sim_sleep(truth, 3.0)
+        sticks.value = (1.0, 0.0, 0.5, 0.0)  # full forward
+        t_settled = await sim_sleep(truth, 5.0)
+        t_end = await sim_sleep(truth, 5.0)
+        out["speeds"] = [math.hypot(*s.vel_ned_m_s[:2]) for s in truth.since(t_settled) if s.time_ms <= t_end]
+        sticks.value = (0.0, 0.0, 0.5, 0.0)  # centred: brake and hold
+        t_hold = await sim_sleep(truth, 3.0)
+        await sim_sleep(truth, 10.0)
+        out["hold"] = [s.pos_ned_m for s in truth.since(t_hold)]
+        return out
+
+    out = asyncio.run(_session(body))
+    stack.check_alive()
+    speeds = out["speeds"]
+    mean = sum(speeds) / len(speeds)
+    print(f"POSCTL full stick: mean {mean:.3f} m/s, min {min(speeds):.3f}, max {max(speeds):.3f}")
+    assert mean == pytest.approx(MPC_VEL_MANUAL, rel=0.15)
+    assert min(speeds) > 0.8 * MPC_VEL_MANUAL and max(speeds) < 1.2 * MPC_VEL_MANUAL
+    hold = out["hold"]
+    first = hold[0]
+    drift = max(math.dist(p[:2], first[:2]) for p in hold)
+    climb = max(abs(p[2] - first[2]) for p in hold)
+    print(f"POSCTL centred 10 s: drift {drift:.3f} m, altitude change {climb:.3f} m")
+    assert drift <= 0.3 and climb <= 0.3
+
+
+def test_altctl_forward_stick_tilts_and_accelerates_centred_holds_altitude(stack, truth):
+    async def body(system, tel, action, sticks):
+        out = {}
+        await action.set_takeoff_altitude(5.0)
+        await action.arm()
+        await action.takeoff()
+        await _altitude_above(tel, 4.6)
+        await _mode(tel, FlightMode.HOLD)
+        await sticks.mc.start_altitude_control()
+        await _mode(tel, FlightMode.ALTCTL)
+        t0 = await sim_sleep(truth, 2.0)
+        out["yaw"] = truth_yaw(truth)
+        out["before"] = truth.latest()
+        sticks.value = (0.4, 0.0, 0.5, 0.0)  # forward: (0.4 - 0.1) / 0.9 of MPC_MAN_TILT_MAX
+        await sim_sleep(truth, 2.0)
+        out["after"] = truth.latest()
+        sticks.value = (-0.4, 0.0, 0.5, 0.0)  # back as long: about stopped
+        await sim_sleep(truth, 2.0)
+        sticks.value = (0.0, 0.0, 0.5, 0.0)
+        t_hold = await sim_sleep(truth, 2.0)
+        await sim_sleep(truth, 10.0)
+        out["alt_all"] = [-s.pos_ned_m[2] for s in truth.since(t0)]
+        out["alt_hold"] = [-s.pos_ned_m[2] for s in truth.since(t_hold)]
+        return out
+
+    out = asyncio.run(_session(body))
+    stack.check_alive()
+    yaw, before, after = out["yaw"], out["before"], out["after"]
+    fwd = (math.cos(yaw), math.sin(yaw))
+    v_fwd = after.vel_ned_m_s[0] * fwd[0] + after.vel_ned_m_s[1] * fwd[1]
+    v_side = -after.vel_ned_m_s[0] * fwd[1] + after.vel_ned_m_s[1] * fwd[0]
+    print(f"ALTCTL after 2 s forward stick: forward {v_fwd:.2f} m/s, sideways {v_side:.2f} m/s")
+    assert v_fwd > 1.0 and abs(v_side) < 0.3 * v_fwd  # accelerated forward (tilt g tan(11.7 deg) = 2 m/s^2)
+    assert math.hypot(*before.vel_ned_m_s[:2]) < 0.3
+    hold = out["alt_hold"]
+    print(f"ALTCTL altitude: held within {max(hold) - min(hold):.3f} m, whole flight within "
+          f"{max(out['alt_all']) - min(out['alt_all']):.3f} m")  # fmt: skip
+    assert max(hold) - min(hold) <= 0.3
+    assert max(out["alt_all"]) - min(out["alt_all"]) <= 0.6
+
+
+KEY_SCRIPT = """\
+# gcs fly key script: wait, position mode, forward, stop
+0.5 -
+m
+1 -
+3 w
+1 space
+"""
+
+
+def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
+    keys = tmp_path / "forward.keys"
+    keys.write_text(KEY_SCRIPT)
+    cmd = [sys.executable, "-m", "gcs", "--instance", str(INSTANCE), "fly", "--keys", str(keys)]
+
+    async def body(system, tel, action, sticks):
+        await sticks.stop()  # gcs fly sends the sticks now
+        await action.set_takeoff_altitude(4.0)
+        await action.arm()
+        await action.takeoff()
+        await _altitude_above(tel, 3.6)
+        await _mode(tel, FlightMode.HOLD)
+        out = {"yaw": truth_yaw(truth), "t0": sim_ms(truth)}
+        out["run"] = await asyncio.to_thread(
+            subprocess.run, cmd, capture_output=True, text=True, timeout=WAIT_S, stdin=subprocess.DEVNULL
+        )
+        out["samples"] = truth.since(out["t0"])
+        out["mode"] = await tel.flight_mode()
+        await sticks.start()  # sticks again while returning (no manual-control loss)
+        return out
+
+    out = asyncio.run(_session(body))
+    stack.check_alive()
+    run = out["run"]
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "POSCTL" in run.stdout
+    samples, yaw = out["samples"], out["yaw"]
+    start = samples[0].pos_ned_m
+    ahead = max((s.pos_ned_m[0] - start[0]) * math.cos(yaw) + (s.pos_ned_m[1] - start[1]) * math.sin(yaw)
+                for s in samples)  # fmt: skip
+    top = max(math.hypot(*s.vel_ned_m_s[:2]) for s in samples)
+    print(f"gcs fly: {ahead:.2f} m forward, top speed {top:.2f} m/s")
+    assert ahead > 1.0
+    assert top < 1.2 * MPC_VEL_MANUAL
