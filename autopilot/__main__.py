@@ -122,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     if saver is False:
         return 2
     fc = FlightController(spec, params)
+    fc.commander.param_saver = saver  # PREFLIGHT_STORAGE read/write (None without --state-dir)
     if args.state_dir:
         _keep_plans(fc, args, spec.name)
     try:

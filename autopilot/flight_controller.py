@@ -96,9 +96,23 @@ class FlightController:
         self.sat_pos[:] = False
         self.sat_neg[:] = False
 
+    def _restart(self) -> None:
+        """A reboot: the estimator starts again as at power-on (in place, so its parameter subscription is
+        the same one), the controllers' states too; parameters, gains and the vehicle are kept."""
+        est = self.estimator
+        type(est).__init__(est, None)  # no second subscription ...
+        est.params = self.params  # ... and the parameters read as before
+        est._load_params()
+        est.defer_filters = True
+        self._reset_controllers()
+        self.setpoint, self.rate_override, self._gps_pending = None, None, None
+        self.commander.reboot_pending = False
+
     def step(self, imu: ImuSample, gps: GpsSample | None) -> np.ndarray:
         """Run one iteration; return motor commands (0..1, one per rotor)."""
         now = imu.timestamp_us
+        if self.commander.reboot_pending:  # PREFLIGHT_REBOOT_SHUTDOWN: the commander restarted itself
+            self._restart()
         dt = LOCKSTEP_DT_S if self.last_us is None else (now - self.last_us) * 1e-6
         self.last_us = now
         self.estimator.update_imu(imu)
@@ -117,8 +131,10 @@ class FlightController:
         n = len(self.spec.rotors)
         if not status.armed:
             self._reset_controllers()
-            self._publish(np.zeros(n), 0.0)
-            return np.zeros(n)
+            test = self.commander.motor_test_output(now, n)  # DO_MOTOR_TEST: one motor, disarmed, for a while
+            out = np.zeros(n) if test is None else test
+            self._publish(out, 0.0)
+            return out
         if self.setpoint is None:
             self._reset_controllers()
             idle = np.full(n, self.params.get("MPC_IDLE_CMD"))

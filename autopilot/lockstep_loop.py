@@ -52,7 +52,8 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 commands = fc.step(imu, gps)
                 gps = None
                 now_us = imu.timestamp_us
-                sim.send_actuators(now_us, commands, fc.commander.status.armed)
+                live = fc.commander.status.armed or fc.commander.motor_test_run is not None  # DO_MOTOR_TEST
+                sim.send_actuators(now_us, commands, live)
                 if recorder is not None:
                     recorder.on_step()
                 # While the simulator steps its physics: the outer loops, and in another

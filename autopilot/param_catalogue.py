@@ -25,6 +25,7 @@ from autopilot.navigation import (
     manual_modes,
     mission,
     offboard,
+    orbit,
     precland,
     rtl,
     takeoff,
@@ -53,6 +54,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     manual_modes.PARAMS,
     offboard.PARAMS,
     precland.PARAMS,
+    orbit.PARAMS,
     landing_target_estimator.PARAMS,
     landing_target_input.PARAMS,
 )

@@ -46,6 +46,7 @@ MAIN_MANUAL, MAIN_ALTCTL, MAIN_POSCTL, MAIN_AUTO, MAIN_ACRO, MAIN_OFFBOARD, MAIN
 # PX4 AUTO sub modes (PX4_CUSTOM_SUB_MODE_AUTO_*)
 SUB_AUTO_READY, SUB_AUTO_TAKEOFF, SUB_AUTO_LOITER, SUB_AUTO_MISSION, SUB_AUTO_RTL, SUB_AUTO_LAND = 1, 2, 3, 4, 5, 6
 SUB_AUTO_PRECLAND = 9
+SUB_POSCTL_ORBIT = 1  # PX4_CUSTOM_SUB_MODE_POSCTL_ORBIT: PX4 reports its orbit (DO_ORBIT) as POSCTL + this
 
 
 class Mode(Enum):
@@ -54,6 +55,7 @@ class Mode(Enum):
     MANUAL = (MAIN_MANUAL, 0)
     ALTCTL = (MAIN_ALTCTL, 0)
     POSCTL = (MAIN_POSCTL, 0)
+    POSCTL_ORBIT = (MAIN_POSCTL, SUB_POSCTL_ORBIT)  # entered by DO_ORBIT only
     AUTO_READY = (MAIN_AUTO, SUB_AUTO_READY)
     AUTO_TAKEOFF = (MAIN_AUTO, SUB_AUTO_TAKEOFF)
     AUTO_LOITER = (MAIN_AUTO, SUB_AUTO_LOITER)
@@ -106,6 +108,7 @@ _ALIASES: dict[str, str] = {
     "HOLD": "LOITER",
     "AUTO.HOLD": "LOITER",
     "POSITION": "POSCTL",
+    "ORBIT": "POSCTL_ORBIT",
     "ALTITUDE": "ALTCTL",
     "STABILIZE": "STABILIZED",
     "RETURN": "RTL",
@@ -156,9 +159,10 @@ def decode_custom_mode(custom_mode: int) -> tuple[int, int]:
 def mode_from_custom_mode(custom_mode: int) -> Px4Mode | None:
     """The table entry for a custom_mode, or None if it is not a known PX4 mode."""
     main, sub = decode_custom_mode(custom_mode)
-    if main != MAIN_AUTO:
-        sub = 0
-    return _BY_MAIN_SUB.get((main, sub))
+    exact = _BY_MAIN_SUB.get((main, sub))  # e.g. POSCTL_ORBIT
+    if exact is not None or main == MAIN_AUTO:
+        return exact
+    return _BY_MAIN_SUB.get((main, 0))  # other sub-modes of a non-AUTO main mode: the main mode
 
 
 def custom_mode_to_name(custom_mode: int) -> str:

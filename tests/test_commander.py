@@ -311,9 +311,10 @@ def test_reposition():
     b.run(15.0)
     np.testing.assert_allclose(b.pos, [10.0, 5.0, -4.0], atol=1e-6)
     # lat/lon not given (NaN) and altitude not given: stay here
-    assert b.command(mavlink.MAV_CMD_DO_REPOSITION, 2.0, 0, 0, 90.0, math.nan, math.nan, math.nan) == ACCEPTED
+    assert b.command(mavlink.MAV_CMD_DO_REPOSITION, 2.0, 0, 0, math.pi / 2, math.nan, math.nan, math.nan) == ACCEPTED
     b.run(3.0)
     np.testing.assert_allclose(b.pos, [10.0, 5.0, -4.0], atol=1e-6)
+    assert b.cmd.setpoint.yaw_rad == pytest.approx(math.pi / 2)  # param4 is yaw in radians (east)
     assert b.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, 95.0, lon, math.nan) == DENIED
     assert b.texts()[-1] == "Reposition denied: latitude/longitude out of range"
     far_lat, far_lon, _ = ned_to_geodetic([1500.0, 0.0, 0.0], *ORIGIN)

@@ -49,6 +49,7 @@ PX4_NUMBERS = {  # name: (main, sub), from PX4's px4_custom_mode.h
     "MANUAL": (1, 0),
     "ALTCTL": (2, 0),
     "POSCTL": (3, 0),
+    "POSCTL_ORBIT": (3, 1),
     "READY": (4, 1),
     "TAKEOFF": (4, 2),
     "LOITER": (4, 3),
@@ -86,7 +87,8 @@ def test_mode_aliases_and_errors():
     with pytest.raises(modes.UnknownModeError, match="unknown mode 'GUIDED'"):
         modes.lookup_mode("GUIDED")
     assert modes.custom_mode_to_name(4 << 16 | 7 << 24) == "UNKNOWN(4.7)"
-    assert modes.custom_mode_to_name(3 << 16 | 1 << 24) == "POSCTL"  # POSCTL sub-modes (orbit...) are POSCTL
+    assert modes.custom_mode_to_name(3 << 16 | 1 << 24) == "POSCTL_ORBIT"  # DO_ORBIT's mode, as PX4 reports it
+    assert modes.custom_mode_to_name(3 << 16 | 2 << 24) == "POSCTL"  # other POSCTL sub-modes (slow) are POSCTL
 
 
 # --------------------------------------------------------------------------- parameters

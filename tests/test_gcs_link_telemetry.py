@@ -206,7 +206,7 @@ def test_request_message_and_capabilities(make_harness):
     versions = of_type(got, "AUTOPILOT_VERSION")
     assert len(versions) == 1
     v = versions[0]
-    # Exactly what is implemented: no offboard (SET_POSITION_TARGET_*, SET_ATTITUDE_TARGET), no FTP, ...
+    # Exactly what is implemented: offboard (SET_POSITION_TARGET_*, SET_ATTITUDE_TARGET), no FTP, ...
     assert v.capabilities == (
         mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
         | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
@@ -216,6 +216,9 @@ def test_request_message_and_capabilities(make_harness):
         | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
         | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
         | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+        | mavlink.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+        | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+        | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
     )
     assert v.flight_sw_version != 0 and v.uid != 0
     assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE)] == [mavlink.MAV_RESULT_ACCEPTED]

@@ -54,6 +54,10 @@ def test_table_covers_the_commands_of_px4_identity():
         mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_CMD_DO_REPOSITION,
         mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAV_CMD_REQUEST_MESSAGE,
         mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT,
+        mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_CMD_DO_SET_HOME, mavlink.MAV_CMD_GET_HOME_POSITION,
+        mavlink.MAV_CMD_CONDITION_YAW, mavlink.MAV_CMD_DO_PAUSE_CONTINUE, mavlink.MAV_CMD_DO_FLIGHTTERMINATION,
+        mavlink.MAV_CMD_PREFLIGHT_STORAGE, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, mavlink.MAV_CMD_DO_MOTOR_TEST,
+        mavlink.MAV_CMD_DO_ORBIT,
     }  # fmt: skip
     assert set(commands.COMMANDS) == expected
     by_link = {c for c, row in commands.COMMANDS.items() if row.by is commands.By.LINK}
@@ -61,6 +65,7 @@ def test_table_covers_the_commands_of_px4_identity():
         mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
         mavlink.MAV_CMD_REQUEST_MESSAGE,
         mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+        mavlink.MAV_CMD_GET_HOME_POSITION,
     }
 
 

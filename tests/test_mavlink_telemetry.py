@@ -206,8 +206,10 @@ def test_servo_output_raw_pwm():
     out = _build(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, _snapshot())
     pwm = [getattr(out, f"servo{i}_raw") for i in range(1, 17)]
     assert pwm == [1000, 1250, 1500, 2000, 2000, 1000] + [0] * 10  # clamped to 1000..2000, unused 0
-    disarmed = _build(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, _snapshot(armed=False))
+    disarmed = _build(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, _snapshot(armed=False, motor_outputs=(0.0,) * 6))
     assert [getattr(disarmed, f"servo{i}_raw") for i in range(1, 7)] == [900] * 6
+    motor_test = _build(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, _snapshot(armed=False, motor_outputs=(0, 0.2, 0)))
+    assert [getattr(motor_test, f"servo{i}_raw") for i in range(1, 4)] == [900, 1200, 900]  # DO_MOTOR_TEST
     assert telemetry.servo_output_raw(_snapshot(motor_outputs=()), NOW_US) is None
 
 

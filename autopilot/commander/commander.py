@@ -23,6 +23,7 @@ from autopilot.commander import failsafes, health, mission_control, mode_entry, 
 from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.commander.mission_control import Plans
+from autopilot.commander.vehicle_commands import VehicleCommands
 from autopilot.control.position_control import PositionSetpoint
 from autopilot.navigation import LoiterTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
@@ -66,7 +67,7 @@ S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
 
 
-class Commander(FlightCommands):
+class Commander(FlightCommands, VehicleCommands):
     """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
 
     def __init__(self, params: ParameterStore, mav_type_name: str) -> None:

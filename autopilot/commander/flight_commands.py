@@ -64,6 +64,7 @@ class FlightCommands:
     precland_mode: PrecLandMode
     setpoint: PositionSetpoint | None
     plans: Plans
+    cruise_override_m_s: float | None = None  # DO_CHANGE_SPEED's speed for later repositions (None: MPC_XY_CRUISE)
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
 
@@ -132,8 +133,8 @@ class FlightCommands:
     ) -> int:
         """Fly to a point and hold there (AUTO.LOITER), along a straight line from the current setpoint.
 
-        None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw;
-        speed None: MPC_XY_CRUISE.  Refused when not flying, without a position estimate, for
+        None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw (radians);
+        speed None: DO_CHANGE_SPEED's, else MPC_XY_CRUISE.  Refused when not flying, without a position estimate, for
         an impossible latitude/longitude or a target more than REPOSITION_MAX_M away.
         """
         e = self.est
@@ -157,6 +158,8 @@ class FlightCommands:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: target more than 1 km away")
             return S.MAV_RESULT_DENIED
         yaw = e.yaw_rad if yaw_rad is None else yaw_rad
+        if speed_m_s is None:
+            speed_m_s = self.cruise_override_m_s
         speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
         start = (
             self.setpoint.pos_ned_m

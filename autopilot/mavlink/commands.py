@@ -29,28 +29,16 @@ from mavsim_core.px4_modes import Mode
 FORCE_MAGIC = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM: arm or disarm whatever the checks say
 INT32_MAX = 2**31 - 1  # COMMAND_INT x/y "not given"
 
-_GLOBAL_FRAMES = frozenset(
-    {
-        mavlink.MAV_FRAME_GLOBAL,
-        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
-        mavlink.MAV_FRAME_GLOBAL_INT,
-        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-    }
-)
-_LOCAL_FRAMES = frozenset(
-    {
-        mavlink.MAV_FRAME_LOCAL_NED,
-        mavlink.MAV_FRAME_LOCAL_ENU,
-        mavlink.MAV_FRAME_LOCAL_OFFSET_NED,
-        mavlink.MAV_FRAME_BODY_NED,
-        mavlink.MAV_FRAME_BODY_OFFSET_NED,
-        mavlink.MAV_FRAME_BODY_FRD,
-        mavlink.MAV_FRAME_LOCAL_FRD,
-        mavlink.MAV_FRAME_LOCAL_FLU,
-    }
-)
+_GLOBAL_FRAMES = frozenset({
+    mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_INT,
+    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+})  # fmt: skip
+_LOCAL_FRAMES = frozenset({
+    mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_ENU, mavlink.MAV_FRAME_LOCAL_OFFSET_NED,
+    mavlink.MAV_FRAME_BODY_NED, mavlink.MAV_FRAME_BODY_OFFSET_NED, mavlink.MAV_FRAME_BODY_FRD,
+    mavlink.MAV_FRAME_LOCAL_FRD, mavlink.MAV_FRAME_LOCAL_FLU,
+})  # fmt: skip
 
 
 class LinkCommands(Protocol):
@@ -87,6 +75,20 @@ class CommanderCommands(Protocol):
         yaw_rad: float | None,
         speed_m_s: float | None,
     ) -> int: ...
+
+    # autopilot.commander.vehicle_commands.VehicleCommands
+    terminated: bool
+
+    def change_speed(self, speed_m_s: float | None) -> int: ...
+    def set_home(self, lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None) -> int: ...
+    def condition_yaw(self, angle_rad: float, rate_rad_s: float | None, direction: int, relative: bool) -> int: ...
+    def pause_continue(self, pause: bool) -> int: ...
+    def terminate_flight(self) -> int: ...
+    def param_storage(self, action: int) -> int: ...
+    def reboot(self) -> int: ...
+    def motor_test(self, motor: int, frac: float, timeout_s: float, count: int) -> int: ...
+    def orbit(self, radius_m: float | None, speed_m_s: float | None, yaw_behaviour: int | None,
+              lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None) -> int: ...  # fmt: skip
 
 
 class By(Enum):
@@ -161,10 +163,18 @@ def _request_autopilot_capabilities(link: LinkCommands, p: Params) -> int:
 # --------------------------------------------------------------------------- the vehicle's commands
 
 
+def _deny(cmd: CommanderCommands, why: str) -> int:
+    """Say why (STATUSTEXT, critical) and refuse."""
+    cmd.say(mavlink.MAV_SEVERITY_CRITICAL, why)
+    return mavlink.MAV_RESULT_DENIED
+
+
 def _arm_disarm(cmd: CommanderCommands, p: Params) -> int:
     """param1 >= 0.5 arm, else disarm; param2 21196 forces either."""
     force = int_param(p[1]) == FORCE_MAGIC
     if p[0] >= 0.5:
+        if cmd.terminated:  # DO_FLIGHTTERMINATION holds until a reboot, forced or not
+            return _deny(cmd, "Arming denied: flight terminated (reboot to clear)")
         return cmd.arm(force)
     return cmd.disarm(force)
 
@@ -201,14 +211,16 @@ def _do_set_mode(cmd: CommanderCommands, p: Params) -> int:
 
 
 def _reposition(cmd: CommanderCommands, p: Params) -> int:
-    """param1 speed m/s (<= 0 or NaN: MPC_XY_CRUISE), param4 yaw deg (NaN: keep), param5/6 lat/lon deg
-    (NaN or both 0: here), param7 altitude AMSL m (NaN: keep)."""
+    """param1 ground speed m/s (<= 0 or NaN: the default), param4 yaw in RADIANS (NaN: keep the heading; as
+    the MAVLink spec, PX4 and MAVSDK), param5/6 lat/lon deg (NaN or both 0: here), param7 altitude AMSL m
+    (NaN: keep).  Infinite values are not "not given": refused."""
+    if any(math.isinf(x) for x in (p[3], p[4], p[5], p[6])):
+        return _deny(cmd, "Reposition denied: infinite position or yaw")
     speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
-    yaw = math.radians(p[3]) if math.isfinite(p[3]) else None
     lat, lon = p[4], p[5]
     if not (math.isfinite(lat) and math.isfinite(lon)) or (lat == 0 and lon == 0):
         lat = lon = None
-    return cmd.reposition(lat, lon, given(p[6]), yaw, speed)
+    return cmd.reposition(lat, lon, given(p[6]), given(p[3]), speed)
 
 
 def _set_mission_current(cmd: CommanderCommands, p: Params) -> int:
@@ -225,6 +237,106 @@ def _set_mission_current(cmd: CommanderCommands, p: Params) -> int:
     if not done:
         cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Set current mission item denied: {why}")
     return mavlink.MAV_RESULT_ACCEPTED if done else mavlink.MAV_RESULT_DENIED
+
+
+def _change_speed(cmd: CommanderCommands, p: Params) -> int:
+    """param1 speed type (0 air, 1 ground: both the horizontal speed of a multicopter; 2 climb, 3 descent:
+    not supported), param2 m/s (-1 or NaN: no change, -2: back to MPC_XY_CRUISE), param3 throttle (ignored)."""
+    kind = int_param(p[0], 1)
+    if kind not in (0, 1):
+        return _deny(cmd, f"Change speed denied: speed type {kind} not supported (0, 1)")
+    if not math.isfinite(p[1]) or p[1] == -1:
+        return mavlink.MAV_RESULT_ACCEPTED  # no change
+    if p[1] == -2:
+        return cmd.change_speed(None)
+    if p[1] <= 0:
+        return _deny(cmd, f"Change speed denied: {p[1]:g} m/s is not a speed")
+    return cmd.change_speed(p[1])
+
+
+def _set_home(cmd: CommanderCommands, p: Params) -> int:
+    """param1 1: the current position; else param5/6 lat/lon deg and param7 altitude AMSL m (all finite)."""
+    if int_param(p[0]) == 1:
+        return cmd.set_home(None, None, None)
+    if not all(math.isfinite(x) for x in (p[4], p[5], p[6])):
+        return _deny(cmd, "Set home denied: latitude, longitude and altitude required")
+    return cmd.set_home(p[4], p[5], p[6])
+
+
+def _get_home_position(link: LinkCommands, p: Params) -> int:
+    """HOME_POSITION once (TEMPORARILY_REJECTED before home is set), as REQUEST_MESSAGE 242."""
+    return link.request_message(mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0.0)
+
+
+def _condition_yaw(cmd: CommanderCommands, p: Params) -> int:
+    """param1 angle deg (absolute from north, or relative), param2 rate deg/s (<= 0 or NaN: MPC_YAWRAUTO_MAX),
+    param3 direction (-1 counter-clockwise, 0 shortest, 1 clockwise), param4 1 relative, 0 absolute."""
+    if not math.isfinite(p[0]):
+        return _deny(cmd, "Yaw denied: angle not given")
+    rate = math.radians(p[1]) if math.isfinite(p[1]) and p[1] > 0 else None
+    direction = max(-1, min(1, int_param(p[2])))
+    return cmd.condition_yaw(math.radians(p[0]), rate, direction, int_param(p[3]) == 1)
+
+
+def _pause_continue(cmd: CommanderCommands, p: Params) -> int:
+    """param1 0: pause (hold here, AUTO.LOITER), 1: continue the mission."""
+    action = int_param(p[0], -1)
+    if action not in (0, 1):
+        return _deny(cmd, "Pause/continue denied: param1 must be 0 (pause) or 1 (continue)")
+    return cmd.pause_continue(action == 0)
+
+
+def _flight_termination(cmd: CommanderCommands, p: Params) -> int:
+    """param1 >= 0.5: motors off and disarmed, for good (until a reboot); below: nothing (accepted)."""
+    if math.isfinite(p[0]) and p[0] >= 0.5:
+        return cmd.terminate_flight()
+    return mavlink.MAV_RESULT_ACCEPTED
+
+
+def _preflight_storage(cmd: CommanderCommands, p: Params) -> int:
+    """param1 0 read the saved parameters, 1 write, 2 and 4 reset to defaults, 3 sensors (none); param2 ignored."""
+    return cmd.param_storage(int_param(p[0], -1))
+
+
+def _reboot_shutdown(cmd: CommanderCommands, p: Params) -> int:
+    """param1 0 nothing, 1 reboot (the flight controller's state restarts in place), 2 shutdown, 3 bootloader:
+    not simulated; param2.. (companion computer, camera, mount) ignored: there are none."""
+    action = int_param(p[0], 0)
+    if action == 0:
+        return mavlink.MAV_RESULT_ACCEPTED
+    if action == 1:
+        return cmd.reboot()
+    what = {2: "shutdown", 3: "reboot to bootloader"}.get(action)
+    if what is not None:
+        cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Reboot/shutdown: {what} not supported in simulation")
+        return mavlink.MAV_RESULT_UNSUPPORTED
+    return _deny(cmd, f"Reboot/shutdown denied: unknown action {action}")
+
+
+def _motor_test(cmd: CommanderCommands, p: Params) -> int:
+    """param1 motor (1-based), param2 throttle type (0 percent, 1 PWM µs 1000-2000), param3 the value,
+    param4 timeout s, param5 motor count (0 or 1: one motor)."""
+    kind = int_param(p[1], -1)
+    value = p[2]
+    if kind not in (mavlink.MOTOR_TEST_THROTTLE_PERCENT, mavlink.MOTOR_TEST_THROTTLE_PWM):
+        cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Motor test denied: throttle type {kind} not supported (0, 1)")
+        return mavlink.MAV_RESULT_UNSUPPORTED
+    if not (math.isfinite(value) and math.isfinite(p[3])):
+        return _deny(cmd, "Motor test denied: throttle and timeout required")
+    frac = value / 100.0 if kind == mavlink.MOTOR_TEST_THROTTLE_PERCENT else (value - 1000.0) / 1000.0
+    return cmd.motor_test(int_param(p[0]), min(max(frac, 0.0), 1.0), max(p[3], 0.0), int_param(p[4]))
+
+
+def _orbit(cmd: CommanderCommands, p: Params) -> int:
+    """param1 radius m (sign: > 0 clockwise, < 0 counter-clockwise; NaN: keep/default), param2 speed m/s
+    (NaN: keep/default), param3 ORBIT_YAW_BEHAVIOUR (NaN: MC_ORBIT_YAW_MOD), param5/6 centre lat/lon deg and
+    param7 altitude AMSL m (NaN: here / the current orbit's)."""
+    if any(math.isinf(x) for x in (p[0], p[1], p[4], p[5], p[6])):
+        return _deny(cmd, "Orbit denied: infinite parameter")
+    lat, lon = p[4], p[5]
+    lat, lon = (None, None) if not (math.isfinite(lat) and math.isfinite(lon)) else (lat, lon)
+    yaw = int_param(p[2], -1)
+    return cmd.orbit(given(p[0]), given(p[1]), None if yaw < 0 else yaw, lat, lon, given(p[6]))
 
 
 def handle_set_mode(cmd: CommanderCommands, base_mode: int, custom_mode: int) -> int:
@@ -252,6 +364,16 @@ COMMANDS: dict[int, Command] = {
     mavlink.MAV_CMD_DO_SET_MODE: Command(By.VEHICLE, _do_set_mode),
     mavlink.MAV_CMD_DO_REPOSITION: Command(By.VEHICLE, _reposition),
     mavlink.MAV_CMD_DO_SET_MISSION_CURRENT: Command(By.VEHICLE, _set_mission_current),
+    mavlink.MAV_CMD_DO_CHANGE_SPEED: Command(By.VEHICLE, _change_speed),
+    mavlink.MAV_CMD_DO_SET_HOME: Command(By.VEHICLE, _set_home),
+    mavlink.MAV_CMD_GET_HOME_POSITION: Command(By.LINK, _get_home_position),
+    mavlink.MAV_CMD_CONDITION_YAW: Command(By.VEHICLE, _condition_yaw),
+    mavlink.MAV_CMD_DO_PAUSE_CONTINUE: Command(By.VEHICLE, _pause_continue),
+    mavlink.MAV_CMD_DO_FLIGHTTERMINATION: Command(By.VEHICLE, _flight_termination),
+    mavlink.MAV_CMD_PREFLIGHT_STORAGE: Command(By.VEHICLE, _preflight_storage),
+    mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: Command(By.VEHICLE, _reboot_shutdown),
+    mavlink.MAV_CMD_DO_MOTOR_TEST: Command(By.VEHICLE, _motor_test),
+    mavlink.MAV_CMD_DO_ORBIT: Command(By.VEHICLE, _orbit),
 }
 
 

@@ -5,11 +5,16 @@ parsing of received datagrams are :class:`mavsim_core.mavlink_udp.UdpEndpoint`'s
 class adds what the link keeps per endpoint: a MAVLink encoder, the packets of one link
 iteration held and sent several per datagram (up to MAX_DATAGRAM_BYTES, as PX4's UDP
 links buffer theirs), the telemetry streams with their intervals (µs of simulated time),
-the position in a parameter list being served, and the traffic tap.
+the position in a parameter list being served, and the traffic tap.  Its socket's receive buffer is
+enlarged (RX_SOCKET_BUFFER_BYTES) so a burst of a few hundred small datagrams (sticks at 150 Hz while
+the loop was busy) waits for the link instead of being dropped by the kernel; what the link has no
+time for is sorted by :meth:`LinkEndpoint.discard` without parsing: streams that the next message
+supersedes (sticks, setpoints, heartbeats) are dropped, anything else (commands) is still handled.
 """
 
 from __future__ import annotations
 
+import socket
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
@@ -22,6 +27,26 @@ if TYPE_CHECKING:
     from autopilot.mavlink.link import GcsLink
 
 MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
+RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net.core.rmem_max)
+# Messages a newer one of the same kind replaces: when the link is out of time they are dropped unread.
+# HEARTBEAT 0, MANUAL_CONTROL 69, SET_ATTITUDE_TARGET 82, SET_POSITION_TARGET_LOCAL_NED 84, _GLOBAL_INT 86.
+SUPERSEDED_IDS = frozenset({0, 69, 82, 84, 86})
+
+
+def packet_ids(data: bytes) -> list[int] | None:
+    """The message ids of the MAVLink packets of a datagram, read from their headers only (no CRC
+    check); None if the datagram is not a sequence of whole v1/v2 packets."""
+    ids, i, n = [], 0, len(data)
+    while i < n:
+        if data[i] == 0xFD and i + 10 <= n:  # v2: len, incompat flags (1 = signed), ..., msgid (3 bytes)
+            ids.append(data[i + 7] | data[i + 8] << 8 | data[i + 9] << 16)
+            i += 12 + data[i + 1] + (13 if data[i + 2] & 1 else 0)
+        elif data[i] == 0xFE and i + 6 <= n:  # v1: len, seq, sys, comp, msgid
+            ids.append(data[i + 5])
+            i += 8 + data[i + 1]
+        else:
+            return None
+    return ids if i == n else None
 
 
 @dataclass(slots=True)
@@ -45,6 +70,10 @@ class LinkEndpoint(UdpEndpoint):
         default_intervals_us: dict[int, int],
     ) -> None:
         super().__init__(f"gcs_link {name}", bind, default_dest, sysid, compid)
+        try:
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RX_SOCKET_BUFFER_BYTES)
+        except OSError:  # not allowed here: the system's default buffer
+            pass
         self.name = name
         self.mav = mavlink.MAVLink(self, sysid, compid)  # encoder: writes through self.write
         self.default_intervals_us = default_intervals_us
@@ -104,12 +133,21 @@ class LinkEndpoint(UdpEndpoint):
         self.refresh_next_due()
         return mavlink.MAV_RESULT_ACCEPTED
 
-    def discard(self, most: int) -> int:
-        """Read and drop up to ``most`` queued datagrams unparsed (a flood past the budget); how many."""
-        n = 0
-        while n < most and self.recv() is not None:
-            n += 1
-        return n
+    def discard(self, most: int, keep_most: int) -> tuple[int, list[tuple[bytes, tuple[str, int]]]]:
+        """Read up to ``most`` queued datagrams without parsing them (the link's time is spent): those
+        holding only :data:`SUPERSEDED_IDS` messages, damaged ones and any past the first ``keep_most``
+        others are dropped; returns (how many dropped, the kept datagrams with their senders)."""
+        dropped, kept = 0, []
+        for _ in range(most):
+            got = self.recv()
+            if got is None:
+                break
+            ids = packet_ids(got[0])
+            if ids and len(kept) < keep_most and not SUPERSEDED_IDS.issuperset(ids):
+                kept.append(got)
+            else:
+                dropped += 1
+        return dropped, kept
 
 
 class EndpointCommands:

@@ -44,11 +44,13 @@ from mavsim_core.statustext import StatustextChunker
 
 log = logging.getLogger(__name__)
 
-# Each call drains every socket: at most RX_BUDGET_S of wall time handling datagrams (so a flood cannot
-# starve the control loop); what is still queued after that is read and discarded, counted in
-# ``rx_dropped``, so the next call starts from what is new (a command is answered within one call).
+# Each call drains every socket: at most RX_BUDGET_S of wall time handling datagrams (~20 µs each) so a
+# flood cannot starve the control loop; what is queued after that is read unparsed (endpoint.discard):
+# sticks, setpoints, heartbeats are discarded, counted in ``rx_dropped``, commands and requests (up to
+# RX_KEEP_MAX) still handled: a command is answered within one call, the next call starts from what is new.
 RX_BUDGET_S = 0.004
-RX_DISCARD_MAX = 2000  # datagrams discarded per socket and call at most
+RX_DISCARD_MAX = 2000  # datagrams read past the budget per socket and call at most
+RX_KEEP_MAX = 50  # of those, datagrams with more than superseded messages still handled
 
 Handler = Callable[[LinkEndpoint, mavlink.MAVLink_message], None]
 
@@ -122,7 +124,7 @@ class GcsLink:
         )  # fmt: skip
         self.rx_errors = 0
         self.rx_messages = 0
-        self.rx_dropped = 0  # datagrams discarded unread because a call's RX_BUDGET_S was spent
+        self.rx_dropped = 0  # datagrams discarded unread because a call's RX_BUDGET_S was spent (or damaged then)
         self.tx_build_errors = 0  # stream messages that could not be built (bug in a snapshot?)
         self._build_failures: set[int] = set()
         self._now_us = 0
@@ -217,13 +219,17 @@ class GcsLink:
                 ep.flush()
 
     def _receive(self) -> None:
-        """Drain both sockets within RX_BUDGET_S (wall clock); discard and count what is left after it."""
+        """Drain both sockets within RX_BUDGET_S (wall clock); past it, handle only what is not superseded
+        (commands) and discard and count the rest."""
         deadline = time.perf_counter() + RX_BUDGET_S
         for ep in self._endpoints:
             while (got := ep.recv()) is not None:
                 self._handle_datagram(ep, *got)
                 if time.perf_counter() > deadline:
-                    self.rx_dropped += ep.discard(RX_DISCARD_MAX)
+                    dropped, kept = ep.discard(RX_DISCARD_MAX, RX_KEEP_MAX)
+                    self.rx_dropped += dropped
+                    for data, addr in kept:
+                        self._handle_datagram(ep, data, addr)
                     break
 
     def _send_events(self) -> None:

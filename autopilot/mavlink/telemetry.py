@@ -33,7 +33,7 @@ PWM_MIN_US, PWM_MAX_US, PWM_DISARMED_US = 1000, 2000, 900  # PX4's PWM_MAIN_MIN/
 # AUTOPILOT_VERSION.capabilities, as PX4 reports them (plus PARAM_FLOAT).
 # Exactly what is implemented: the mission protocol (MISSION_ITEM_INT and the legacy MISSION_ITEM) for
 # missions, fences and rally points, COMMAND_INT, the parameter protocol (floats, integers byte-wise),
-# MAVLink 2.  Not SET_POSITION_TARGET_* or SET_ATTITUDE_TARGET: offboard control does not exist yet.
+# MAVLink 2, offboard control (SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET).
 CAPABILITIES = (
     mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
     | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
@@ -43,6 +43,9 @@ CAPABILITIES = (
     | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
     | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
     | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    | mavlink.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+    | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+    | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
 )
 # PX4 1.14.0, FIRMWARE_VERSION_TYPE_OFFICIAL: major << 24 | minor << 16 | patch << 8 | type
 DEFAULT_FLIGHT_SW_VERSION = 0x010E00FF
@@ -192,13 +195,33 @@ def position_target_local_ned(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVL
     )
 
 
+def position_target_global_int(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
+    """POSITION_TARGET_LOCAL_NED's setpoints with the position as lat/lon degE7 and altitude m AMSL
+    (MAV_FRAME_GLOBAL_INT), from the estimator origin; NaN parts flagged ignored (sent as 0)."""
+    local = position_target_local_ned(s, now_us)
+    e = s.estimate
+    if local is None or e is None:
+        return None
+    ned = [0.0 if math.isnan(v) else v for v in (local.x, local.y, local.z)]
+    lat, lon, alt = ned_to_geodetic(ned, e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)
+    mask = local.type_mask
+    return mavlink.MAVLink_position_target_global_int_message(
+        local.time_boot_ms, mavlink.MAV_FRAME_GLOBAL_INT, mask,
+        0 if mask & mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE else deg_e7(lat),
+        0 if mask & mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE else deg_e7(lon),
+        0.0 if mask & mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE else alt,
+        local.vx, local.vy, local.vz, local.afx, local.afy, local.afz, local.yaw, local.yaw_rate,
+    )  # fmt: skip
+
+
 def servo_output_raw(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
-    """Motor commands 0..1 as PWM microseconds (PWM_MIN_US..PWM_MAX_US; PWM_DISARMED_US when disarmed)."""
+    """Motor commands 0..1 as PWM microseconds (PWM_MIN_US..PWM_MAX_US; PWM_DISARMED_US when disarmed, but for
+    a motor a motor test spins)."""
     if not s.motor_outputs:
         return None
     span = PWM_MAX_US - PWM_MIN_US
     pwm = [
-        clamp_int(PWM_MIN_US + span * c, PWM_MIN_US, PWM_MAX_US, PWM_MIN_US) if s.armed else PWM_DISARMED_US
+        clamp_int(PWM_MIN_US + span * c, PWM_MIN_US, PWM_MAX_US, PWM_MIN_US) if s.armed or c > 0 else PWM_DISARMED_US
         for c in s.motor_outputs[:16]
     ]
     pwm += [0] * (16 - len(pwm))  # 0: output not used
@@ -344,6 +367,7 @@ BUILDERS: dict[int, Builder] = {
     mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: battery_status,
     mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET: attitude_target,
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: position_target_local_ned,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: position_target_global_int,
     mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: servo_output_raw,
     mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS: estimator_status,
     mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
@@ -365,6 +389,7 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
     # setpoint against actual while tuning: ATTITUDE_TARGET at ATTITUDE's rate (PX4 onboard profile: 10 Hz)
     mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET: 20.0,
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: 10.0,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0,  # PX4's normal profile
     mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: 5.0,  # motor outputs as PWM µs, as PX4 reports them
     mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,  # and at once when the item changes (the link)
     mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS: 2.0,  # the EKF's health (PX4 normal profile)

@@ -154,7 +154,8 @@ class FlightControllerVehicle:
         if msg.get_type() == "MANUAL_CONTROL":
             inputs.on_manual(control_messages.manual_input(msg, now_us, wall_s))
             return
-        setpoint = offboard_messages.offboard_setpoint(msg, now_us, wall_s, self.fc.commander.est)
+        commander = self.fc.commander
+        setpoint = offboard_messages.offboard_setpoint(msg, now_us, wall_s, commander.est, commander.home)
         if setpoint is not None:
             inputs.on_offboard(setpoint)
 

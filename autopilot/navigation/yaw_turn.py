@@ -1,0 +1,77 @@
+"""Turn in place (MAV_CMD_CONDITION_YAW): the hold or go-to task flown on, its heading turned at a rate.
+
+:class:`YawTurn` wraps the active task (a :class:`LoiterTask` or :class:`GotoTask`): each
+update it takes the task's setpoint and replaces the yaw with one that moves from the
+heading at the start to the target at ``rate_rad_s``, the way ``direction`` says (+1
+clockwise seen from above = growing yaw, -1 counter-clockwise, 0 the shorter way).  Once
+there, the wrapped task's own heading becomes the target, so it holds it.
+
+Yaw in radians from north, rates rad/s; time is simulated microseconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from autopilot.navigation.flight_task import FlightTask, PositionSetpoint
+from autopilot.topics import VehicleEstimate
+
+
+def wrap_pi(a: float) -> float:
+    """An angle in (-pi, pi]."""
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def turn_angle(start_rad: float, target_rad: float, direction: int) -> float:
+    """The signed turn (rad) from ``start_rad`` to ``target_rad``: shorter way (0), clockwise (+1, >= 0) or
+    counter-clockwise (-1, <= 0)."""
+    d = wrap_pi(target_rad - start_rad)
+    if direction > 0 and d < 0:
+        d += 2 * math.pi
+    elif direction < 0 and d > 0:
+        d -= 2 * math.pi
+    return d
+
+
+class YawTurn:
+    """``task`` flown as it is, its heading turned by ``turn_rad`` from ``start_rad`` at ``rate_rad_s``."""
+
+    def __init__(self, task: FlightTask, start_rad: float, turn_rad: float, rate_rad_s: float) -> None:
+        self.inner = task
+        self.start_rad = start_rad
+        self.turn_rad = turn_rad
+        self.target_rad = wrap_pi(start_rad + turn_rad)
+        self.rate_rad_s = max(rate_rad_s, 1e-3)
+        self.t0_us: int | None = None
+
+    def activate(self, est: VehicleEstimate, now_us: int) -> None:
+        """The wrapped task is already active: the turn starts now."""
+        self.t0_us = now_us
+
+    @property
+    def yaw_rad(self) -> float:
+        return self.target_rad
+
+    def update(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
+        sp = self.inner.update(est, now_us)
+        t0 = now_us if self.t0_us is None else self.t0_us
+        turned = self.rate_rad_s * (now_us - t0) * 1e-6
+        if turned >= abs(self.turn_rad):
+            if hasattr(self.inner, "yaw_rad"):
+                self.inner.yaw_rad = self.target_rad  # the wrapped task holds the new heading from now on
+            return dataclasses.replace(sp, yaw_rad=self.target_rad)
+        return dataclasses.replace(sp, yaw_rad=wrap_pi(self.start_rad + math.copysign(turned, self.turn_rad)))
+
+    @property
+    def done(self) -> bool:
+        return self.inner.done
+
+    @property
+    def failed(self) -> bool:
+        return self.inner.failed
+
+    def shift(self, delta_ned_m: np.ndarray) -> None:
+        self.inner.shift(delta_ned_m)

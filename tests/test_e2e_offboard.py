@@ -1,0 +1,309 @@
+"""A companion computer flies the real stack in OFFBOARD with MAVSDK's Offboard plugin.
+
+What a MAVSDK user does: stream a setpoint, arm, ``offboard.start()`` (the vehicle lifts off to the
+streamed position), fly a 5 m square with ``set_position_ned``, a circle with ``set_velocity_ned``, an
+attitude step with ``set_attitude``, ``offboard.stop()`` (the vehicle holds), start again and then stop
+sending (the plugin destroyed, as a crashed companion computer): after COM_OF_LOSS_T the vehicle leaves
+OFFBOARD for the COM_OBL_RC_ACT fallback (POSCTL by default, holding) and says so in a STATUSTEXT.
+
+MAVSDK streams setpoints at about 20 Hz of wall-clock time while the simulation runs several times
+faster: the loss timer needs silence on both clocks, so the stream counts as alive.  Where the vehicle
+went and how it was tilted is the simulator's ground truth (NED from the simulator's home); the
+setpoints are in the estimator's frame (origin at the first GPS fix), so the test measures the offset
+between the two while hovering.  Durations are simulated seconds; wall-clock waits are safety nets.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import numpy as np
+import pytest
+
+mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
+from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
+from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
+from mavsdk.asyncio.plugins.offboard import (  # noqa: E402
+    Attitude,
+    OffboardAsync,
+    PositionGlobalYaw,
+    PositionNedYaw,
+    VelocityNedYaw,
+)
+from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
+from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+
+from e2e_flight_helpers import latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+INSTANCE = instance("test_e2e_offboard", "stack")
+truth, stack = truth_and_stack_fixtures(INSTANCE)
+WAIT_S = 120.0  # wall-clock safety net of each wait
+ALT_M = 5.0
+SQUARE = [(5.0, 0.0), (5.0, 5.0), (0.0, 5.0), (0.0, 0.0)]  # north, east from the estimator origin, m
+CORNER_SETTLE_S = 8.0  # simulated seconds at each corner before the truth is read
+CIRCLE_SPEED, CIRCLE_RADIUS = 2.0, 3.0  # m/s, m
+ROLL_DEG, PITCH_DEG = 10.0, -6.0  # the attitude step
+GLOBAL_NE = (-3.0, 2.0)  # the set_position_global point, m north and east of the simulator's home
+
+
+def sim_ms(truth) -> int:
+    s = truth.latest()
+    return s.time_ms if s is not None else 0
+
+
+async def sim_sleep(truth, seconds: float) -> int:
+    """Wait ``seconds`` of simulated time (truth clock); the truth time at the end, ms."""
+    end = sim_ms(truth) + round(seconds * 1000)
+
+    async def passed():
+        return sim_ms(truth) >= end
+
+    await until(passed, WAIT_S, f"{seconds:g} simulated seconds", period_s=0.005)
+    return sim_ms(truth)
+
+
+def truth_euler_deg(state) -> tuple[float, float]:
+    w, x, y, z = state.attitude_quaternion
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    return math.degrees(roll), math.degrees(pitch)
+
+
+async def _mode(tel, mode) -> None:
+    async def in_mode():
+        return await tel.flight_mode() == mode
+
+    await until(in_mode, WAIT_S, f"flight mode {mode}")
+
+
+async def _offset(tel, truth) -> np.ndarray:
+    """Truth minus estimate (m NED) while hovering still: the estimator origin seen from the simulator's home."""
+    diffs = []
+    for _ in range(10):
+        est = (await tel.position_velocity_ned()).position
+        diffs.append(np.array(truth.latest().pos_ned_m) - [est.north_m, est.east_m, est.down_m])
+        await sim_sleep(truth, 0.2)
+    return np.median(diffs, axis=0)
+
+
+async def _square(offboard, truth, offset) -> list[float]:
+    errors = []
+    for north, east in SQUARE:
+        await offboard.set_position_ned(PositionNedYaw(north, east, -ALT_M, 0.0))
+        await sim_sleep(truth, CORNER_SETTLE_S)
+        target = np.array([north, east, -ALT_M]) + offset
+        errors.append(float(np.linalg.norm(np.array(truth.latest().pos_ned_m) - target)))
+    return errors
+
+
+async def _circle(offboard, truth) -> tuple[list[float], float]:
+    """Velocity setpoints around a circle for one period; the truth speeds and the course turned (rad)."""
+    omega = CIRCLE_SPEED / CIRCLE_RADIUS
+    t0 = sim_ms(truth)
+    period_ms = 2 * math.pi / omega * 1000
+    while sim_ms(truth) - t0 < period_ms:
+        phase = omega * (sim_ms(truth) - t0) / 1000
+        vel = VelocityNedYaw(CIRCLE_SPEED * math.cos(phase), CIRCLE_SPEED * math.sin(phase), 0.0, 0.0)
+        await offboard.set_velocity_ned(vel)
+        await asyncio.sleep(0.005)
+    samples = [s for s in truth.since(t0 + 2000)]  # after the first 2 s of turning in
+    speeds = [math.hypot(*s.vel_ned_m_s[:2]) for s in samples]
+    courses = np.unwrap([math.atan2(s.vel_ned_m_s[1], s.vel_ned_m_s[0]) for s in samples])
+    return speeds, float(courses[-1] - courses[0])
+
+
+async def _attitude_step(offboard, truth) -> list[tuple[float, float]]:
+    await offboard.set_attitude(Attitude(ROLL_DEG, PITCH_DEG, 0.0, 0.5))
+    t0 = await sim_sleep(truth, 0.6)  # the step settles
+    t1 = await sim_sleep(truth, 1.0)
+    states = [truth.state_at(t) for t in range(t0, t1, 20)]
+    return [truth_euler_deg(s) for s in states if s is not None]
+
+
+async def _texts(tel, into: list[str]) -> None:
+    async for st in tel.subscribe_status_text():
+        into.append(st.text)
+
+
+async def _flight(truth) -> dict:
+    out: dict = {}
+    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        system = await sdk.first_autopilot(timeout_s=30.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        tel, action, offboard = TelemetryAsync(system), ActionAsync(system), OffboardAsync(system)
+        texts: list[str] = []
+        listener = asyncio.ensure_future(_texts(tel, texts))
+
+        async def ready():
+            h = await tel.health()
+            return h.is_global_position_ok and h.is_home_position_ok and h.is_armable
+
+        await until(ready, WAIT_S, "health: position, home, armable")
+        await offboard.set_position_ned(PositionNedYaw(0.0, 0.0, -ALT_M, 0.0))  # streaming from now on
+        await asyncio.sleep(0.3)
+        await action.arm()
+        await offboard.start()  # on the ground: the streamed position 5 m up lifts off
+        await _mode(tel, FlightMode.OFFBOARD)
+
+        async def up():
+            return (await tel.position()).relative_altitude_m > ALT_M - 0.5
+
+        await until(up, WAIT_S, "climbed to the streamed altitude")
+        await sim_sleep(truth, 6.0)
+        offset = await _offset(tel, truth)
+        out["square"] = await _square(offboard, truth, offset)
+        lat, lon = latlon(*GLOBAL_NE)
+        await offboard.set_position_global(
+            PositionGlobalYaw(lat, lon, ALT_M, 0.0, PositionGlobalYaw.AltitudeType.REL_HOME)
+        )
+        await sim_sleep(truth, CORNER_SETTLE_S)
+        out["global"] = truth.latest().pos_ned_m
+        out["circle"] = await _circle(offboard, truth)
+        await offboard.set_position_ned(PositionNedYaw(0.0, 0.0, -ALT_M, 0.0))
+        await sim_sleep(truth, 8.0)
+        out["attitude"] = await _attitude_step(offboard, truth)
+        await offboard.set_position_ned(PositionNedYaw(0.0, 0.0, -ALT_M, 0.0))
+        await sim_sleep(truth, 8.0)
+
+        await offboard.stop()  # MAVSDK switches to Hold
+        await _mode(tel, FlightMode.HOLD)
+        t_hold = await sim_sleep(truth, 1.0)
+        await sim_sleep(truth, 5.0)
+        out["hold"] = [s.pos_ned_m for s in truth.since(t_hold)]
+
+        await offboard.set_position_ned(PositionNedYaw(0.0, 0.0, -ALT_M, 0.0))
+        await asyncio.sleep(0.3)
+        await offboard.start()
+        await _mode(tel, FlightMode.OFFBOARD)
+        await sim_sleep(truth, 2.0)
+        n_texts = len(texts)
+        offboard.destroy()  # the companion computer stops sending
+        await _mode(tel, FlightMode.POSCTL)  # COM_OBL_RC_ACT 0: position mode, holding without sticks
+        t_lost = await sim_sleep(truth, 1.0)
+        await sim_sleep(truth, 5.0)
+        out["after_loss"] = [s.pos_ned_m for s in truth.since(t_lost)]
+
+        async def said_lost():
+            return any("Offboard control lost" in t for t in texts[n_texts:])
+
+        await until(said_lost, WAIT_S, "a STATUSTEXT saying offboard control was lost")
+        out["texts"] = texts[n_texts:]
+        await action.land()
+
+        async def disarmed():
+            return not await tel.armed()
+
+        await until(disarmed, WAIT_S, "disarmed after landing")
+        listener.cancel()
+        try:
+            await listener
+        except asyncio.CancelledError:
+            pass
+    return out
+
+
+def test_offboard_position_velocity_attitude_stop_and_loss(stack, truth):
+    out = asyncio.run(_flight(truth))
+    stack.check_alive()
+    errors = out["square"]
+    print("square corner errors (truth, m):", " ".join(f"{e:.3f}" for e in errors))
+    assert max(errors) <= 0.3
+
+    error = math.dist(out["global"], (*GLOBAL_NE, -ALT_M))  # lat/lon and height above home, by the truth
+    print(f"set_position_global (GLOBAL_RELATIVE_ALT_INT): truth error {error:.3f} m")
+    assert error <= 0.5  # the GPS and barometer errors of the estimate included
+
+    speeds, turned = out["circle"]
+    print(f"velocity circle: mean speed {np.mean(speeds):.3f} m/s, course turned {math.degrees(turned):.0f} deg")
+    assert np.mean(speeds) == pytest.approx(CIRCLE_SPEED, rel=0.15)
+    expected = 360.0 - math.degrees(CIRCLE_SPEED / CIRCLE_RADIUS * 2.0)  # one period less the first 2 s
+    assert math.degrees(turned) == pytest.approx(expected, abs=30.0)  # the course went round as commanded
+
+    att = out["attitude"]
+    roll_err = max(abs(r - ROLL_DEG) for r, _ in att)
+    pitch_err = max(abs(p - PITCH_DEG) for _, p in att)
+    print(f"attitude step: roll error {roll_err:.2f} deg, pitch error {pitch_err:.2f} deg over {len(att)} samples")
+    assert len(att) > 10 and roll_err <= 3.0 and pitch_err <= 3.0
+
+    hold = out["hold"]
+    drift = max(math.dist(p, hold[0]) for p in hold)
+    print(f"after offboard.stop() (Hold): drift {drift:.3f} m over 5 s")
+    assert drift <= 0.3
+
+    after = out["after_loss"]
+    drift = max(math.dist(p, after[0]) for p in after)
+    print(f"after the loss (POSCTL): drift {drift:.3f} m over 5 s; texts {out['texts']}")
+    assert drift <= 0.3
+    assert any(t.startswith("Offboard control lost") for t in out["texts"])
+
+
+# --------------------------------------------------------------------------- pymavlink: MAV_FRAME_BODY_OFFSET_NED
+
+BODY_OFFSET = (3.0, 2.0, -1.0)  # forward, right, down from where the vehicle is, m (heading frame)
+POS_ONLY_MASK = 0b1101_1111_1000  # x, y, z given; velocity, acceleration, yaw and yaw rate ignored (yaw held)
+POS_YAW_MASK = 0b1001_1111_1000  # x, y, z and yaw given
+
+
+def truth_yaw(state) -> float:
+    w, x, y, z = state.attitude_quaternion
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def send_local(client, frame: int, mask: int, pos, yaw: float = 0.0) -> None:
+    client.conn.mav.set_position_target_local_ned_send(
+        0, client.target_system, client.target_component, frame, mask, *pos, 0, 0, 0, 0, 0, 0, yaw, 0
+    )
+
+
+def test_body_offset_ned_target_moves_the_vehicle_relative_to_itself(stack, truth):
+    """A client turns the vehicle to face east, then sends one target 3 m forward, 2 m right, 1 m up in
+    MAV_FRAME_BODY_OFFSET_NED: the vehicle goes 3 m east, 2 m south, 1 m up of where it was.  One message
+    is the target (each one is an offset from the vehicle at its arrival), so COM_OF_LOSS_T is raised for
+    the test rather than streamed."""
+    from gcs.client import VehicleClient, mavlink
+
+    with VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client:
+        client.param_set("COM_OF_LOSS_T", 60.0)
+        client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
+        client.arm().check()
+        client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
+        client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
+        here = client.local_position_ned()
+        for _ in range(3):  # hold here, facing east
+            send_local(client, mavlink.MAV_FRAME_LOCAL_NED, POS_YAW_MASK, here, math.pi / 2)
+        client.set_mode("OFFBOARD").check()
+
+        def facing_east() -> bool:  # and no longer turning
+            st = truth.state_at(truth.latest().time_ms, within_ms=50)
+            return st is not None and abs(truth_yaw(st) - math.pi / 2) < 0.02 and abs(st.yawspeed) < 0.03
+
+        client.wait_until(facing_east, WAIT_S, "facing east")
+        client.wait_sim_time(2.0)
+        before = truth.latest()
+        state = truth.state_at(before.time_ms, within_ms=50)  # its attitude
+        for _ in range(2):
+            send_local(client, mavlink.MAV_FRAME_BODY_OFFSET_NED, POS_ONLY_MASK, BODY_OFFSET)
+        client.wait_sim_time(10.0)
+        after = truth.latest()
+        mode = client.mode_name()
+        client.land().check()
+        client.wait_until(client.landed_and_disarmed, WAIT_S, "landed and disarmed")
+        client.param_set("COM_OF_LOSS_T", 1.0)
+
+    assert state is not None
+    yaw = truth_yaw(state)
+    forward, right, down = BODY_OFFSET
+    expected = np.array(before.pos_ned_m) + [
+        forward * math.cos(yaw) - right * math.sin(yaw), forward * math.sin(yaw) + right * math.cos(yaw), down
+    ]  # fmt: skip
+    moved = np.array(after.pos_ned_m) - before.pos_ned_m
+    error = float(np.linalg.norm(np.array(after.pos_ned_m) - expected))
+    print(f"BODY_OFFSET_NED {BODY_OFFSET} at heading {math.degrees(yaw):.1f} deg: moved {np.round(moved, 2)}, "
+          f"truth error {error:.3f} m")  # fmt: skip
+    assert abs(math.degrees(yaw) - 90.0) < 3.0
+    assert mode == "OFFBOARD"
+    assert error <= 0.3
