@@ -217,9 +217,9 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
     async def body(system, tel, action, sticks):
         from mavsdk.asyncio.plugins.param import ParamAsync
 
-        # The sticks change hands (MAVSDK's stop, gcs fly's start a process later): as a pilot would, ignore
-        # manual-control loss in Hold meanwhile (COM_RCL_EXCEPT bit 2), else NAV_RCL_ACT returns the vehicle.
-        await ParamAsync(system).set_param_int("COM_RCL_EXCEPT", 2)
+        # The sticks change hands (MAVSDK's stop, gcs fly's start a process later): no manual-control loss
+        # action meanwhile (NAV_RCL_ACT 0), else the default (return) takes the vehicle home during take-off.
+        await ParamAsync(system).set_param_int("NAV_RCL_ACT", 0)
         await sticks.stop()  # gcs fly sends the sticks now
         await action.set_takeoff_altitude(4.0)
         await action.arm()
@@ -233,7 +233,7 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
         out["samples"] = truth.since(out["t0"])
         out["mode"] = await tel.flight_mode()
         await sticks.start()  # sticks again while returning (no manual-control loss)
-        await ParamAsync(system).set_param_int("COM_RCL_EXCEPT", 0)
+        await ParamAsync(system).set_param_int("NAV_RCL_ACT", 2)
         return out
 
     out = asyncio.run(_session(body))
