@@ -313,9 +313,9 @@ class OffboardSetpoint:
     """One SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT or SET_ATTITUDE_TARGET, decoded (PX4's
     offboard_control_mode + trajectory_setpoint / vehicle_attitude_setpoint).
 
-    Vectors are NED (m, m/s, m/s^2) in ``frame`` (a MAV_FRAME value: LOCAL_NED; BODY_NED and
-    BODY_OFFSET_NED are turned into local NED by the offboard task, which knows the heading
-    and position; GLOBAL_* already converted to local NED by the receiver is sent as LOCAL_NED).
+    Vectors are local NED (m from the estimator origin, m/s, m/s^2) whatever frame the sender used:
+    the receiver (:mod:`autopilot.mavlink.offboard_messages`) converts body, offset and global frames
+    with the estimate at reception; ``frame`` keeps the sender's MAV_FRAME value.
     NaN marks a component the sender masked out.  ``q_wxyz`` / ``body_rate_frd_rad_s``: the
     attitude target (FRD -> NED) or body rates, None when not given; ``thrust_frac`` 0..1
     (NaN: not given).  Stamps as :class:`ManualInput`'s.
