@@ -53,9 +53,8 @@ class FlightController:
         self.estimator.defer_filters = True  # its 50 Hz work runs in after_step, off the critical path
         self.commander = Commander(params, spec.mav_type)
         self.commander.feet_below_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
-        self.commander.hover_thrust_frac = (
-            spec.mass_kg * GRAVITY_M_S2 / (len(spec.rotors) * spec.max_thrust_per_rotor_n)
-        )
+        self.max_thrust_n = len(spec.rotors) * spec.max_thrust_per_rotor_n  # all rotors at full thrust, N
+        self.commander.hover_thrust_frac = spec.mass_kg * GRAVITY_M_S2 / self.max_thrust_n
         self.wall_s: float | None = None  # wall clock (time.monotonic) the process loop stamps: input-loss timers
         self.inertia = spec.inertia_kg_m2
         self.weight_n = spec.mass_kg * GRAVITY_M_S2
@@ -63,9 +62,7 @@ class FlightController:
         # The controllers take gain records; the one adapter builds them from the parameters and
         # hands each controller new ones when its parameters change (live tuning).
         self.gains = GainsFromParams(params)
-        self.position_control = self.gains.position_control(
-            spec.mass_kg, len(spec.rotors) * spec.max_thrust_per_rotor_n
-        )
+        self.position_control = self.gains.position_control(spec.mass_kg, self.max_thrust_n)
         self.attitude_control = self.gains.attitude_control()
         self.rate_control = self.gains.rate_control()
         self.gyro_filter = self.gains.gyro_filter()
@@ -99,11 +96,7 @@ class FlightController:
     def _restart(self) -> None:
         """A reboot: the estimator starts again as at power-on (in place, so its parameter subscription is
         the same one), the controllers' states too; parameters, gains and the vehicle are kept."""
-        est = self.estimator
-        type(est).__init__(est, None)  # no second subscription ...
-        est.params = self.params  # ... and the parameters read as before
-        est._load_params()
-        est.defer_filters = True
+        self.estimator.restart()
         self._reset_controllers()
         self.setpoint, self.rate_override, self._gps_pending = None, None, None
         self.commander.reboot_pending = False
@@ -206,7 +199,7 @@ class FlightController:
         """An attitude or body-rate setpoint: the position loop is bypassed (and reset)."""
         self.setpoint = sp
         self.position_control.reset()
-        thrust_n = min(max(sp.thrust_frac, 0.0), 1.0) * len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
+        thrust_n = min(max(sp.thrust_frac, 0.0), 1.0) * self.max_thrust_n
         if sp.q_wxyz is None:
             self.rate_override = np.asarray(sp.body_rate_frd_rad_s, dtype=float).copy()
             self.collective_n = thrust_n
@@ -231,9 +224,8 @@ class FlightController:
         """What the latest step sent to the motors (the record the commander, the log and the telemetry read)."""
         if self._actuators is None:
             time_us, motors, thrust_n = self._outputs
-            max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
             self._actuators = ActuatorStatus(
-                time_us, motors, thrust_n, thrust_n / max_thrust_n, thrust_n / self.weight_n
+                time_us, motors, thrust_n, thrust_n / self.max_thrust_n, thrust_n / self.weight_n
             )
         return self._actuators
 
@@ -254,9 +246,7 @@ class FlightController:
             pos, vel, acc, yaw = nan3, nan3, nan3, float("nan")
         else:
             pos, vel, acc, yaw = sp.pos_ned_m.copy(), pc.vel_sp.copy(), pc.acc_sp.copy(), sp.yaw_rad
-        max_thrust_n = len(self.spec.rotors) * self.spec.max_thrust_per_rotor_n
-        thrust_vec = getattr(self, "thrust_vec", None)
-        thrust_frac = float(np.linalg.norm(thrust_vec)) / max_thrust_n if thrust_vec is not None else 0.0
+        thrust_frac = float(np.linalg.norm(self.thrust_vec)) / self.max_thrust_n
         return ControlSetpoints(
             timestamp_us=self.last_us or 0,
             pos_ned_m=pos,

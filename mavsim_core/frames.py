@@ -63,3 +63,10 @@ def wxyz_to_xyzw(q: np.ndarray) -> np.ndarray:
 def xyzw_to_wxyz(q: np.ndarray) -> np.ndarray:
     """SciPy's (x, y, z, w) -> (w, x, y, z)."""
     return np.array([q[3], q[0], q[1], q[2]])
+
+
+def heading_to_ned(forward: float, right: float, yaw_rad: float) -> np.ndarray:
+    """A horizontal vector of the heading frame (forward, right; the body frame turned by the yaw only)
+    as (north, east), for a vehicle heading ``yaw_rad`` (rad from north, clockwise)."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return np.array([c * forward - s * right, s * forward + c * right])

@@ -104,6 +104,29 @@ async def until(predicate, timeout_s: float, what: str, period_s: float = 0.1) -
         raise AssertionError(f"timed out waiting for {what}") from None
 
 
+def sim_ms(truth) -> int:
+    """The truth stream's latest simulated time, ms (0 before the first sample)."""
+    s = truth.latest()
+    return s.time_ms if s is not None else 0
+
+
+async def sim_sleep(truth, seconds: float, timeout_s: float = 120.0) -> int:
+    """Wait ``seconds`` of simulated time (truth clock); the truth time at the end, ms."""
+    end = sim_ms(truth) + round(seconds * 1000)
+
+    async def passed():
+        return sim_ms(truth) >= end
+
+    await until(passed, timeout_s, f"{seconds:g} simulated seconds", period_s=0.005)
+    return sim_ms(truth)
+
+
+def truth_yaw(truth) -> float:
+    """The vehicle's true heading, rad from north."""
+    w, x, y, z = truth.latest_state.attitude_quaternion
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
 def truth_and_stack_fixtures(instance: int):
     """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at full speed)
     fixtures for one instance: ``truth, stack = truth_and_stack_fixtures(INSTANCE)`` in a test file."""

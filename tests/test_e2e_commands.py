@@ -29,7 +29,13 @@ from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.action import ActionError, OrbitYawBehavior  # noqa: E402
 
-from e2e_flight_helpers import latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import (
+    latlon,
+    sim_sleep,
+    truth_and_stack_fixtures,
+    truth_yaw,
+    until,
+)  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -38,23 +44,8 @@ truth, stack = truth_and_stack_fixtures(INSTANCE)
 ALT_M = 5.0
 
 
-def truth_yaw(truth) -> float:
-    w, x, y, z = truth.latest_state.attitude_quaternion
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
 def truth_speed(truth) -> float:
     return math.hypot(*truth.latest().vel_ned_m_s[:2])
-
-
-async def sim_wait(truth, seconds: float) -> None:
-    """Wait ``seconds`` of simulated time."""
-    end_ms = truth.latest().time_ms + seconds * 1000
-
-    async def passed():
-        return truth.latest().time_ms >= end_ms
-
-    await until(passed, 120, f"{seconds:g} simulated seconds", period_s=0.01)
 
 
 async def _session(body):
@@ -108,26 +99,26 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
             return math.hypot(s.pos_ned_m[0] - 15.0, s.pos_ned_m[1]) < 0.5 and truth_speed(truth) < 0.2
 
         await until(there, 120, "at 15 m north, stopped")
-        await sim_wait(truth, 2.0)
+        await sim_sleep(truth, 2.0)
         out["goto_pos"] = truth.latest().pos_ned_m
         out["goto_yaw"] = math.degrees(truth_yaw(truth))
         # a long move at the cruise speed, then DO_CHANGE_SPEED in the middle of it
         lat, lon = latlon(15.0, 150.0)
         await action.goto_location(lat, lon, home_amsl + ALT_M, math.nan)
-        await sim_wait(truth, 8.0)
+        await sim_sleep(truth, 8.0)
         out["cruise_speed"] = truth_speed(truth)
         await action.set_current_speed(4.5)
-        await sim_wait(truth, 6.0)
+        await sim_sleep(truth, 6.0)
         out["changed_speed"] = truth_speed(truth)
         # orbit 8 m about a point 10 m south of the vehicle, at 2 m/s, facing the centre
         here = truth.latest().pos_ned_m
         centre = (here[0] - 10.0, here[1])
         lat, lon = latlon(*centre)
         await action.do_orbit(8.0, 2.0, OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER, lat, lon, home_amsl + ALT_M)
-        await sim_wait(truth, 20.0)
+        await sim_sleep(truth, 20.0)
         out["orbit_mode"] = getattr(await tel.flight_mode(), "name", "?")
         start_ms = truth.latest().time_ms
-        await sim_wait(truth, 15.0)
+        await sim_sleep(truth, 15.0)
         samples = truth.since(start_ms)
         out["orbit_radii"] = [math.hypot(s.pos_ned_m[0] - centre[0], s.pos_ned_m[1] - centre[1]) for s in samples]
         out["orbit_speeds"] = [math.hypot(*s.vel_ned_m_s[:2]) for s in samples]
@@ -206,7 +197,7 @@ def test_reboot_comes_back_disarmed_and_answering(stack, truth):
     async def body(tel, action):
         await action.set_return_to_launch_altitude(17.0)  # RTL_RETURN_ALT: a parameter the reboot keeps
         await action.reboot()
-        await sim_wait(truth, 3.0)  # telemetry from after the reboot
+        await sim_sleep(truth, 3.0)  # telemetry from after the reboot
 
         async def back():
             h = await tel.health()

@@ -24,7 +24,13 @@ from mavsdk.asyncio.plugins.manual_control import ManualControlAsync  # noqa: E4
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
-from e2e_flight_helpers import truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import (
+    sim_ms,
+    sim_sleep,
+    truth_and_stack_fixtures,
+    truth_yaw,
+    until,
+)  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -59,27 +65,6 @@ class Sticks:
                 await self._task
             except asyncio.CancelledError:
                 pass
-
-
-def sim_ms(truth) -> int:
-    s = truth.latest()
-    return s.time_ms if s is not None else 0
-
-
-async def sim_sleep(truth, seconds: float) -> int:
-    """Wait ``seconds`` of simulated time (truth clock); the truth time at the end, ms."""
-    end = sim_ms(truth) + round(seconds * 1000)
-
-    async def passed():
-        return sim_ms(truth) >= end
-
-    await until(passed, WAIT_S, f"{seconds:g} simulated seconds", period_s=0.01)
-    return sim_ms(truth)
-
-
-def truth_yaw(truth) -> float:
-    w, x, y, z = truth.latest_state.attitude_quaternion
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
 async def _session(body):

@@ -34,7 +34,7 @@ from mavsdk.asyncio.plugins.offboard import (  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
-from e2e_flight_helpers import latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import latlon, sim_ms, sim_sleep, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -47,22 +47,6 @@ CORNER_SETTLE_S = 8.0  # simulated seconds at each corner before the truth is re
 CIRCLE_SPEED, CIRCLE_RADIUS = 2.0, 3.0  # m/s, m
 ROLL_DEG, PITCH_DEG = 10.0, -6.0  # the attitude step
 GLOBAL_NE = (-3.0, 2.0)  # the set_position_global point, m north and east of the simulator's home
-
-
-def sim_ms(truth) -> int:
-    s = truth.latest()
-    return s.time_ms if s is not None else 0
-
-
-async def sim_sleep(truth, seconds: float) -> int:
-    """Wait ``seconds`` of simulated time (truth clock); the truth time at the end, ms."""
-    end = sim_ms(truth) + round(seconds * 1000)
-
-    async def passed():
-        return sim_ms(truth) >= end
-
-    await until(passed, WAIT_S, f"{seconds:g} simulated seconds", period_s=0.005)
-    return sim_ms(truth)
 
 
 def truth_euler_deg(state) -> tuple[float, float]:

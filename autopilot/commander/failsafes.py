@@ -31,7 +31,7 @@ while an action is in force, MAV_STATE_EMERGENCY at battery emergency or after a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as S
 
@@ -169,39 +169,35 @@ def _offboard(c: Commander, now_us: int) -> None:
 
 
 def _manual_control(c: Commander, now_us: int) -> None:
-    st = c.failsafe
+    def target() -> Target:
+        excepted = int(c.params.get("COM_RCL_EXCEPT")) & RCL_EXCEPT_BITS.get(c.mode, 0)
+        return None if excepted else NAV_ACTIONS.get(int(c.params.get("NAV_RCL_ACT")))
+
     age = c.inputs.manual_age_s(now_us, c.wall_s)
-    if age is None:
-        return
-    lost = age > c.params.get("COM_RC_LOSS_T")
-    if not lost:
-        if st.rc_lost:
-            st.rc_lost = False
-            c.say(S.MAV_SEVERITY_INFO, "Manual control regained")
-        return
-    if st.rc_lost:
-        return
-    st.rc_lost = True
-    excepted = int(c.params.get("COM_RCL_EXCEPT")) & RCL_EXCEPT_BITS.get(c.mode, 0)
-    target = None if excepted else NAV_ACTIONS.get(int(c.params.get("NAV_RCL_ACT")))
-    act(c, target, S.MAV_SEVERITY_CRITICAL, "Manual control lost")
+    _input_loss(c, age, c.params.get("COM_RC_LOSS_T"), "rc_lost", "Manual control", target)
 
 
 def _data_link(c: Commander, now_us: int) -> None:
-    st = c.failsafe
     age = c.inputs.gcs_age_s(now_us, c.wall_s)
-    if age is None:
+    target = lambda: NAV_ACTIONS.get(int(c.params.get("NAV_DLL_ACT")))  # noqa: E731
+    _input_loss(c, age, c.params.get("COM_DL_LOSS_T"), "gcs_lost", "Data link", target)
+
+
+def _input_loss(
+    c: Commander, age_s: float | None, timeout_s: float, flag: str, what: str, target: Callable[[], Target]
+) -> None:
+    """One watched input (sticks, the data link), ``age_s`` silent (None: never seen): its loss reported once
+    and acted on (``target()``), its return reported; ``flag`` names its FailsafeState field."""
+    if age_s is None:
         return
-    lost = age > c.params.get("COM_DL_LOSS_T")
-    if not lost:
-        if st.gcs_lost:
-            st.gcs_lost = False
-            c.say(S.MAV_SEVERITY_INFO, "Data link regained")
-        return
-    if st.gcs_lost:
-        return
-    st.gcs_lost = True
-    act(c, NAV_ACTIONS.get(int(c.params.get("NAV_DLL_ACT"))), S.MAV_SEVERITY_CRITICAL, "Data link lost")
+    was_lost = getattr(c.failsafe, flag)
+    if age_s <= timeout_s:
+        if was_lost:
+            setattr(c.failsafe, flag, False)
+            c.say(S.MAV_SEVERITY_INFO, f"{what} regained")
+    elif not was_lost:
+        setattr(c.failsafe, flag, True)
+        act(c, target(), S.MAV_SEVERITY_CRITICAL, f"{what} lost")
 
 
 BATTERY_WORDS = {

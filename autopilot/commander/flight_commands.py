@@ -37,6 +37,21 @@ S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_* constants
 REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
 
 
+def point_ned(
+    e: VehicleEstimate, lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None, default: np.ndarray
+) -> np.ndarray | None:
+    """A commanded point in m NED from the estimator origin: latitude/longitude (both None: ``default``'s
+    horizontal position), altitude AMSL (None: ``default``'s); None when latitude/longitude are out of range."""
+    p = default.astype(float).copy()
+    if lat_deg is not None and lon_deg is not None:
+        if abs(lat_deg) > 90 or abs(lon_deg) > 180:
+            return None
+        p[:2] = geodetic_to_ned(lat_deg, lon_deg, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)[:2]
+    if alt_amsl_m is not None:
+        p[2] = e.origin_alt_amsl_m - alt_amsl_m
+    return p
+
+
 def publishes(method):
     """A command method after which the commander publishes its status, whatever the result."""
 
@@ -144,16 +159,10 @@ class FlightCommands:
         if not e.position_valid:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: no position estimate")
             return S.MAV_RESULT_DENIED
-        if lat_deg is None or lon_deg is None:
-            goal = e.pos_ned_m.copy()
-        else:
-            if abs(lat_deg) > 90 or abs(lon_deg) > 180:
-                self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: latitude/longitude out of range")
-                return S.MAV_RESULT_DENIED
-            goal = geodetic_to_ned(lat_deg, lon_deg, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)
-            goal[2] = e.pos_ned_m[2]
-        if alt_amsl_m is not None:
-            goal[2] = e.origin_alt_amsl_m - alt_amsl_m
+        goal = point_ned(e, lat_deg, lon_deg, alt_amsl_m, e.pos_ned_m)
+        if goal is None:
+            self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: latitude/longitude out of range")
+            return S.MAV_RESULT_DENIED
         if np.linalg.norm(goal - e.pos_ned_m) > REPOSITION_MAX_M:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: target more than 1 km away")
             return S.MAV_RESULT_DENIED

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander.flight_commands import REPOSITION_MAX_M, publishes
+from autopilot.commander.flight_commands import REPOSITION_MAX_M, point_ned, publishes
 from autopilot.navigation import GotoTask, LoiterTask, started
 from autopilot.navigation.geofence import stop_point
 from autopilot.navigation.mission import MissionTask
@@ -36,7 +36,6 @@ from autopilot.navigation.orbit import (
 from autopilot.navigation.yaw_turn import YawTurn, turn_angle
 from autopilot.parameters import ParamError
 from mavsim_core import mission_items as mi
-from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
@@ -171,10 +170,10 @@ class VehicleCommands:
         if lat_deg is None or lon_deg is None or alt_amsl_m is None:
             self._set_home_at(e.pos_ned_m)
             return S.MAV_RESULT_ACCEPTED
-        if abs(lat_deg) > 90 or abs(lon_deg) > 180:
+        home = point_ned(e, lat_deg, lon_deg, alt_amsl_m, e.pos_ned_m)
+        if home is None:
             return self._deny("Set home denied: latitude/longitude out of range")
-        origin = (e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)
-        self._set_home_at(geodetic_to_ned(lat_deg, lon_deg, alt_amsl_m, *origin))
+        self._set_home_at(home)
         return S.MAV_RESULT_ACCEPTED
 
     # -- CONDITION_YAW -------------------------------------------------------------------
@@ -361,13 +360,9 @@ class VehicleCommands:
         if e is None:
             return self._deny(why)
         now = self.task if isinstance(self.task, OrbitTask) else None
-        centre = now.centre.copy() if now is not None else e.pos_ned_m.astype(float).copy()
-        if lat_deg is not None and lon_deg is not None:
-            if abs(lat_deg) > 90 or abs(lon_deg) > 180:
-                return self._deny("Orbit denied: latitude/longitude out of range")
-            centre[:2] = geodetic_to_ned(lat_deg, lon_deg, 0.0, e.origin_lat_deg, e.origin_lon_deg, 0.0)[:2]
-        if alt_amsl_m is not None:
-            centre[2] = e.origin_alt_amsl_m - alt_amsl_m
+        centre = point_ned(e, lat_deg, lon_deg, alt_amsl_m, now.centre if now is not None else e.pos_ned_m)
+        if centre is None:
+            return self._deny("Orbit denied: latitude/longitude out of range")
         radius = radius_m if radius_m is not None else (now.radius_m if now else ORBIT_DEFAULT_RADIUS_M)
         if not ORBIT_RADIUS_MIN_M <= abs(radius) <= self.params.get("MC_ORBIT_RAD_MAX"):
             limit = self.params.get("MC_ORBIT_RAD_MAX")

@@ -116,6 +116,15 @@ class Estimator:
                 lambda name, value: self._load_params() if name.startswith(("EKF2_", "ATT_", "SYS_MC_EST")) else None
             )
 
+    def restart(self) -> None:
+        """Start again as at power-on (a reboot), keeping the parameter store, its one subscription and the
+        deferred mode."""
+        params, defer = self.params, self.defer_filters
+        Estimator.__init__(self, None)  # fresh state, no second subscription
+        self.params, self.defer_filters = params, defer
+        if params is not None:
+            self._load_params()
+
     def _load_params(self) -> None:
         assert self.params is not None
         g = self.params.get

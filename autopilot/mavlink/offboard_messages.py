@@ -37,6 +37,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.topics import HomePosition, OffboardKind, OffboardSetpoint, VehicleEstimate
+from mavsim_core.frames import heading_to_ned
 from mavsim_core.geodesy import geodetic_to_ned
 
 F = mavlink
@@ -119,14 +120,13 @@ def _kind(pos: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> OffboardKind:
     raise Unusable("no position, velocity or acceleration given")
 
 
-def heading_to_ned(v: np.ndarray, yaw_rad: float) -> np.ndarray:
+def body_to_ned(v: np.ndarray, yaw_rad: float) -> np.ndarray:
     """A vector of the heading frame (forward, right, down) in NED; its horizontal pair given both or neither."""
     if math.isnan(v[0]) != math.isnan(v[1]):
         raise Unusable("half a horizontal vector in a body frame")
     if math.isnan(v[0]):
         return v.copy()
-    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
+    return np.append(heading_to_ned(v[0], v[1], yaw_rad), v[2])
 
 
 def _needs_position(est: VehicleEstimate | None) -> VehicleEstimate:
@@ -145,9 +145,9 @@ def _local(msg: Any, now_us: int, wall_s: float, est: VehicleEstimate | None) ->
     if frame in BODY_FRAMES:
         if est is None or not est.attitude_valid:
             raise Unusable("no heading estimate")
-        vel, acc = heading_to_ned(vel, est.yaw_rad), heading_to_ned(acc, est.yaw_rad)
+        vel, acc = body_to_ned(vel, est.yaw_rad), body_to_ned(acc, est.yaw_rad)
         if frame == F.MAV_FRAME_BODY_OFFSET_NED:
-            pos = heading_to_ned(pos, est.yaw_rad)
+            pos = body_to_ned(pos, est.yaw_rad)
     if frame in OFFSET_FRAMES and kind is OffboardKind.POSITION:
         pos = pos + _needs_position(est).pos_ned_m
     return OffboardSetpoint(now_us, wall_s, kind, frame, pos, vel, acc, yaw, yaw_rate)

@@ -41,6 +41,7 @@ from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import AttitudeSetpoint, ManualInput, VehicleEstimate
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
+from mavsim_core.frames import heading_to_ned
 
 # The parameters the stick modes read (listed in autopilot/param_catalogue.py); the vertical speed
 # and thrust limits are the position controller's.
@@ -92,12 +93,6 @@ def unit_disc(a: float, b: float) -> tuple[float, float]:
     """The stick vector (a, b) shortened to length 1 at most (diagonals are no faster)."""
     n = math.hypot(a, b)
     return (a / n, b / n) if n > 1.0 else (a, b)
-
-
-def heading_to_ned(forward: float, right: float, yaw_rad: float) -> np.ndarray:
-    """A horizontal vector of the heading frame (forward, right) in NED (north, east)."""
-    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-    return np.array([c * forward - s * right, s * forward + c * right])
 
 
 def thrust_curve(throttle: float, hover: float, low: float, high: float) -> float:

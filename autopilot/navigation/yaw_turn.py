@@ -18,11 +18,7 @@ import numpy as np
 
 from autopilot.navigation.flight_task import FlightTask, PositionSetpoint
 from autopilot.topics import VehicleEstimate
-
-
-def wrap_pi(a: float) -> float:
-    """An angle in (-pi, pi]."""
-    return math.atan2(math.sin(a), math.cos(a))
+from mavsim_core.quaternion import wrap_pi
 
 
 def turn_angle(start_rad: float, target_rad: float, direction: int) -> float:
