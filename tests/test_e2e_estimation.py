@@ -30,7 +30,7 @@ def take_off(client: VehicleClient, truth: SimClient) -> None:
     client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
     truth.wait_connected()
     client.arm().check()
-    client.takeoff(client.home().alt_amsl_m + ALT_M).check()
+    client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
     client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
     client.wait_sim_time(3.0)
 

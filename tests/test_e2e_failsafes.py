@@ -55,7 +55,7 @@ faults = start("stack2")
 def take_off(client: VehicleClient) -> None:
     client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
     client.arm().check()
-    client.takeoff(client.home().alt_amsl_m + ALT_M).check()
+    client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
     client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
     client.wait_sim_time(1.0)
 

@@ -158,7 +158,7 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
 
         client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
         client.arm().check()
-        client.takeoff(client.home().alt_amsl_m + ALT_M).check()
+        client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
         client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
         client.wait_sim_time(3.0)  # settled in the hover
 

@@ -47,7 +47,7 @@ def take_off(client: VehicleClient, truth: SimClient) -> np.ndarray:
     truth.wait_connected()
     start = np.array(truth.latest().pos_ned_m)
     client.arm().check()
-    client.takeoff(client.home().alt_amsl_m + ALT_M).check()
+    client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
     client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
     client.wait_sim_time(3.0)
     return start + np.array([0.0, 0.0, -ALT_M])
