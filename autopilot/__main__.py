@@ -111,6 +111,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"autopilot: {exc}", file=sys.stderr)
         return 2
     from autopilot.flight_controller import FlightController
+    from autopilot.link_setup import add_link_services
     from autopilot.lockstep_loop import run_lockstep
     from autopilot.mavlink.link import GcsLink
     from autopilot.mavlink.sim_link import SimLink
@@ -149,6 +150,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"autopilot: cannot write flight logs to {args.log_dir}: {exc}; flying without logs", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the logs like Ctrl-C
     sim = SimLink(args.sim_host, args.sim_port + args.instance, args.sysid)
+    add_link_services(link, fc, sim, args)
     print(
         f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
         f"{args.gcs_port + args.instance} and {args.api_port + args.instance}",

@@ -58,6 +58,16 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_failsafes": {f"stack{k}": 271 + k for k in range(3)},
     "test_e2e_commands": {"stack": 274},
     "test_gcs_link_control": {"link": 275},
+    # issue 17 (provisional numbers: the table is renumbered when the port scheme changes)
+    "test_e2e_logs": {"stack": 276},
+    "test_e2e_mavproxy": {"stack": 277},
+    "test_e2e_identity": {"stack": 278},
+    "test_e2e_failure_injection": {f"stack{k}": 320 + k for k in range(4)},
+    "test_gcs_link_signing": {"link": 324},
+    "test_e2e_signing": {"stack": 325},
+    "test_e2e_follow_me": {f"stack{k}": 326 + k for k in range(2)},
+    "test_gcs_link_files": {"link": 328},
+    "test_gcs_link_telemetry_more": {"link": 329},
 }
 
 

@@ -170,7 +170,7 @@ class EndpointCommands:
         builder = telemetry.BUILDERS.get(msg_id)
         if builder is None:
             return mavlink.MAV_RESULT_UNSUPPORTED
-        msg = builder(link._snapshot(), link._now_us)
+        msg = builder(link._streams.snapshot(), link._now_us)
         if msg is None:  # e.g. HOME_POSITION before home is set
             return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
         ep.send(msg)

@@ -35,11 +35,12 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink import commands, telemetry
 from autopilot.mavlink.endpoint import EndpointCommands, LinkEndpoint
+from autopilot.mavlink.link_service import Handler, LinkService, ServiceCommand
 from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION, DEFAULT_STREAM_RATES_HZ
+from autopilot.mavlink.telemetry_streams import TelemetryStreams
 from autopilot.mavlink.vehicle_interface import VehicleInterface
-from autopilot.topics import TelemetrySnapshot
 from mavsim_core.statustext import StatustextChunker
 
 log = logging.getLogger(__name__)
@@ -51,8 +52,6 @@ log = logging.getLogger(__name__)
 RX_BUDGET_S = 0.004
 RX_DISCARD_MAX = 2000  # datagrams read past the budget per socket and call at most
 RX_KEEP_MAX = 50  # of those, datagrams with more than superseded messages still handled
-
-Handler = Callable[[LinkEndpoint, mavlink.MAVLink_message], None]
 
 
 class GcsLink:
@@ -125,19 +124,16 @@ class GcsLink:
         self.rx_errors = 0
         self.rx_messages = 0
         self.rx_dropped = 0  # datagrams discarded unread because a call's RX_BUDGET_S was spent (or damaged then)
-        self.tx_build_errors = 0  # stream messages that could not be built (bug in a snapshot?)
-        self._build_failures: set[int] = set()
         self._now_us = 0
-        self._snap: TelemetrySnapshot | None = None
-        self._snap_valid = False  # _snap belongs to the current update()
-        self._built: dict[int, mavlink.MAVLink_message | None] = {}  # stream messages of the current update()
-        self._reported: dict[int, object] = {}  # what HOME_POSITION and MISSION_CURRENT last said (_check_changes)
+        self._streams = TelemetryStreams(vehicle, self._endpoints)
         self._statustext = StatustextChunker()
         self._params = ParamService(vehicle.params, self.send_statustext, self._broadcast)
         self._missions = MissionService(vehicle, self.send_statustext, sysid, compid)
-        self._missions.on_current_changed = lambda: self._due_now(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+        self._missions.on_current_changed = lambda: self._streams.due_now(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
         self._tap: Callable[[int, str, bool, bytes], None] | None = None
         self._handlers = self._message_handlers()
+        self._services: list[LinkService] = []
+        self._service_commands: dict[int, ServiceCommand] = {}
 
     def _message_handlers(self) -> dict[str, Handler]:
         """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
@@ -169,6 +165,23 @@ class GcsLink:
 
     # ------------------------------------------------------------------ public API
 
+    def add_service(self, service: LinkService) -> None:
+        """Serve ``service`` (:mod:`autopilot.mavlink.link_service`): its messages addressed to us, its
+        commands before the command table's, its ``update`` in every :meth:`update` and :meth:`poll`."""
+        self._handlers.update({name: self._for_us(h) for name, h in service.handlers().items()})
+        self._service_commands.update(service.commands())
+        self._services.append(service)
+
+    @property
+    def now_us(self) -> int:
+        """The simulated time (µs) of the current or last update."""
+        return self._now_us
+
+    @property
+    def tx_build_errors(self) -> int:
+        """Stream messages that could not be built (a bug in a snapshot?)."""
+        return self._streams.tx_build_errors
+
     @property
     def tx_errors(self) -> int:
         return sum(ep.tx_errors for ep in self._endpoints)
@@ -186,13 +199,9 @@ class GcsLink:
     def update(self, now_us: int) -> None:
         """One link iteration at simulated time ``now_us`` (µs): receive, answer, stream."""
         if now_us < self._now_us:  # simulated clock restarted: restart the schedules
-            for ep in self._endpoints:
-                for s in ep.streams.values():
-                    s.next_due_us = now_us
-                ep.refresh_next_due()
+            self._streams.restart(now_us)
         self._now_us = now_us
-        self._snap_valid = False
-        self._built.clear()
+        self._streams.begin(now_us)
         for ep in self._endpoints:
             ep.begin_batch()
         try:
@@ -207,13 +216,14 @@ class GcsLink:
         if not self._readable.poll(0):  # one system call, no exception: 0.5 µs when nothing came
             return
         self._now_us = max(self._now_us, now_us)
-        self._snap_valid = False
-        self._built.clear()
+        self._streams.begin(self._now_us)
         for ep in self._endpoints:
             ep.begin_batch()
         try:
             self._receive()
             self._send_events()
+            for service in self._services:
+                service.update(self._now_us)
         finally:
             for ep in self._endpoints:
                 ep.flush()
@@ -244,9 +254,11 @@ class GcsLink:
         self._params.update(self._endpoints)
         self._missions.update()
         self._send_events()
+        for service in self._services:
+            service.update(now_us)
         for ep in self._endpoints:
             if now_us >= ep.next_due_us:
-                self._send_due_streams(ep, now_us)
+                self._streams.send_due(ep, now_us)
 
     def send_statustext(self, severity: int, text: str, endpoint: str | None = None) -> None:
         """Send a STATUSTEXT (MAV_SEVERITY) on both endpoints or the named one, chunked past 50 bytes."""
@@ -285,7 +297,8 @@ class GcsLink:
         """The handler, called only for messages addressed to our system (or broadcast) and component (or all)."""
 
         def checked(ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
-            if msg.target_system in (0, self.sysid) and msg.target_component in (0, self.compid):
+            target = getattr(msg, "target_system", 0), getattr(msg, "target_component", 0)
+            if target[0] in (0, self.sysid) and target[1] in (0, self.compid):
                 handler(ep, msg)
 
         return checked
@@ -294,7 +307,11 @@ class GcsLink:
         """Execute a command through the command table and send exactly one COMMAND_ACK."""
         command = msg.command
         try:
-            result = commands.run(command, params, frame, EndpointCommands(self, ep), self.vehicle)
+            service = self._service_commands.get(command)
+            if service is not None:
+                result = int(service(ep, params, frame))
+            else:
+                result = commands.run(command, params, frame, EndpointCommands(self, ep), self.vehicle)
         except Exception:
             log.exception("gcs_link: command %d failed", command)
             result = mavlink.MAV_RESULT_FAILED
@@ -337,61 +354,3 @@ class GcsLink:
 
     def _autopilot_version(self) -> mavlink.MAVLink_message:
         return telemetry.autopilot_version(**self._version)
-
-    def _snapshot(self) -> TelemetrySnapshot:
-        """The vehicle's snapshot, fetched at most once per update()."""
-        if not self._snap_valid:
-            self._snap = self.vehicle.snapshot()
-            self._snap_valid = True
-            self._check_changes(self._snap)
-        return self._snap
-
-    def _due_now(self, mid: int) -> None:
-        """Message ``mid`` goes out on both endpoints in this update, not at its stream's next slot."""
-        for ep in self._endpoints:
-            stream = ep.streams.get(mid)
-            if stream is not None and stream.interval_us > 0:
-                stream.next_due_us = min(stream.next_due_us, self._now_us)
-                ep.next_due_us = min(ep.next_due_us, self._now_us)
-
-    def _check_changes(self, snap: TelemetrySnapshot) -> None:
-        """A new or moved home, a new current mission item, total or state: out at once (as PX4 sends
-        them), not at the stream's next slot."""
-        h, m = snap.home, snap.mission
-        keys = {
-            mavlink.MAVLINK_MSG_ID_HOME_POSITION: None if h is None else (h.lat_deg, h.lon_deg, h.alt_amsl_m),
-            mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: (m.seq, m.total, int(m.state), m.in_mission_mode),
-        }
-        for mid, key in keys.items():
-            if key != self._reported.get(mid):
-                self._reported[mid] = key
-                if key is not None:
-                    self._due_now(mid)
-
-    def _send_due_streams(self, ep: LinkEndpoint, now_us: int) -> None:
-        for mid, stream in ep.streams.items():
-            if stream.interval_us <= 0 or now_us < stream.next_due_us:
-                continue
-            stream.next_due_us += stream.interval_us
-            if stream.next_due_us <= now_us:  # fell behind (first call, time jump): no bursts
-                stream.next_due_us = now_us + stream.interval_us
-            msg = self._build(mid, now_us)
-            if msg is not None:
-                ep.send(msg)
-        ep.refresh_next_due()
-
-    def _build(self, mid: int, now_us: int) -> mavlink.MAVLink_message | None:
-        """A stream message from the current snapshot, or None if there is nothing to report.
-
-        Built once per update() and packed for each endpoint that streams it."""
-        if mid in self._built:
-            return self._built[mid]
-        try:
-            msg = self._built[mid] = telemetry.BUILDERS[mid](self._snapshot(), now_us)
-            return msg
-        except Exception:
-            if mid not in self._build_failures:  # one report per message, not one per iteration
-                self._build_failures.add(mid)
-                log.exception("gcs_link: cannot build message %d", mid)
-            self.tx_build_errors += 1
-            return None

@@ -154,6 +154,11 @@ class Stack:
         return API_BASE_PORT + self.instance
 
     @property
+    def sysid(self) -> int:
+        """MAVLink system id of the flight controller."""
+        return 1
+
+    @property
     def gcs_url(self) -> str:
         return f"udpin:0.0.0.0:{self.gcs_port}"
 

@@ -1,0 +1,109 @@
+"""The link's telemetry streams: which message is due on which endpoint, built once per link update.
+
+:class:`TelemetryStreams` holds the vehicle's snapshot of the current link update (fetched at most
+once), the messages already built in it (one build serves every endpoint), and what HOME_POSITION
+and MISSION_CURRENT last said, so a change goes out at once rather than at the stream's next slot.
+Times are the simulated clock's (µs); the endpoints (:class:`~autopilot.mavlink.endpoint.LinkEndpoint`)
+keep each stream's interval and next due time.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from autopilot.mavlink import telemetry
+from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.mavlink.vehicle_interface import VehicleInterface
+from autopilot.topics import TelemetrySnapshot
+
+log = logging.getLogger(__name__)
+
+
+class TelemetryStreams:
+    """Snapshot, build cache and change detection of the link's streams (see the module docstring).
+
+    ``tx_build_errors`` counts stream messages that could not be built (a bug in a snapshot?).
+    """
+
+    def __init__(self, vehicle: VehicleInterface, endpoints: list[LinkEndpoint]) -> None:
+        self.vehicle = vehicle
+        self.endpoints = endpoints
+        self.now_us = 0
+        self.tx_build_errors = 0
+        self._build_failures: set[int] = set()
+        self._snap: TelemetrySnapshot | None = None
+        self._built: dict[int, mavlink.MAVLink_message | None] = {}  # messages of the current update
+        self._reported: dict[int, object] = {}  # what HOME_POSITION and MISSION_CURRENT last said
+
+    def begin(self, now_us: int) -> None:
+        """A new link update (or poll) at ``now_us``: the snapshot and built messages are stale."""
+        self.now_us = now_us
+        self._snap = None
+        self._built.clear()
+
+    def snapshot(self) -> TelemetrySnapshot:
+        """The vehicle's snapshot, fetched at most once per update."""
+        if self._snap is None:
+            self._snap = self.vehicle.snapshot()
+            self._check_changes(self._snap)
+        return self._snap
+
+    def due_now(self, mid: int) -> None:
+        """Message ``mid`` goes out on every endpoint in this update, not at its stream's next slot."""
+        for ep in self.endpoints:
+            stream = ep.streams.get(mid)
+            if stream is not None and stream.interval_us > 0:
+                stream.next_due_us = min(stream.next_due_us, self.now_us)
+                ep.next_due_us = min(ep.next_due_us, self.now_us)
+
+    def _check_changes(self, snap: TelemetrySnapshot) -> None:
+        """A new or moved home, a new current mission item, total or state: out at once (as PX4 sends
+        them), not at the stream's next slot."""
+        h, m = snap.home, snap.mission
+        keys = {
+            mavlink.MAVLINK_MSG_ID_HOME_POSITION: None if h is None else (h.lat_deg, h.lon_deg, h.alt_amsl_m),
+            mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: (m.seq, m.total, int(m.state), m.in_mission_mode),
+        }
+        for mid, key in keys.items():
+            if key != self._reported.get(mid):
+                self._reported[mid] = key
+                if key is not None:
+                    self.due_now(mid)
+
+    def restart(self, now_us: int) -> None:
+        """The simulated clock went backwards: every stream is due at ``now_us``."""
+        for ep in self.endpoints:
+            for s in ep.streams.values():
+                s.next_due_us = now_us
+            ep.refresh_next_due()
+
+    def send_due(self, ep: LinkEndpoint, now_us: int) -> None:
+        """Send on ``ep`` every stream that is due at ``now_us`` and schedule its next one (no bursts)."""
+        for mid, stream in ep.streams.items():
+            if stream.interval_us <= 0 or now_us < stream.next_due_us:
+                continue
+            stream.next_due_us += stream.interval_us
+            if stream.next_due_us <= now_us:  # fell behind (first call, time jump): no bursts
+                stream.next_due_us = now_us + stream.interval_us
+            msg = self.build(mid, now_us)
+            if msg is not None:
+                ep.send(msg)
+        ep.refresh_next_due()
+
+    def build(self, mid: int, now_us: int) -> mavlink.MAVLink_message | None:
+        """A stream message from the current snapshot, or None if there is nothing to report.
+
+        Built once per update and packed for each endpoint that streams it."""
+        if mid in self._built:
+            return self._built[mid]
+        try:
+            msg = self._built[mid] = telemetry.BUILDERS[mid](self.snapshot(), now_us)
+            return msg
+        except Exception:
+            if mid not in self._build_failures:  # one report per message, not one per iteration
+                self._build_failures.add(mid)
+                log.exception("gcs_link: cannot build message %d", mid)
+            self.tx_build_errors += 1
+            return None
