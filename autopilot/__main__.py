@@ -11,18 +11,27 @@ import argparse
 import signal
 import sys
 
+from mavsim_core import ports
 from params.vehicle import VehicleFileError, load_vehicle
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="autopilot", description="Multirotor flight controller (PX4-compatible MAVLink)")
     p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
-    p.add_argument("--instance", "-i", type=int, default=0, help="offsets every port, like PX4's -i")
+    p.add_argument(
+        "--instance", "-i", type=int, default=0, metavar="N",
+        help=f"vehicle instance 0-{ports.MAX_INSTANCE}, as PX4's -i: system id 1+N, simulator TCP 4560+N, "
+        "API link to UDP 14540+N, ground-station link to the shared UDP 14550 from local port 18570+N",
+    )  # fmt: skip
     p.add_argument("--sim-host", default="127.0.0.1")
-    p.add_argument("--sim-port", type=int, default=4560, help="simulator TCP port (+instance)")
-    p.add_argument("--gcs-port", type=int, default=14550, help="UDP port of ground stations (+instance)")
-    p.add_argument("--api-port", type=int, default=14540, help="UDP port of APIs such as MAVSDK (+instance)")
-    p.add_argument("--sysid", type=int, default=1, help="MAVLink system id")
+    p.add_argument("--sim-port", type=int, help="simulator TCP port (default 4560+N)")
+    p.add_argument("--gcs-port", type=int, help="UDP port ground stations listen on (default 14550, every instance)")
+    p.add_argument("--api-port", type=int, help="UDP port APIs such as MAVSDK listen on (default 14540+N)")
+    p.add_argument("--gcs-local-port", type=int, help="local UDP port of the ground-station link (default 18570+N)")
+    p.add_argument(
+        "--api-local-port", type=int, help="local UDP port of the API link, where companions send (default 14640+N)"
+    )
+    p.add_argument("--sysid", type=int, help="MAVLink system id (default 1+N)")
     # -- parameters (autopilot/param_storage.py)
     p.add_argument(
         "--params",
@@ -46,6 +55,30 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--no-log", action="store_true", help="write no flight logs")
     return p
+
+
+def _resolve_ports(args: argparse.Namespace) -> str | None:
+    """Fill in the ports and system id of ``args.instance`` not given; the problem with them, or None."""
+    n = args.instance
+    if not 0 <= n <= ports.MAX_INSTANCE:
+        return f"--instance must be 0..{ports.MAX_INSTANCE} (PX4's port scheme leaves room for no more), not {n}"
+    defaults = {
+        "sim_port": ports.sim_tcp_port(n),
+        "gcs_port": ports.GCS_PORT,
+        "api_port": ports.api_port(n),
+        "gcs_local_port": ports.gcs_local_port(n),
+        "api_local_port": ports.api_local_port(n),
+        "sysid": ports.system_id(n),
+    }
+    for name, default in defaults.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
+    if not 1 <= args.sysid <= 255:
+        return f"--sysid must be 1..255, not {args.sysid}"
+    for name in defaults.keys() - {"sysid"}:
+        if not 1 <= getattr(args, name) <= 65535:
+            return f"--{name.replace('_', '-')} must be 1..65535, not {getattr(args, name)}"
+    return None
 
 
 def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str):
@@ -102,8 +135,9 @@ def _keep_plans(fc, args: argparse.Namespace, vehicle_name: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if not 1 <= args.sysid <= 255:
-        print("autopilot: --sysid must be 1..255", file=sys.stderr)
+    problem = _resolve_ports(args)
+    if problem:
+        print(f"autopilot: {problem}", file=sys.stderr)
         return 2
     try:
         spec = load_vehicle(args.vehicle)
@@ -134,6 +168,8 @@ def main(argv: list[str] | None = None) -> int:
             compid=1,
             gcs_port=args.gcs_port,
             api_port=args.api_port,
+            local_gcs_port=args.gcs_local_port,
+            local_api_port=args.api_local_port,
         )
     except OSError as exc:
         print(f"autopilot: cannot open the ground-station UDP ports: {exc}", file=sys.stderr)
@@ -149,11 +185,12 @@ def main(argv: list[str] | None = None) -> int:
         except OSError as exc:
             print(f"autopilot: cannot write flight logs to {args.log_dir}: {exc}; flying without logs", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the logs like Ctrl-C
-    sim = SimLink(args.sim_host, args.sim_port + args.instance, args.sysid)
+    sim = SimLink(args.sim_host, args.sim_port, args.sysid)
     add_link_services(link, fc, sim, args)
     print(
-        f"[autopilot] vehicle {spec.name}, {len(params)} parameters, ground stations on UDP "
-        f"{args.gcs_port + args.instance} and {args.api_port + args.instance}",
+        f"[autopilot] vehicle {spec.name}, system id {args.sysid}, {len(params)} parameters, telemetry to "
+        f"ground stations on UDP {args.gcs_port} (from {args.gcs_local_port}) and APIs on UDP {args.api_port} "
+        f"(from {args.api_local_port})",
         flush=True,
     )
     try:

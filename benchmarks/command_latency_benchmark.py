@@ -18,7 +18,7 @@ of one update whatever the stick rate.  The link's ``rx_dropped`` is not printed
 controller process does not report it to the outside.
 
 Usage: ``python benchmarks/command_latency_benchmark.py [--instance N] [--speed S]
-[--rates 0,50,200] [--commands N] [--vehicle NAME]`` (default instance 362, clear of the tests'
+[--rates 0,50,200] [--commands N] [--vehicle NAME]`` (default instance 27, clear of the tests'
 and the other benchmarks').
 """
 
@@ -53,7 +53,8 @@ class GroundStation:
     """One UDP socket on the ground-station port: a receiver thread notes COMMAND_ACK arrival times
     (by the echoed component) and the simulator's clock (ATTITUDE.time_boot_ms against the wall)."""
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int, sysid: int) -> None:
+        self.sysid = sysid  # the flight controller's
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("0.0.0.0", port))
         self.sock.settimeout(0.1)
@@ -80,7 +81,7 @@ class GroundStation:
                         self.acks.setdefault(msg.target_component, (now, msg.result))
                 elif mtype == "ATTITUDE":
                     self.sim_clock.append((now, msg.time_boot_ms))
-                elif mtype == "HEARTBEAT" and msg.get_srcSystem() == 1:
+                elif mtype == "HEARTBEAT" and msg.get_srcSystem() == self.sysid:
                     self.fc_addr = addr
 
     def send(self, msg: mavlink.MAVLink_message, encoder: mavlink.MAVLink) -> float:
@@ -116,7 +117,7 @@ class GroundStation:
 def stream_sticks(gs: GroundStation, rate_hz: float, stop: threading.Event, sent: list[int]) -> None:
     """MANUAL_CONTROL at ``rate_hz`` (sticks centred: throttle 500), paced on the wall clock."""
     encoder = mavlink.MAVLink(None, GCS_SYSID, STICKS_COMPID)
-    msg = mavlink.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0)
+    msg = mavlink.MAVLink_manual_control_message(gs.sysid, 0, 0, 500, 0, 0)
     t0, k = time.perf_counter(), 0
     while not stop.is_set():
         gs.send(msg, encoder)
@@ -139,7 +140,7 @@ def run_phase(gs: GroundStation, rate_hz: float, n: int, first_compid: int) -> d
         sticks.start()
         time.sleep(WARMUP_S)
     request = mavlink.MAVLink_command_long_message(
-        1, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0
+        gs.sysid, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0
     )
     sent: dict[int, float] = {}
     for k in range(n):
@@ -197,7 +198,7 @@ def report(rows: list[dict]) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--instance", type=int, default=362)
+    ap.add_argument("--instance", type=int, default=27)
     ap.add_argument("--speed", default="1", help="simulator speed: N x real time (default 1) or max")
     ap.add_argument("--rates", default="0,50,200", help="MANUAL_CONTROL rates, Hz, comma-separated (0: none)")
     ap.add_argument("--commands", type=int, default=50, help="commands per rate (default 50)")
@@ -206,7 +207,7 @@ def main() -> int:
     rates = [float(x) for x in args.rates.split(",") if x.strip()]
     rows = []
     with Stack(instance=args.instance, speed=args.speed, vehicle=args.vehicle, flight_logs=False) as stack:
-        gs = GroundStation(14550 + args.instance)
+        gs = GroundStation(stack.gcs_port, stack.sysid)
         try:
             gs.wait_ready(stack)
             print(f"stack up (instance {args.instance}, speed {args.speed}); logs in {stack.log_dir}", flush=True)

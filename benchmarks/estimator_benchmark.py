@@ -40,6 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
+from mavsim_core import ports
 from mavsim_core import quaternion as quat  # noqa: E402
 from sitl.scenario import load_scenario  # noqa: E402
 
@@ -124,7 +125,7 @@ def errors(rec: Recorder, truth: SimClient, home_truth_alt_m: float) -> dict:
 def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str] = ()) -> dict:
     with (
         Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, flight_logs=False) as stack,
-        SimClient(14560 + instance) as truth,
+        SimClient(ports.sim_component_port(instance)) as truth,
     ):
         c = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
         c.param_set("SYS_MC_EST_GROUP", group)

@@ -2,7 +2,7 @@
 
 Starts the simulator and the flight controller (``--speed max``, lockstep,
 telemetry on), takes off to 5 m, holds 30 simulated seconds and compares the
-ground truth (the simulator's LOCAL_POSITION_NED on UDP 14560+instance, float
+ground truth (the simulator's LOCAL_POSITION_NED on UDP 14740+instance, float
 metres from the start point) with the commanded point (5 m above where the
 vehicle was armed).  Then it flies the demo square and lands.  It prints:
 
@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 from pymavlink import mavutil
+
+from mavsim_core import ports
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -63,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     with Stack(instance=args.instance, speed="max", vehicle=args.vehicle) as stack:
-        truth = Truth(14560 + args.instance)
+        truth = Truth(ports.sim_component_port(args.instance))
         client = VehicleClient(stack.api_url, timeout_s=60, idle=lambda: (truth.pump(), stack.check_alive()))
         client.wait_until(client.prearm_ok, 120, "ready to arm")
         truth.pump()

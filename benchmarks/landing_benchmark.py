@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mavsim_core import ports
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gcs.client import VehicleClient  # noqa: E402
@@ -45,7 +47,7 @@ from gcs.launcher.landing_run import LandingResult, LandingSetup, fly_landing  #
 from gcs.sim_client import SimClient  # noqa: E402
 from sitl.ugv_paths import Pose2  # noqa: E402
 
-BASE_INSTANCE = 300  # 300-309: apart from people's 0-9, the other benchmarks' 20-25 and the tests' (tests/instances.py)
+BASE_INSTANCE = 11  # 11-19 (one per job): apart from people's 0-9, 10, the other benchmarks' 20-27 and the tests' 30-99
 
 
 @dataclass(frozen=True)
@@ -115,7 +117,7 @@ def run_one(
         flight_logs=log_dir is not None,
     )
     try:
-        with stack, SimClient(14560 + instance) as truth:
+        with stack, SimClient(ports.sim_component_port(instance)) as truth:
             with VehicleClient(stack.api_url, timeout_s=120, idle=stack.check_alive) as client:
                 result = fly_landing(client, truth, setup, timeout_s=240)
     except Exception as exc:  # noqa: BLE001 - recorded as the run's failure, the campaign goes on
@@ -213,8 +215,8 @@ def main(argv: list[str] | None = None) -> int:
         help="a flight-controller parameter for every landing (e.g. PLD_PREDICTOR=1: the polynomial predictor)",
     )
     args = ap.parse_args(argv)
-    if args.jobs > 10:
-        ap.error("--jobs at most 10 (instances base..base+9 must not collide)")
+    if args.jobs > 9:
+        ap.error("--jobs at most 9 (instances base..base+8, clear of the other benchmarks)")
     args.out.mkdir(parents=True, exist_ok=True)
     work = [(cell, k) for cell in cells_from(args) for k in range(args.runs)]
     csv_path = args.out / "landings.csv"

@@ -11,7 +11,7 @@ Starts the simulator and the flight controller (``--speed max``, lockstep), then
    parts and corners, and each corner's closest approach.
 
 Usage: ``python benchmarks/mission_benchmark.py [--instance N] [--side M] [--vehicle NAME] [--speed S]
-[--no-flight]`` (default instance 310, clear of the tests' and the other benchmarks').  The flight
+[--no-flight]`` (default instance 26, clear of the tests' and the other benchmarks').  The flight
 controller answers a request within one 4 ms lockstep step, so at ``--speed 1`` an item takes 4 ms.
 """
 
@@ -32,6 +32,7 @@ from gcs.launcher import Stack  # noqa: E402
 from gcs.mission_transfer import download, upload  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
 from mavsim_core import mission_items as mi  # noqa: E402
+from mavsim_core import ports
 
 HOME = (47.397742, 8.545594)  # the simulator's default home
 ALT_M = 8.0
@@ -100,13 +101,13 @@ def fly_square(client: VehicleClient, truth: SimClient, side: float) -> dict:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--instance", type=int, default=310)
+    ap.add_argument("--instance", type=int, default=26)
     ap.add_argument("--side", type=float, default=30.0, help="side of the square mission, m (default 30)")
     ap.add_argument("--vehicle", default="quad_x")
     ap.add_argument("--speed", default="max", help="simulator speed: max (default) or N x real time")
     ap.add_argument("--no-flight", action="store_true", help="only the transfer times")
     args = ap.parse_args()
-    truth = SimClient(14560 + args.instance)
+    truth = SimClient(ports.sim_component_port(args.instance))
     try:
         with Stack(instance=args.instance, speed=args.speed, vehicle=args.vehicle, flight_logs=False) as stack:
             with VehicleClient(f"udpin:0.0.0.0:{14550 + args.instance}", timeout_s=60, idle=stack.check_alive) as c:

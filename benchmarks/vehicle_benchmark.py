@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mavsim_core import ports
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gcs.client import VehicleClient  # noqa: E402
@@ -111,7 +113,7 @@ def fly(vehicle: str, instance: int, hover_s: float, seed: int, sim_params: list
     extra = [a for p in sim_params for a in ("--param", p)]
     with (
         Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, extra_sitl_args=extra) as stack,
-        SimClient(14560 + instance) as truth,
+        SimClient(ports.sim_component_port(instance)) as truth,
     ):
         client = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
         client.wait_until(client.prearm_ok, 120, "ready to arm")

@@ -9,7 +9,7 @@ Examples::
     gcs land --precision       # land on the landing target (AUTO.PRECLAND; 'required': no fallback)
     gcs ugv drive              # drive the simulated ground vehicle from the keyboard (MANUAL_CONTROL)
     gcs fly                    # pilot the vehicle from the keyboard (MANUAL_CONTROL; keys: gcs fly -h)
-    gcs --instance 2 rtl       # the vehicle of instance 2 (UDP 14552)
+    gcs --instance 2 rtl       # the vehicle of instance 2 (system id 3, on the shared UDP 14550)
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
     gcs param save tuned.params  # also: param list, set, load, diff (see gcs/param_cli.py)
@@ -28,6 +28,7 @@ import time
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from mavsim_core import ports
 from mavsim_core import px4_modes as modes
 
 from . import fly_cli, mission_cli, param_cli, ugv_cli
@@ -66,15 +67,18 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.",
     )
     parser.add_argument(
-        "--url", default=None, help=f"pymavlink connection string (default udpin:0.0.0.0:{DEFAULT_GCS_PORT} + instance)"
+        "--url",
+        default=None,
+        help=f"pymavlink connection string (default udpin:0.0.0.0:{DEFAULT_GCS_PORT}, where every instance sends)",
     )
     parser.add_argument(
         "--instance",
         "-i",
         type=int,
-        default=0,
+        default=None,
         metavar="N",
-        help="vehicle instance: adds N to the default port (ignored with --url)",
+        help="vehicle instance N: the vehicle with MAVLink system id 1+N (PX4's multi-vehicle scheme); "
+        "default: the first vehicle heard (instance 0 for 'ugv')",
     )
     parser.add_argument(
         "--timeout",
@@ -140,10 +144,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def resolve_url(args: argparse.Namespace) -> str:
-    """The connection string: --url, else the default ground-station port plus --instance."""
+    """The connection string: --url, else the ground-station port 14550 that every instance sends to."""
     if args.url:
         return args.url
-    return f"udpin:0.0.0.0:{DEFAULT_GCS_PORT + args.instance}"
+    return f"udpin:0.0.0.0:{DEFAULT_GCS_PORT}"
 
 
 class _Cli:
@@ -324,7 +328,11 @@ def main(argv: list[str] | None = None) -> int:
     url = resolve_url(args)
     client = None
     try:
-        client = VehicleClient(url, timeout_s=args.timeout or CONNECT_TIMEOUT_S)
+        client = VehicleClient(
+            url,
+            timeout_s=args.timeout or CONNECT_TIMEOUT_S,
+            target_system=None if args.instance is None else ports.system_id(args.instance),
+        )
         client.timeout_s = args.timeout or ACK_TIMEOUT_S
         cli = _Cli(client, args)
         handler = {

@@ -3,7 +3,8 @@
 :class:`Connection` wraps one ``pymavlink`` connection (as system 255,
 component 190, like QGroundControl and MAVSDK do), sends the ground station's
 HEARTBEAT once a second, caches the latest message of each type from the
-vehicle (sysid 1, compid 1 unless told otherwise), joins and collects
+vehicle (the first autopilot heard, component 1, unless a system id is given: several vehicles
+may share one port, as every PX4 instance sends to 14550), joins and collects
 STATUSTEXTs, and waits for conditions.  The plugins (:mod:`gcs.plugins`:
 telemetry, action, param) are built on it; :class:`gcs.client.VehicleClient`
 is a connection with all of them.
@@ -29,7 +30,6 @@ mavlink = mavutil.mavlink
 
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER, what QGroundControl uses
-VEHICLE_SYSTEM_ID = 1
 VEHICLE_COMPONENT_ID = 1
 
 DEFAULT_TIMEOUT_S = 10.0
@@ -59,7 +59,7 @@ class Connection:
         url: str,
         timeout_s: float = DEFAULT_TIMEOUT_S,
         *,
-        target_system: int = VEHICLE_SYSTEM_ID,
+        target_system: int | None = None,
         target_component: int = VEHICLE_COMPONENT_ID,
         wait_heartbeat: bool = True,
         idle: Callable[[], None] | None = None,
@@ -68,7 +68,8 @@ class Connection:
     ) -> None:
         self.url = url
         self.timeout_s = float(timeout_s)
-        self.target_system = target_system
+        # None: the first autopilot heard (its HEARTBEAT from component target_component) is ours
+        self._target_system: int | None = target_system
         self.target_component = target_component
         self.idle = idle
         self.on_statustext = on_statustext
@@ -91,12 +92,20 @@ class Connection:
         self.conn = mavutil.mavlink_connection(
             url, source_system=GCS_SYSTEM_ID, source_component=GCS_COMPONENT_ID, autoreconnect=True
         )
+        self._vehicle_address: tuple[str, int] | None = None
+        if hasattr(self.conn, "last_address"):  # udpin: several vehicles may send to one port (PX4's 14550)
+            self.conn.write = self._write_to_vehicle  # type: ignore[method-assign]
         if wait_heartbeat:
             try:
                 self.wait_heartbeat()
             except BaseException:
                 self.close()
                 raise
+
+    @property
+    def target_system(self) -> int:
+        """The vehicle's system id; 0 (broadcast) until a vehicle has been heard when none was given."""
+        return self._target_system or 0
 
     # ----------------------------------------------------------------- lifecycle
 
@@ -120,7 +129,8 @@ class Connection:
         self.wait_until(
             lambda: "HEARTBEAT" in self._latest,
             timeout_s,
-            f"a heartbeat from the vehicle (sysid {self.target_system}, compid {self.target_component}) on {self.url}",
+            f"a heartbeat from the vehicle (sysid {self._target_system or 'any'}, compid {self.target_component}) "
+            f"on {self.url}",
             describe=False,
         )
 
@@ -191,8 +201,11 @@ class Connection:
         mtype = msg.get_type()
         if mtype == "BAD_DATA":
             return False
-        if msg.get_srcSystem() != self.target_system or msg.get_srcComponent() != self.target_component:
+        if self._target_system is None and mtype == "HEARTBEAT" and _is_autopilot(msg, self.target_component):
+            self._target_system = msg.get_srcSystem()
+        if msg.get_srcSystem() != self._target_system or msg.get_srcComponent() != self.target_component:
             return False
+        self._note_vehicle_address()
         now = time.monotonic()
         self._last_rx_wall = now
         self._latest[mtype] = msg
@@ -204,6 +217,23 @@ class Connection:
         for cb in self._listeners:
             cb(msg)
         return True
+
+    def _note_vehicle_address(self) -> None:
+        """Remember where our vehicle sends from, so replies go to it and not to whichever vehicle sent last.
+
+        pymavlink's udpin keeps only the last datagram's sender; a message returned while the parser
+        still holds bytes may come from an earlier datagram, so only a message that ended the buffer
+        (it came from that last sender) is trusted."""
+        address = getattr(self.conn, "last_address", None)
+        if address is not None and self.conn.mav.buf_len() == 0:
+            self._vehicle_address = address
+
+    def _write_to_vehicle(self, buf: bytes) -> None:
+        """udpin's write, to our vehicle's address once known (else to the last sender, as pymavlink)."""
+        conn = self.conn
+        if self._vehicle_address is not None:
+            conn.last_address = self._vehicle_address
+        type(conn).write(conn, buf)
 
     def _handle_statustext(self, msg, now: float) -> None:
         text = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")
@@ -314,3 +344,12 @@ class Connection:
         if self.statustexts:
             parts.append(f"last text: {self.statustexts[-1].text!r}")
         return ", ".join(parts)
+
+
+def _is_autopilot(msg, component: int) -> bool:
+    """A vehicle's autopilot HEARTBEAT from ``component`` (not a ground station, not a generic component)."""
+    return (
+        msg.get_srcComponent() == component
+        and msg.type != mavlink.MAV_TYPE_GCS
+        and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID
+    )

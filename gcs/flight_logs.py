@@ -36,7 +36,7 @@ from mavsim_core.npy_log import read_npy_log
 from mavsim_core.px4_modes import custom_mode_to_name, decode_custom_mode, encode_custom_mode
 
 FC_SUFFIX, TRUTH_SUFFIX, TLOG_SUFFIX = ".fc.npy", ".truth.npy", ".tlog"
-VEHICLE_SYSID, VEHICLE_COMPID = 1, 1
+VEHICLE_COMPID = 1  # the autopilot; its system id (1 + instance) is that of the first such message
 TRUTH_MATCH_S = 120.0  # a truth log's name time within this of the log's (wall clock at arming)
 TLOG_KINDS = (
     "ATTITUDE",
@@ -204,12 +204,15 @@ def _read_tlog_rows(path: Path) -> tuple[dict[str, _Rows], int]:
     except Exception as exc:
         raise FlightLogError(f"{path}: cannot open as a tlog: {exc}") from exc
     n_motors = 0
+    vehicle = None
     try:
         while True:
             m = conn.recv_match(type=list(TLOG_KINDS))
             if m is None:
                 break
-            if m.get_srcSystem() != VEHICLE_SYSID or m.get_srcComponent() != VEHICLE_COMPID:
+            if vehicle is None and m.get_srcComponent() == VEHICLE_COMPID and m.get_type() != "BAD_DATA":
+                vehicle = m.get_srcSystem()
+            if m.get_srcSystem() != vehicle or m.get_srcComponent() != VEHICLE_COMPID:
                 continue
             k = m.get_type()
             if k == "ATTITUDE":
@@ -253,7 +256,7 @@ def load_tlog(path: Path) -> FlightData:
     att, att_sp = rows["ATTITUDE"].arrays(), rows["ATTITUDE_TARGET"].arrays()
     pos, pos_sp = rows["LOCAL_POSITION_NED"].arrays(), rows["POSITION_TARGET_LOCAL_NED"].arrays()
     if att is None and pos is None:
-        raise FlightLogError(f"{path}: no ATTITUDE or LOCAL_POSITION_NED from system {VEHICLE_SYSID} in this tlog")
+        raise FlightLogError(f"{path}: no ATTITUDE or LOCAL_POSITION_NED from the vehicle in this tlog")
     data.estimate = _merge(att, pos, euler=True)
     if att_sp is not None:
         q = att_sp[1]

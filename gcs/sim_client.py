@@ -1,7 +1,7 @@
 """Client of the simulator's own MAVLink port: ground truth and ``SIM_*`` parameters.
 
 The simulator sends ground truth (HIL_STATE_QUATERNION and LOCAL_POSITION_NED,
-50 Hz of simulated time) and its heartbeat to UDP 14560 + instance, and answers
+50 Hz of simulated time) and its heartbeat to UDP 14740 + instance (mavsim_core.ports.sim_component_port), and answers
 parameter requests on the same link (component 51).  :class:`SimClient` binds
 that port, keeps the truth in a background thread, and reads and sets ``SIM_*``
 parameters with the MAVLink parameter protocol (C-cast encoding: the simulator
@@ -179,7 +179,7 @@ class SimClient:
     def get(self, name: str, timeout_s: float = 5.0) -> int | float:
         """Read a parameter (PARAM_REQUEST_READ by name)."""
         for _ in range(3):
-            self._send(mavlink.MAVLink_param_request_read_message(1, SIM_COMPONENT_ID, name.encode(), -1))
+            self._send(mavlink.MAVLink_param_request_read_message(0, SIM_COMPONENT_ID, name.encode(), -1))
             try:
                 msg = self._wait_value(name, timeout_s / 3)
             except SimParamError:
@@ -192,7 +192,7 @@ class SimClient:
         if name not in self._types:
             self.get(name, timeout_s)
         ptype = self._types[name]
-        self._send(mavlink.MAVLink_param_set_message(1, SIM_COMPONENT_ID, name.encode(), float(value), ptype))
+        self._send(mavlink.MAVLink_param_set_message(0, SIM_COMPONENT_ID, name.encode(), float(value), ptype))
         msg = self._wait_value(name, timeout_s)
         got = self._value(msg)
         if abs(float(got) - float(value)) > 1e-6 * max(1.0, abs(float(value))):

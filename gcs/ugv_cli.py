@@ -1,4 +1,4 @@
-"""``gcs ugv``: the simulated ground vehicle, through the simulator's own MAVLink port (UDP 14560+I).
+"""``gcs ugv``: the simulated ground vehicle, through the simulator's own MAVLink port (UDP 14740+I).
 
 - ``gcs ugv status``: its truth (deck centre, NED m from the multicopter's start; speed; heading).
 - ``gcs ugv set --path circle --speed 1 --radius 2``: its ``SIM_UGV_*`` parameters (PARAM_SET).
@@ -20,12 +20,13 @@ import time
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from mavsim_core import ports
+
 from .sim_client import SimClient, SimParamError
 
 PATHS = {"stop": 0, "line": 1, "circle": 2, "figure8": 3, "random": 4, "manual": 5}
 STEP = 250
 SEND_PERIOD_S = 0.1
-SIM_TRUTH_BASE_PORT = 14560
 
 
 def add_ugv_parser(sub: argparse._SubParsersAction) -> None:
@@ -43,7 +44,7 @@ def add_ugv_parser(sub: argparse._SubParsersAction) -> None:
 def run_ugv_command(args: argparse.Namespace) -> int:
     """0 done, 1 refused (no UGV, bad value), 2 no simulator answering."""
     try:
-        with SimClient(SIM_TRUTH_BASE_PORT + args.instance) as sim:
+        with SimClient(ports.sim_component_port(args.instance or 0)) as sim:
             sim.wait_connected(args.timeout or 10.0)
             if args.ugv_command == "status":
                 return _status(sim)
@@ -54,7 +55,7 @@ def run_ugv_command(args: argparse.Namespace) -> int:
         print(f"gcs: ugv {args.ugv_command}: {exc}", file=sys.stderr)
         return 2 if "no " in str(exc) else 1
     except OSError as exc:
-        print(f"gcs: ugv: cannot listen on UDP {SIM_TRUTH_BASE_PORT + args.instance}: {exc}", file=sys.stderr)
+        print(f"gcs: ugv: cannot listen on UDP {ports.sim_component_port(args.instance or 0)}: {exc}", file=sys.stderr)
         return 1
 
 
@@ -138,14 +139,14 @@ def _drive(sim: SimClient, args: argparse.Namespace) -> int:
             if ch == "q":
                 break
             x, r = _apply_key(ch, x, r)
-            sim._send(mavlink.MAVLink_manual_control_message(1, x, 0, 500, r, 0))
+            sim._send(mavlink.MAVLink_manual_control_message(0, x, 0, 500, r, 0))  # 0: whichever system listens here
             u = sim.ugv_latest()
             if ch and u is not None:
                 speed = math.hypot(*u.vel_ned_m_s[:2])
                 print(f"x {x:+5d} r {r:+5d}  speed {speed:.2f} m/s  N {u.pos_ned_m[0]:.2f} E {u.pos_ned_m[1]:.2f}")
     finally:
         keys.restore()
-        sim._send(mavlink.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0))
+        sim._send(mavlink.MAVLink_manual_control_message(0, 0, 0, 500, 0, 0))
     return 0
 
 

@@ -7,6 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
+from mavsim_core import ports
 from params.vehicle import VehicleFileError, load_vehicle
 from sitl.scenario import Scenario, ScenarioError, list_scenarios, load_scenario
 from sitl.sim_params import SimParamError, SimParameters, format_table
@@ -59,16 +60,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
     p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
-    p.add_argument("--instance", "-i", type=int, default=0, help="offsets every port, like PX4's -i")
-    p.add_argument("--port", type=int, default=4560, help="TCP port the flight controller connects to (+instance)")
-    p.add_argument("--truth-port", type=int, default=14560, help="UDP port for ground truth (+instance); 0 disables")
+    p.add_argument(
+        "--instance", "-i", type=int, default=0, metavar="N",
+        help=f"vehicle instance 0-{ports.MAX_INSTANCE}, as PX4's -i: system id 1+N, TCP port 4560+N, "
+        "ground truth and SIM_* parameters to UDP 14740+N",
+    )  # fmt: skip
+    p.add_argument("--port", type=int, help="TCP port the flight controller connects to (default 4560+N)")
+    p.add_argument(
+        "--truth-port", type=int,
+        help="UDP port the simulator's MAVLink component (ground truth, SIM_* parameters, the ground vehicle) "
+        "sends to (default 14740+N); 0 disables it",
+    )  # fmt: skip
     p.add_argument("--truth-host", default="127.0.0.1")
     p.add_argument(
         "--truth-local-port",
         type=int,
         default=0,
-        help="local UDP port of the simulator's MAVLink component (truth, SIM_* parameters), "
-        "+instance; 0 = chosen by the OS",
+        help="local UDP port of the simulator's MAVLink component; 0 = chosen by the OS",
     )
     p.add_argument("--home", type=parse_home, default=DEFAULT_HOME, help="LAT,LON,ALT of the start point")
     p.add_argument("--seed", type=int, default=0, help="random seed of the sensor noise")
@@ -131,11 +139,20 @@ def _companion(sim, camera: CameraSettings, args: argparse.Namespace):
     from sitl.companion import LockstepCompanion
 
     save = Path(args.save_frames) if args.save_frames else None
-    return LockstepCompanion(sim.model, sim.spec.camera, camera, seed=args.seed, save_dir=save)
+    return LockstepCompanion(
+        sim.model, sim.spec.camera, camera, seed=args.seed, save_dir=save, sysid=ports.system_id(args.instance)
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if not 0 <= args.instance <= ports.MAX_INSTANCE:
+        print(f"sitl: --instance must be 0..{ports.MAX_INSTANCE}, not {args.instance}", file=sys.stderr)
+        return 2
+    if args.port is None:
+        args.port = ports.sim_tcp_port(args.instance)
+    if args.truth_port is None:
+        args.truth_port = ports.sim_component_port(args.instance)
     try:
         (wind, sensors, motors, ugv, camera), scenario = configure(args)
     except ScenarioError as exc:
@@ -156,16 +173,17 @@ def main(argv: list[str] | None = None) -> int:
     from sitl.simulation import Simulation
 
     sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera)
-    truth = (args.truth_host, args.truth_port + args.instance) if args.truth_port else None
-    truth_bind = ("0.0.0.0", args.truth_local_port + args.instance if args.truth_local_port else 0)
+    truth = (args.truth_host, args.truth_port) if args.truth_port else None
+    truth_bind = ("0.0.0.0", args.truth_local_port)
     try:
         server = LockstepServer(
             sim,
-            args.port + args.instance,
+            args.port,
             truth,
             args.speed,
             truth_bind=truth_bind,
             events=scenario.events if scenario else (),
+            sysid=ports.system_id(args.instance),
         )
     except OSError as exc:
         print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
@@ -197,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     if server.param_server is not None:
         port = server.param_server.local_address[1]
         print(
-            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid 1 compid 51 on UDP port {port}, "
+            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP port {port}, "
             f"sending to {truth[0]}:{truth[1]}",
             file=sys.stderr,
             flush=True,

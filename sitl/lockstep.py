@@ -9,7 +9,7 @@ deterministic for a seed.  ``speed`` paces simulated time to the wall clock
 
 The simulator is also a MAVLink component on UDP (:mod:`sitl.param_server`):
 ground truth (HIL_STATE_QUATERNION, LOCAL_POSITION_NED at 50 Hz of simulated time)
-goes to 127.0.0.1:(14560 + instance) and to whoever talks to it, and the same
+goes to 127.0.0.1:(14740 + instance) and to whoever talks to it, and the same
 socket serves the ``SIM_*`` parameters, so a ground station or a test changes
 wind, sensor errors and failures in flight.  It is polled every 50 Hz period and
 while the simulator waits for the flight controller.  Scenario events
@@ -65,6 +65,7 @@ class LockstepServer:
     ``truth_addr``: default peer of the UDP component (None: no truth, no parameter
     service).  ``truth_bind``: its local address (port 0: chosen by the OS).
     ``events``: scenario events, applied when simulated time reaches them.
+    ``sysid``: the vehicle's MAVLink system id (1 + instance), which the simulator's components share.
     """
 
     def __init__(
@@ -76,12 +77,14 @@ class LockstepServer:
         *,
         truth_bind: tuple[str, int] = ("0.0.0.0", 0),
         events: Sequence[ScenarioEvent] = (),
+        sysid: int = SIM_SYSID,
     ) -> None:
         self.sim = sim
+        self.sysid = sysid  # the vehicle's system id (1 + instance): the simulator is one of its components
         self.port = port
         self.truth_addr = truth_addr
         self.speed = speed
-        self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
+        self.mav = mavlink.MAVLink(None, sysid, SIM_COMPID)
         self.mav.robust_parsing = True
         # The settings objects the models read on every step; a set acts on the next step.
         self.params = SimParameters(
@@ -95,7 +98,7 @@ class LockstepServer:
         self.conn: socket.socket | None = None
         if truth_addr:
             self.param_server = SimParamServer(
-                self.params, bind=truth_bind, default_peer=truth_addr, on_param_set=_log_param_set
+                self.params, bind=truth_bind, default_peer=truth_addr, sysid=sysid, on_param_set=_log_param_set
             )
             self.param_server.on_manual_control = self._on_manual_control
         self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -138,7 +141,7 @@ class LockstepServer:
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.conn = conn
         self.receiver = SpinReceiver(conn)
-        self.mav = mavlink.MAVLink(None, SIM_SYSID, SIM_COMPID)
+        self.mav = mavlink.MAVLink(None, self.sysid, SIM_COMPID)
         self.mav.robust_parsing = True
         self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_actuator_controls_message])
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")

@@ -2,7 +2,7 @@
 
 :class:`SimParamServer` owns one bound, non-blocking UDP socket (:class:`UdpEndpoint`).  Everything the
 simulator sends on it (HEARTBEAT, ground truth, parameter answers) goes to the
-default peer (127.0.0.1:14560 + instance) and to every address that has sent it a
+default peer (127.0.0.1:14740 + instance) and to every address that has sent it a
 MAVLink packet (the few most recent), as PX4's UDP endpoints do.  It serves:
 
 * HEARTBEAT at 1 Hz of wall time: MAV_TYPE_GENERIC, MAV_AUTOPILOT_GENERIC, from
@@ -79,7 +79,7 @@ class SimParamServer:
         params: SimParameters,
         *,
         bind: Address = ("0.0.0.0", 0),
-        default_peer: Address = ("127.0.0.1", 14560),
+        default_peer: Address = ("127.0.0.1", 14740),
         sysid: int = SIM_SYSID,
         compid: int = SIM_COMPID,
         heartbeat_period_s: float = HEARTBEAT_PERIOD_S,

@@ -3,7 +3,7 @@
 Each field of the three dataclasses below is declared once, with the MAVLink
 parameter that sets it (name of at most 16 characters, INT32 or REAL32, limits,
 unit, description) in the field's metadata.  The simulator's parameter service
-(UDP 14560, ``sitl.param_server``) and scenario files (``sitl.scenario``) are
+(UDP 14740+N, ``sitl.param_server``) and scenario files (``sitl.scenario``) are
 built on this one table; the models read the dataclasses directly on every step,
 so a change acts on the next step.
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from gcs.client import VehicleClient, mavlink
+from mavsim_core import ports
 
 WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
 ON_GROUND, IN_AIR, LANDING = (
@@ -137,7 +138,7 @@ def truth_and_stack_fixtures(instance: int):
 
     @pytest.fixture(scope="module")
     def truth():
-        with SimClient(14560 + instance) as listener:
+        with SimClient(ports.sim_component_port(instance)) as listener:
             yield listener
 
     @pytest.fixture(scope="module")

@@ -31,6 +31,7 @@ from autopilot.topics import (  # noqa: E402
     TelemetrySnapshot,
     VehicleEstimate,
 )
+from mavsim_core import ports
 from mavsim_core.mission_items import MissionItem  # noqa: E402
 from mavsim_core.px4_modes import Mode  # noqa: E402
 
@@ -160,14 +161,14 @@ class Harness:
     def __init__(self, instance: int, vehicle: StubVehicle | None = None) -> None:
         self.instance = instance
         self.vehicle = vehicle if vehicle is not None else StubVehicle()
-        self.link = GcsLink(self.vehicle, instance=instance)
+        self.link = GcsLink(self.vehicle, instance=instance, gcs_port=ports.own_gcs_port(instance))
         self.t_us = 0
         self.updates = 0
         self.clients: dict[str, mavutil.mavfile] = {}
 
     def client(self, endpoint: str = "gcs") -> mavutil.mavfile:
         if endpoint not in self.clients:
-            port = (14550 if endpoint == "gcs" else 14540) + self.instance
+            port = ports.own_gcs_port(self.instance) if endpoint == "gcs" else ports.api_port(self.instance)
             self.clients[endpoint] = mavutil.mavlink_connection(
                 f"udpin:127.0.0.1:{port}", source_system=GCS_SYS, source_component=GCS_COMP, dialect="common"
             )

@@ -29,6 +29,8 @@ from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.action import ActionError, OrbitYawBehavior  # noqa: E402
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import (
     latlon,
     sim_sleep,
@@ -50,7 +52,7 @@ def truth_speed(truth) -> float:
 
 async def _session(body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action = TelemetryAsync(system), ActionAsync(system)
@@ -143,7 +145,7 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
 
 def _gcs() -> mavutil.mavfile:
     return mavutil.mavlink_connection(
-        f"udpin:127.0.0.1:{14550 + INSTANCE}", source_system=255, source_component=190, dialect="common"
+        f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", source_system=255, source_component=190, dialect="common"
     )
 
 
@@ -151,10 +153,14 @@ def test_get_home_position_and_motor_test_on_the_ground(stack, truth):
     conn = _gcs()
     try:
         assert conn.wait_heartbeat(timeout=30) is not None
-        conn.mav.command_long_send(1, 1, mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0)
+        conn.mav.command_long_send(
+            ports.system_id(INSTANCE), 1, mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0
+        )
         home = conn.recv_match(type="HOME_POSITION", blocking=True, timeout=10)
         assert home is not None and abs(home.latitude * 1e-7 - latlon(0, 0)[0]) < 1e-4
-        conn.mav.command_long_send(1, 1, mavlink.MAV_CMD_DO_MOTOR_TEST, 0, 3, 0, 15, 2.0, 0, 0, 0)
+        conn.mav.command_long_send(
+            ports.system_id(INSTANCE), 1, mavlink.MAV_CMD_DO_MOTOR_TEST, 0, 3, 0, 15, 2.0, 0, 0, 0
+        )
         ack = None
         while ack is None or ack.command != mavlink.MAV_CMD_DO_MOTOR_TEST:
             ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=10)

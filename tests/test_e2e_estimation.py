@@ -16,6 +16,7 @@ import pytest
 from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
 from gcs.sim_client import SimClient
+from mavsim_core import ports
 from mavsim_core import quaternion as quat
 
 from instances import instance  # tests/instances.py: every test's instance numbers
@@ -44,7 +45,7 @@ def horizontal_from(truth: SimClient, point) -> float:
 def flying():
     with (
         Stack(instance=INSTANCE, vehicle="quad_x") as stack,
-        SimClient(14560 + INSTANCE) as truth,
+        SimClient(ports.sim_component_port(INSTANCE)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000).check()

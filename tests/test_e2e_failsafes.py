@@ -20,6 +20,7 @@ import pytest
 from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
 from gcs.sim_client import SimClient
+from mavsim_core import ports
 
 from e2e_flight_helpers import Recorder, texts_since, wait_text
 from instances import instance  # tests/instances.py: every test's instance numbers
@@ -38,7 +39,7 @@ def start(role: str, vehicle: str = "quad_x"):
         i = instance("test_e2e_failsafes", role)
         with (
             Stack(instance=i, vehicle=vehicle, speed="max") as stack,
-            SimClient(14560 + i) as truth,
+            SimClient(ports.sim_component_port(i)) as truth,
             VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
         ):
             truth.wait_connected()
@@ -72,7 +73,7 @@ def stream_sticks(client: VehicleClient, wall_s: float, throttle: int = 500) -> 
     """MANUAL_CONTROL with centred sticks at 20 Hz (wall clock) for ``wall_s`` seconds, as a joystick."""
     end = time.monotonic() + wall_s
     while time.monotonic() < end:
-        client.conn.mav.manual_control_send(1, 0, 0, throttle, 0, 0)
+        client.conn.mav.manual_control_send(client.target_system, 0, 0, throttle, 0, 0)
         client.pump(0.05)
 
 

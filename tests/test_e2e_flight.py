@@ -5,7 +5,7 @@ Every test here uses the real ``sitl`` and ``autopilot`` processes (through
 ground station does: :class:`gcs.client.VehicleClient` (pymavlink underneath) on
 the API port, a second client on the ground-station port, the ``gcs`` CLI as a
 subprocess.  Ground truth comes from the simulator's own UDP channel
-(HIL_STATE_QUATERNION + LOCAL_POSITION_NED on 14560 + instance) and is compared
+(HIL_STATE_QUATERNION + LOCAL_POSITION_NED on 14740 + instance) and is compared
 with what the vehicle reports; it never reaches the flight controller.
 
 One max-speed stack (module scope) carries the scenarios in file order; each
@@ -36,6 +36,8 @@ from gcs.sim_client import SimClient
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     IN_AIR,
     LANDING,
@@ -62,7 +64,7 @@ UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
 
 @pytest.fixture(scope="module")
 def truth():
-    listener = SimClient(14560 + INSTANCE)  # ground truth on the simulator's own port
+    listener = SimClient(ports.sim_component_port(INSTANCE))  # ground truth on the simulator's own port
     yield listener
     listener.close()
 
@@ -120,7 +122,7 @@ def test_identity_modes_and_unknown_command(client):
     client.set_mode("AUTO.LOITER", timeout_s=10).check()
     client.wait_mode("LOITER", WAIT_S)
     posctl = 3 << 16
-    client.conn.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, posctl)
+    client.conn.mav.set_mode_send(client.target_system, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, posctl)
     ack = client.recv("COMMAND_ACK", WAIT_S, lambda m: m.command == mavlink.MAVLINK_MSG_ID_SET_MODE)
     assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
     client.wait_mode("POSCTL", WAIT_S)
@@ -187,7 +189,7 @@ def test_takeoff_hover_land_and_automatic_disarm(client, truth):
     client.param_set("COM_DISARM_LAND", disarm_delay_s, timeout_s=10)
     try:
         ground = truth.latest()
-        assert ground is not None, "no ground truth on UDP 14560 + instance"
+        assert ground is not None, "no ground truth on UDP 14740 + instance"
         assert abs(ground.vel_ned_m_s[2]) < 0.05
         arm(client)
         n_texts = len(client.statustexts)
@@ -282,13 +284,14 @@ def test_mavproxy_takeoff_goto_and_return_to_launch(client, truth):
 
 
 def run_gcs(client: VehicleClient, *args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
-    """``python -m gcs --instance I ...`` as a user runs it (the ground-station port, 14550 + I).
+    """``python -m gcs --url <the stack's own ground-station port> -i I ...`` as a user runs it.
 
     ``client`` keeps listening meanwhile (a UDP socket left unread overflows within a wall second
     at max speed) and afterwards waits for a fresh HEARTBEAT and EXTENDED_SYS_STATE, so its view
     of the vehicle is current.
     """
-    cmd = [sys.executable, "-m", "gcs", "--instance", str(INSTANCE), *args]
+    cmd = [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE)}", "-i", str(INSTANCE)]
+    cmd += args
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         client.wait_until(lambda: proc.poll() is not None, timeout_s, f"{' '.join(cmd[2:])} to finish")

@@ -24,6 +24,8 @@ from gcs.launcher import Stack, demo
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import WAIT_S, arm  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -45,7 +47,16 @@ def test_arming_denied_until_estimate_ready_then_accepted():
     with stack:
         # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
         cli = subprocess.Popen(
-            [sys.executable, "-m", "gcs", "--instance", str(INSTANCE_REALTIME), "--timeout", "30", "arm"],
+            [
+                sys.executable,
+                "-m",
+                "gcs",
+                "--url",
+                f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE_REALTIME)}",
+                "--timeout",
+                "30",
+                "arm",
+            ],
             cwd=ROOT,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,

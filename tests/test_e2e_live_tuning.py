@@ -45,13 +45,14 @@ import pytest
 
 from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
+from mavsim_core import ports
 from params.vehicle import load_vehicle
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_live_tuning", "stack")
-FC_GCS_URL = f"udpout:127.0.0.1:{18570 + INSTANCE}"  # the flight controller's ground-station socket
+FC_GCS_URL = f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}"  # the flight controller's ground-station socket
 WAIT_S = 60.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
 ALT_M = 5.0
 GAIN_FACTOR = 10.0  # 12 -> 120 (the declared maximum is 150)

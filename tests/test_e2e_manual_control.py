@@ -24,6 +24,8 @@ from mavsdk.asyncio.plugins.manual_control import ManualControlAsync  # noqa: E4
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import (
     sim_ms,
     sim_sleep,
@@ -69,7 +71,7 @@ class Sticks:
 
 async def _session(body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action = TelemetryAsync(system), ActionAsync(system)
@@ -197,7 +199,16 @@ m
 def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
     keys = tmp_path / "forward.keys"
     keys.write_text(KEY_SCRIPT)
-    cmd = [sys.executable, "-m", "gcs", "--instance", str(INSTANCE), "fly", "--keys", str(keys)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "gcs",
+        "--url",
+        f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE)}",
+        "fly",
+        "--keys",
+        str(keys),
+    ]
 
     async def body(system, tel, action, sticks):
         from mavsdk.asyncio.plugins.param import ParamAsync

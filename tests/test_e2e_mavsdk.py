@@ -19,6 +19,8 @@ from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.autopilot import Autopilot  # noqa: E402
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -62,7 +64,7 @@ async def _fly(port: int) -> dict:
 
 def test_mavsdk_arms_takes_off_and_lands():
     with Stack(instance=INSTANCE, speed="max") as stack:
-        seen = asyncio.run(_fly(14540 + INSTANCE))
+        seen = asyncio.run(_fly(ports.api_port(INSTANCE)))
         stack.check_alive()
     assert seen["autopilot"] == Autopilot.PX4  # MAVSDK treats it as PX4 (heartbeat identity)
     assert seen["takeoff_alt"] == pytest.approx(4.0)

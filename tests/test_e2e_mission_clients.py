@@ -22,6 +22,7 @@ from gcs.client import VehicleClient, mavlink
 from gcs.mission_files import parse_qgc_plan
 from gcs.mission_transfer import download, upload
 from mavsim_core import mission_items as mi
+from mavsim_core import ports
 
 from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     SIM_HOME,
@@ -35,7 +36,7 @@ from instances import instance  # tests/instances.py: every test's instance numb
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_mission_clients", "stack")
 truth, stack = truth_and_stack_fixtures(INSTANCE)
-GCS = [sys.executable, "-m", "gcs", "-i", str(INSTANCE)]
+GCS = [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE)}", "-i", str(INSTANCE)]
 
 
 @pytest.fixture()
@@ -57,7 +58,7 @@ def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
     path = tmp_path / "square.waypoints"
     path.write_text("\n".join(lines) + "\n")
     start_ms = truth.latest().time_ms
-    mavproxy = MavproxySession(f"udpin:127.0.0.1:{14550 + INSTANCE}", modules="wp,cmdlong")
+    mavproxy = MavproxySession(f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", modules="wp,cmdlong")
     try:
         mavproxy.expect(r"online system 1")
         mavproxy.send(f"wp load {path}")
@@ -169,7 +170,7 @@ class LossyProxy:
 
 
 def test_upload_and_download_through_a_link_that_drops_every_fifth_datagram(stack, vehicle):
-    proxy = LossyProxy(18570 + INSTANCE)  # the vehicle's ground-station socket
+    proxy = LossyProxy(ports.gcs_local_port(INSTANCE))  # the vehicle's ground-station socket
     items = parse_qgc_plan(_plan_text((5.0, 5.0))).mission
     items = [items[0]] + [
         mi.MissionItem(k, 3, 16, 0, 0, 0, float("nan"), *[round(v * 1e7) for v in latlon(k, -k)], 6.0)

@@ -26,6 +26,8 @@ from mavsdk.plugins import mission_raw as raw  # noqa: E402
 from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import closest_approach, latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -46,7 +48,7 @@ def waypoint(north: float, east: float, alt: float, speed: float = NAN) -> Missi
 
 async def _session(body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel = TelemetryAsync(system)

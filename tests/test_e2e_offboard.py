@@ -34,6 +34,8 @@ from mavsdk.asyncio.plugins.offboard import (  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
+from mavsim_core import ports
+
 from e2e_flight_helpers import latlon, sim_ms, sim_sleep, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -115,7 +117,7 @@ async def _texts(tel, into: list[str]) -> None:
 async def _flight(truth) -> dict:
     out: dict = {}
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{14540 + INSTANCE}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action, offboard = TelemetryAsync(system), ActionAsync(system), OffboardAsync(system)

@@ -10,16 +10,15 @@ One max-speed stack (module scope, instance from tests/instances.py) started wit
   (these two driven by tests/e2e_params_clients.py).
 
 Every client talks *to* the flight controller's own sockets (``udpout`` to its
-ground-station socket, 18570 + instance, or its API socket, 14580 + instance) and so
+ground-station socket, 18570 + instance, or its API socket, 14640 + instance) and so
 becomes a peer that gets the replies, the way a ground station on another
 machine does.  None binds a fixed port: instance I's ground-station ports
-(14540 + I, 14550 + I) are also the sockets that instances I - 40 and I - 30 of the
-flight controller bind (14580 + I', ...), and benchmarks run such instances.
-``gcs --instance`` resolving to 14550 + I is tested in tests/test_gcs_cli.py.
+(14540 + I, 14840 + I) may also be bound by a person's clients.
+``gcs`` resolving to 14550 is tested in tests/test_gcs_cli.py.
 
 Every test leaves the parameters as it found them.  Wall-clock values are only
 "give up waiting" timeouts; the download time is measured and printed, never
-asserted.  The simulator's truth port (14560 + I) is turned off.
+asserted.  The simulator's truth port (14740 + I) is turned off.
 """
 
 from __future__ import annotations
@@ -48,13 +47,15 @@ from params.param_file import QGC, parse_param_text, read_param_file
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from mavsim_core import ports
+
 from e2e_params_clients import MAVPROXY, WAIT_S, MavproxySession, mavsdk_params  # tests/e2e_params_clients.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_params", "stack")
-FC_GCS_URL = f"udpout:127.0.0.1:{18570 + INSTANCE}"  # the flight controller's ground-station socket
-FC_API_PORT = 14580 + INSTANCE  # its API socket
+FC_GCS_URL = f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}"  # the flight controller's ground-station socket
+FC_API_PORT = ports.api_local_port(INSTANCE)  # its API socket
 
 STARTUP_PARAMS = (
     "# start-up file of the end-to-end test (QGroundControl format)\n"

@@ -5,7 +5,7 @@ LANDING_TARGET after its 50 ms latency) and ``autopilot`` (AUTO.PRECLAND) proces
 ground station: it arms, takes off, flies to the meeting point and sends MAV_CMD_NAV_LAND with
 param 2 (precision), as :mod:`gcs.launcher.landing_run` does for ``flight-demo --scenario
 ugv-landing``.  It scores with the simulator's truth (the multicopter's and the UGV's, UDP
-14560+I), never the flight controller's own belief.  Durations are simulated seconds.
+14740+I), never the flight controller's own belief.  Durations are simulated seconds.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
 from gcs.launcher.landing_run import PREP_ALT_M, LandingSetup, fly_landing
 from gcs.sim_client import SimClient
+from mavsim_core import ports
 from sitl.ugv_paths import Pose2
 
 from instances import instance  # tests/instances.py: every test's instance numbers
@@ -31,7 +32,7 @@ def _fly(setup: LandingSetup, inst: int):
         Stack(
             instance=inst, speed="max", vehicle=setup.vehicle, seed=setup.seed, extra_sitl_args=setup.sim_args()
         ) as stack,
-        SimClient(14560 + inst) as truth,
+        SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         return fly_landing(client, truth, setup, timeout_s=WAIT_S)
@@ -62,7 +63,7 @@ def test_target_lost_then_search_then_ordinary_landing():
     setup = LandingSetup(path="static", speed_m_s=0.0, ugv_start=Pose2(3.0, 0.0, 0.0), meet_offset_m=(0.0, 0.0))
     with (
         Stack(instance=inst, speed="max", seed=5, extra_sitl_args=setup.sim_args()) as stack,
-        SimClient(14560 + inst) as truth,
+        SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         texts: list[str] = []

@@ -16,6 +16,7 @@ import pytest
 
 from gcs.launcher import Stack
 from gcs.sim_client import SimClient, SimParamError
+from mavsim_core import ports
 
 from instances import instance
 
@@ -30,7 +31,7 @@ def _gcs(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
 
 def _ugv(seconds_of_sim: float = 0.0):
     """The UGV's truth after ``seconds_of_sim`` more simulated seconds (and its truth before)."""
-    with SimClient(14560 + INST) as sim:
+    with SimClient(ports.sim_component_port(INST)) as sim:
         sim.wait_connected(30)
         deadline = time.monotonic() + 30
         while (first := sim.ugv_latest()) is None and time.monotonic() < deadline:
@@ -60,7 +61,7 @@ def test_ugv_is_driven_by_keys_set_by_parameters_and_refuses_a_restart_parameter
         assert math.hypot(*b.vel_ned_m_s[:2]) == pytest.approx(1.5, abs=0.2)  # at the set speed
         assert abs(b.yaw_rad - a.yaw_rad) > 0.1  # and turning
 
-        with SimClient(14560 + INST) as sim:
+        with SimClient(ports.sim_component_port(INST)) as sim:
             sim.wait_connected(30)
             with pytest.raises(SimParamError, match="restart"):
                 sim.set("SIM_UGV_EN", 0)

@@ -17,6 +17,7 @@ import pytest
 from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
 from gcs.sim_client import SimClient
+from mavsim_core import ports
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
@@ -62,7 +63,7 @@ def land(client: VehicleClient) -> None:
 def firefly():
     with (
         Stack(instance=INSTANCE_FIREFLY, vehicle="firefly") as stack,
-        SimClient(14560 + INSTANCE_FIREFLY) as truth,
+        SimClient(ports.sim_component_port(INSTANCE_FIREFLY)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         yield client, truth
@@ -190,7 +191,7 @@ def test_quad_holds_position_in_the_windy_scenario():
     1 m/s turbulence, 2 m/s gusts)."""
     with (
         Stack(instance=INSTANCE_WINDY, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack,
-        SimClient(14560 + INSTANCE_WINDY) as truth,
+        SimClient(ports.sim_component_port(INSTANCE_WINDY)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         point = take_off(client, truth)

@@ -35,7 +35,7 @@ from instances import instance  # tests/instances.py: every test's instance numb
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-E2E_INSTANCE = instance("test_flight_log_plots", "e2e")  # TCP 4560+I; the flight controller binds UDP 14580+I, 18570+I
+E2E_INSTANCE = instance("test_flight_log_plots", "e2e")  # TCP 4560+I; the flight controller binds UDP 14640+I, 18570+I
 
 
 # --------------------------------------------------------------------------- plots

@@ -30,9 +30,12 @@ from mavsim_core import px4_modes as modes
 
 ROOT = Path(__file__).resolve().parent.parent
 
+from mavsim_core import ports
+
 from instances import instance  # tests/instances.py: every test's instance numbers
 
-NOBODY = instance("test_gcs_cli", "nobody")  # an instance no test starts: UDP 14550 + NOBODY stays silent
+NOBODY = instance("test_gcs_cli", "nobody")  # an instance no test starts: its own ground-station port stays silent
+NOBODY_URL = f"udpin:0.0.0.0:{ports.own_gcs_port(NOBODY)}"
 DEMO_INSTANCE = instance("test_gcs_cli", "demo")
 
 
@@ -177,7 +180,7 @@ def test_cli_parsing():
     a = p.parse_args(["status"])
     assert a.command == "status" and not a.once and resolve_url(a) == "udpin:0.0.0.0:14550"
     a = p.parse_args(["--instance", "3", "--timeout", "2.5", "status", "--once"])
-    assert a.once and a.timeout == 2.5 and resolve_url(a) == "udpin:0.0.0.0:14553"
+    assert a.once and a.timeout == 2.5 and resolve_url(a) == "udpin:0.0.0.0:14550" and a.instance == 3
     a = p.parse_args(["--url", "udpin:127.0.0.1:15000", "--instance", "3", "arm"])
     assert resolve_url(a) == "udpin:127.0.0.1:15000"
     assert math.isnan(p.parse_args(["takeoff"]).alt)
@@ -196,7 +199,7 @@ def test_cli_parsing():
 
 
 def test_unknown_mode_exits_1_without_connecting(capsys):
-    assert main(["--instance", str(NOBODY), "--timeout", "0.2", "mode", "GUIDED"]) == 1
+    assert main(["--url", NOBODY_URL, "--timeout", "0.2", "mode", "GUIDED"]) == 1
     assert "unknown mode 'GUIDED'" in capsys.readouterr().err
 
 
@@ -204,15 +207,15 @@ def test_unknown_mode_exits_1_without_connecting(capsys):
 
 
 def test_arm_without_vehicle_times_out_with_exit_2(capsys):
-    assert main(["--instance", str(NOBODY), "--timeout", "0.5", "arm"]) == 2
+    assert main(["--url", NOBODY_URL, "-i", str(NOBODY), "--timeout", "0.5", "arm"]) == 2
     err = capsys.readouterr().err
     assert "timed out after 0.5 s waiting for a heartbeat from the vehicle" in err
-    assert f"udpin:0.0.0.0:{14550 + NOBODY}" in err
+    assert NOBODY_URL in err and f"sysid {NOBODY + 1}," in err
 
 
 def test_python_m_gcs_arm_without_vehicle_exits_2():
     proc = subprocess.run(
-        [sys.executable, "-m", "gcs", "--instance", str(NOBODY), "--timeout", "0.5", "arm"],
+        [sys.executable, "-m", "gcs", "--url", NOBODY_URL, "--timeout", "0.5", "arm"],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -243,7 +246,7 @@ def test_status_line_without_data():
 
 def test_stack_ports_and_commands():
     s = Stack(instance=7, speed=2, vehicle="quad_x", extra_sitl_args=["--x"], home="1,2,3", seed=5)
-    assert (s.sitl_port, s.gcs_port, s.api_port) == (4567, 14557, 14547)
+    assert (s.sitl_port, s.gcs_port, s.api_port, s.sysid) == (4567, 14847, 14547, 8)  # own ground-station port
     assert s.api_url == "udpin:0.0.0.0:14547"
     assert s.sitl_command()[1:] == [
         "-m",
@@ -260,7 +263,17 @@ def test_stack_ports_and_commands():
         "5",
         "--x",
     ]
-    assert s.autopilot_command()[1:] == ["-m", "autopilot", "--vehicle", "quad_x", "--instance", "7"]
+    assert s.autopilot_command()[1:] == [
+        "-m",
+        "autopilot",
+        "--vehicle",
+        "quad_x",
+        "--instance",
+        "7",
+        "--gcs-port",
+        "14847",
+    ]
+    assert Stack(instance=7, gcs_port=14550).autopilot_command()[-2:] == ["--gcs-port", "14550"]  # flight-demo
     assert Stack().speed == "max"
 
 

@@ -24,6 +24,7 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from autopilot.mavlink.link import GcsLink  # noqa: E402
 from autopilot.topics import BatteryState, VehicleEstimate  # noqa: E402
+from mavsim_core import ports
 
 from gcs_link_harness import (  # tests/gcs_link_harness.py
     GCS_COMP,
@@ -37,7 +38,7 @@ from gcs_link_harness import (  # tests/gcs_link_harness.py
 )
 from instances import instance  # tests/instances.py: every test's instance numbers
 
-# This file's six instances: GcsLink binds UDP 14580+I and 18570+I, its clients 14540+I and 14550+I.
+# This file's six instances: GcsLink binds UDP 14640+I and 18570+I, its clients 14540+I and 14840+I.
 LINK = [instance("test_gcs_link_commands", f"link{k}") for k in range(6)]
 
 
@@ -129,8 +130,8 @@ def test_garbage_does_not_break_the_link(make_harness):
     ]
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         for j in junk:
-            s.sendto(j, ("127.0.0.1", 18570 + h.instance))
-        s.sendto(b"junk" + good, ("127.0.0.1", 18570 + h.instance))  # junk then a good packet
+            s.sendto(j, ("127.0.0.1", ports.gcs_local_port(h.instance)))
+        s.sendto(b"junk" + good, ("127.0.0.1", ports.gcs_local_port(h.instance)))  # junk then a good packet
     h.pump(0.2)
     assert h.link.rx_errors >= 4
     command_long(c, mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
@@ -150,7 +151,7 @@ def test_both_endpoints_and_peers_get_telemetry(make_harness):
         s.setblocking(False)
         mav = mavlink.MAVLink(None, 254, 191)
         hb = mav.heartbeat_encode(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-        s.sendto(hb.pack(mav), ("127.0.0.1", 14580 + h.instance))
+        s.sendto(hb.pack(mav), ("127.0.0.1", ports.api_local_port(h.instance)))
         h.pump(1.5)
         parser = mavlink.MAVLink(None)
         types = set()

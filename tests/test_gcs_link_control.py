@@ -34,7 +34,7 @@ from autopilot.mavlink import link as link_module  # noqa: E402
 from gcs_link_harness import DT_US, GCS_COMP, GCS_SYS, command_long  # tests/gcs_link_harness.py
 from instances import instance  # tests/instances.py
 
-LINK = instance("test_gcs_link_control", "link")  # GcsLink binds UDP 14580+I and 18570+I
+LINK = instance("test_gcs_link_control", "link")  # GcsLink binds UDP 14640+I and 18570+I
 AUTOPILOT_VERSION = mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION
 REQUEST_MESSAGE = mavlink.MAV_CMD_REQUEST_MESSAGE
 GENEROUS_BUDGET_S = 1.0  # a safety net: every queued datagram is handled on any machine

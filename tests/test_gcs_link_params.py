@@ -25,7 +25,7 @@ from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes  #
 from gcs_link_harness import StubVehicle, make_params, of_type  # tests/gcs_link_harness.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
-# This file's four instances: GcsLink binds UDP 14580+I and 18570+I, its clients 14540+I and 14550+I.
+# This file's four instances: GcsLink binds UDP 14640+I and 18570+I, its clients 14540+I and 14840+I.
 LINK = [instance("test_gcs_link_params", f"link{k}") for k in range(4)]
 
 

@@ -37,7 +37,7 @@ from gcs_link_harness import (  # tests/gcs_link_harness.py
 )
 from instances import instance  # tests/instances.py: every test's instance numbers
 
-# This file's six instances: GcsLink binds UDP 14580+I and 18570+I, its clients 14540+I and 14550+I.
+# This file's six instances: GcsLink binds UDP 14640+I and 18570+I, its clients 14540+I and 14840+I.
 LINK = [instance("test_gcs_link_telemetry", f"link{k}") for k in range(6)]
 
 

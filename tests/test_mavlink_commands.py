@@ -3,7 +3,7 @@
 The table's vehicle rows run on a real commander; the last test sends every command of
 the table, and one it does not know, to a real :class:`GcsLink` serving a real (idle)
 flight controller over loopback UDP (instance from tests/instances.py; the client listens on
-14550 + instance), and checks that each gets exactly one COMMAND_ACK with a MAV_RESULT.
+14840 + instance), and checks that each gets exactly one COMMAND_ACK with a MAV_RESULT.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from autopilot.mavlink import commands  # noqa: E402
 from autopilot.mavlink.link import GcsLink  # noqa: E402
 from autopilot.mavlink.vehicle_interface import FlightControllerVehicle  # noqa: E402
 from autopilot.param_catalogue import default_store  # noqa: E402
+from mavsim_core import ports
 from params.vehicle import load_vehicle  # noqa: E402
 
 from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
@@ -112,9 +113,9 @@ def test_command_int_coordinates():
 
 def test_every_command_gets_one_ack_over_udp():
     fc = FlightController(load_vehicle("quad_x"), default_store())
-    link = GcsLink(FlightControllerVehicle(fc), instance=INSTANCE)
+    link = GcsLink(FlightControllerVehicle(fc), instance=INSTANCE, gcs_port=ports.own_gcs_port(INSTANCE))
     client = mavutil.mavlink_connection(
-        f"udpin:127.0.0.1:{14550 + INSTANCE}", source_system=255, source_component=190, dialect="common"
+        f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", source_system=255, source_component=190, dialect="common"
     )
     t_us = 0
     got: list = []

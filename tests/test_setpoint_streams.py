@@ -28,11 +28,12 @@ from autopilot.topics import (  # noqa: E402
     LandedState,
     TelemetrySnapshot,
 )
+from mavsim_core import ports
 from mavsim_core.quaternion import from_euler  # noqa: E402
 
 from instances import instance  # tests/instances.py: every test's instance numbers
 
-LINK_INSTANCE = instance("test_setpoint_streams", "link")  # GcsLink binds UDP 14580+I, 18570+I; the client 14550+I
+LINK_INSTANCE = instance("test_setpoint_streams", "link")  # GcsLink binds UDP 14640+I, 18570+I; the client 14840+I
 
 
 # --------------------------------------------------------------------------- ground-station streams
@@ -105,9 +106,9 @@ def test_link_streams_attitude_and_position_targets():
     q_sp = from_euler(0.1, -0.05, 1.0)
     control = _control_setpoints(q_sp)
     vehicle = _Vehicle(_snapshot(control))
-    link = GcsLink(vehicle, instance=instance)
+    link = GcsLink(vehicle, instance=instance, gcs_port=ports.own_gcs_port(instance))
     client = mavutil.mavlink_connection(
-        f"udpin:127.0.0.1:{14550 + instance}", source_system=255, source_component=190, dialect="common"
+        f"udpin:127.0.0.1:{ports.own_gcs_port(instance)}", source_system=255, source_component=190, dialect="common"
     )
     got: list = []
     t = [0]

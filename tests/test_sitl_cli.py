@@ -17,6 +17,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
+from mavsim_core import ports
 from mavsim_core.param_encoding import INT32, REAL32  # noqa: E402
 from sitl import __main__ as sitl_main  # noqa: E402
 
@@ -73,7 +74,7 @@ def test_cli_bad_scenario_file_exits_2(tmp_path, capsys):
 @pytest.mark.e2e
 def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(tmp_path):
     instance = SITL_INSTANCE
-    port = 14560 + instance
+    port = ports.sim_component_port(instance)
     client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYS, source_component=GCS_COMP)
     log_path = tmp_path / "sitl.log"
     log = open(log_path, "w")  # the child's; read through log_path (seeking this would move the child's offset)
@@ -100,7 +101,7 @@ def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(
     try:
         hb = client.recv_match(type="HEARTBEAT", blocking=True, timeout=60)
         assert hb is not None, f"no HEARTBEAT from sitl:\n{log_path.read_text()}"
-        assert (hb.get_srcSystem(), hb.get_srcComponent()) == (1, 51)
+        assert (hb.get_srcSystem(), hb.get_srcComponent()) == (ports.system_id(instance), 51)
 
         def exchange(send, name):
             for _ in range(5):  # UDP: retry as a ground station would
@@ -112,13 +113,25 @@ def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(
                     return m
             raise AssertionError(f"no PARAM_VALUE for {name}")
 
-        m = exchange(lambda: client.mav.param_request_read_send(1, 51, b"SIM_WIND_DIR", -1), "SIM_WIND_DIR")
+        m = exchange(
+            lambda: client.mav.param_request_read_send(ports.system_id(instance), 51, b"SIM_WIND_DIR", -1),
+            "SIM_WIND_DIR",
+        )
         assert m.param_value == 270.0  # from the scenario
-        m = exchange(lambda: client.mav.param_request_read_send(1, 51, b"SIM_GPS_LAG_MS", -1), "SIM_GPS_LAG_MS")
+        m = exchange(
+            lambda: client.mav.param_request_read_send(ports.system_id(instance), 51, b"SIM_GPS_LAG_MS", -1),
+            "SIM_GPS_LAG_MS",
+        )
         assert value_of(m) == 80  # from --param
-        m = exchange(lambda: client.mav.param_set_send(1, 51, b"SIM_WIND_SPD", 3.0, REAL32), "SIM_WIND_SPD")
+        m = exchange(
+            lambda: client.mav.param_set_send(ports.system_id(instance), 51, b"SIM_WIND_SPD", 3.0, REAL32),
+            "SIM_WIND_SPD",
+        )
         assert m.param_value == 3.0
-        m = exchange(lambda: client.mav.param_set_send(1, 51, b"SIM_ENGINE_FAIL", 2.0, INT32), "SIM_ENGINE_FAIL")
+        m = exchange(
+            lambda: client.mav.param_set_send(ports.system_id(instance), 51, b"SIM_ENGINE_FAIL", 2.0, INT32),
+            "SIM_ENGINE_FAIL",
+        )
         assert value_of(m) == 2
         assert proc.poll() is None
     finally:

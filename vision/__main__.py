@@ -27,13 +27,12 @@ from pathlib import Path
 import cv2
 from pymavlink.dialects.v20 import common as mavlink
 
+from mavsim_core import ports
 from vision.annotate import annotate
 from vision.camera_model import CameraModel, load_calibration, pinhole
 from vision.detector import MarkerDetector
 from vision.landing_target import CameraMount, landing_target_message
 from vision.marker import MARKER_ID, MARKER_SIZE_M
-
-FC_API_PORT = 14580  # the flight controller's API socket of instance 0 (it answers whoever talks to it)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -44,11 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--calibration", metavar="FILE", help="OpenCV calibration (YAML/XML/JSON)")
     p.add_argument("--hfov", type=float, default=90.0, metavar="DEG", help="ideal lens' horizontal FOV (default 90)")
     p.add_argument("--mount-frd", default="0,0,0.12", metavar="X,Y,Z", help="camera from the reference point, m")
-    p.add_argument(
-        "--to", default=None, metavar="HOST:PORT", help=f"flight controller (default 127.0.0.1:{FC_API_PORT}+I)"
-    )
-    p.add_argument("--instance", "-i", type=int, default=0, help="adds N to the default port")
-    p.add_argument("--system", type=int, default=1, help="the vehicle's MAVLink system id (default 1)")
+    p.add_argument("--to", default=None, metavar="HOST:PORT", help="the flight controller (default 127.0.0.1:14640+I)")
+    p.add_argument("--instance", "-i", type=int, default=0, help="the vehicle's instance N (PX4's -i)")
+    p.add_argument("--system", type=int, default=None, help="the vehicle's MAVLink system id (default 1+N)")
     p.add_argument("--marker-id", type=int, default=MARKER_ID)
     p.add_argument("--marker-size", type=float, default=MARKER_SIZE_M, metavar="M")
     p.add_argument("--save-annotated", metavar="DIR", help="write annotated frames here")
@@ -59,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _target(text: str | None, instance: int) -> tuple[str, int]:
     if text is None:
-        return "127.0.0.1", FC_API_PORT + instance
+        return "127.0.0.1", ports.api_local_port(instance)
     host, _, port = text.rpartition(":")
     return host or "127.0.0.1", int(port)
 
@@ -85,7 +82,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"vision: cannot open {args.video or f'camera {args.camera}'}", file=sys.stderr)
         return 1
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    mav = mavlink.MAVLink(None, args.system, mavlink.MAV_COMP_ID_ONBOARD_COMPUTER)
+    system = args.system if args.system is not None else ports.system_id(args.instance)
+    mav = mavlink.MAVLink(None, system, mavlink.MAV_COMP_ID_ONBOARD_COMPUTER)
     save = Path(args.save_annotated) if args.save_annotated else None
     if save:
         save.mkdir(parents=True, exist_ok=True)

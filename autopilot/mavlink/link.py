@@ -1,11 +1,11 @@
 """Ground-station side of the flight controller: MAVLink over UDP, as PX4 SITL does it.
 
-Two UDP endpoints, offset by the instance number like PX4's ``-i``:
+Two UDP endpoints, with the ports of PX4's multi-vehicle scheme for instance i
+(:mod:`mavsim_core.ports`) unless given:
 
-* "gcs": bound to 0.0.0.0:(local_gcs_port + i), telemetry to 127.0.0.1:(gcs_port + i)
-  (QGroundControl listens on 14550);
-* "api": bound to 0.0.0.0:(local_api_port + i), telemetry to 127.0.0.1:(api_port + i)
-  (MAVSDK listens on 14540).
+* "gcs": bound to 0.0.0.0:18570+i, telemetry to 127.0.0.1:14550, shared by every instance
+  (QGroundControl listens there and shows each instance's system id as its own vehicle);
+* "api": bound to 0.0.0.0:14640+i, telemetry to 127.0.0.1:14540+i (MAVSDK listens there).
 
 Whoever talks to an endpoint becomes (also) a destination of it, so replies reach clients on
 any port.  The link has no flight logic: telemetry comes from :meth:`VehicleInterface.snapshot`
@@ -41,6 +41,7 @@ from autopilot.mavlink.param_service import ParamService
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION, DEFAULT_STREAM_RATES_HZ
 from autopilot.mavlink.telemetry_streams import TelemetryStreams
 from autopilot.mavlink.vehicle_interface import VehicleInterface
+from mavsim_core import ports
 from mavsim_core.statustext import StatustextChunker
 
 log = logging.getLogger(__name__)
@@ -68,10 +69,10 @@ class GcsLink:
         instance: int = 0,
         sysid: int = 1,
         compid: int = 1,
-        gcs_port: int = 14550,
-        api_port: int = 14540,
-        local_gcs_port: int = 18570,
-        local_api_port: int = 14580,
+        gcs_port: int | None = None,
+        api_port: int | None = None,
+        local_gcs_port: int | None = None,
+        local_api_port: int | None = None,
         *,
         remote_host: str = "127.0.0.1",
         bind_host: str = "0.0.0.0",
@@ -86,6 +87,7 @@ class GcsLink:
         uid: int | None = None,
     ) -> None:
         """
+        Ports not given are those of ``instance`` (:mod:`mavsim_core.ports`); ``sysid`` is as given.
         ``stream_rates_hz``: message id -> rate (Hz of simulated time) for the streams on
         both endpoints, replacing :data:`DEFAULT_STREAM_RATES_HZ` entries (0 disables).
         The AUTOPILOT_VERSION fields are reported as given; ``uid`` defaults to a
@@ -103,11 +105,12 @@ class GcsLink:
         intervals = {mid: (int(round(1e6 / hz)) if hz > 0 else -1) for mid, hz in rates.items()}
         self._endpoints: list[LinkEndpoint] = []
         try:
-            for name, local, remote in (("gcs", local_gcs_port, gcs_port), ("api", local_api_port, api_port)):
+            for name, local, remote in (
+                ("gcs", local_gcs_port or ports.gcs_local_port(instance), gcs_port or ports.GCS_PORT),
+                ("api", local_api_port or ports.api_local_port(instance), api_port or ports.api_port(instance)),
+            ):
                 self._endpoints.append(
-                    LinkEndpoint(
-                        name, (bind_host, local + instance), (remote_host, remote + instance), sysid, compid, intervals
-                    )
+                    LinkEndpoint(name, (bind_host, local), (remote_host, remote), sysid, compid, intervals)
                 )
         except OSError:
             self.close()

@@ -24,6 +24,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+from mavsim_core import ports
+
 from ..client import VehicleClient
 from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
 from ..sim_client import SimClient
@@ -36,7 +38,7 @@ ARRIVAL_SPEED_M_S = 0.5
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flight-demo", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--instance", type=int, default=0, help="instance number: offsets every port (default 0)")
+    parser.add_argument("--instance", type=int, default=0, help="instance N (PX4's -i): system id 1+N (default 0)")
     parser.add_argument(
         "--speed", default=None, help="simulation speed: 'max' or a real-time factor (default max; 1 with --wait)"
     )
@@ -279,6 +281,7 @@ def main(argv: list[str] | None = None) -> int:
         log_dir=args.log_dir,
         sitl_module=args.sitl_module,
         autopilot_module=args.autopilot_module,
+        gcs_port=ports.GCS_PORT,  # where QGroundControl listens, as PX4 SITL
     )
     demo = None
     client = None
@@ -334,7 +337,7 @@ def main(argv: list[str] | None = None) -> int:
 def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: Stack) -> int:
     """``--scenario ugv-landing``: one precision landing on the UGV; exit 0 only if it stayed on the deck."""
     demo.step = "precision landing on the UGV"
-    with SimClient(14560 + stack.instance) as truth:
+    with SimClient(ports.sim_component_port(stack.instance)) as truth:
         result = fly_landing(client, truth, setup, say=demo.say, timeout_s=demo.args.step_timeout)
     print(f"touchdown error: {result.touchdown_error_m:.3f} m")
     print(f"time to land: {result.time_to_land_s:.1f} s (simulated, from NAV_LAND to the motors cut)")

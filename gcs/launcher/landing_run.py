@@ -10,7 +10,7 @@ required) and wait until the flight controller cuts the motors on the deck.  Not
 steers the multicopter towards the UGV: the camera, the vision companion and the flight
 controller's landing state machine do.
 
-Scoring (simulator truth on UDP 14560+I, NED metres from the multicopter's start point): the
+Scoring (simulator truth on UDP 14740+I, NED metres from the multicopter's start point): the
 touchdown error is the horizontal distance from the multicopter's centre to the marker's centre
 at the disarm; success means disarmed on the deck and still on it ``STAY_ON_DECK_S`` later (its
 centre within the deck's square, above the ground).

@@ -7,7 +7,7 @@ Used by ``flight-demo``, the end-to-end tests and the benchmarks::
         ...
 
 The simulator starts first; the flight controller is started once the
-simulator listens on its TCP port (4560 + instance), checked through
+simulator listens on its TCP port (4560 + instance, :mod:`mavsim_core.ports`), checked through
 ``/proc/net/tcp`` so no probe connection steals the simulator's accept.  Each
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
 ``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given); the
@@ -32,11 +32,9 @@ from collections import deque
 from pathlib import Path
 from typing import Sequence
 
-PROJECT_ROOT = Path(__file__).resolve().parents[2]  # the checkout: gcs/launcher/stack.py -> ../../..
+from mavsim_core import ports
 
-SITL_BASE_PORT = 4560
-GCS_BASE_PORT = 14550
-API_BASE_PORT = 14540
+PROJECT_ROOT = Path(__file__).resolve().parents[2]  # the checkout: gcs/launcher/stack.py -> ../../..
 
 
 def _die_with_parent() -> None:
@@ -86,7 +84,11 @@ class Stack:
 
     Parameters
     ----------
-    instance: offsets every port (TCP 4560+I, UDP 14550+I, UDP 14540+I), as PX4's ``-i``.
+    instance: PX4's ``-i`` (:mod:`mavsim_core.ports`): system id 1+I, TCP 4560+I, API link to UDP
+        14540+I, ground-station link to UDP 14550 (shared by every instance).
+    gcs_port: where the flight controller sends its ground-station link; default
+        ``ports.own_gcs_port(I)`` (14840+I), so stacks side by side (tests, benchmarks) each have their
+        own; ``ports.GCS_PORT`` (14550) for QGroundControl, as ``flight-demo`` does.
     speed: simulation speed, ``"max"`` or a real-time factor (1 = real time).
     vehicle: vehicle file name (``quad_x``).
     extra_sitl_args, extra_autopilot_args: appended to each command line.
@@ -117,8 +119,10 @@ class Stack:
         sitl_module: str = "sitl",
         autopilot_module: str = "autopilot",
         flight_logs: bool = True,
+        gcs_port: int | None = None,
     ) -> None:
         self.instance = int(instance)
+        self._gcs_port = gcs_port
         self.speed = str(speed)
         self.vehicle = vehicle
         self.extra_sitl_args = list(extra_sitl_args)
@@ -141,22 +145,22 @@ class Stack:
     @property
     def sitl_port(self) -> int:
         """TCP port the simulator listens on for the flight controller."""
-        return SITL_BASE_PORT + self.instance
+        return ports.sim_tcp_port(self.instance)
 
     @property
     def gcs_port(self) -> int:
         """UDP port the flight controller sends ground-station telemetry to (QGroundControl)."""
-        return GCS_BASE_PORT + self.instance
+        return self._gcs_port if self._gcs_port is not None else ports.own_gcs_port(self.instance)
 
     @property
     def api_port(self) -> int:
         """UDP port the flight controller sends API telemetry to (MAVSDK, this package's demo)."""
-        return API_BASE_PORT + self.instance
+        return ports.api_port(self.instance)
 
     @property
     def sysid(self) -> int:
-        """MAVLink system id of the flight controller."""
-        return 1
+        """MAVLink system id of the flight controller (and of the simulator's component)."""
+        return ports.system_id(self.instance)
 
     @property
     def gcs_url(self) -> str:
@@ -193,8 +197,10 @@ class Stack:
         return cmd + self._log_dir_args("sitl") + self.extra_sitl_args
 
     def autopilot_command(self) -> list[str]:
+        gcs = ["--gcs-port", str(self.gcs_port)]
         return (
             [self.python, "-m", *self.autopilot_module, "--vehicle", self.vehicle, "--instance", str(self.instance)]
+            + gcs
             + self._log_dir_args("autopilot")
             + self.extra_autopilot_args
         )
