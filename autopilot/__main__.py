@@ -156,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     saver = _prepare_parameters(params, args, spec.name)
     if saver is False:
         return 2
-    fc = FlightController(spec, params)
+    fc = FlightController(spec, params, sysid=args.sysid)
     fc.commander.param_saver = saver  # PREFLIGHT_STORAGE read/write (None without --state-dir)
     if args.state_dir:
         _keep_plans(fc, args, spec.name)

@@ -46,7 +46,7 @@ PARAMS: tuple[ParamDef, ...] = (
 
 
 class FlightController:
-    def __init__(self, spec: VehicleSpec, params: ParameterStore) -> None:
+    def __init__(self, spec: VehicleSpec, params: ParameterStore, sysid: int = 1) -> None:
         self.spec = spec
         self.params = params
         self.estimator = Estimator(params)
@@ -81,7 +81,7 @@ class FlightController:
         self._gps_pending: GpsSample | None = None  # the latest fix, for the next outer loop
         self._outer_slot: int | None = None  # the 20 ms slot the outer loops last ran in
         # LANDING_TARGET from a companion computer -> the landing target estimate (precision landing)
-        self.landing_target = LandingTargetInput(params)
+        self.landing_target = LandingTargetInput(params, own_sysid=sysid)  # a companion of this system only
         self._pos_ned_m = np.zeros(3)  # the latest outer-loop position estimate (for the target's history)
         self._vel_ned_m_s = np.zeros(3)
         self._pos_us = 0

@@ -59,13 +59,8 @@ def _positive(text: str) -> float:
     return value
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argparse parser of the ``gcs`` command."""
-    parser = argparse.ArgumentParser(
-        prog="gcs",
-        description="Command a PX4-like vehicle over MAVLink.",
-        epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.",
-    )
+def add_connection_options(parser: argparse.ArgumentParser) -> None:
+    """The options every command shares: where the vehicle is and how long to wait for it."""
     parser.add_argument(
         "--url",
         default=None,
@@ -87,6 +82,16 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="wall seconds to wait at each step (heartbeat, acknowledgement, effect); default: per step",
     )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of the ``gcs`` command."""
+    parser = argparse.ArgumentParser(
+        prog="gcs",
+        description="Command a PX4-like vehicle over MAVLink.",
+        epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.",
+    )
+    add_connection_options(parser)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("status", help="print mode, arming, position, speed, battery and GPS once a second")

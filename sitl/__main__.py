@@ -144,6 +144,33 @@ def _companion(sim, camera: CameraSettings, args: argparse.Namespace):
     )
 
 
+def _print_started(spec, args: argparse.Namespace, scenario: Scenario | None, server, truth) -> None:
+    """What was started, on stderr: vehicle, speed, home, scenario, the simulator's MAVLink component."""
+    speed = "max" if args.speed is None else f"{args.speed:g}x"
+    print(
+        f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
+        f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}",
+        file=sys.stderr,
+        flush=True,
+    )
+    if scenario is not None:
+        about = f": {scenario.description}" if scenario.description else ""
+        print(
+            f"[sitl] scenario {scenario.name}{about} ({len(scenario.parameters)} parameters, "
+            f"{len(scenario.events)} events)",
+            file=sys.stderr,
+            flush=True,
+        )
+    if server.param_server is not None:
+        port = server.param_server.local_address[1]
+        print(
+            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP port {port}, "
+            f"sending to {truth[0]}:{truth[1]}",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if not 0 <= args.instance <= ports.MAX_INSTANCE:
@@ -197,29 +224,7 @@ def main(argv: list[str] | None = None) -> int:
         except OSError as exc:
             print(f"sitl: cannot write ground-truth logs to {args.log_dir}: {exc}", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
-    speed = "max" if args.speed is None else f"{args.speed:g}x"
-    print(
-        f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
-        f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}",
-        file=sys.stderr,
-        flush=True,
-    )
-    if scenario is not None:
-        about = f": {scenario.description}" if scenario.description else ""
-        print(
-            f"[sitl] scenario {scenario.name}{about} ({len(scenario.parameters)} parameters, "
-            f"{len(scenario.events)} events)",
-            file=sys.stderr,
-            flush=True,
-        )
-    if server.param_server is not None:
-        port = server.param_server.local_address[1]
-        print(
-            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP port {port}, "
-            f"sending to {truth[0]}:{truth[1]}",
-            file=sys.stderr,
-            flush=True,
-        )
+    _print_started(spec, args, scenario, server, truth)
     try:
         server.run(args.duration)
     except KeyboardInterrupt:

@@ -60,7 +60,7 @@ def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
     start_ms = truth.latest().time_ms
     mavproxy = MavproxySession(f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", modules="wp,cmdlong")
     try:
-        mavproxy.expect(r"online system 1")
+        mavproxy.expect(rf"online system {ports.system_id(INSTANCE)}\b")
         mavproxy.send(f"wp load {path}")
         mavproxy.expect(r"ACCEPTED")
         mavproxy.send("wp list")

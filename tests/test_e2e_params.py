@@ -262,7 +262,8 @@ def test_qgc_file_round_trips_through_gcs_param_save_and_load(client, tmp_path):
     pf = read_param_file(saved)
     vehicle = {q.name: q for q in client.param_list()}
     assert pf.format == QGC and pf.problems == [] and len(pf.entries) == len(vehicle)
-    assert all(e.mav_type == vehicle[e.name].mav_type and e.sysid == 1 and e.compid == 1 for e in pf.entries)
+    sysid = ports.system_id(INSTANCE)  # QGroundControl writes the vehicle's system id into each line
+    assert all(e.mav_type == vehicle[e.name].mav_type and e.sysid == sysid and e.compid == 1 for e in pf.entries)
 
     client.param_set("MPC_XY_P", 1.1)
     client.param_set("SYS_AUTOSTART", 4004)
