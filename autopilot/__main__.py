@@ -180,13 +180,13 @@ def main(argv: list[str] | None = None) -> int:
         from autopilot.flight_recorder import FlightRecorder
 
         try:
-            recorder = FlightRecorder(args.log_dir, fc, instance=args.instance)
+            recorder = FlightRecorder(args.log_dir, fc, instance=args.instance, sysid=args.sysid)
             link.set_traffic_tap(recorder.tap)
         except OSError as exc:
             print(f"autopilot: cannot write flight logs to {args.log_dir}: {exc}; flying without logs", file=sys.stderr)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the logs like Ctrl-C
     sim = SimLink(args.sim_host, args.sim_port, args.sysid)
-    add_link_services(link, fc, sim, args)
+    add_link_services(link, fc, sim, args, recorder)
     print(
         f"[autopilot] vehicle {spec.name}, system id {args.sysid}, {len(params)} parameters, telemetry to "
         f"ground stations on UDP {args.gcs_port} (from {args.gcs_local_port}) and APIs on UDP {args.api_port} "

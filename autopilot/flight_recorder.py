@@ -9,7 +9,10 @@
   telemetry; the API endpoint's copy of a message the ground-station endpoint has
   just sent with the same content is left out, so each message is logged once.
 * ``DIR/<same stem>.fc.npy``: setpoints, estimates and motor outputs of every
-  control step (:mod:`autopilot.flight_log`).
+  control step (:mod:`autopilot.flight_log`);
+* ``DIR/<same stem>.ulg``: the flight as PX4 logs it (ULog, :mod:`autopilot.ulog_topics`), for
+  pyulog, Flight Review and PlotJuggler, served over MAVLink by
+  :mod:`autopilot.mavlink.log_service`; ``SDLOG_MODE`` -1 leaves it out.
 
 Names use the local wall-clock time of arming (like QGroundControl's tlogs); a
 second flight in the same second gets ``_2``, ``_3``...  This is process-loop code:
@@ -26,13 +29,26 @@ from collections import deque
 from pathlib import Path
 from typing import Callable
 
-from autopilot import flight_log
-from mavsim_core import tlog
+from autopilot import flight_log, ulog_topics
+from autopilot.parameters import ParamDef, param
+from autopilot.topics import ImuSample
+from mavsim_core import ports, tlog
 from mavsim_core.log_naming import flight_stem
+from mavsim_core.param_types import ParamType
 
 PREARM_S = 10.0  # simulated seconds of link traffic before arming kept in the flight's tlog
 PREARM_MAX_PACKETS = 20_000  # bound on that buffer whatever the clock does
 POST_DISARM_S = 1.0  # simulated seconds logged after disarming (the disarm ack, heartbeats)
+STATUSTEXT_ID = 253  # MAVLink message id: the vehicle's STATUSTEXTs become the ULog's logged strings
+ARM_TEXTS_US = 1_000_000  # the vehicle's STATUSTEXTs of the last second before arming go into the ULog too
+
+# The parameters this module reads (listed in autopilot/param_catalogue.py).
+PARAMS: tuple[ParamDef, ...] = (
+    param(
+        "SDLOG_MODE", 0, -1, 0, "", "ULog flight log (.ulg): -1 none, 0 from arming until disarming (PX4's other "
+        "modes are not supported); read at each arming", ParamType.INT32,
+    ),
+)  # fmt: skip
 
 
 def _say(text: str) -> None:
@@ -42,8 +58,9 @@ def _say(text: str) -> None:
 class FlightRecorder:
     """Watches arming; writes the tlog (fed by :meth:`tap`) and the control log (fed by :meth:`on_step`).
 
-    Wire it with ``link.set_traffic_tap(recorder.tap)`` and call ``recorder.on_step()``
-    after every ``FlightController.step``; :meth:`close` at exit.
+    Wire it with ``link.set_traffic_tap(recorder.tap)`` and call ``recorder.on_step(imu)``
+    after every ``FlightController.step``; :meth:`close` at exit.  ``sysid`` (default: the
+    instance's) and ``sys_uuid`` identify the vehicle in the ULog.
     """
 
     def __init__(
@@ -54,6 +71,8 @@ class FlightRecorder:
         every: int = 1,
         say: Callable[[str], None] = _say,
         epoch_s: Callable[[], float] = time.time,
+        sysid: int | None = None,
+        sys_uuid: str | None = None,
     ) -> None:
         self.log_dir = Path(log_dir)
         self.fc = fc
@@ -71,6 +90,10 @@ class FlightRecorder:
         self._gcs_sent: dict[int, bytes] = {}  # message id -> payload last sent on the "gcs" endpoint
         self.flights: list[str] = []  # stems of the flights logged so far
         self.disabled = False
+        self.sysid = sysid if sysid is not None else ports.system_id(instance)
+        self.sys_uuid = sys_uuid or f"4d415653{instance:08x}{self.sysid:08x}"  # "MAVS", instance, system id
+        self._ulog: ulog_topics.FlightULog | None = None
+        fc.params.subscribe(self._on_param)
 
     # -- inputs ---------------------------------------------------------------------
     def tap(self, now_us: int, endpoint: str, sent: bool, packet: bytes) -> None:
@@ -85,6 +108,8 @@ class FlightRecorder:
                         self._gcs_sent[ip[0]] = ip[1]
                     elif self._gcs_sent.get(ip[0]) == ip[1]:
                         return  # the API endpoint's copy of what the ground stations just got
+                    if ip[0] == STATUSTEXT_ID and self._ulog is not None:
+                        self._ulog.statustext(now_us, ip[1])
             if self._tlog is not None:
                 self._tlog.write(self._clock(now_us), packet)
             else:
@@ -95,8 +120,8 @@ class FlightRecorder:
         except Exception as exc:  # never let logging take the flight controller down
             self._fail(exc)
 
-    def on_step(self) -> None:
-        """After each control step: start, record or end the flight's logs."""
+    def on_step(self, imu: ImuSample | None = None) -> None:
+        """After each control step (``imu``: its raw sample, for the ULog): start, record or end the flight's logs."""
         if self.disabled:
             return
         try:
@@ -109,36 +134,67 @@ class FlightRecorder:
                 self._close_at_us = now + int(POST_DISARM_S * 1e6)
             if self._flog is not None:
                 self._flog.record()
+                if self._ulog is not None:
+                    self._ulog.record(imu)
                 if self._close_at_us is not None and now >= self._close_at_us:
                     self._close()
         except Exception as exc:
             self._fail(exc)
 
     # -- files ----------------------------------------------------------------------
+    def _on_param(self, name: str, value: float) -> None:
+        """A parameter changed: a 'P' message in the ULog being written."""
+        if self._ulog is not None and not self.disabled:
+            try:
+                self._ulog.parameter_changed(name, value)
+            except Exception as exc:
+                self._fail(exc)
+
     @property
     def active(self) -> bool:
         return self._flog is not None
 
+    @property
+    def writing(self) -> Path | None:
+        """The ULog being written now (the log service lists it and never erases it), or None."""
+        return self._ulog.path if self._ulog is not None else None
+
     def _open(self, now_us: int) -> None:
         epoch = self._epoch_s()
-        stem = flight_stem(self.log_dir, epoch, self.instance, (tlog.SUFFIX, flight_log.SUFFIX))
+        stem = flight_stem(self.log_dir, epoch, self.instance, (tlog.SUFFIX, flight_log.SUFFIX, ulog_topics.SUFFIX))
         self._clock = tlog.SimEpochClock(now_us, int(epoch * 1e6))
         self._tlog = tlog.TlogWriter(self.log_dir / (stem + tlog.SUFFIX))
         self._flog = flight_log.FlightLogWriter(self.log_dir / (stem + flight_log.SUFFIX), self.fc, self.every)
         self._close_at_us = None
+        if self.fc.params.get("SDLOG_MODE") >= 0:
+            self._ulog = ulog_topics.FlightULog(
+                self.log_dir / (stem + ulog_topics.SUFFIX),
+                self.fc,
+                now_us,
+                int(epoch * 1e6),
+                self.sysid,
+                sys_uuid=self.sys_uuid,
+            )
         for t_us, packet in self._pre:
             self._tlog.write(self._clock(t_us), packet)
+            if self._ulog is not None and now_us - t_us <= ARM_TEXTS_US:
+                ip = tlog.packet_id_and_payload(packet)
+                if ip is not None and ip[0] == STATUSTEXT_ID and packet[5] == self.sysid:  # ours: "Armed"...
+                    self._ulog.statustext(t_us, ip[1])
         self._pre.clear()
         self.flights.append(stem)
-        self.say(f"logging the flight to {self.log_dir / stem}{{{tlog.SUFFIX},{flight_log.SUFFIX}}}")
+        suffixes = ",".join((tlog.SUFFIX, flight_log.SUFFIX) + ((ulog_topics.SUFFIX,) if self._ulog else ()))
+        self.say(f"logging the flight to {self.log_dir / stem}{{{suffixes}}}")
 
     def _close(self) -> None:
-        t, f = self._tlog, self._flog
-        self._tlog = self._flog = None
+        t, f, u = self._tlog, self._flog, self._ulog
+        self._tlog = self._flog = self._ulog = None
         self._close_at_us = None
         try:
             if t is not None:
                 t.close()
+            if u is not None:
+                u.close()
         finally:
             if f is not None:
                 f.close()

@@ -11,9 +11,25 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from autopilot.flight_controller import FlightController
+    from autopilot.flight_recorder import FlightRecorder
     from autopilot.mavlink.link import GcsLink
     from autopilot.mavlink.sim_link import SimLink
 
 
-def add_link_services(link: GcsLink, fc: FlightController, sim: SimLink, args: argparse.Namespace) -> None:
-    """Add every service to ``link`` (``args``: the process's parsed command line)."""
+def add_link_services(
+    link: GcsLink, fc: FlightController, sim: SimLink, args: argparse.Namespace, recorder: FlightRecorder | None = None
+) -> None:
+    """Add every service to ``link`` (``args``: the process's parsed command line; ``recorder``: the flight
+    logs being written, None without)."""
+    from pathlib import Path
+
+    from autopilot.mavlink.log_service import LogService
+
+    # The log protocol: the ULogs in --log-dir (none with --no-log, or if the directory could not be made).
+    log_dir = None if args.no_log or recorder is None else Path(args.log_dir)
+    link.add_service(LogService(log_dir, args.instance, lambda: recorder.writing if recorder is not None else None))
+
+    from autopilot.mavlink.follow_target_input import FollowTargetInput
+
+    # FOLLOW_TARGET (MAVSDK FollowMe, the ground vehicle's broadcast) -> the target AUTO.FOLLOW_TARGET follows.
+    link.add_service(FollowTargetInput(fc.commander.inputs, lambda: link.now_us, link.send_statustext))

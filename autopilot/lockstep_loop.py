@@ -55,7 +55,7 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 live = fc.commander.status.armed or fc.commander.motor_test_run is not None  # DO_MOTOR_TEST
                 sim.send_actuators(now_us, commands, live)
                 if recorder is not None:
-                    recorder.on_step()
+                    recorder.on_step(imu)
                 # While the simulator steps its physics: the outer loops, and in another
                 # period the ground-station link (both 50 Hz), so the two never add up.
                 fc.wall_s = time.monotonic()  # the input-loss timers also measure the clients' clock

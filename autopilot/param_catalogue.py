@@ -11,11 +11,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot import flight_controller, landing_target_input
+from autopilot import flight_controller, flight_recorder, landing_target_input
 from autopilot.commander import commander, failsafes, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.navigation import (
+    follow_target,
     geofence,
     goto,
     land,
@@ -55,8 +56,10 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     offboard.PARAMS,
     precland.PARAMS,
     orbit.PARAMS,
+    follow_target.PARAMS,
     landing_target_estimator.PARAMS,
     landing_target_input.PARAMS,
+    flight_recorder.PARAMS,
 )
 
 

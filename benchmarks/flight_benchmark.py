@@ -12,13 +12,15 @@ vehicle was armed).  Then it flies the demo square and lands.  It prints:
   the whole flight;
 - the landing error from the take-off point.
 
-Usage: ``python benchmarks/flight_benchmark.py [--instance N] [--hover S] [--vehicle NAME]``
+Usage: ``python benchmarks/flight_benchmark.py [--instance N] [--hover S] [--vehicle NAME] [--param NAME=VALUE]``
+(``--param SDLOG_MODE=-1``: the flight without its ULog, to measure what logging costs).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -62,9 +64,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--instance", type=int, default=20)
     ap.add_argument("--hover", type=float, default=30.0, help="hover duration, simulated seconds")
     ap.add_argument("--vehicle", default="quad_x")
+    ap.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="a flight-controller parameter")
     args = ap.parse_args(argv)
+    extra: list[str] = []
+    if args.param:
+        params_file = Path(tempfile.mkdtemp(prefix="flight-benchmark-")) / "benchmark.params"
+        params_file.write_text("".join(p.replace("=", " ", 1) + "\n" for p in args.param))  # MAVProxy's NAME VALUE
+        extra = ["--params", str(params_file)]
 
-    with Stack(instance=args.instance, speed="max", vehicle=args.vehicle) as stack:
+    with Stack(instance=args.instance, speed="max", vehicle=args.vehicle, extra_autopilot_args=extra) as stack:
         truth = Truth(ports.sim_component_port(args.instance))
         client = VehicleClient(stack.api_url, timeout_s=60, idle=lambda: (truth.pump(), stack.check_alive()))
         client.wait_until(client.prearm_ok, 120, "ready to arm")

@@ -1,7 +1,8 @@
 """``gcs ugv``: the simulated ground vehicle, through the simulator's own MAVLink port (UDP 14740+I).
 
 - ``gcs ugv status``: its truth (deck centre, NED m from the multicopter's start; speed; heading).
-- ``gcs ugv set --path circle --speed 1 --radius 2``: its ``SIM_UGV_*`` parameters (PARAM_SET).
+- ``gcs ugv set --path circle --speed 1 --radius 2``: its ``SIM_UGV_*`` parameters (PARAM_SET);
+  ``--follow-target on`` makes it broadcast FOLLOW_TARGET to the flight controller (``SIM_UGV_FLW``).
 - ``gcs ugv drive``: drive it from the keyboard, as [F 2.2] drives it with a joystick: MANUAL_CONTROL
   at 10 Hz to the simulator's component (x forward, r yaw, each -1000..1000).  Keys: w / s faster /
   slower (steps of 250), a / d turn left / right (steps of 250), space stop, q quit.  From a
@@ -37,6 +38,10 @@ def add_ugv_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--path", choices=tuple(PATHS), default=None)
     s.add_argument("--speed", type=float, default=None, metavar="M_S", help="m/s along the path (0-4)")
     s.add_argument("--radius", type=float, default=None, metavar="M", help="circle / figure-8 radius, m")
+    s.add_argument(
+        "--follow-target", choices=("on", "off"), default=None,
+        help="broadcast FOLLOW_TARGET to the flight controller, for AUTO.FOLLOW_TARGET (SIM_UGV_FLW)",
+    )  # fmt: skip
     d = u.add_parser("drive", help="drive it from the keyboard (w/s faster/slower, a/d turn, space stop, q quit)")
     d.add_argument("--duration", type=float, default=None, metavar="S", help="stop after this many wall seconds")
 
@@ -83,9 +88,10 @@ def _status(sim: SimClient) -> int:
 
 def _set(sim: SimClient, args: argparse.Namespace) -> int:
     values = {"SIM_UGV_PATH": PATHS.get(args.path), "SIM_UGV_SPD": args.speed, "SIM_UGV_RAD": args.radius}
+    values["SIM_UGV_FLW"] = {"on": 1, "off": 0}.get(args.follow_target)
     values = {k: v for k, v in values.items() if v is not None}
     if not values:
-        print("gcs: ugv set: give --path, --speed or --radius", file=sys.stderr)
+        print("gcs: ugv set: give --path, --speed, --radius or --follow-target", file=sys.stderr)
         return 1
     for name, value in values.items():
         print(f"{name} = {sim.set(name, value):g}")

@@ -78,6 +78,11 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         help="local UDP port of the simulator's MAVLink component; 0 = chosen by the OS",
     )
+    p.add_argument(
+        "--ugv-radio-port", type=int,
+        help="UDP port the ground vehicle's FOLLOW_TARGET goes to (SIM_UGV_FLW=1), on --truth-host: the flight "
+        "controller's API-side socket (default 14640+N)",
+    )  # fmt: skip
     p.add_argument("--home", type=parse_home, default=DEFAULT_HOME, help="LAT,LON,ALT of the start point")
     p.add_argument("--seed", type=int, default=0, help="random seed of the sensor noise")
     p.add_argument("--duration", type=float, default=None, help="stop after this many simulated seconds")
@@ -216,6 +221,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
         return 2
     server.companion = _companion(sim, camera, args)
+    if sim.ugv is not None:  # its telemetry radio: FOLLOW_TARGET while SIM_UGV_FLW = 1 (sitl/ugv_broadcast.py)
+        from sitl.ugv_broadcast import UgvRadio
+
+        port = args.ugv_radio_port or ports.api_local_port(args.instance)
+        server.ugv_radio = UgvRadio(ugv, (args.truth_host, port), ports.system_id(args.instance), args.home)
     if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
         from sitl.truth_log import TruthRecorder
 

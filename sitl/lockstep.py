@@ -113,11 +113,14 @@ class LockstepServer:
         self.steps = 0
         self.armed = False  # the flight controller's HIL_ACTUATOR_CONTROLS mode flag
         self.truth_log = None  # sitl.truth_log.TruthRecorder (sitl --log-dir): fed every period
+        self.ugv_radio = None  # sitl.ugv_broadcast.UgvRadio: the UGV's FOLLOW_TARGET (SIM_UGV_FLW), when it exists
 
     def close(self) -> None:
         if self.companion is not None:
             self.companion.close()
             self.companion = None
+        if self.ugv_radio is not None:
+            self.ugv_radio.close()
         for s in (self.conn, self.listener):
             if s is not None:
                 s.close()
@@ -251,6 +254,8 @@ class LockstepServer:
         """50 Hz of simulated time: scenario events, ground truth, parameter service."""
         if time_us >= self.events.next_us:
             self._apply_events(time_us)
+        if self.ugv_radio is not None:
+            self.ugv_radio.step(time_us, self.sim.ugv_truth)
         server = self.param_server
         if server is not None:
             self._send_truth(self.sim.truth())

@@ -230,6 +230,13 @@ class UgvSettings:
     speed_m_s: float = sim_param("SIM_UGV_SPD", 1.0, 0.0, 4.0, "m/s", "UGV speed along its path")
     radius_m: float = sim_param("SIM_UGV_RAD", 2.0, 0.5, 100.0, "m", "Radius of the UGV's circle and figure-8")
     accel_m_s2: float = sim_param("SIM_UGV_ACC", 1.5, 0.1, 5.0, "m/s^2", "UGV acceleration limit")
+    # The UGV's telemetry radio (sitl.ugv_broadcast): FOLLOW_TARGET to the flight controller, for AUTO.FOLLOW_TARGET.
+    follow_target: int = sim_param(
+        "SIM_UGV_FLW", 0, 0, 1, "",
+        "1: the UGV broadcasts its GPS position and velocity as FOLLOW_TARGET to the flight controller's API socket",
+        ParamType.INT32,
+    )  # fmt: skip
+    follow_rate_hz: float = sim_param("SIM_UGV_FLW_HZ", 5.0, 1.0, 50.0, "Hz", "Rate of the UGV's FOLLOW_TARGET")
 
     def start_pose(self):
         """The start pose as :class:`sitl.ugv_paths.Pose2` (NED m, yaw rad)."""

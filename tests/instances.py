@@ -19,8 +19,8 @@ from mavsim_core import ports as port_scheme
 
 PEOPLE = tuple(range(10))  # what someone runs by hand while the suite runs
 # landing_benchmark 11-19 (one per job), flight_benchmark 20, vehicle_benchmark 21+ (one per vehicle),
-# estimator 25, mission 26, command latency 27
-BENCHMARKS = (*range(11, 20), 20, 21, 22, 25, 26, 27)
+# estimator 25, mission 26, command latency 27, log download 28
+BENCHMARKS = (*range(11, 20), 20, 21, 22, 25, 26, 27, 28)
 
 INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_estimation": {"quad_x": 30},

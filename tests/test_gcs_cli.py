@@ -59,6 +59,7 @@ PX4_NUMBERS = {  # name: (main, sub), from PX4's px4_custom_mode.h
     "MISSION": (4, 4),
     "RTL": (4, 5),
     "LAND": (4, 6),
+    "FOLLOW_TARGET": (4, 8),
     "PRECLAND": (4, 9),
     "ACRO": (5, 0),
     "OFFBOARD": (6, 0),

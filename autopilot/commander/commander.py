@@ -57,7 +57,7 @@ PARAMS: tuple[ParamDef, ...] = (
 # Modes this flight controller can fly (POSCTL without sticks holds position).
 AVAILABLE = {
     Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO, Mode.OFFBOARD, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER,
-    Mode.AUTO_MISSION, Mode.AUTO_RTL, Mode.AUTO_LAND, Mode.AUTO_PRECLAND,
+    Mode.AUTO_MISSION, Mode.AUTO_RTL, Mode.AUTO_LAND, Mode.AUTO_PRECLAND, Mode.AUTO_FOLLOW_TARGET,
 }  # fmt: skip
 CLIMBS_FROM_GROUND = (Mode.AUTO_TAKEOFF, Mode.AUTO_MISSION)  # modes that take off by themselves
 # Modes whose task flies from the ground too: the pilot's sticks or offboard setpoints lift off.

@@ -1,10 +1,14 @@
-"""What arrives from outside the vehicle and steers it: sticks, offboard setpoints, ground-station heartbeats.
+"""What arrives from outside the vehicle and steers it: sticks, offboard setpoints, ground-station heartbeats,
+the target to follow.
 
 :class:`ExternalInputs` keeps the latest MANUAL_CONTROL (:class:`~autopilot.topics.ManualInput`),
 the latest offboard setpoint (:class:`~autopilot.topics.OffboardSetpoint`) with the arrival times
 of the recent ones (OFFBOARD may be entered only while they stream, as in PX4), and when a ground
-station's HEARTBEAT last arrived (the data-link-loss failsafe).  The link writes into it through the
-vehicle interface; the commander's mode tasks and failsafes read it.  Every arrival carries its
+station's HEARTBEAT last arrived (the data-link-loss failsafe), and the latest FOLLOW_TARGET
+(:class:`~autopilot.navigation.follow_target_estimator.FollowTargetFix`) of the sender being followed
+(:meth:`ExternalInputs.on_follow_target`).  The link writes into it through the vehicle interface
+(FOLLOW_TARGET: :mod:`autopilot.mavlink.follow_target_input`); the commander's mode tasks and
+failsafes read it.  Every arrival carries its
 simulated time (µs) and wall-clock time (s, time.monotonic): ages are
 :func:`autopilot.topics.input_age_s` of both.
 """
@@ -13,6 +17,7 @@ from __future__ import annotations
 
 from collections import deque
 
+from autopilot.navigation.follow_target_estimator import TARGET_TIMEOUT_S, FollowTargetFix
 from autopilot.topics import ManualInput, OffboardSetpoint, input_age_s
 
 OFFBOARD_HISTORY = 8  # arrival times kept to judge whether setpoints are streaming
@@ -26,6 +31,7 @@ class ExternalInputs:
         self.offboard: OffboardSetpoint | None = None
         self.offboard_arrivals: deque[tuple[int, float]] = deque(maxlen=OFFBOARD_HISTORY)  # (sim µs, wall s)
         self.gcs_heartbeat: tuple[int, float] | None = None  # (sim µs, wall s) of the latest
+        self.follow_target: FollowTargetFix | None = None  # the latest from the sender being followed
 
     def on_manual(self, sticks: ManualInput) -> None:
         self.manual = sticks
@@ -36,6 +42,17 @@ class ExternalInputs:
 
     def on_gcs_heartbeat(self, now_us: int, wall_s: float) -> None:
         self.gcs_heartbeat = (now_us, wall_s)
+
+    def on_follow_target(self, fix: FollowTargetFix) -> bool:
+        """Keep ``fix`` if its sender is the one followed, or that one has been silent for TARGET_TIMEOUT_S
+        (on both clocks): the first sender heard keeps the target until it goes silent.  Whether it was kept."""
+        cur = self.follow_target
+        if cur is not None and fix.source != cur.source:
+            age = input_age_s(cur.received_us, cur.received_wall_s, fix.received_us, fix.received_wall_s)
+            if age <= TARGET_TIMEOUT_S:
+                return False
+        self.follow_target = fix
+        return True
 
     # -- ages (s); None when the input never arrived
     def manual_age_s(self, now_us: int, wall_s: float | None) -> float | None:
@@ -49,6 +66,10 @@ class ExternalInputs:
     def gcs_age_s(self, now_us: int, wall_s: float | None) -> float | None:
         h = self.gcs_heartbeat
         return None if h is None else input_age_s(h[0], h[1], now_us, wall_s)
+
+    def follow_target_age_s(self, now_us: int, wall_s: float | None) -> float | None:
+        f = self.follow_target
+        return None if f is None else input_age_s(f.received_us, f.received_wall_s, now_us, wall_s)
 
     def offboard_streaming(self, now_us: int, wall_s: float | None, window_s: float, count: int = 2) -> bool:
         """At least ``count`` setpoints arrived within the last ``window_s`` (on either clock)."""

@@ -19,6 +19,7 @@ from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import mission_control
 from autopilot.navigation import LandTask, LoiterTask, ReturnTask, TakeoffTask, started
+from autopilot.navigation.follow_target import FollowTargetTask, fresh_target
 from autopilot.navigation.manual_modes import AcroTask, AltCtlTask, PosCtlTask, StabilizedTask
 from autopilot.navigation.offboard import OffboardTask, offboard_refusal
 from autopilot.navigation.precland import PrecLandConfig, PrecLandTask
@@ -108,6 +109,13 @@ def enter(c: Commander, mode: Mode, takeoff_down_m: float | None = None) -> int:
         cfg = PrecLandConfig.from_store(c.params)
         task = PrecLandTask(ground, c.params, cfg, c.precland_mode, feet_below_m=c.feet_below_m)
         c.task = started(task, e, c.now_us)
+    elif mode is Mode.AUTO_FOLLOW_TARGET:
+        if not (c.armed and c.in_air):
+            c.say(S.MAV_SEVERITY_CRITICAL, "Follow target denied: vehicle not flying")
+            return S.MAV_RESULT_DENIED
+        target = lambda: fresh_target(c.inputs, c.now_us, c.wall_s)  # noqa: E731
+        ground = c.home.pos_ned_m[2] if c.home else e.pos_ned_m[2]
+        c.task = started(FollowTargetTask(c.params, target, ground, c.say), e, c.now_us)
     c._switch_mode(mode)
     return S.MAV_RESULT_ACCEPTED
 
