@@ -42,8 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--state-dir",
         metavar="DIR",
-        help="save changed parameters in DIR/<vehicle>-<instance>.params and the uploaded mission, fence and "
-        "rally plans in DIR/<vehicle>-<instance>.plan.json, and load them at start-up "
+        help="save changed parameters in DIR/<vehicle>-<instance>.params, the uploaded mission, fence and "
+        "rally plans in DIR/<vehicle>-<instance>.plan.json and the MAVLink signing key (SETUP_SIGNING) in "
+        "DIR/<vehicle>-<instance>.signing, and load them at start-up "
         "(default: nothing saved, every run starts from the defaults)",
     )
     # -- flight logs (autopilot/flight_recorder.py)

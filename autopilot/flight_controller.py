@@ -69,6 +69,7 @@ class FlightController:
         self.sat_pos = np.zeros(3, dtype=bool)
         self.sat_neg = np.zeros(3, dtype=bool)
         self.last_us: int | None = None
+        self.last_imu: ImuSample | None = None  # the sample of the latest step (HIGHRES_IMU)
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
         self.rate_sp = np.zeros(3)
         self.thrust_vec = np.zeros(3)  # wanted thrust vector, N NED (position or attitude setpoints)
@@ -107,7 +108,7 @@ class FlightController:
         if self.commander.reboot_pending:  # PREFLIGHT_REBOOT_SHUTDOWN: the commander restarted itself
             self._restart()
         dt = LOCKSTEP_DT_S if self.last_us is None else (now - self.last_us) * 1e-6
-        self.last_us = now
+        self.last_us, self.last_imu = now, imu
         self.estimator.update_imu(imu)
         if gps is not None:
             self.estimator.update_gps(gps)

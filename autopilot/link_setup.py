@@ -29,7 +29,25 @@ def add_link_services(
     log_dir = None if args.no_log or recorder is None else Path(args.log_dir)
     link.add_service(LogService(log_dir, args.instance, lambda: recorder.writing if recorder is not None else None))
 
+    from autopilot.mavlink.file_services import add_file_services
+
+    # MAVLink FTP, read-only (/log: the same directory; /component_metadata) and COMPONENT_METADATA.
+    add_file_services(link, fc.params, log_dir, fc.spec.name)
+
     from autopilot.mavlink.follow_target_input import FollowTargetInput
 
     # FOLLOW_TARGET (MAVSDK FollowMe, the ground vehicle's broadcast) -> the target AUTO.FOLLOW_TARGET follows.
     link.add_service(FollowTargetInput(fc.commander.inputs, lambda: link.now_us, link.send_statustext))
+
+    from autopilot.mavlink.failure_injection import FailureInjection, SimParamBridge
+
+    # MAV_CMD_INJECT_FAILURE (SYS_FAILURE_EN): the simulator's SIM_* faults, set over the simulator link.
+    link.add_service(FailureInjection(fc.params, SimParamBridge(sim), len(fc.spec.rotors), link.send_statustext))
+
+    from autopilot.mavlink.signing import SigningService
+    from autopilot.signing_storage import signing_file
+
+    # MAVLink 2 signing: SETUP_SIGNING sets the key of both endpoints, kept in --state-dir (docs/security.md).
+    key_file = signing_file(args.state_dir, fc.spec.name, args.instance) if args.state_dir else None
+    what = f"{fc.spec.name} instance {args.instance}"
+    link.add_service(SigningService(link.endpoints, link.sysid, link.compid, link.send_statustext, key_file, what=what))

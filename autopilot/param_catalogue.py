@@ -15,6 +15,7 @@ from autopilot import flight_controller, flight_recorder, landing_target_input
 from autopilot.commander import commander, failsafes, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
+from autopilot.mavlink import failure_injection
 from autopilot.navigation import (
     follow_target,
     geofence,
@@ -60,6 +61,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     landing_target_estimator.PARAMS,
     landing_target_input.PARAMS,
     flight_recorder.PARAMS,
+    failure_injection.PARAMS,
 )
 
 

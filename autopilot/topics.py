@@ -10,10 +10,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mavsim_core.px4_modes import Mode
+
+if TYPE_CHECKING:
+    from autopilot.telemetry_extras import TelemetryExtras
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,6 +96,7 @@ class EstimatorStatus:
     mag_fault: bool
     gps_glitch: bool
     position_ok: bool
+    failed_sensors: tuple[str, ...] = ()  # "accelerometer", "gyro", "barometer" (estimation/sensor_checks.py)
 
 
 class LandedState(IntEnum):
@@ -264,6 +269,7 @@ class TelemetrySnapshot:
     estimator_status: EstimatorStatus | None = None
     battery_warning: BatteryWarning = BatteryWarning.NONE
     mission: MissionStatus = NO_MISSION_STATUS
+    extras: TelemetryExtras | None = None  # IMU sample, UTC and flight times (autopilot/telemetry_extras.py)
 
 
 def input_age_s(received_us: int, received_wall_s: float, now_us: int, wall_s: float | None) -> float:

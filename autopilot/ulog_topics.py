@@ -34,6 +34,7 @@ from pathlib import Path
 
 from autopilot.control.position_control import PositionSetpoint
 from autopilot.estimation.estimator import pressure_to_altitude_m
+from autopilot.mavlink.identity import running_commit
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION
 from autopilot.topics import ImuSample
 from mavsim_core.constants import LOCKSTEP_DT_US
@@ -131,6 +132,8 @@ class FlightULog:
         w.add_info("sys_name", "PX4")
         w.add_info("ver_hw", "MAVSIM_SITL")
         w.add_info("ver_sw_release", DEFAULT_FLIGHT_SW_VERSION, "uint32_t")
+        if running_commit() is not None:  # the running code's git commit, as PX4 logs its own (none if installed)
+            w.add_info("ver_sw", running_commit())
         w.add_info("sys_os_name", "Linux")
         w.add_info("sys_toolchain", "CPython")
         w.add_info("sys_uuid", sys_uuid or f"{sysid:024x}")

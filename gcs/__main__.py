@@ -13,6 +13,7 @@ Examples::
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
     gcs param save tuned.params  # also: param list, set, load, diff (see gcs/param_cli.py)
+    gcs signing setup PASSPHRASE  # MAVLink 2 signing; then: gcs --signing-key PASSPHRASE arm
 
 Each command waits for the COMMAND_ACK and then for its effect.  Exit codes:
 0 success, 1 refused by the vehicle (its result and reason are printed), 2 timed
@@ -31,7 +32,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from mavsim_core import ports
 from mavsim_core import px4_modes as modes
 
-from . import fly_cli, mission_cli, param_cli, ugv_cli
+from . import fly_cli, mission_cli, param_cli, signing_cli, ugv_cli
 from .client import VehicleClient
 from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
 from .plugins.telemetry import GPS_FIX_NAMES
@@ -82,6 +83,7 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="wall seconds to wait at each step (heartbeat, acknowledgement, effect); default: per step",
     )
+    signing_cli.add_signing_key_option(parser)  # --signing-key (MAVLink 2 signing, gcs/signing_cli.py)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -134,6 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     param_cli.add_param_parser(sub)
+    signing_cli.add_signing_parser(sub)
     ugv_cli.add_ugv_parser(sub)
     fly_cli.add_fly_parser(sub)
     mission_cli.add_mission_parser(sub)
@@ -337,6 +340,7 @@ def main(argv: list[str] | None = None) -> int:
             url,
             timeout_s=args.timeout or CONNECT_TIMEOUT_S,
             target_system=None if args.instance is None else ports.system_id(args.instance),
+            signing_key=args.signing_key,
         )
         client.timeout_s = args.timeout or ACK_TIMEOUT_S
         cli = _Cli(client, args)
@@ -351,6 +355,7 @@ def main(argv: list[str] | None = None) -> int:
             "param": cli.param,
             "mission": lambda: mission_cli.run_mission_command(client, args),
             "fly": lambda: fly_cli.run_fly_command(client, args),
+            "signing": lambda: signing_cli.run_signing_command(client, args),
         }[args.command]
         return handler()
     except CommandRefused as exc:

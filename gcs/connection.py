@@ -24,6 +24,8 @@ from typing import Callable, Iterable, Self
 
 from pymavlink import mavutil
 
+from mavsim_core.mavlink_signing import SigningState
+
 from .errors import GcsTimeout, StatusText
 
 mavlink = mavutil.mavlink
@@ -52,6 +54,9 @@ class Connection:
     ``on_statustext`` is called with each :class:`StatusText` as it arrives.
     ``describe_state`` (set by whoever knows the vehicle's state, e.g. the
     telemetry plugin) returns the leading parts of :meth:`describe`.
+    ``signing_key`` (32 bytes): sign everything sent and accept from the vehicle only what is signed
+    with it (PX4's few exceptions aside: RADIO_STATUS ...), as the vehicle does once it has the key
+    (docs/security.md, :mod:`mavsim_core.mavlink_signing`).
     """
 
     def __init__(
@@ -65,6 +70,7 @@ class Connection:
         idle: Callable[[], None] | None = None,
         on_statustext: Callable[[StatusText], None] | None = None,
         heartbeat_period_s: float = 1.0,
+        signing_key: bytes | None = None,
     ) -> None:
         self.url = url
         self.timeout_s = float(timeout_s)
@@ -92,6 +98,9 @@ class Connection:
         self.conn = mavutil.mavlink_connection(
             url, source_system=GCS_SYSTEM_ID, source_component=GCS_COMPONENT_ID, autoreconnect=True
         )
+        self.signing = SigningState()  # MAVLink 2 signing (set_signing_key); no key: nothing signed or checked
+        self.conn.mav.signing = self.signing
+        self.signing.set_key(signing_key)
         self._vehicle_address: tuple[str, int] | None = None
         if hasattr(self.conn, "last_address"):  # udpin: several vehicles may send to one port (PX4's 14550)
             self.conn.write = self._write_to_vehicle  # type: ignore[method-assign]
@@ -126,13 +135,24 @@ class Connection:
 
     def wait_heartbeat(self, timeout_s: float | None = None) -> None:
         """Wait for the vehicle's HEARTBEAT (sysid/compid as configured)."""
-        self.wait_until(
-            lambda: "HEARTBEAT" in self._latest,
-            timeout_s,
-            f"a heartbeat from the vehicle (sysid {self._target_system or 'any'}, compid {self.target_component}) "
-            f"on {self.url}",
-            describe=False,
-        )
+        try:
+            self.wait_until(
+                lambda: "HEARTBEAT" in self._latest,
+                timeout_s,
+                f"a heartbeat from the vehicle (sysid {self._target_system or 'any'}, compid {self.target_component}) "
+                f"on {self.url}",
+                describe=False,
+            )
+        except GcsTimeout as exc:
+            if not self.signing.enabled:
+                raise
+            refused = self.signing.refused
+            note = f"{refused} messages refused as not signed with it" if refused else "nothing heard, none refused"
+            raise GcsTimeout(f"{exc} ({note}: has the vehicle this --signing-key?)") from None
+
+    def set_signing_key(self, key: bytes | None) -> None:
+        """Sign with ``key`` from now on and accept only what is signed with it (None: no signing)."""
+        self.signing.set_key(key)
 
     # ----------------------------------------------------------------- receiving
 
@@ -151,6 +171,7 @@ class Connection:
         drains whatever else is already queued.  Returns the messages received
         from the vehicle, oldest first.  Sends our GCS heartbeat when due.
         """
+        self.signing.keep_up_with_clock()  # (a signed packet older than the stream's last is refused)
         self._send_gcs_heartbeat_if_due()
         if self.idle is not None:
             self.idle()

@@ -28,7 +28,8 @@ receiver has lock and last SIM_GPS_DROP_S; so the long-run fraction of time
 without a fix is r*d / (60 + r*d).  During an outage fixes are still sent at
 the normal rate, with fix_type 1, 0 satellites, eph = epv = 99.99 m, the last
 good position and zero velocity.  SIM_GPS_DISABLE = 1 silences the receiver:
-:meth:`GpsReceiver.update` returns None.
+:meth:`GpsReceiver.update` returns None.  SIM_GPS_STUCK = 1 freezes it: each fix is the last one
+sent before, repeated (a fix is still computed, so the random draws stay the same).
 
 Randomness: two generators, one for the fixes (a fixed 10 standard normals per
 fix, so a run is reproducible whatever the settings) and one for the outages.
@@ -117,6 +118,7 @@ class GpsReceiver:
         self._hazard_target = float(outage_rng.standard_exponential())
         self._outage_start_s = -math.inf
         self.outage = False  # whether the last fix was sent during an outage
+        self._last_fix: GpsReading | None = None  # the last fix sent (what SIM_GPS_STUCK repeats)
 
     def update(self, time_us: int, pos_ned_m, vel_ned_m_s) -> GpsReading | None:
         """Call every period with the truth at ``time_us``; a fix when one is due to be sent, else None.
@@ -135,7 +137,11 @@ class GpsReceiver:
         self._last_fix_us = time_us
         if s.gps_disable:
             return None
-        return self._fix(time_us, s)
+        fix = self._fix(time_us, s)
+        if s.gps_stuck and self._last_fix is not None:
+            return self._last_fix
+        self._last_fix = fix
+        return fix
 
     def _next_due_us(self, time_us: float) -> float:
         period_us = 1e6 / self._rate_hz

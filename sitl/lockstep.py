@@ -14,6 +14,9 @@ socket serves the ``SIM_*`` parameters, so a ground station or a test changes
 wind, sensor errors and failures in flight.  It is polled every 50 Hz period and
 while the simulator waits for the flight controller.  Scenario events
 (:mod:`sitl.scenario`) are applied at the first 50 Hz period at or after their time.
+The flight controller may also set ``SIM_*`` parameters on the TCP link itself (its failure
+injection): :mod:`sitl.link_params` answers them while the simulator waits for the actuator controls.
+A sensor that is off (:mod:`sitl.sensor_faults`) has its HIL_SENSOR ``fields_updated`` bits cleared.
 """
 
 from __future__ import annotations
@@ -32,16 +35,18 @@ from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
+from sitl.battery import cell_ocv_v
 from sitl.gps import GpsReading, course_over_ground_deg
+from sitl.link_params import LinkParams
 from sitl.param_server import SIM_COMPID, SIM_SYSID, UGV_COMPID, SimParamServer
 from sitl.scenario import EventSchedule, ScenarioEvent
+from sitl.sensor_faults import hil_sensor_fields, pressure_altitude_m
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, Simulation
 from sitl.ugv_world import ugv_truth_messages
 
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
-HIL_SENSOR_ALL_FIELDS = 0x1FFF
 _HIL_SENSOR = MessageLayout(mavlink.MAVLink_hil_sensor_message)
 ACCEPT_POLL_S = 0.1  # while waiting for the flight controller, serve parameters at least this often
 
@@ -94,6 +99,11 @@ class LockstepServer:
         self.companion = None  # sitl.companion.LockstepCompanion: camera + vision, when the world has the UGV
         self.params.started = True  # start-only parameters (SIM_UGV_EN) are refused from now on
         self.events = EventSchedule(events)
+        # SIM_* parameters set by the flight controller on the TCP link (its failure injection)
+        self.link_params = LinkParams(
+            self.params, sysid, on_change=lambda n, v: _log(f"{n} = {v:g} (PARAM_SET from the flight controller)"),
+            on_refused=lambda reason: _log(f"refused the flight controller's request: {reason}"),
+        )  # fmt: skip
         self.param_server: SimParamServer | None = None
         self.conn: socket.socket | None = None
         if truth_addr:
@@ -197,9 +207,9 @@ class LockstepServer:
                 m[2],
                 imu.pressure_hpa,
                 0.0,
-                sensors.home[2] - t.pos_ned_m[2],
+                pressure_altitude_m(imu.pressure_hpa),
                 imu.temperature_c,
-                HIL_SENSOR_ALL_FIELDS,
+                hil_sensor_fields(a[0], g[0], m[0], imu.pressure_hpa),
                 0,
             ),
         )
@@ -235,7 +245,10 @@ class LockstepServer:
     def _battery_status(self) -> bytes:
         """BATTERY_STATUS of the simulated pack: cell voltages in mV, current in cA, consumed mAh, percent left."""
         b = self.sim.battery
-        cells = [min(65534, round(b.voltage_v / b.cells * 1000))] * b.cells + [65535] * (10 - b.cells)
+        cell_v, remaining = b.voltage_v / b.cells, b.remaining_frac
+        if self.sim.motor_settings.battery_empty:  # the monitor reads an empty pack (PX4's battery failure)
+            cell_v, remaining = cell_ocv_v(0.0), 0.0
+        cells = [min(65534, round(cell_v * 1000))] * b.cells + [65535] * (10 - b.cells)
         return self._pack(
             mavlink.MAVLink_battery_status_message(
                 0,
@@ -246,7 +259,7 @@ class LockstepServer:
                 round(b.current_a * 100),
                 round(b.consumed_mah),
                 -1,
-                round(b.remaining_frac * 100),
+                round(remaining * 100),
             )
         )
 
@@ -318,13 +331,15 @@ class LockstepServer:
                 return False
             got = False
             for msg in self.parser.parse(data):
-                if msg.get_type() == "HIL_ACTUATOR_CONTROLS":
-                    armed = self.armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-                    n = self.sim.rotors.n
-                    self.motor_commands = (
-                        [c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed else [0.0] * n
-                    )
-                    got = True
+                if msg.get_type() != "HIL_ACTUATOR_CONTROLS":  # between two steps: SIM_* parameter requests
+                    replies = self.link_params.handle(msg)
+                    if replies:
+                        self.conn.sendall(b"".join(self._pack(r) for r in replies))
+                    continue
+                armed = self.armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+                n = self.sim.rotors.n
+                self.motor_commands = [c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed else [0.0] * n
+                got = True
             if got:
                 return True
 

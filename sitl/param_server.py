@@ -64,6 +64,15 @@ _FTP_ACK, _FTP_NAK, _FTP_ERR_UNKNOWN_COMMAND = 128, 129, 7
 ParamChangeCallback = Callable[[str, "int | float", Address], None]
 
 
+def param_value_message(params: SimParameters, p: SimParam) -> mavlink.MAVLink_message:
+    """PARAM_VALUE with the current value of ``p``, C-cast encoded (also on the lockstep link: sitl.link_params).
+
+    Exact for integers: SimParameters keeps INT32 limits inside +-2**23, which a float32 holds.
+    """
+    value, mav_type = float(params.get(p.name)), _MAV_PARAM_TYPE[p.type]
+    return mavlink.MAVLink_param_value_message(p.name.encode("ascii"), value, mav_type, len(params), p.index)
+
+
 class SimParamServer:
     """MAVLink component of the simulator on one UDP socket (see the module docstring).
 
@@ -202,13 +211,7 @@ class SimParamServer:
     # -- parameters
 
     def _param_value(self, p: SimParam) -> mavlink.MAVLink_message:
-        """PARAM_VALUE with the current value, C-cast encoded.
-
-        Exact for integers: SimParameters keeps INT32 limits inside +-2**23, which a float32 holds.
-        """
-        mav_type = _MAV_PARAM_TYPE[p.type]
-        value = float(self.params.get(p.name))
-        return mavlink.MAVLink_param_value_message(p.name.encode("ascii"), value, mav_type, len(self.params), p.index)
+        return param_value_message(self.params, p)
 
     def _on_param_request_list(self, msg) -> None:
         if self._for_us(msg):

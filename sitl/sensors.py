@@ -28,7 +28,7 @@ Magnetometer (gauss, FRD)::
 
   R = ``r_ned_frd`` (FRD -> NED), F_ned the World Magnetic Model field at home,
   ofs = SIM_MAG_OFS_X/Y/Z (gauss), I = battery current (A), mot = SIM_MAG_MOT_X/Y/Z
-  (gauss/A).  SIM_MAG_STUCK = 1 repeats the last reading given before it got stuck.
+  (gauss/A).
 
 Barometer (hPa)::
 
@@ -36,14 +36,17 @@ Barometer (hPa)::
     h        = home_alt - pos_d + drift[k] + SIM_BARO_RND * n   (m AMSL)
     p        = 1013.25 * (1 - 2.25577e-5 * h) ** 5.25588     (ISA)
 
-  temperature = 15 - 0.0065 * true altitude (deg C).  SIM_BARO_STUCK = 1 repeats
-  the last pressure and temperature (the drift keeps growing underneath).
+  temperature = 15 - 0.0065 * true altitude (deg C).
+
+Failures (:mod:`sitl.sensor_faults`): each of the four sensors can be off (NaN), read garbage or be
+stuck (repeat its last reading), by SIM_ACC_OFF / _STUCK / _GARBAGE, SIM_GYR_*, SIM_MAG_* and
+SIM_BARO_*; the healthy reading is computed first either way (the drift keeps growing underneath).
 
 GPS: :class:`sitl.gps.GpsReceiver` (fix timing, latency, noise, wander, outages; its
 module docstring has the model), reached through :meth:`SensorSuite.gps`.
 
-Randomness: one ``numpy.random.default_rng(seed)`` spawns three independent
-streams (IMU/mag/baro here; GPS fixes and GPS outages for the receiver), so a
+Randomness: one ``numpy.random.default_rng(seed)`` spawns four independent
+streams (IMU/mag/baro here; GPS fixes and GPS outages for the receiver; the sensors' garbage), so a
 run is reproducible for a seed and switching one sensor's errors on or off does
 not change the others' noise.  The IMU stream is drawn in blocks of standard
 normals, a fixed 16 per call, so the per-call cost stays a few microseconds.
@@ -64,6 +67,7 @@ from mavsim_core.constants import (
     TEMPERATURE_LAPSE_K_M,
 )
 from sitl.gps import GpsReading, GpsReceiver, course_over_ground_deg
+from sitl.sensor_faults import SensorFaults
 from sitl.sim_settings import SensorSettings
 
 __all__ = [  # GpsReading and course_over_ground_deg live in sitl.gps; still importable from here
@@ -130,6 +134,7 @@ class SensorSuite:
         self.settings = settings if settings is not None else SensorSettings()
         self.rng = np.random.default_rng(seed)
         self._imu_rng, self._gps_rng, self._outage_rng = self.rng.spawn(3)
+        self.faults = SensorFaults(self.rng.spawn(1)[0])  # failures: off, stuck, garbage (SIM_*_OFF ...)
         self.field_ned_gauss = earth_field_ned_gauss(*self.home)
         self._field = tuple(self.field_ned_gauss.tolist())
         # IMU: unit turn-on draws (scaled by the current *_bias_sd) and the random-walk parts.
@@ -139,8 +144,6 @@ class SensorSuite:
         self._gyr_walk = [0.0, 0.0, 0.0]
         self._z: list[float] = []
         self._zi = _BLOCK  # empty: the first call draws a block
-        self._mag_last: Vec3 | None = None
-        self._baro_last: tuple[float, float] | None = None
         self.baro_drift_m = 0.0
         self.gps_receiver = GpsReceiver(self.home, self.settings, self._gps_rng, self._outage_rng)
 
@@ -199,30 +202,26 @@ class SensorSuite:
         )
 
         # magnetometer
-        mag = self._mag_last
-        if not s.mag_stuck or mag is None:
-            (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = (
-                r_ned_frd.tolist() if type(r_ned_frd) is np.ndarray else r_ned_frd
-            )
-            bn, be, bd = self._field
-            sig = s.mag_noise_gauss
-            mag = (
-                r00 * bn + r10 * be + r20 * bd + s.mag_offset_x_gauss + current_a * s.mag_motor_x_gauss_a + sig * nm0,
-                r01 * bn + r11 * be + r21 * bd + s.mag_offset_y_gauss + current_a * s.mag_motor_y_gauss_a + sig * nm1,
-                r02 * bn + r12 * be + r22 * bd + s.mag_offset_z_gauss + current_a * s.mag_motor_z_gauss_a + sig * nm2,
-            )
-            self._mag_last = mag
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = (
+            r_ned_frd.tolist() if type(r_ned_frd) is np.ndarray else r_ned_frd
+        )
+        bn, be, bd = self._field
+        sig = s.mag_noise_gauss
+        mag = (
+            r00 * bn + r10 * be + r20 * bd + s.mag_offset_x_gauss + current_a * s.mag_motor_x_gauss_a + sig * nm0,
+            r01 * bn + r11 * be + r21 * bd + s.mag_offset_y_gauss + current_a * s.mag_motor_y_gauss_a + sig * nm1,
+            r02 * bn + r12 * be + r22 * bd + s.mag_offset_z_gauss + current_a * s.mag_motor_z_gauss_a + sig * nm2,
+        )
 
         # barometer
         drift = self.baro_drift_m = self.baro_drift_m + s.baro_drift_m_s * dt_s
-        baro = self._baro_last
-        if not s.baro_stuck or baro is None:
-            alt = self.home[2] - float(pos_ned_m[2])
-            h = alt + drift + s.baro_noise_m * nb
-            baro = self._baro_last = (
-                SEA_LEVEL_PRESSURE_HPA * (1.0 - 2.25577e-5 * h) ** 5.25588,
-                SEA_LEVEL_TEMPERATURE_C - TEMPERATURE_LAPSE_K_M * alt,
-            )
+        alt = self.home[2] - float(pos_ned_m[2])
+        h = alt + drift + s.baro_noise_m * nb
+        baro = (
+            SEA_LEVEL_PRESSURE_HPA * (1.0 - 2.25577e-5 * h) ** 5.25588,
+            SEA_LEVEL_TEMPERATURE_C - TEMPERATURE_LAPSE_K_M * alt,
+        )
+        accel, gyro, mag, baro = self.faults.apply(s, accel, gyro, mag, baro)
         return ImuReading(accel, gyro, mag, baro[0], baro[1])
 
     # -- GPS -------------------------------------------------------------------------

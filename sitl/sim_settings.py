@@ -106,6 +106,19 @@ class SensorSettings:
     gyro_bias_sd: float = sim_param(
         "SIM_GYR_BIAS_SD", 0.005, 0.0, 0.5, "rad/s", "Standard deviation of the gyro turn-on bias (drawn at start)"
     )
+    # IMU failures (sitl.sensor_faults; MAV_CMD_INJECT_FAILURE sets them through the flight controller)
+    accel_off: int = sim_param("SIM_ACC_OFF", 0, 0, 1, "", "1: the accelerometer sends nothing", ParamType.INT32)
+    accel_stuck: int = sim_param(
+        "SIM_ACC_STUCK", 0, 0, 1, "", "1: the accelerometer repeats its last reading", ParamType.INT32
+    )
+    accel_garbage: int = sim_param(
+        "SIM_ACC_GARBAGE", 0, 0, 1, "", "1: the accelerometer reads random values within +-16 g", ParamType.INT32
+    )
+    gyro_off: int = sim_param("SIM_GYR_OFF", 0, 0, 1, "", "1: the gyro sends nothing", ParamType.INT32)
+    gyro_stuck: int = sim_param("SIM_GYR_STUCK", 0, 0, 1, "", "1: the gyro repeats its last reading", ParamType.INT32)
+    gyro_garbage: int = sim_param(
+        "SIM_GYR_GARBAGE", 0, 0, 1, "", "1: the gyro reads random values within +-2000 deg/s", ParamType.INT32
+    )
     # Magnetometer
     mag_noise_gauss: float = sim_param("SIM_MAG_NOISE", 0.003, 0.0, 0.5, "gauss", "Magnetometer white noise")
     mag_offset_x_gauss: float = sim_param("SIM_MAG_OFS_X", 0.0, -2.0, 2.0, "gauss", "Magnetometer offset, body x")
@@ -128,6 +141,10 @@ class SensorSettings:
     mag_stuck: int = sim_param(
         "SIM_MAG_STUCK", 0, 0, 1, "", "1: the magnetometer repeats its last reading", ParamType.INT32
     )
+    mag_off: int = sim_param("SIM_MAG_OFF", 0, 0, 1, "", "1: the magnetometer sends nothing", ParamType.INT32)
+    mag_garbage: int = sim_param(
+        "SIM_MAG_GARBAGE", 0, 0, 1, "", "1: the magnetometer reads random values within +-4 gauss", ParamType.INT32
+    )
     # Barometer
     baro_noise_m: float = sim_param("SIM_BARO_RND", 0.05, 0.0, 10.0, "m", "Barometer white noise, as altitude")
     baro_drift_m_s: float = sim_param(
@@ -135,6 +152,10 @@ class SensorSettings:
     )
     baro_stuck: int = sim_param(
         "SIM_BARO_STUCK", 0, 0, 1, "", "1: the barometer repeats its last reading", ParamType.INT32
+    )
+    baro_off: int = sim_param("SIM_BARO_OFF", 0, 0, 1, "", "1: the barometer sends nothing", ParamType.INT32)
+    baro_garbage: int = sim_param(
+        "SIM_BARO_GARBAGE", 0, 0, 1, "", "1: the barometer reads random pressures, 300-1100 hPa", ParamType.INT32
     )
     # GPS
     gps_rate_hz: float = sim_param("SIM_GPS_HZ", 5.0, 1.0, 50.0, "Hz", "GPS fix rate")
@@ -158,6 +179,9 @@ class SensorSettings:
     )
     gps_dropout_s: float = sim_param("SIM_GPS_DROP_S", 1.0, 0.1, 60.0, "s", "Duration of one GPS outage")
     gps_disable: int = sim_param("SIM_GPS_DISABLE", 0, 0, 1, "", "1: the GPS receiver sends nothing", ParamType.INT32)
+    gps_stuck: int = sim_param(
+        "SIM_GPS_STUCK", 0, 0, 1, "", "1: the GPS receiver repeats its last fix (position, velocity)", ParamType.INT32
+    )
     gps_glitch_n_m: float = sim_param(
         "SIM_GPS_GLITCH_N",
         0.0,
@@ -203,6 +227,11 @@ class MotorSettings:
         "%",
         "The pack stops draining at this charge; raised above the charge, the charge rises to it (PX4: 50)",
     )
+    battery_empty: int = sim_param(
+        "SIM_BAT_EMPTY", 0, 0, 1, "",
+        "1: the battery monitor reads an empty pack (0 %, 3.3 V a cell) whatever the charge (PX4's battery failure)",
+        ParamType.INT32,
+    )  # fmt: skip
 
 
 PATH_STOP, PATH_LINE, PATH_CIRCLE, PATH_FIGURE8, PATH_RANDOM, PATH_MANUAL = range(6)

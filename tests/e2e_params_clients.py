@@ -8,16 +8,15 @@ from __future__ import annotations
 
 import queue
 import re
-import shutil
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
 
+from mavproxy_env import mavproxy_command  # tests/mavproxy_env.py: MAVProxy in a virtual environment of its own
+
 ROOT = Path(__file__).resolve().parent.parent
 WAIT_S = 30.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
-MAVPROXY = shutil.which("mavproxy.py") or str(Path(sys.executable).parent / "mavproxy.py")
 
 
 async def mavsdk_params(port: int) -> dict:
@@ -42,11 +41,14 @@ async def mavsdk_params(port: int) -> dict:
 
 
 class MavproxySession:
-    """MAVProxy driven through its stdin, its output read line by line."""
+    """MAVProxy driven through its stdin, its output read line by line (``modules``: its --default-modules,
+    None for MAVProxy's own default set; ``started``: time.monotonic() when the process was started)."""
 
-    def __init__(self, master: str, modules: str = "param") -> None:
+    def __init__(self, master: str, modules: str | None = "param") -> None:
+        command = [*mavproxy_command(), "--master", master, "--no-state"]
+        self.started = time.monotonic()
         self.proc = subprocess.Popen(
-            [sys.executable, MAVPROXY, "--master", master, "--no-state", f"--default-modules={modules}"],
+            command + ([f"--default-modules={modules}"] if modules is not None else []),
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,

@@ -6,8 +6,8 @@ One max-speed stack (module scope, instance from tests/instances.py) started wit
 * a :class:`VehicleClient` (pymavlink);
 * ``python -m gcs --url ... param ...`` as a subprocess;
 * MAVSDK's Param plugin;
-* MAVProxy's ``param set`` / ``param show`` through its stdin, if installed
-  (these two driven by tests/e2e_params_clients.py).
+* MAVProxy's ``param set`` / ``param show`` through its stdin, in a virtual environment of its own
+  (tests/mavproxy_env.py) (these two driven by tests/e2e_params_clients.py).
 
 Every client talks *to* the flight controller's own sockets (``udpout`` to its
 ground-station socket, 18570 + instance, or its API socket, 14640 + instance) and so
@@ -49,7 +49,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 from mavsim_core import ports
 
-from e2e_params_clients import MAVPROXY, WAIT_S, MavproxySession, mavsdk_params  # tests/e2e_params_clients.py
+from e2e_params_clients import WAIT_S, MavproxySession, mavsdk_params  # tests/e2e_params_clients.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -320,7 +320,6 @@ def test_mavsdk_param_plugin_sets_and_gets_int_and_float(client):
     assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(0.95)
 
 
-@pytest.mark.skipif(not Path(MAVPROXY).exists(), reason="MAVProxy is not installed")
 def test_mavproxy_param_set_and_show(client):
     session = MavproxySession(FC_GCS_URL)
     try:

@@ -21,6 +21,7 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 from autopilot import flight_recorder  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
+from autopilot.mavlink.identity import running_commit  # noqa: E402
 from autopilot.param_catalogue import default_store  # noqa: E402
 from autopilot.topics import BatteryState, GpsSample, ImuSample, VehicleEstimate  # noqa: E402
 from mavsim_core.px4_modes import Mode  # noqa: E402
@@ -89,6 +90,7 @@ def test_a_flight_becomes_a_px4_ulog(tmp_path):
     assert not log.file_corruption
     assert log.start_timestamp == T0_US
     assert log.msg_info_dict["sys_name"] == "PX4" and log.msg_info_dict["sys_uuid"] == f"4d415653{3:08x}{4:08x}"
+    assert log.msg_info_dict.get("ver_sw") == running_commit()  # the checkout's commit (none when installed)
     assert log.initial_parameters["MPC_XY_P"] == pytest.approx(fc.params.default("MPC_XY_P"))
     assert len(log.initial_parameters) == len(fc.params)
     assert [(name, round(v, 4)) for _, name, v in log.changed_parameters] == [("MPC_XY_P", 1.2)]

@@ -215,4 +215,4 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
 
 def test_stream_rates_option_is_checked():
     with pytest.raises(ValueError, match="cannot stream"):
-        GcsLink(StubVehicle(), instance=LINK[2], stream_rates_hz={mavlink.MAVLINK_MSG_ID_HIGHRES_IMU: 50.0})
+        GcsLink(StubVehicle(), instance=LINK[2], stream_rates_hz={mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE: 50.0})

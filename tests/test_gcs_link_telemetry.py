@@ -177,7 +177,7 @@ def test_set_message_interval(make_harness):
     assert abs(len(of_type(got, "HEARTBEAT")) - 4) <= 1  # others untouched
 
     command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 0)  # default
-    command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HIGHRES_IMU, 10_000)  # not sent
+    command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE, 10_000)  # not sent
     command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, -5)  # invalid
     got = h.pump(0.02)["gcs"]
     results = [a.result for a in acks(got, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL)]
@@ -206,9 +206,11 @@ def test_request_message_and_capabilities(make_harness):
     versions = of_type(got, "AUTOPILOT_VERSION")
     assert len(versions) == 1
     v = versions[0]
-    # Exactly what is implemented: offboard (SET_POSITION_TARGET_*, SET_ATTITUDE_TARGET), no FTP, ...
+    # Exactly what is implemented: offboard (SET_POSITION_TARGET_*, SET_ATTITUDE_TARGET), FTP, termination, ...
     assert v.capabilities == (
         mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+        | mavlink.MAV_PROTOCOL_CAPABILITY_FTP
+        | mavlink.MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION
         | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
         | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
         | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT

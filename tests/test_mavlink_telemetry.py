@@ -15,7 +15,7 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander import health
-from autopilot.mavlink import telemetry
+from autopilot.mavlink import identity, telemetry
 from autopilot.mavlink.vehicle_interface import telemetry_snapshot
 from autopilot.topics import (
     ActuatorStatus,
@@ -244,18 +244,7 @@ def test_estimator_status():
 
 
 def test_autopilot_version():
-    v = _wire(
-        telemetry.autopilot_version(
-            flight_sw_version=telemetry.DEFAULT_FLIGHT_SW_VERSION,
-            middleware_sw_version=0,
-            os_sw_version=0,
-            board_version=0,
-            flight_custom_version=b"mavsim",
-            vendor_id=0,
-            product_id=0,
-            uid=42,
-        )
-    )
+    v = _wire(identity.autopilot_version(identity.Identity(flight_custom_version=b"mavsim", uid=42)))
     assert v.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
     assert v.flight_sw_version >> 24 == 1 and (v.flight_sw_version >> 16) & 0xFF == 14  # PX4 1.14
     assert bytes(v.flight_custom_version) == b"mavsim\x00\x00" and v.uid == 42

@@ -63,6 +63,12 @@ SENSORS_PRESENT = (
     | S.MAV_SYS_STATUS_PREARM_CHECK
 )
 ESTIMATOR_FLAG_ATTITUDE = 1  # ESTIMATOR_STATUS_FLAGS: ESTIMATOR_ATTITUDE
+# The SYS_STATUS bit of each sensor the estimator's checks can declare failed (estimation/sensor_checks.py)
+SENSOR_BITS = {
+    "accelerometer": S.MAV_SYS_STATUS_SENSOR_3D_ACCEL,
+    "gyro": S.MAV_SYS_STATUS_SENSOR_3D_GYRO,
+    "barometer": S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
+}
 
 
 def sensors_health(
@@ -88,6 +94,8 @@ def sensors_health(
             health &= ~S.MAV_SYS_STATUS_SENSOR_3D_MAG
         if estimator_status.gps_glitch:
             health &= ~S.MAV_SYS_STATUS_SENSOR_GPS
+        for name in estimator_status.failed_sensors:
+            health &= ~SENSOR_BITS.get(name, 0)
         if ekf_in_use and not estimator_status.flags & ESTIMATOR_FLAG_ATTITUDE:
             health &= ~S.MAV_SYS_STATUS_AHRS
     if not prearm_ok:

@@ -20,7 +20,9 @@ the 50 Hz run and GPS fusion wait for :meth:`Estimator.run_deferred`.  Also here
 barometer's height (relative to its reading at the origin), the EKF's heading fusion and
 its constant-position fusion when nothing aids it.  Beside this module:
 :mod:`autopilot.estimation.gps_fusion` (origin, delayed fusion, glitch rejection, reset),
-:mod:`autopilot.estimation.mag_health` (stuck, field strength, inconsistent heading) and
+:mod:`autopilot.estimation.mag_health` (stuck, field strength, inconsistent heading),
+:mod:`autopilot.estimation.sensor_checks` (accelerometer, gyro, barometer: no data, stale data; a
+failed barometer is not fused, a failed accelerometer or gyro makes the attitude invalid) and
 :mod:`autopilot.estimation.estimator_outputs` (the estimate, status flags and pre-arm failures
 published from the filters' state).
 """
@@ -38,6 +40,7 @@ from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GpsFusion, finite3
 from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field
 from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import PositionVelocityFilter
+from autopilot.estimation.sensor_checks import BARO, SensorChecks
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import EstimatorStatus, GpsSample, ImuSample, VehicleEstimate
 from mavsim_core import quaternion as quat
@@ -81,6 +84,7 @@ class Estimator:
         self.events: list[tuple[str, str]] = []  # (severity name, text), drained by the flight controller
         self.gps = GpsFusion(self.ekf, self.position, self.events, self._p)
         self.mag = MagHealth(self.events)
+        self.sensor_checks = SensorChecks(self.events)
         self.rate_frd = np.zeros(3)
         self.accel_ned = np.zeros(3)
         self.last_imu_us: int | None = None
@@ -169,6 +173,8 @@ class Estimator:
         """One IMU sample (250 Hz): carry the attitude forward; every 20 ms run the filters."""
         if self._deferred_filters is not None or self._deferred_gps:
             self.run_deferred()  # never skipped, and always before this sample's increments
+        if s.timestamp_us % BARO_PERIOD_US < 4000:
+            self.sensor_checks.update(s)  # at 50 Hz: data stopped or stale
         dt = LOCKSTEP_DT_S if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
         self.last_imu_us = s.timestamp_us
         if not 0.0 < dt < 0.1 or not finite3(s.accel_frd_m_s2) or not finite3(s.gyro_frd_rad_s):
@@ -185,7 +191,7 @@ class Estimator:
             return
         mag = s.mag_frd_gauss if finite3(s.mag_frd_gauss) else None
         baro = None
-        if math.isfinite(s.pressure_hpa) and s.pressure_hpa > 0:
+        if math.isfinite(s.pressure_hpa) and s.pressure_hpa > 0 and self.sensor_checks.ok(BARO):
             self.last_baro_alt_m = pressure_to_altitude_m(s.pressure_hpa)
             if self.gps.origin is not None:
                 baro = -(self.last_baro_alt_m - self.gps.baro_offset_m)

@@ -70,6 +70,7 @@ def vehicle_estimate(est: Estimator) -> VehicleEstimate:
             and est.position.horizontal_std_m() < MAX_H_STD_M
             and est.position.vertical_std_m() < MAX_V_STD_M
         )
+    att_ok = att_ok and est.sensor_checks.imu_ok  # a failed accelerometer or gyro: nothing to trust
     roll, pitch, yaw = quat.to_euler(q)
     o = gps.origin or (math.nan, math.nan, math.nan)
     return VehicleEstimate(
@@ -124,15 +125,16 @@ def estimator_status(est: Estimator) -> EstimatorStatus:
         mag_fault=est.mag.fault,
         gps_glitch=est.gps.glitch,
         position_ok=pos_ok,
+        failed_sensors=tuple(est.sensor_checks.failed),
     )
 
 
 def ekf_prearm_failures(est: Estimator) -> list[str]:
     """Why the EKF is not yet fit to fly on (empty when converged and consistent)."""
     e = est.ekf
-    out = []
+    out = [f"{name.capitalize()} failed: {why}" for name, why in est.sensor_checks.failed.items()]
     if not e.initialised or e.time_aligned_s < ALIGN_TIME_S:
-        return ["EKF attitude not aligned"]
+        return out + ["EKF attitude not aligned"]
     if e.tilt_std_rad() > MAX_TILT_STD_RAD:
         out.append(f"EKF not converged (tilt uncertainty {math.degrees(e.tilt_std_rad()):.1f} deg)")
     if not est.mag.fault and e.yaw_std_rad() > MAX_YAW_STD_RAD:

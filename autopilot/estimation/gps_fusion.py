@@ -8,7 +8,9 @@ stamp: against the EKF's and the linear filter's states of that time.
 A GPS position that fails the EKF's gate is rejected (a glitch).  If GPS velocity keeps
 passing while position is rejected for ``GPS_RESET_S``, the position is reset to GPS
 (PX4's behaviour); the jump is published as a reset delta so the position setpoint moves
-with it and the vehicle does not.  Also kept here: the low-passed derivative of GPS
+with it and the vehicle does not.  Fixes that repeat exactly (``GPS_STALE_FIXES`` in a row: a
+frozen receiver, PX4's DataValidator STALE rule) are not fused: the GPS times out, as if silent,
+until a fix differs.  Also kept here: the low-passed derivative of GPS
 velocity that the Mahony filter's gravity reference uses.  NED metres, m/s; times are
 time stamps in microseconds (no clock).
 """
@@ -38,6 +40,7 @@ GPS_MIN_SATS = 6
 GPS_TIMEOUT_US = 500_000
 GPS_RESET_S = 7.0  # GPS position rejected this long (velocity passing): reset to GPS (PX4: 7 s)
 GPS_ACCEL_TAU_S = 0.5  # low-pass of the GPS velocity derivative given to the Mahony filter
+GPS_STALE_FIXES = 5  # fixes in a row exactly the same (position and velocity): the receiver is stuck
 
 
 def finite3(v: np.ndarray) -> bool:
@@ -73,6 +76,9 @@ class GpsFusion:
         self.glitch = False
         self.reset_count = 0
         self.reset_delta_ned_m = np.zeros(3)  # the latest position reset's jump
+        self.stale = False  # the fixes repeat exactly: not fused
+        self._last_fix: tuple[float, ...] | None = None
+        self._repeats = 0
 
     def ok(self, now_us: int) -> bool:
         """A good fix arrived within GPS_TIMEOUT_US."""
@@ -84,7 +90,7 @@ class GpsFusion:
 
     def fuse(self, g: GpsSample, baro_alt_m: float | None, filters_ready: bool) -> bool:
         """One fix; True when it set the origin (the caller then looks up the magnetic field there)."""
-        if g.fix_type < 3 or g.satellites < GPS_MIN_SATS:
+        if g.fix_type < 3 or g.satellites < GPS_MIN_SATS or self._stale(g):
             return False
         self.last_us = g.timestamp_us
         vel = np.asarray(g.vel_ned_m_s, dtype=float)
@@ -106,6 +112,18 @@ class GpsFusion:
         self.lkf.fuse_gps(pos, vel, pos_then, vel_then)
         self._fuse_ekf(g, pos, vel, then_us)
         return False
+
+    def _stale(self, g: GpsSample) -> bool:
+        """Whether this fix and the GPS_STALE_FIXES - 1 before it are exactly the same (reported once)."""
+        fix = (g.lat_deg, g.lon_deg, g.alt_amsl_m, *np.asarray(g.vel_ned_m_s, dtype=float).tolist())
+        self._repeats = self._repeats + 1 if fix == self._last_fix else 0
+        self._last_fix = fix
+        stale = self._repeats >= GPS_STALE_FIXES - 1
+        if stale != self.stale:
+            self.stale = stale
+            text = "GPS failed: stale data (fixes repeat)" if stale else "GPS healthy again"
+            self.events.append(("CRITICAL" if stale else "INFO", text))
+        return stale
 
     def _fuse_ekf(self, g: GpsSample, pos: np.ndarray, vel: np.ndarray, then_us: int) -> None:
         """Velocity, then horizontal position against the EKF's state at ``then_us``; glitch and reset."""

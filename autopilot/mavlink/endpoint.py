@@ -14,13 +14,14 @@ supersedes (sticks, setpoints, heartbeats) are dropped, anything else (commands)
 
 from __future__ import annotations
 
+import math
 import socket
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.mavlink import telemetry
+from mavsim_core.mavlink_signing import SigningParser, SigningState
 from mavsim_core.mavlink_udp import UdpEndpoint
 
 if TYPE_CHECKING:
@@ -31,6 +32,9 @@ RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net
 # Messages a newer one of the same kind replaces: when the link is out of time they are dropped unread.
 # HEARTBEAT 0, MANUAL_CONTROL 69, SET_ATTITUDE_TARGET 82, SET_POSITION_TARGET_LOCAL_NED 84, _GLOBAL_INT 86.
 SUPERSEDED_IDS = frozenset({0, 69, 82, 84, 86})
+# A stream goes out at most once per link update (50 Hz of simulated time): a shorter interval is accepted and
+# capped, as PX4 accepts any interval and sends a stream at most once per iteration of its MAVLink loop.
+MIN_STREAM_INTERVAL_US = 20_000
 
 
 def packet_ids(data: bytes) -> list[int] | None:
@@ -69,6 +73,8 @@ class LinkEndpoint(UdpEndpoint):
         compid: int,
         default_intervals_us: dict[int, int],
     ) -> None:
+        # MAVLink 2 signing (autopilot/mavlink/signing.py), shared by the encoder and the parser; no key: off
+        self.signing = SigningState()
         super().__init__(f"gcs_link {name}", bind, default_dest, sysid, compid)
         try:
             self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RX_SOCKET_BUFFER_BYTES)
@@ -76,12 +82,27 @@ class LinkEndpoint(UdpEndpoint):
             pass
         self.name = name
         self.mav = mavlink.MAVLink(self, sysid, compid)  # encoder: writes through self.write
+        self.mav.signing = self.signing  # everything sent is signed once a key is set
         self.default_intervals_us = default_intervals_us
         self.streams = {mid: Stream(iv, 0) for mid, iv in default_intervals_us.items()}
         self.next_due_us = 0  # earliest next_due_us of the enabled streams
         self.param_cursor: int | None = None  # next index of a PARAM_REQUEST_LIST being served
         self.tap: Callable[[bytes], None] | None = None  # sees every packet sent (GcsLink.set_traffic_tap)
         self._batch: list[bytes] | None = None  # packets held for one datagram (begin_batch .. flush)
+
+    # -- signing
+    def _new_parser(self) -> mavlink.MAVLink:
+        """A parser that checks signatures with this endpoint's signing state (refusals counted there)."""
+        p = SigningParser(None, self.sysid, self.compid)
+        p.robust_parsing = True
+        p.signing = self.signing
+        return p
+
+    def incoming(self, data: bytes, addr: tuple[str, int]) -> tuple[list[mavlink.MAVLink_message], int]:
+        """The good (and, with a key, correctly signed) messages; refused packets are not counted as damage."""
+        refused = self.signing.refused
+        msgs, damaged = super().incoming(data, addr)
+        return msgs, damaged - (self.signing.refused - refused)
 
     # -- sending
     def write(self, data: bytes) -> None:
@@ -128,10 +149,20 @@ class LinkEndpoint(UdpEndpoint):
             interval_us = self.default_intervals_us[msg_id]
         elif interval_us < -1:
             return mavlink.MAV_RESULT_DENIED
-        stream.interval_us = interval_us
+        stream.interval_us = max(interval_us, MIN_STREAM_INTERVAL_US) if interval_us > 0 else interval_us
         stream.next_due_us = now_us  # first one at the next update
         self.refresh_next_due()
         return mavlink.MAV_RESULT_ACCEPTED
+
+    def report_interval(self, msg_id: float) -> int:
+        """MAV_CMD_GET_MESSAGE_INTERVAL (or REQUEST_MESSAGE 244): send MESSAGE_INTERVAL for ``msg_id`` on this
+        endpoint, its interval in µs, -1 when off, 0 when the link cannot stream it (MAV_RESULT_UNSUPPORTED)."""
+        if not (math.isfinite(msg_id) and 0 <= msg_id <= 0xFFFF):  # MESSAGE_INTERVAL.message_id: uint16
+            return mavlink.MAV_RESULT_DENIED
+        stream = self.streams.get(int(msg_id))
+        interval_us = 0 if stream is None else stream.interval_us if stream.interval_us > 0 else -1
+        self.send(mavlink.MAVLink_message_interval_message(int(msg_id), interval_us))
+        return mavlink.MAV_RESULT_UNSUPPORTED if stream is None else mavlink.MAV_RESULT_ACCEPTED
 
     def discard(self, most: int, keep_most: int) -> tuple[int, list[tuple[bytes, tuple[str, int]]]]:
         """Read up to ``most`` queued datagrams without parsing them (the link's time is spent): those
@@ -160,14 +191,16 @@ class EndpointCommands:
         return self.ep.set_interval(msg_id, interval_us, self.link._now_us)
 
     def request_message(self, msg_id: int, param2: float) -> int:
-        """MAV_CMD_REQUEST_MESSAGE: send the message once on this endpoint."""
+        """MAV_CMD_REQUEST_MESSAGE: send the message once on this endpoint (``param2``: PARAM_VALUE's index,
+        MESSAGE_INTERVAL's message id); any message the link streams (telemetry_more.link_builders)."""
         link, ep = self.link, self.ep
-        if msg_id == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            ep.send(link._autopilot_version())
-            return mavlink.MAV_RESULT_ACCEPTED
         if msg_id == mavlink.MAVLINK_MSG_ID_PARAM_VALUE:
             return link._params.request_message(ep, param2)
-        builder = telemetry.BUILDERS.get(msg_id)
+        if msg_id == mavlink.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
+            return ep.report_interval(param2)
+        if msg_id in link.requestable:  # a service's message (GcsLink.requestable)
+            return link.requestable[msg_id](ep)
+        builder = link._streams.builders.get(msg_id)
         if builder is None:
             return mavlink.MAV_RESULT_UNSUPPORTED
         msg = builder(link._streams.snapshot(), link._now_us)

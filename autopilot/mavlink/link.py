@@ -33,12 +33,15 @@ from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.mavlink import commands, telemetry
-from autopilot.mavlink.endpoint import EndpointCommands, LinkEndpoint
+from autopilot.mavlink import commands
+from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, EndpointCommands, LinkEndpoint
+from autopilot.mavlink.identity import Identity, autopilot_version, instance_identity
 from autopilot.mavlink.link_service import Handler, LinkService, ServiceCommand
+from autopilot.mavlink.message_requests import MessageRequests
 from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
-from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION, DEFAULT_STREAM_RATES_HZ
+from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION
+from autopilot.mavlink.telemetry_more import DEFAULT_STREAM_RATES_HZ, link_builders
 from autopilot.mavlink.telemetry_streams import TelemetryStreams
 from autopilot.mavlink.vehicle_interface import VehicleInterface
 from mavsim_core import ports
@@ -81,28 +84,36 @@ class GcsLink:
         middleware_sw_version: int = 0,
         os_sw_version: int = 0,
         board_version: int = 0,
-        flight_custom_version: bytes = b"mavsim\x00\x00",
+        flight_custom_version: bytes | None = None,
         vendor_id: int = 0,
         product_id: int = 0,
         uid: int | None = None,
+        uid2: bytes | None = None,
     ) -> None:
         """
         Ports not given are those of ``instance`` (:mod:`mavsim_core.ports`); ``sysid`` is as given.
         ``stream_rates_hz``: message id -> rate (Hz of simulated time) for the streams on
-        both endpoints, replacing :data:`DEFAULT_STREAM_RATES_HZ` entries (0 disables).
-        The AUTOPILOT_VERSION fields are reported as given; ``uid`` defaults to a
-        non-zero value derived from instance and sysid.
+        both endpoints, replacing :data:`DEFAULT_STREAM_RATES_HZ` entries (0 disables); any message
+        of :func:`telemetry_more.link_builders` (off unless a default or given).
+        The AUTOPILOT_VERSION fields are reported as given; ``flight_custom_version`` defaults to the running
+        code's git commit, ``uid`` and ``uid2`` to non-zero values derived from instance and sysid
+        (:mod:`autopilot.mavlink.identity`).
         """
         self.vehicle = vehicle
         self.sysid = sysid
         self.compid = compid
         self.instance = instance
-        rates = dict(DEFAULT_STREAM_RATES_HZ)
-        unknown = set(stream_rates_hz or {}) - set(rates)
+        self.identity: Identity = instance_identity(
+            instance, sysid, flight_sw_version=flight_sw_version, middleware_sw_version=middleware_sw_version,
+            os_sw_version=os_sw_version, board_version=board_version, flight_custom_version=flight_custom_version,
+            vendor_id=vendor_id, product_id=product_id, uid=uid, uid2=uid2,
+        )  # fmt: skip
+        builders = link_builders(self.identity)
+        unknown = set(stream_rates_hz or {}) - set(builders)
         if unknown:
-            raise ValueError(f"gcs_link cannot stream message ids {sorted(unknown)}; streams: {sorted(rates)}")
-        rates.update(stream_rates_hz or {})
-        intervals = {mid: (int(round(1e6 / hz)) if hz > 0 else -1) for mid, hz in rates.items()}
+            raise ValueError(f"gcs_link cannot stream message ids {sorted(unknown)}; streams: {sorted(builders)}")
+        rates = {mid: 0.0 for mid in builders} | DEFAULT_STREAM_RATES_HZ | (stream_rates_hz or {})
+        intervals = {m: max(int(round(1e6 / hz)), MIN_STREAM_INTERVAL_US) if hz > 0 else -1 for m, hz in rates.items()}
         self._endpoints: list[LinkEndpoint] = []
         try:
             for name, local, remote in (
@@ -118,17 +129,11 @@ class GcsLink:
         self._readable = select.poll()  # both sockets, for poll()
         for ep in self._endpoints:
             self._readable.register(ep.sock, select.POLLIN)
-        self._version = dict(
-            flight_sw_version=flight_sw_version, middleware_sw_version=middleware_sw_version,
-            os_sw_version=os_sw_version, board_version=board_version, flight_custom_version=flight_custom_version,
-            vendor_id=vendor_id, product_id=product_id,
-            uid=uid if uid is not None else (0x4D415653 << 32) | (instance << 8) | sysid,
-        )  # fmt: skip
         self.rx_errors = 0
         self.rx_messages = 0
         self.rx_dropped = 0  # datagrams discarded unread because a call's RX_BUDGET_S was spent (or damaged then)
         self._now_us = 0
-        self._streams = TelemetryStreams(vehicle, self._endpoints)
+        self._streams = TelemetryStreams(vehicle, self._endpoints, builders)
         self._statustext = StatustextChunker()
         self._params = ParamService(vehicle.params, self.send_statustext, self._broadcast)
         self._missions = MissionService(vehicle, self.send_statustext, sysid, compid)
@@ -137,6 +142,10 @@ class GcsLink:
         self._handlers = self._message_handlers()
         self._services: list[LinkService] = []
         self._service_commands: dict[int, ServiceCommand] = {}
+        # Messages a service sends on MAV_CMD_REQUEST_MESSAGE (message id -> send(endpoint) -> MAV_RESULT),
+        # before the streamed ones: e.g. COMPONENT_METADATA (autopilot/mavlink/component_metadata.py).
+        self.requestable: dict[int, Callable[[LinkEndpoint], int]] = {}
+        self.add_service(MessageRequests(self))  # GET_MESSAGE_INTERVAL and the old one-message requests
 
     def _message_handlers(self) -> dict[str, Handler]:
         """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
@@ -174,6 +183,11 @@ class GcsLink:
         self._handlers.update({name: self._for_us(h) for name, h in service.handlers().items()})
         self._service_commands.update(service.commands())
         self._services.append(service)
+
+    @property
+    def endpoints(self) -> tuple[LinkEndpoint, ...]:
+        """The "gcs" and "api" endpoints (for services that act on both, e.g. message signing)."""
+        return tuple(self._endpoints)
 
     @property
     def now_us(self) -> int:
@@ -284,7 +298,7 @@ class GcsLink:
         self.rx_errors += damaged
         for msg in msgs:
             mtype = msg.get_type()
-            if self._tap is not None:
+            if self._tap is not None and mtype != "SETUP_SIGNING":  # (a signing key stays out of the logs)
                 self._tap(self._now_us, ep.name, False, bytes(msg.get_msgbuf()))
             handler = self._handlers.get(mtype)
             if handler is None:
@@ -356,4 +370,4 @@ class GcsLink:
             ep.send(msg)
 
     def _autopilot_version(self) -> mavlink.MAVLink_message:
-        return telemetry.autopilot_version(**self._version)
+        return autopilot_version(self.identity)

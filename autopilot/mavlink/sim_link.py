@@ -1,14 +1,18 @@
 """The flight controller's side of the simulator link (PX4 simulator MAVLink API).
 
 Connects over TCP to the simulator (4560 + instance), turns HIL_SENSOR and
-HIL_GPS into :mod:`autopilot.topics` samples (SI units, FRD/NED as sent), and
-answers each period with HIL_ACTUATOR_CONTROLS stamped with the same time.
+HIL_GPS into :mod:`autopilot.topics` samples (SI units, FRD/NED as sent; a field whose
+``fields_updated`` bit is clear is NaN: that sensor sent nothing), and answers each period with
+HIL_ACTUATOR_CONTROLS stamped with the same time.  :meth:`SimLink.request` sends the simulator
+another message (a PARAM_SET of the failure injection) and waits for its answer, keeping what else
+arrives meanwhile for :meth:`SimLink.receive`.
 """
 
 from __future__ import annotations
 
 import socket
 import time
+from typing import Callable
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
@@ -18,17 +22,22 @@ from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
 
 UINT16_MAX = 65535
+NAN3 = np.full(3, np.nan)
+# HIL_SENSOR fields_updated bits (HIL_SENSOR_UPDATED_FLAGS) of each sensor
+ACCEL_FIELDS, GYRO_FIELDS, MAG_FIELDS, PRESSURE_FIELD = 0x007, 0x038, 0x1C0, 0x200
 _ACTUATORS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
 _ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
 
 
 def imu_from_msg(m) -> ImuSample:
+    """The sample of one HIL_SENSOR; the fields of a sensor whose ``fields_updated`` bits are clear are NaN."""
+    f = m.fields_updated
     return ImuSample(
         timestamp_us=m.time_usec,
-        accel_frd_m_s2=np.array([m.xacc, m.yacc, m.zacc]),
-        gyro_frd_rad_s=np.array([m.xgyro, m.ygyro, m.zgyro]),
-        mag_frd_gauss=np.array([m.xmag, m.ymag, m.zmag]),
-        pressure_hpa=m.abs_pressure,
+        accel_frd_m_s2=np.array([m.xacc, m.yacc, m.zacc]) if f & ACCEL_FIELDS == ACCEL_FIELDS else NAN3.copy(),
+        gyro_frd_rad_s=np.array([m.xgyro, m.ygyro, m.zgyro]) if f & GYRO_FIELDS == GYRO_FIELDS else NAN3.copy(),
+        mag_frd_gauss=np.array([m.xmag, m.ymag, m.zmag]) if f & MAG_FIELDS == MAG_FIELDS else NAN3.copy(),
+        pressure_hpa=m.abs_pressure if f & PRESSURE_FIELD else float("nan"),
         temperature_c=m.temperature,
         fields_updated=m.fields_updated,
     )
@@ -67,7 +76,8 @@ class SimLink:
         self.mav = mavlink.MAVLink(None, sysid, compid)  # we send the packed bytes ourselves
         self.mav.robust_parsing = True
         self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
-        self.pending: list = []
+        self.pending: list = []  # received during a request(), for the next receive()
+        self.closed = False  # the simulator closed the link (seen by a request()): receive() says so next
 
     def connect(self, retry_s: float = 0.2, on_wait=None) -> None:
         """Connect, retrying until the simulator listens; on_wait() is called between tries."""
@@ -82,6 +92,7 @@ class SimLink:
                 self.mav = mavlink.MAVLink(None, self.sysid, self.compid)  # a new link: fresh parser state
                 self.mav.robust_parsing = True
                 self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
+                self.pending, self.closed = [], False
                 return
             except OSError:
                 if not warned:
@@ -96,6 +107,8 @@ class SimLink:
         if self.pending:
             out, self.pending = self.pending, []
             return out
+        if self.closed:
+            return None
         try:
             data = self.receiver.recv(65536, timeout_s)
         except socket.timeout:
@@ -110,3 +123,43 @@ class SimLink:
         controls = [0.0] * 16
         controls[: len(commands)] = commands.tolist()
         self.sock.sendall(_ACTUATORS.encode(self.mav, (time_us, controls, _ARMED if armed else 0, 0)))
+
+    def request(
+        self, msg: mavlink.MAVLink_message, answer: Callable[[mavlink.MAVLink_message], bool], timeout_s: float
+    ) -> mavlink.MAVLink_message | None:
+        """Send ``msg`` to the simulator; the first message received for which ``answer(m)`` is true.
+
+        None when it does not come within ``timeout_s`` (wall clock), or there is no link.  Everything
+        else received meanwhile (the next HIL_SENSOR...) is kept, in order, for :meth:`receive`.  The
+        simulator answers between two steps (``sitl/link_params.py``), so this takes at most the rest
+        of its current step: the lockstep goes on as before.
+        """
+        if self.sock is None or self.closed:
+            return None
+        data = msg.pack(self.mav)
+        self.mav.seq = (self.mav.seq + 1) % 256
+        try:
+            self.sock.sendall(data)
+        except OSError:
+            self.closed = True
+            return None
+        deadline = time.monotonic() + timeout_s
+        while (remaining := deadline - time.monotonic()) > 0:
+            try:
+                data = self.receiver.recv(65536, remaining)
+            except socket.timeout:
+                return None
+            except OSError:
+                data = b""
+            if not data:
+                self.closed = True
+                return None
+            found = None
+            for m in self.parser.parse(data):
+                if found is None and answer(m):
+                    found = m
+                else:
+                    self.pending.append(m)
+            if found is not None:
+                return found
+        return None

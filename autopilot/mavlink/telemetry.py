@@ -30,12 +30,16 @@ _INT32 = (-(2**31), INT32_MAX, 0)  # range and invalid value of an int32 field
 REPORTED_LOAD_PERMILLE = 100  # SYS_STATUS.load: nothing to measure in simulation
 PWM_MIN_US, PWM_MAX_US, PWM_DISARMED_US = 1000, 2000, 900  # PX4's PWM_MAIN_MIN/MAX/DISARM defaults
 
-# AUTOPILOT_VERSION.capabilities, as PX4 reports them (plus PARAM_FLOAT).
-# Exactly what is implemented: the mission protocol (MISSION_ITEM_INT and the legacy MISSION_ITEM) for
-# missions, fences and rally points, COMMAND_INT, the parameter protocol (floats, integers byte-wise),
-# MAVLink 2, offboard control (SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET).
+# AUTOPILOT_VERSION.capabilities (autopilot.mavlink.identity): PX4's bits for what works here (not its
+# RESERVED3, once SET_ACTUATOR_TARGET), plus GLOBAL_INT targets and flight termination, which PX4 handles
+# without saying so.  Exactly what is implemented: the mission protocol (MISSION_ITEM_INT and the legacy
+# MISSION_ITEM) for missions, fences and rally points, COMMAND_INT, the parameter protocol (floats, integers byte-wise),
+# MAVLink 2, offboard control (SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET), MAVLink FTP,
+# MAV_CMD_DO_FLIGHTTERMINATION.  No terrain protocol, compass calibration, gimbal or gripper.
 CAPABILITIES = (
     mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_FTP
+    | mavlink.MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION
     | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
     | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
     | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
@@ -101,27 +105,6 @@ def deg_e7(deg: float) -> int:
 
 
 # --------------------------------------------------------------------------- messages
-
-
-def autopilot_version(
-    *,
-    flight_sw_version: int,
-    middleware_sw_version: int,
-    os_sw_version: int,
-    board_version: int,
-    flight_custom_version: bytes,
-    vendor_id: int,
-    product_id: int,
-    uid: int,
-) -> mavlink.MAVLink_message:
-    """AUTOPILOT_VERSION with PX4's capabilities (:data:`CAPABILITIES`); ``flight_custom_version`` up to 8 bytes."""
-    return mavlink.MAVLink_autopilot_version_message(
-        capabilities=CAPABILITIES, flight_sw_version=flight_sw_version, middleware_sw_version=middleware_sw_version,
-        os_sw_version=os_sw_version, board_version=board_version,
-        flight_custom_version=list(flight_custom_version[:8].ljust(8, b"\x00")),
-        middleware_custom_version=[0] * 8, os_custom_version=[0] * 8, vendor_id=vendor_id, product_id=product_id,
-        uid=uid,
-    )  # fmt: skip
 
 
 def heartbeat(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message:

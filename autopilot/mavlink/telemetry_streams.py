@@ -13,8 +13,9 @@ import logging
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.mavlink import telemetry
+from autopilot.mavlink import telemetry_more
 from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.mavlink.telemetry import Builder
 from autopilot.mavlink.vehicle_interface import VehicleInterface
 from autopilot.topics import TelemetrySnapshot
 
@@ -24,12 +25,17 @@ log = logging.getLogger(__name__)
 class TelemetryStreams:
     """Snapshot, build cache and change detection of the link's streams (see the module docstring).
 
-    ``tx_build_errors`` counts stream messages that could not be built (a bug in a snapshot?).
+    ``builders``: message id -> builder, every message the link streams or sends on request
+    (:func:`autopilot.mavlink.telemetry_more.link_builders`).  ``tx_build_errors`` counts stream
+    messages that could not be built (a bug in a snapshot?).
     """
 
-    def __init__(self, vehicle: VehicleInterface, endpoints: list[LinkEndpoint]) -> None:
+    def __init__(
+        self, vehicle: VehicleInterface, endpoints: list[LinkEndpoint], builders: dict[int, Builder] | None = None
+    ) -> None:
         self.vehicle = vehicle
         self.endpoints = endpoints
+        self.builders = builders if builders is not None else dict(telemetry_more.BUILDERS)
         self.now_us = 0
         self.tx_build_errors = 0
         self._build_failures: set[int] = set()
@@ -99,7 +105,7 @@ class TelemetryStreams:
         if mid in self._built:
             return self._built[mid]
         try:
-            msg = self._built[mid] = telemetry.BUILDERS[mid](self.snapshot(), now_us)
+            msg = self._built[mid] = self.builders[mid](self.snapshot(), now_us)
             return msg
         except Exception:
             if mid not in self._build_failures:  # one report per message, not one per iteration

@@ -18,6 +18,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander import health
 from autopilot.mavlink import commands, control_messages, offboard_messages
 from autopilot.parameters import ParameterStore
+from autopilot.telemetry_extras import FlightTimes, TelemetryExtras
 from autopilot.topics import (
     ActuatorStatus,
     BatteryWarning,
@@ -82,6 +83,7 @@ def telemetry_snapshot(
     control: ControlSetpoints | None,
     estimator_status: EstimatorStatus | None,
     ekf_in_use: bool,
+    extras: TelemetryExtras | None = None,
 ) -> TelemetrySnapshot:
     """Everything the link reports, from the records of the commander, the controllers and the estimator.
 
@@ -119,7 +121,7 @@ def telemetry_snapshot(
         | health.sensors_health(status.estimate, status.gps_ok, estimator_status, ekf_in_use, prearm_ok) & ~battery_bad,
         prearm_ok=prearm_ok, position_setpoint_ned_m=status.position_setpoint_ned_m,
         motor_outputs=actuators.motor_outputs, control=control, estimator_status=estimator_status,
-        battery_warning=status.battery_warning, mission=status.mission,
+        battery_warning=status.battery_warning, mission=status.mission, extras=extras,
     )  # fmt: skip
 
 
@@ -129,12 +131,19 @@ class FlightControllerVehicle:
     def __init__(self, fc: "FlightController") -> None:
         self.fc = fc
         self.params = fc.params
+        # SYSTEM_TIME's clock, as PX4 SITL's: the wall clock at the first step, advancing with simulated time
+        self.utc_at_zero_us = 0  # (UTC µs at simulated time 0; 0 unknown, before the first step)
+        self.flight_times = FlightTimes()
 
     def snapshot(self) -> TelemetrySnapshot:
         fc = self.fc
-        estimator = fc.estimator
+        estimator, status = fc.estimator, fc.commander.status
+        if not self.utc_at_zero_us and fc.last_us is not None:
+            self.utc_at_zero_us = time.time_ns() // 1000 - fc.last_us
+        self.flight_times.update(status)
+        extras = self.flight_times.extras(fc.last_imu, self.utc_at_zero_us)
         return telemetry_snapshot(
-            fc.commander.status, fc.actuators, fc.control_setpoints(), estimator.status(), estimator.use_ekf
+            status, fc.actuators, fc.control_setpoints(), estimator.status(), estimator.use_ekf, extras
         )
 
     def handle_command(self, command: int, params: tuple[float, ...], frame: int) -> int:
