@@ -307,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
         wall_flight = time.monotonic() - wall_flight_start
         sim_flight = client.sim_time_s() - sim_flight_start
         print(demo.summary(time.monotonic() - wall_start, wall_flight, sim_flight))
-        print(f"flight logs (.tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
+        print(f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
         print("flight demo: OK")
         return 0
     except KeyboardInterrupt:
@@ -343,7 +343,7 @@ def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: 
     print(f"time to land: {result.time_to_land_s:.1f} s (simulated, from NAV_LAND to the motors cut)")
     print(f"UGV speed at touchdown: {result.ugv_speed_at_touchdown_m_s:.2f} m/s")
     print(f"real-time factor: {result.real_time_factor:.2f}")
-    print(f"flight logs (.tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
+    print(f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
     if not result.success:
         print(f"flight demo FAILED (step: {demo.step}): {result.reason}", file=sys.stderr)
         return 1
