@@ -105,6 +105,16 @@ async def until(predicate, timeout_s: float, what: str, period_s: float = 0.1) -
         raise AssertionError(f"timed out waiting for {what}") from None
 
 
+async def wait_armable(tel, timeout_s: float, what: str = "health: position, home, armable") -> None:
+    """Wait until MAVSDK's Telemetry ``tel`` reports a global position, a home position and armable."""
+
+    async def ready():
+        h = await tel.health()
+        return h.is_global_position_ok and h.is_home_position_ok and h.is_armable
+
+    await until(ready, timeout_s, what)
+
+
 def sim_ms(truth) -> int:
     """The truth stream's latest simulated time, ms (0 before the first sample)."""
     s = truth.latest()

@@ -24,7 +24,14 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from e2e_flight_helpers import horizontal, sim_sleep, texts_since, until, wait_text  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
+    horizontal,
+    sim_sleep,
+    texts_since,
+    until,
+    wait_armable,
+    wait_text,
+)
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -136,11 +143,7 @@ async def _mavsdk_gps_loss(stack: Stack, truth: SimClient) -> dict:
         await param.set_param_int("SYS_FAILURE_EN", 1)
         failure = FailureAsync(system)  # a plugin made now reads SYS_FAILURE_EN = 1 (the first keeps its 0)
 
-        async def ready():
-            h = await tel.health()
-            return h.is_global_position_ok and h.is_home_position_ok and h.is_armable
-
-        await until(ready, WAIT_S, "health: position, home, armable")
+        await wait_armable(tel, WAIT_S)
         await action.set_takeoff_altitude(ALT_M)
         await action.arm()
         await action.takeoff()

@@ -35,7 +35,7 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
-from e2e_flight_helpers import until  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import until, wait_armable  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -63,11 +63,7 @@ def _logs_on_disk(stack) -> list[Path]:
 async def _fly(system) -> None:
     tel, action = TelemetryAsync(system), ActionAsync(system)
 
-    async def ready():
-        h = await tel.health()
-        return h.is_global_position_ok and h.is_home_position_ok and h.is_armable
-
-    await until(ready, WAIT_S, "health: position, home, armable")
+    await wait_armable(tel, WAIT_S)
     await action.set_takeoff_altitude(ALT_M)
     await action.arm()
     await action.takeoff()

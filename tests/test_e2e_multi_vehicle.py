@@ -26,7 +26,7 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from e2e_flight_helpers import until  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import until, wait_armable  # tests/e2e_flight_helpers.py
 from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
@@ -66,11 +66,7 @@ async def _fly_all() -> list[int]:
             system = systems[ports.system_id(n)]
             tel, action = TelemetryAsync(system), ActionAsync(system)
 
-            async def ready(tel=tel):
-                h = await tel.health()
-                return h.is_global_position_ok and h.is_home_position_ok and h.is_armable
-
-            await until(ready, 90, f"system {ports.system_id(n)} ready to arm")
+            await wait_armable(tel, 90, f"system {ports.system_id(n)} ready to arm")
             await action.set_takeoff_altitude(ALTITUDES_M[n])
             await action.arm()
             await action.takeoff()
