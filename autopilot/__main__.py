@@ -82,8 +82,10 @@ def _resolve_ports(args: argparse.Namespace) -> str | None:
     return None
 
 
-def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str):
-    """Vehicle defaults, saved state and --params into the store; the ParamSaver (None: not saving, False: error)."""
+def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str, warnings: list[str]):
+    """Vehicle defaults, saved state and --params into the store; the ParamSaver (None: not saving, False: error).
+
+    ``warnings`` gets what the ground stations should be told (a corrupt state file kept aside)."""
     from pathlib import Path
 
     from autopilot.param_storage import ParamSaver, prepare_parameters, state_file
@@ -97,7 +99,7 @@ def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str):
             print(f"autopilot: cannot create the state directory {args.state_dir}: {exc}", file=sys.stderr)
             return False
         state_path = state_file(args.state_dir, vehicle_name, args.instance)
-    prepare_parameters(
+    warnings += prepare_parameters(
         params,
         vehicle_toml=vehicle_path(args.vehicle),
         state_path=state_path,
@@ -154,10 +156,15 @@ def main(argv: list[str] | None = None) -> int:
     from autopilot.param_catalogue import default_store
 
     params = default_store()
-    saver = _prepare_parameters(params, args, spec.name)
+    warnings: list[str] = []
+    saver = _prepare_parameters(params, args, spec.name, warnings)
     if saver is False:
         return 2
     fc = FlightController(spec, params, sysid=args.sysid)
+    from pymavlink.dialects.v20.common import MAV_SEVERITY_CRITICAL
+
+    for text in warnings:  # to the ground stations (STATUSTEXT) once the link runs
+        fc.commander.say(MAV_SEVERITY_CRITICAL, text)
     fc.commander.param_saver = saver  # PREFLIGHT_STORAGE read/write (None without --state-dir)
     if args.state_dir:
         _keep_plans(fc, args, spec.name)

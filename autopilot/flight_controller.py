@@ -14,6 +14,13 @@ flight controller publishes ``actuators`` (:class:`ActuatorStatus`) after every 
 hands the estimate, its own outputs and the estimator's pre-arm failures to
 :meth:`Commander.update`; the commander publishes ``commander.status``
 (:class:`CommanderStatus`), which the loops here, the flight log and the telemetry read.
+
+Sensor time must go on: a sample not later than the previous one, or more than MAX_SENSOR_GAP_US later,
+comes from another world (a restarted simulator), so the estimator, the controllers and the commander
+start again as at a reboot and an armed vehicle is disarmed (no flight on state that cannot be trusted).
+The process loop reports a lost simulator link (:meth:`on_sim_link_lost`, HEARTBEAT MAV_STATE_CRITICAL
+while it lasts).  Home is set automatically only while the vehicle is at rest (:mod:`autopilot.estimation.
+rest_detector`); moving while disarmed before that (a restart in the air: the vehicle falls) is reported.
 """
 
 from __future__ import annotations
@@ -22,10 +29,12 @@ import numpy as np
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import Commander
+from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.control.gains_from_params import GainsFromParams
 from autopilot.control.mixer import Mixer
 from autopilot.control.position_control import attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
+from autopilot.estimation.rest_detector import RestDetector
 from autopilot.landing_target_input import LandingTargetInput
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import NO_ACTUATORS, ActuatorStatus, AttitudeSetpoint, ControlSetpoints, GpsSample, ImuSample
@@ -37,6 +46,9 @@ OUTER_PERIOD_US = 20_000  # commander, navigator and position control run at 50 
 # ... in the 4 ms period 1 of each 20 ms: the estimator's filters run after period 0 and the
 # ground-station link after period 2 (autopilot.lockstep_loop), so no two heavy jobs share a period.
 OUTER_OFFSET_US = 4_000
+# Consecutive IMU samples are one lockstep period apart; a sample that is not later than the previous one,
+# or more than this later, means the sensor data restarted (a new simulator): the state is not kept.
+MAX_SENSOR_GAP_US = 500_000
 
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
@@ -52,6 +64,7 @@ class FlightController:
         self.estimator = Estimator(params)
         self.estimator.defer_filters = True  # its 50 Hz work runs in after_step, off the critical path
         self.commander = Commander(params, spec.mav_type)
+        params.armed = lambda: self.commander.armed  # the gains' floors while armed (parameters.FLIGHT_FLOORS)
         self.commander.feet_below_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
         self.max_thrust_n = len(spec.rotors) * spec.max_thrust_per_rotor_n  # all rotors at full thrust, N
         self.commander.hover_thrust_frac = spec.mass_kg * GRAVITY_M_S2 / self.max_thrust_n
@@ -87,6 +100,9 @@ class FlightController:
         self._vel_ned_m_s = np.zeros(3)
         self._pos_us = 0
         self._height_m = float("nan")
+        self.rest = RestDetector()  # raw IMU and GPS: home is set only at rest
+        self._said_moving = False
+        self.sim_link_lost = False  # the simulator link is down (the process loop sets it): MAV_STATE_CRITICAL
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -102,16 +118,59 @@ class FlightController:
         self.setpoint, self.rate_override, self._gps_pending = None, None, None
         self.commander.reboot_pending = False
 
+    # -- the simulator link (issue 18) ----------------------------------------------------------
+    def on_sim_link_lost(self) -> None:
+        """The process loop lost the simulator (closed, or silent): say so; HEARTBEAT MAV_STATE_CRITICAL."""
+        self.sim_link_lost = True
+        c = self.commander
+        c.say(S.MAV_SEVERITY_CRITICAL, "Simulator link lost" + (" in flight: no sensor data" if c.armed else ""))
+        # No arming on the state of before (as PX4 refuses with a sensor missing), until the next update.
+        c.estimator_checks = (*c.estimator_checks, "no sensor data (simulator link lost)")
+        c._publish()
+
+    def on_sim_link_regained(self) -> None:
+        """Sensor data again; whether the state is still good is the next step's to judge (its time)."""
+        self.sim_link_lost = False
+        self.commander.say(S.MAV_SEVERITY_WARNING, "Simulator link regained")
+
+    def _sensor_time_restarted(self, jump_us: int) -> None:
+        """The sensor clock went back (or jumped ahead): the world is another one (a restarted simulator).
+        Nothing measured before fits it, so the flight controller starts again as at a reboot (parameters,
+        plans and a flight termination kept) and, as PX4 would after losing its sensors in flight, does not
+        stay armed: it disarms.  Home is set again once the vehicle is at rest."""
+        c = self.commander
+        was_armed, terminated = c.armed, c.terminated
+        if was_armed:
+            c._disarm("sensor data restarted")
+        said = c.pop_events()
+        c.reboot()
+        c.events = said  # (without the reboot's own message)
+        c.terminated = terminated
+        ExternalInputs.__init__(c.inputs)  # in place (services hold it): its times are of the old clock
+        c.say(
+            S.MAV_SEVERITY_CRITICAL,
+            f"Sensor time jumped {jump_us / 1e6:+.1f} s: state reset" + (", disarmed" if was_armed else ""),
+        )  # (one STATUSTEXT: under 50 characters)
+        self._restart()
+        self.gyro_filter.set_gains(self.gyro_filter.settings)
+        self.last_us = self.last_outer_us = self._outer_slot = None
+        self._pos_ned_m, self._vel_ned_m_s, self._pos_us = np.zeros(3), np.zeros(3), 0
+        self.rest, self._said_moving = RestDetector(), False
+
     def step(self, imu: ImuSample, gps: GpsSample | None) -> np.ndarray:
         """Run one iteration; return motor commands (0..1, one per rotor)."""
         now = imu.timestamp_us
+        if self.last_us is not None and not 0 < now - self.last_us <= MAX_SENSOR_GAP_US:
+            self._sensor_time_restarted(now - self.last_us)
         if self.commander.reboot_pending:  # PREFLIGHT_REBOOT_SHUTDOWN: the commander restarted itself
             self._restart()
         dt = LOCKSTEP_DT_S if self.last_us is None else (now - self.last_us) * 1e-6
         self.last_us, self.last_imu = now, imu
         self.estimator.update_imu(imu)
+        self.rest.update_imu(now, imu.accel_frd_m_s2, imu.gyro_frd_rad_s)
         if gps is not None:
             self.estimator.update_gps(gps)
+            self.rest.update_gps(now, gps.vel_ned_m_s)
         # The outer loop's position, carried on at its velocity to this step (the target's history needs
         # where the vehicle was at each capture: 20 ms of staleness is 2 cm at 1 m/s).
         since_s = (now - self._pos_us) * 1e-6
@@ -184,6 +243,7 @@ class FlightController:
         for reason in self.landing_target.pop_events():
             commander.say(S.MAV_SEVERITY_WARNING, reason)
         checks = tuple(estimator.prearm_failures()) if estimator.use_ekf and not self.commander.status.armed else ()
+        self._check_rest()
         sp = self.commander.update(now, est, gps, estimator.gps_ok(now), self.actuators, checks, self.wall_s)
         if isinstance(sp, AttitudeSetpoint) and self.commander.status.armed:
             self._fly_attitude(sp)
@@ -195,6 +255,16 @@ class FlightController:
         self.setpoint = sp
         self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt).thrust_ned_n
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
+
+    def _check_rest(self) -> None:
+        """Tell the commander whether the vehicle is at rest (home waits for it); report a vehicle moving
+        while disarmed before home is set, once: a flight controller restarted in the air (it comes up
+        disarmed and the vehicle falls; PX4 does the same) or a vehicle carried about."""
+        c = self.commander
+        c.at_rest = self.rest.at_rest
+        if self.rest.moving and not c.armed and c.home is None and not self._said_moving:
+            self._said_moving = True
+            c.say(S.MAV_SEVERITY_CRITICAL, "Moving while disarmed: restarted in flight?")
 
     def _fly_attitude(self, sp: AttitudeSetpoint) -> None:
         """An attitude or body-rate setpoint: the position loop is bypassed (and reset)."""

@@ -23,6 +23,10 @@ def add_link_services(
     logs being written, None without)."""
     from pathlib import Path
 
+    # Parameters (--state-dir): every change is on the disk before the PARAM_VALUE that acknowledges it
+    # (autopilot/param_storage.py); None: nothing is saved.
+    link.param_service.persist = fc.commander.param_saver
+
     from autopilot.mavlink.log_service import LogService
 
     # The log protocol: the ULogs in --log-dir (none with --no-log, or if the directory could not be made).

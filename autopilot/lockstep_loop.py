@@ -7,6 +7,13 @@ another 4 ms period, let the ground-station link receive, stream telemetry and
 send events; in the other periods the link only answers what has arrived
 (``poll``).  HIL_GPS and BATTERY_STATUS are kept for the next step.  Times are
 the simulator's (``time_usec`` of HIL_SENSOR, microseconds).
+
+The simulator link is watched (:class:`autopilot.sim_link_watch.SimLinkWatch`): when it closes or
+stays silent for SIM_LOSS_TIMEOUT_S of wall-clock time it is lost, the flight controller says so
+(:meth:`FlightController.on_sim_link_lost`: STATUSTEXT CRITICAL, HEARTBEAT MAV_STATE_CRITICAL) and
+the ground-station link goes on at 50 Hz of wall-clock time while the loop reconnects, so ground
+stations keep getting HEARTBEAT and STATUSTEXT.  A connection counts only once the simulator has
+answered within HANDSHAKE_TIMEOUT_S (:meth:`SimLink.connect`).
 """
 
 from __future__ import annotations
@@ -15,6 +22,7 @@ import time
 from typing import TYPE_CHECKING
 
 from autopilot.mavlink.sim_link import battery_from_msg, gps_from_msg, imu_from_msg
+from autopilot.sim_link_watch import SimLinkWatch
 from mavsim_core.constants import LOCKSTEP_DT_US
 
 if TYPE_CHECKING:  # types only: the process imports these where it builds them (the recorder only when logging)
@@ -24,31 +32,49 @@ if TYPE_CHECKING:  # types only: the process imports these where it builds them 
     from autopilot.mavlink.sim_link import SimLink
 
 LINK_EVERY, LINK_PHASE = 5, 2  # ground-station link at 50 Hz of simulated time, off the outer loop's period
+HANDSHAKE_TIMEOUT_S = 5.0  # wall seconds for the simulator's first message after connecting (it drops a
+# silent peer after 2 s, sitl/peer_accept.py, so one squatter ahead of us in its queue is survived)
+IDLE_PERIOD_S = 0.02  # while the simulator is away, the ground-station link runs at 50 Hz of wall time
 
 
 def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: FlightRecorder | None) -> None:
-    """Connect to the simulator and fly in lockstep with it; reconnect when it closes the link.
+    """Connect to the simulator and fly in lockstep with it; reconnect when it closes the link or goes silent.
 
     Returns only by an exception (KeyboardInterrupt, SystemExit from SIGTERM); the caller closes
     ``link`` and ``recorder``.  While the simulator is away the ground stations are still answered.
     """
-    now_us = 0
-    sim.connect(on_wait=lambda: link.update(now_us))
+    watch = SimLinkWatch()
+
+    def serve_ground() -> None:
+        link.update(watch.link_time_us(time.monotonic()))
+
+    sim.connect(on_wait=serve_ground, handshake_timeout_s=HANDSHAKE_TIMEOUT_S)
     print("[autopilot] connected to the simulator", flush=True)
     gps = None
     while True:
-        msgs = sim.receive(timeout_s=0.05)
+        msgs = sim.receive(timeout_s=IDLE_PERIOD_S if watch.lost else 0.05)
         if msgs is None:
             print("[autopilot] simulator closed the link; reconnecting", flush=True)
-            sim.connect(on_wait=lambda: link.update(now_us))
+            if watch.check(time.monotonic(), closed=True):
+                fc.on_sim_link_lost()
+            sim.close()
+            sim.connect(on_wait=serve_ground, handshake_timeout_s=HANDSHAKE_TIMEOUT_S)
+            print("[autopilot] connected to the simulator", flush=True)
+            gps = None
             continue
-        if not msgs:
-            link.update(now_us)  # keep answering ground stations while the simulator is paused
+        if not msgs:  # the simulator is paused (or hung: lost after SIM_LOSS_TIMEOUT_S); the link still closes
+            if watch.check(time.monotonic(), closed=False):  # if it dies, and it may come back on its own
+                print("[autopilot] no sensor data from the simulator: link lost", flush=True)
+                fc.on_sim_link_lost()
+            serve_ground()  # keep answering ground stations
             continue
         for m in msgs:
             t = m.get_type()
             if t == "HIL_SENSOR":
                 imu = imu_from_msg(m)
+                if watch.on_sensor(imu.timestamp_us, time.monotonic()):
+                    print("[autopilot] sensor data from the simulator again: link regained", flush=True)
+                    fc.on_sim_link_regained()
                 commands = fc.step(imu, gps)
                 gps = None
                 now_us = imu.timestamp_us

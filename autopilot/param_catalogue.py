@@ -12,7 +12,7 @@ import argparse
 import sys
 
 from autopilot import flight_controller, flight_recorder, landing_target_input
-from autopilot.commander import commander, failsafes, health
+from autopilot.commander import commander, failsafes, failure_detector, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mahony, position_kf
 from autopilot.mavlink import failure_injection
@@ -32,7 +32,7 @@ from autopilot.navigation import (
     rtl,
     takeoff,
 )
-from autopilot.parameters import RULES, ParamDef, ParameterStore, definitions
+from autopilot.parameters import FLIGHT_FLOORS, RULES, ParamDef, ParameterStore, definitions
 
 # Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
 _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
@@ -53,6 +53,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     commander.PARAMS,
     health.PARAMS,
     failsafes.PARAMS,
+    failure_detector.PARAMS,
     manual_modes.PARAMS,
     offboard.PARAMS,
     precland.PARAMS,
@@ -77,6 +78,12 @@ def default_store() -> ParameterStore:
 
 def _fmt(x: float) -> str:
     return f"{x:g}"
+
+
+FLOORS_TEXT = (
+    "While the vehicle is armed these gains are refused below a fraction of their default (the vehicle's);"
+    " disarmed, any value of the range is accepted. Below them the vehicle cannot be flown (issue 18)."
+)
 
 
 def markdown() -> str:
@@ -106,6 +113,11 @@ def markdown() -> str:
         "",
     ]
     lines += [f"- `{r.lhs} {r.op} {r.rhs}`: {r.why}" for r in RULES]
+    lines += ["", "## Floors while armed", "", FLOORS_TEXT, ""]
+    lines += [
+        f"- `{f.name}` >= {f.fraction:g} x default{' (or 0: off)' if f.zero_is_off else ''}: {f.why}"
+        for f in FLIGHT_FLOORS
+    ]
     return "\n".join(lines) + "\n"
 
 

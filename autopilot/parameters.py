@@ -12,7 +12,9 @@ as in PX4.
 Cross-parameter rules (:data:`RULES`, e.g. ``MPC_THR_MIN < MPC_THR_MAX``) are
 checked on every set: a value that would break one is refused like an
 out-of-range value.  PX4 clamps such values silently in its controllers; here
-the ground station is told why.
+the ground station is told why.  While the vehicle is armed, the gains without which
+it cannot fly (:data:`FLIGHT_FLOORS`, e.g. ``MC_ROLLRATE_P``) are refused below a
+fraction of their default; disarmed, any declared value is accepted.
 """
 
 from __future__ import annotations
@@ -103,6 +105,39 @@ RULES: tuple[ParamRule, ...] = (
 )
 
 
+@dataclass(frozen=True)
+class FlightFloor:
+    """While armed, ``name`` may not be set below ``fraction`` of its default (the vehicle's); any value
+    of its declared range is accepted disarmed.  ``zero_is_off``: 0 switches the feature off and is
+    accepted (a filter's cut-off)."""
+
+    name: str
+    fraction: float
+    why: str  # what goes wrong below it, for documentation
+    zero_is_off: bool = False
+
+    def limit(self, default: float) -> float:
+        return self.fraction * default
+
+
+# The gains below which the vehicle cannot be flown, refused while armed (issue 18, finding 6: an
+# in-range PARAM_SET of MC_ROLLRATE_P = 0 in flight).  PX4 and ArduPilot take any in-range value in
+# flight; raising a gain stays allowed up to the declared maximum (live tuning: x10 makes the rate loop
+# oscillate, it still flies).  Measured with quad_x, hover at 5 m and 8 m moves, each gain pair at a
+# fraction of its default: rate P 0.5 tilts 23 deg (1: 19), 0.25 tilts 54 deg, 0.1 flips; attitude P
+# 0.25 flies, 0.1 creeps, 0 drifts away; rate limits 0.1 fly, 0 cannot tilt; gyro cut-off 0.1 (3 Hz)
+# flies, 0.05 (1.5 Hz) falls.
+FLIGHT_FLOORS: tuple[FlightFloor, ...] = (
+    *(FlightFloor(f"MC_{a}RATE_P", 0.5, "rate loop: at 0.25 of its default a move tilts 54 deg, at 0.1 it flips")
+      for a in ("ROLL", "PITCH", "YAW")),
+    *(FlightFloor(f"MC_{a}_P", 0.25, "attitude loop: at 0.1 of its default the vehicle creeps, at 0 it drifts away")
+      for a in ("ROLL", "PITCH", "YAW")),
+    *(FlightFloor(f"MC_{a}RATE_MAX", 0.25, "at 0 the attitude loop commands no rate: no control")
+      for a in ("ROLL", "PITCH", "YAW")),
+    FlightFloor("IMU_GYRO_CUTOFF", 0.25, "at 1.5 Hz the filtered rates lag: the vehicle falls", zero_is_off=True),
+)  # fmt: skip
+
+
 def _same(a: float, b: float) -> bool:
     """Equal, or equal once rounded to float32 (what REAL32 parameters are on the wire)."""
     if a == b:
@@ -122,7 +157,12 @@ class ParameterStore:
     declared ones, replaced by a vehicle's default set with :meth:`set_defaults`.
     """
 
-    def __init__(self, defs: dict[str, ParamDef] | Iterable[ParamDef], rules: tuple[ParamRule, ...] = RULES) -> None:
+    def __init__(
+        self,
+        defs: dict[str, ParamDef] | Iterable[ParamDef],
+        rules: tuple[ParamRule, ...] = RULES,
+        floors: tuple[FlightFloor, ...] = FLIGHT_FLOORS,
+    ) -> None:
         by_name = defs if isinstance(defs, dict) else definitions(defs)
         self._defs = dict(sorted(by_name.items()))
         self._defaults: dict[str, float] = {n: float(d.default) for n, d in self._defs.items()}
@@ -135,6 +175,9 @@ class ParameterStore:
             self._rules_of.setdefault(r.lhs, []).append(r)
             self._rules_of.setdefault(r.rhs, []).append(r)
         self._listeners: list[Callable[[str, float], None]] = []
+        self._floors = {f.name: f for f in floors if f.name in self._defs}
+        # True while the vehicle is armed (the flight controller sets it): FLIGHT_FLOORS apply then
+        self.armed: Callable[[], bool] | None = None
         for r in self._rules:
             if not r.holds(self._values[r.lhs], self._values[r.rhs]):
                 raise ValueError(
@@ -200,6 +243,7 @@ class ParameterStore:
     def check(self, name: str, value: float, ptype: str | None = None) -> float:
         """The value ``set`` would store (validated, integers made exact); raise ParamError if refused."""
         v = self._validate(name, value, ptype)
+        self._check_floor(name, v)
         for r in self._rules_of.get(name, ()):
             lhs = v if r.lhs == name else self._values[r.lhs]
             rhs = v if r.rhs == name else self._values[r.rhs]
@@ -209,6 +253,16 @@ class ParameterStore:
                 unit = f" {unit}" if unit else ""
                 raise ParamError(f"{name} {v:g} refused: must be {op} {other} ({self._values[other]:g}{unit})")
         return v
+
+    def _check_floor(self, name: str, v: float) -> None:
+        """While armed, a gain of FLIGHT_FLOORS not below its floor (ParamError)."""
+        floor = self._floors.get(name)
+        if floor is None or self.armed is None or not self.armed():
+            return
+        limit = floor.limit(self._defaults[name])
+        if v < limit and not _same(v, limit) and not (floor.zero_is_off and v == 0.0):
+            off = " or 0" if floor.zero_is_off else ""
+            raise ParamError(f"{name} {v:g} refused while armed: at least {limit:g}{off} until disarmed")
 
     def _validate(self, name: str, value: float, ptype: str | None) -> float:
         """Name, type and range of one value (no rules); the value as stored."""

@@ -15,9 +15,11 @@ Examples::
     gcs param save tuned.params  # also: param list, set, load, diff (see gcs/param_cli.py)
     gcs signing setup PASSPHRASE  # MAVLink 2 signing; then: gcs --signing-key PASSPHRASE arm
 
-Each command waits for the COMMAND_ACK and then for its effect.  Exit codes:
-0 success, 1 refused by the vehicle (its result and reason are printed), 2 timed
-out (what it was waiting for is printed).
+Each command is sent again until its COMMAND_ACK comes (the MAVLink command protocol: every
+0.5 s, ``confirmation`` counting the tries) and then waits for its effect; a lost ACK does not
+fail a command the vehicle is seen carrying out (armed, mode).  Exit codes: 0 done, 1 refused
+by the vehicle (its result and reason are printed) or failed (the effect did not come), 2 usage
+error (argparse), 3 no answer from the vehicle (what it was waiting for is printed).
 """
 
 from __future__ import annotations
@@ -34,13 +36,14 @@ from mavsim_core import px4_modes as modes
 
 from . import fly_cli, mission_cli, param_cli, signing_cli, ugv_cli
 from .client import VehicleClient
-from .errors import CommandRefused, GcsError, GcsTimeout, ParamRefused
+from .errors import CommandRefused, CommandResult, GcsError, GcsTimeout, NoAnswer, ParamRefused
 from .plugins.telemetry import GPS_FIX_NAMES
 
 DEFAULT_GCS_PORT = 14550
 CONNECT_TIMEOUT_S = 10.0
-ACK_TIMEOUT_S = 5.0
-EXIT_OK, EXIT_REFUSED, EXIT_TIMEOUT = 0, 1, 2
+ANSWER_TIMEOUT_S = 10.0  # wall seconds a request is retried for (COMMAND_ACK, PARAM_VALUE) unless --timeout
+EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_NO_ANSWER = 0, 1, 2, 3
+EXIT_CODES = "Exit codes: 0 done, 1 refused by the vehicle or failed, 2 usage error, 3 no answer from the vehicle."
 
 # Default wall-clock waits for each command's effect, when --timeout is not given.
 EFFECT_TIMEOUT_S = {"arm": 10.0, "disarm": 10.0, "mode": 10.0, "takeoff": 90.0, "land": 180.0, "rtl": 600.0}
@@ -81,7 +84,8 @@ def add_connection_options(parser: argparse.ArgumentParser) -> None:
         type=_positive,
         default=None,
         metavar="S",
-        help="wall seconds to wait at each step (heartbeat, acknowledgement, effect); default: per step",
+        help="wall seconds to wait at each step (heartbeat, answer to a request sent again every 0.5 s, effect); "
+        f"default: per step ({CONNECT_TIMEOUT_S:g} s for the heartbeat, {ANSWER_TIMEOUT_S:g} s for an answer)",
     )
     signing_cli.add_signing_key_option(parser)  # --signing-key (MAVLink 2 signing, gcs/signing_cli.py)
 
@@ -91,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gcs",
         description="Command a PX4-like vehicle over MAVLink.",
-        epilog="Exit codes: 0 success, 1 refused by the vehicle, 2 timed out.",
+        epilog=EXIT_CODES,
     )
     add_connection_options(parser)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -204,14 +208,14 @@ class _Cli:
 
     def arm(self) -> int:
         c = self.client
-        c.arm().check()
+        _checked(c.arm())
         c.wait_armed(True, self.effect_timeout("arm"))
         print(f"armed (mode {c.mode_name()})")
         return EXIT_OK
 
     def disarm(self) -> int:
         c = self.client
-        c.disarm(force=self.args.force).check()
+        _checked(c.disarm(force=self.args.force))
         c.wait_armed(False, self.effect_timeout("disarm"))
         print("disarmed")
         return EXIT_OK
@@ -223,7 +227,7 @@ class _Cli:
         timeout = self.effect_timeout("takeoff")
         home = c.wait_home(timeout)
         if self.args.arm and not c.armed():
-            c.arm().check()
+            _checked(c.arm())
             c.wait_armed(True, self.effect_timeout("arm"))
             print("armed")
         if math.isnan(self.args.alt):
@@ -237,7 +241,7 @@ class _Cli:
             alt_amsl = home.alt_amsl_m + target
         if not c.armed():
             print("note: the vehicle is disarmed; it will not climb until armed (use --arm)", file=sys.stderr)
-        c.takeoff(alt_amsl).check()
+        _checked(c.takeoff(alt_amsl))
         what = f"takeoff to {target:g} m above home" if target is not None else "takeoff (climb to stop)"
         print(
             f"taking off: target {target:g} m above home"
@@ -252,13 +256,13 @@ class _Cli:
     def land(self) -> int:
         c = self.client
         precision = {None: 0, "opportunistic": 1, "required": 2}[self.args.precision]
-        c.land(precision=precision).check()
+        _checked(c.land(precision=precision))
         print("precision landing" if precision else "landing", flush=True)
         return self._wait_landed_disarmed(self.effect_timeout("land"))
 
     def rtl(self) -> int:
         c = self.client
-        c.return_to_launch().check()
+        _checked(c.return_to_launch())
         print("returning to launch", flush=True)
         return self._wait_landed_disarmed(self.effect_timeout("rtl"))
 
@@ -273,13 +277,22 @@ class _Cli:
     def mode(self) -> int:
         c = self.client
         target = modes.lookup_mode(self.args.name)
-        c.set_mode(target.name).check()
+        _checked(c.set_mode(target.name))
         c.wait_mode(target.name, self.effect_timeout("mode"))
         print(f"mode {target.name} ({target.px4_name})")
         return EXIT_OK
 
     def param(self) -> int:
         return param_cli.run_param_command(self.client, self.args)
+
+
+def _checked(result: CommandResult) -> CommandResult:
+    """The result if accepted (CommandRefused otherwise), with a note when no COMMAND_ACK came back."""
+    result.check()
+    if not result.acknowledged:
+        note = f"note: no acknowledgement of {result.command_name} came back; the vehicle was seen doing it"
+        print(note, file=sys.stderr)
+    return result
 
 
 def status_line(client: VehicleClient) -> str:
@@ -315,7 +328,7 @@ def status_line(client: VehicleClient) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the ``gcs`` CLI; returns the exit code (0 ok, 1 refused, 2 timed out)."""
+    """Run the ``gcs`` CLI; returns the exit code (0 done, 1 refused or failed, 2 usage, 3 no answer)."""
     args = build_parser().parse_args(argv)
     if args.command == "plot":
         from . import plot
@@ -342,7 +355,7 @@ def main(argv: list[str] | None = None) -> int:
             target_system=None if args.instance is None else ports.system_id(args.instance),
             signing_key=args.signing_key,
         )
-        client.timeout_s = args.timeout or ACK_TIMEOUT_S
+        client.timeout_s = args.timeout or ANSWER_TIMEOUT_S
         cli = _Cli(client, args)
         handler = {
             "status": cli.status,
@@ -366,9 +379,12 @@ def main(argv: list[str] | None = None) -> int:
     except ParamRefused as exc:
         print(f"gcs: {args.command} refused: {exc}", file=sys.stderr)
         return EXIT_REFUSED
-    except GcsTimeout as exc:
-        print(f"gcs: {args.command}: {exc}", file=sys.stderr)
-        return EXIT_TIMEOUT
+    except NoAnswer as exc:
+        print(f"gcs: {args.command}: no answer from the vehicle: {exc}", file=sys.stderr)
+        return EXIT_NO_ANSWER
+    except GcsTimeout as exc:  # the vehicle answers but did not do it in time
+        print(f"gcs: {args.command} failed: {exc}", file=sys.stderr)
+        return EXIT_REFUSED
     except ValueError as exc:  # bad parameter value / name
         print(f"gcs: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED

@@ -143,7 +143,7 @@ class VehicleClient(Connection):
         command: int,
         *params: float,
         timeout_s: float | None = None,
-        retries: int = 3,
+        retries: int | None = None,
         timeout: float | None = None,
     ) -> CommandResult:
         """COMMAND_LONG until its COMMAND_ACK (:meth:`Action.command_long`)."""
@@ -155,7 +155,7 @@ class VehicleClient(Connection):
         *params: float,
         frame: int = mavlink.MAV_FRAME_GLOBAL,
         timeout_s: float | None = None,
-        retries: int = 3,
+        retries: int | None = None,
         timeout: float | None = None,
         current: int = 0,
         autocontinue: int = 0,
@@ -236,7 +236,7 @@ class VehicleClient(Connection):
 
     # ----------------------------------------------------------------- param
 
-    def param_get(self, name: str, timeout_s: float | None = None, retries: int = 3) -> int | float:
+    def param_get(self, name: str, timeout_s: float | None = None, retries: int | None = None) -> int | float:
         """Read a parameter (:meth:`Param.get`)."""
         return self.param.get(name, timeout_s, retries)
 
@@ -246,7 +246,7 @@ class VehicleClient(Connection):
         value: float | int,
         param_type: int | None = None,
         timeout_s: float | None = None,
-        retries: int = 3,
+        retries: int | None = None,
     ) -> int | float:
         """Set a parameter; the value the vehicle echoes (:meth:`Param.set`)."""
         return self.param.set(name, value, param_type, timeout_s, retries)

@@ -23,10 +23,11 @@ from collections import deque
 from typing import Callable, Iterable, Self
 
 from pymavlink import mavutil
+from pymavlink.dialects.v20 import common as mavlink2
 
 from mavsim_core.mavlink_signing import SigningState
 
-from .errors import GcsTimeout, StatusText
+from .errors import GcsTimeout, NoAnswer, StatusText
 
 mavlink = mavutil.mavlink
 
@@ -38,6 +39,7 @@ DEFAULT_TIMEOUT_S = 10.0
 PUMP_TIMEOUT_S = 0.1
 STATUSTEXT_CHUNK_LEN = 50  # a chunk this long (no NUL) means more chunks follow
 SILENT_NOTE_S = 2.0  # describe() mentions a vehicle silent for longer than this
+SILENT_S = 5.0  # a wait that times out after the vehicle has been silent this long: no answer (NoAnswer)
 
 
 class Connection:
@@ -145,10 +147,10 @@ class Connection:
             )
         except GcsTimeout as exc:
             if not self.signing.enabled:
-                raise
+                raise NoAnswer(str(exc)) from None
             refused = self.signing.refused
             note = f"{refused} messages refused as not signed with it" if refused else "nothing heard, none refused"
-            raise GcsTimeout(f"{exc} ({note}: has the vehicle this --signing-key?)") from None
+            raise NoAnswer(f"{exc} ({note}: has the vehicle this --signing-key?)") from None
 
     def set_signing_key(self, key: bytes | None) -> None:
         """Sign with ``key`` from now on and accept only what is signed with it (None: no signing)."""
@@ -222,6 +224,9 @@ class Connection:
         mtype = msg.get_type()
         if mtype == "BAD_DATA":
             return False
+        if mtype.startswith("UNKNOWN_"):
+            msg = _in_mavlink2_common(msg)
+            mtype = msg.get_type()
         if self._target_system is None and mtype == "HEARTBEAT" and _is_autopilot(msg, self.target_component):
             self._target_system = msg.get_srcSystem()
         if msg.get_srcSystem() != self._target_system or msg.get_srcComponent() != self.target_component:
@@ -300,7 +305,8 @@ class Connection:
 
         Raises :class:`GcsTimeout` after ``timeout_s`` wall seconds (default:
         the client's timeout), saying what it was waiting for and, with
-        ``describe``, the vehicle's last known state.
+        ``describe``, the vehicle's last known state; :class:`NoAnswer` (a GcsTimeout)
+        if by then nothing has come from the vehicle for SILENT_S (or the whole wait, if shorter).
         """
         timeout = self._timeout(timeout_s)
         deadline = time.monotonic() + timeout
@@ -311,7 +317,8 @@ class Connection:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 detail = f" [{self.describe()}]" if describe else ""
-                raise GcsTimeout(f"timed out after {timeout:g} s waiting for {what}{detail}")
+                error = NoAnswer if self.silent_s() > min(SILENT_S, timeout) else GcsTimeout
+                raise error(f"timed out after {timeout:g} s waiting for {what}{detail}")
             self.pump(min(PUMP_TIMEOUT_S, remaining))
 
     def wait_sim_time(self, duration_s: float, timeout_s: float | None = None, what: str | None = None) -> float:
@@ -347,6 +354,10 @@ class Connection:
         t = self._latest_wall.get(mtype)
         return None if t is None else time.monotonic() - t
 
+    def silent_s(self) -> float:
+        """Wall seconds since the last message from the vehicle (inf if none yet)."""
+        return math.inf if self._last_rx_wall is None else time.monotonic() - self._last_rx_wall
+
     def sim_time_s(self) -> float | None:
         """Vehicle (simulated) time in seconds, from the latest GLOBAL_POSITION_INT / ATTITUDE."""
         return None if self._sim_time_ms is None else self._sim_time_ms / 1000.0
@@ -374,3 +385,13 @@ def _is_autopilot(msg, component: int) -> bool:
         and msg.type != mavlink.MAV_TYPE_GCS
         and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID
     )
+
+
+def _in_mavlink2_common(msg):
+    """A message the connection's dialect does not know (pymavlink's MAVLink 1 dialects stop at id 255),
+    parsed again with MAVLink 2's common set (PARAM_ERROR 345 ...); the message as it was if that fails."""
+    try:
+        parsed = mavlink2.MAVLink(None).parse_buffer(bytes(msg.get_msgbuf()))
+    except Exception:  # noqa: BLE001 - whatever a damaged frame raises, it stays unknown
+        return msg
+    return parsed[0] if parsed else msg

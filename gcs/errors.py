@@ -24,6 +24,11 @@ class GcsTimeout(GcsError):
     """Something did not happen within its (wall-clock) timeout; the message says what."""
 
 
+class NoAnswer(GcsTimeout):
+    """The vehicle did not answer at all: no HEARTBEAT, or no reply to any of the tries of a request
+    (COMMAND_ACK, PARAM_VALUE), nor the effect a command asked for.  The ``gcs`` CLI exits 3."""
+
+
 class CommandRefused(GcsError):
     """The vehicle answered a command with a result other than ACCEPTED."""
 
@@ -33,7 +38,11 @@ class CommandRefused(GcsError):
 
 
 class ParamRefused(GcsError):
-    """A PARAM_SET was not applied (the vehicle echoed another value)."""
+    """A PARAM_SET was not applied (the vehicle echoed another value), or the parameter does not exist."""
+
+
+class ParamUnknown(ParamRefused):
+    """The vehicle has no parameter of that name (it said so: PARAM_ERROR or its STATUSTEXT)."""
 
 
 class ParamListError(GcsError):
@@ -75,6 +84,8 @@ class CommandResult:
     command: int
     result: int  # MAV_RESULT
     reason: str | None = None  # text of the latest STATUSTEXT received with a refusal
+    # False: no COMMAND_ACK came back (lost), but the vehicle was seen doing what the command asked
+    acknowledged: bool = True
 
     @property
     def accepted(self) -> bool:

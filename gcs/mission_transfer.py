@@ -16,7 +16,7 @@ import time
 from pymavlink.dialects.v20 import common as mavlink
 
 from gcs.connection import Connection
-from gcs.errors import GcsTimeout
+from gcs.errors import NoAnswer
 from mavsim_core import mission_items as mi
 from mavsim_core.mission_items import MissionItem
 from mavsim_core.mission_messages import item_from_message, item_message
@@ -43,7 +43,7 @@ def upload(c: Connection, items: list[MissionItem], mission_type: int) -> None:
     """Upload ``items`` as the vehicle's plan of ``mission_type`` (0 items clears it).
 
     Raises :class:`MissionRefused` on an error ACK (the vehicle keeps its old plan) and
-    :class:`GcsTimeout` when the vehicle stops answering."""
+    :class:`NoAnswer` (a GcsTimeout) when the vehicle stops answering."""
     mav = c.conn.mav
     items = [it.renumbered(k) for k, it in enumerate(items)]
     texts_before = len(c.statustexts)
@@ -73,11 +73,11 @@ def upload(c: Connection, items: list[MissionItem], mission_type: int) -> None:
         if 0 <= msg.seq < len(items):
             mav.send(item_message(items[msg.seq], c.target_system, c.target_component))
             last_sent = msg.seq
-    raise GcsTimeout(f"{mi.TYPE_NAMES.get(mission_type)} upload: the vehicle stopped answering")
+    raise NoAnswer(f"{mi.TYPE_NAMES.get(mission_type)} upload: the vehicle stopped answering")
 
 
 def download(c: Connection, mission_type: int) -> list[MissionItem]:
-    """The vehicle's plan of ``mission_type``; :class:`GcsTimeout` when it does not answer."""
+    """The vehicle's plan of ``mission_type``; :class:`NoAnswer` (a GcsTimeout) when it does not answer."""
     mav = c.conn.mav
     c.drain()
     count = None
@@ -88,7 +88,7 @@ def download(c: Connection, mission_type: int) -> list[MissionItem]:
             count = msg.count
             break
     if count is None:
-        raise GcsTimeout(f"{mi.TYPE_NAMES.get(mission_type)} download: no MISSION_COUNT")
+        raise NoAnswer(f"{mi.TYPE_NAMES.get(mission_type)} download: no MISSION_COUNT")
     items: list[MissionItem] = []
     while len(items) < count:
         for _ in range(RETRIES):
@@ -101,6 +101,6 @@ def download(c: Connection, mission_type: int) -> list[MissionItem]:
                 items.append(item_from_message(msg))
                 break
         else:
-            raise GcsTimeout(f"{mi.TYPE_NAMES.get(mission_type)} download: item {len(items)} never came")
+            raise NoAnswer(f"{mi.TYPE_NAMES.get(mission_type)} download: item {len(items)} never came")
     mav.mission_ack_send(c.target_system, c.target_component, mavlink.MAV_MISSION_ACCEPTED, mission_type)
     return items

@@ -12,8 +12,10 @@
 Files are read in either format (auto-detected, see :mod:`params.param_file`).
 The full download shows a progress bar on stderr when it is a terminal and
 always ends with one line saying how many parameters came in how long.
-Exit codes as for every ``gcs`` command: 0 success, 1 refused (any value
-refused, any bad line in a file), 2 timed out.
+Each request is sent again every 0.5 s until the vehicle answers (a set: until it echoes the
+value); a name the vehicle does not have is reported as such at once.  Exit codes as for every
+``gcs`` command: 0 done, 1 refused (an unknown name, any value refused, any bad line in a file),
+2 usage error, 3 no answer from the vehicle.
 """
 
 from __future__ import annotations

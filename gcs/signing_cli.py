@@ -16,7 +16,7 @@ signs everything it sends and accepts from the vehicle only what is signed with 
 
 ``setup`` and ``disable`` wait until the vehicle shows the change: a message signed with the new
 key (setup) or an unsigned one (disable).  Exit codes as for every ``gcs`` command: 0 done,
-1 refused here (the vehicle has a key and ``--signing-key`` was not given), 2 timed out (the
+1 refused here (the vehicle has a key and ``--signing-key`` was not given), 3 no answer (the
 vehicle did not take it: a SETUP_SIGNING that is not signed with its current key is ignored).
 """
 
@@ -70,7 +70,7 @@ def has_signature(msg) -> bool:
 
 
 def run_signing_command(client: VehicleClient, args: argparse.Namespace) -> int:
-    """Run ``gcs signing setup|disable``; the exit code (a timeout propagates as GcsTimeout)."""
+    """Run ``gcs signing setup|disable``; the exit code (no answer propagates as NoAnswer, a GcsTimeout)."""
     heartbeat = client.latest("HEARTBEAT")
     if args.signing_key is None and heartbeat is not None and has_signature(heartbeat):
         print(

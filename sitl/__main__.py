@@ -67,6 +67,12 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     p.add_argument("--port", type=int, help="TCP port the flight controller connects to (default 4560+N)")
     p.add_argument(
+        "--bind", default="127.0.0.1", metavar="ADDR",
+        help="local address of the TCP port and of the simulator's MAVLink component (ground truth, SIM_* "
+        "parameters); default 127.0.0.1: only this machine reaches them; 0.0.0.0: every interface (anyone on "
+        "the network can then drive the simulation and set SIM_* parameters)",
+    )  # fmt: skip
+    p.add_argument(
         "--truth-port", type=int,
         help="UDP port the simulator's MAVLink component (ground truth, SIM_* parameters, the ground vehicle) "
         "sends to (default 14740+N); 0 disables it",
@@ -167,9 +173,9 @@ def _print_started(spec, args: argparse.Namespace, scenario: Scenario | None, se
             flush=True,
         )
     if server.param_server is not None:
-        port = server.param_server.local_address[1]
+        host, port = server.param_server.local_address[:2]
         print(
-            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP port {port}, "
+            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP {host}:{port}, "
             f"sending to {truth[0]}:{truth[1]}",
             file=sys.stderr,
             flush=True,
@@ -206,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
 
     sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera)
     truth = (args.truth_host, args.truth_port) if args.truth_port else None
-    truth_bind = ("0.0.0.0", args.truth_local_port)
+    truth_bind = (args.bind, args.truth_local_port)
     try:
         server = LockstepServer(
             sim,
@@ -214,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
             truth,
             args.speed,
             truth_bind=truth_bind,
+            bind_host=args.bind,
             events=scenario.events if scenario else (),
             sysid=ports.system_id(args.instance),
         )

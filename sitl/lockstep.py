@@ -1,6 +1,7 @@
 """The simulator process loop: PX4's simulator MAVLink API over TCP, in lockstep.
 
-The simulator listens on TCP (4560 + instance); the flight controller connects.
+The simulator listens on TCP (4560 + instance, loopback unless ``sitl --bind``); the flight
+controller connects and is served once it has sent a valid MAVLink message (:mod:`sitl.peer_accept`).
 Each period the simulator sends HIL_SENSOR (and HIL_GPS whenever the GPS model
 produces a fix, BATTERY_STATUS at 5 Hz) stamped with simulated time, waits for
 HIL_ACTUATOR_CONTROLS, and only then steps the physics, so a run is
@@ -22,7 +23,6 @@ A sensor that is off (:mod:`sitl.sensor_faults`) has its HIL_SENSOR ``fields_upd
 from __future__ import annotations
 
 import math
-import select
 import socket
 import sys
 import time
@@ -39,6 +39,7 @@ from sitl.battery import cell_ocv_v
 from sitl.gps import GpsReading, course_over_ground_deg
 from sitl.link_params import LinkParams
 from sitl.param_server import SIM_COMPID, SIM_SYSID, UGV_COMPID, SimParamServer
+from sitl.peer_accept import accept_peer, listen
 from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sensor_faults import hil_sensor_fields, pressure_altitude_m
 from sitl.sim_params import SimParameters, format_value
@@ -48,7 +49,6 @@ from sitl.ugv_world import ugv_truth_messages
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
 _HIL_SENSOR = MessageLayout(mavlink.MAVLink_hil_sensor_message)
-ACCEPT_POLL_S = 0.1  # while waiting for the flight controller, serve parameters at least this often
 
 
 def _int16(x: float) -> int:
@@ -68,7 +68,9 @@ class LockstepServer:
     """The simulator process: lockstep TCP link to the flight controller, UDP truth and SIM_* parameters.
 
     ``truth_addr``: default peer of the UDP component (None: no truth, no parameter
-    service).  ``truth_bind``: its local address (port 0: chosen by the OS).
+    service).  ``truth_bind``: its local address (port 0: chosen by the OS).  ``bind_host``: the
+    address the TCP port listens on.  Both are loopback by default: nobody else on the network reaches
+    the vehicle's sensors, motors or ``SIM_*`` parameters (``sitl --bind`` widens them).
     ``events``: scenario events, applied when simulated time reaches them.
     ``sysid``: the vehicle's MAVLink system id (1 + instance), which the simulator's components share.
     """
@@ -80,7 +82,8 @@ class LockstepServer:
         truth_addr: tuple[str, int] | None,
         speed: float | None,
         *,
-        truth_bind: tuple[str, int] = ("0.0.0.0", 0),
+        truth_bind: tuple[str, int] = ("127.0.0.1", 0),
+        bind_host: str = "127.0.0.1",
         events: Sequence[ScenarioEvent] = (),
         sysid: int = SIM_SYSID,
     ) -> None:
@@ -111,14 +114,12 @@ class LockstepServer:
                 self.params, bind=truth_bind, default_peer=truth_addr, sysid=sysid, on_param_set=_log_param_set
             )
             self.param_server.on_manual_control = self._on_manual_control
-        self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self.listener: socket.socket | None = None
         try:
-            self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            self.listener.bind(("0.0.0.0", port))
-            self.listener.listen(1)
-        except OSError as e:
+            self.listener = listen(bind_host, port)
+        except OSError:
             self.close()
-            raise OSError(e.errno, f"cannot listen on TCP port {port}: {e.strerror}") from e
+            raise
         self.motor_commands = np.zeros(sim.rotors.n)
         self.steps = 0
         self.armed = False  # the flight controller's HIL_ACTUATOR_CONTROLS mode flag
@@ -139,17 +140,18 @@ class LockstepServer:
 
     # -- connection ---------------------------------------------------------------
     def _accept(self) -> None:
-        """Wait for the flight controller, serving SIM_* parameters meanwhile."""
+        """Wait for the flight controller (a peer that passes the handshake of :mod:`sitl.peer_accept`),
+        serving SIM_* parameters meanwhile."""
         _log(f"waiting for the flight controller on TCP port {self.port}")
         server = self.param_server
-        watched = [self.listener] + ([server.sock] if server else [])
-        while True:
-            if server:
+        assert self.listener is not None
+
+        def serve() -> None:
+            if server is not None:
                 server.poll(time.monotonic())
-            ready, _, _ = select.select(watched, [], [], ACCEPT_POLL_S)
-            if self.listener in ready:
-                break
-        conn, addr = self.listener.accept()
+
+        watched = [server.sock] if server is not None else []
+        conn, addr = accept_peer(self.listener, serve, watched, _log)
         conn.settimeout(None)
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.conn = conn

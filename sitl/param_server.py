@@ -76,7 +76,8 @@ def param_value_message(params: SimParameters, p: SimParam) -> mavlink.MAVLink_m
 class SimParamServer:
     """MAVLink component of the simulator on one UDP socket (see the module docstring).
 
-    ``bind``: local address (port 0: chosen by the OS; see :attr:`local_address`).
+    ``bind``: local address (port 0: chosen by the OS; see :attr:`local_address`); loopback by default, so
+    only this machine can set ``SIM_*`` parameters (``sitl --bind`` widens it).
     ``default_peer``: where everything goes even before anyone has talked to us.
     ``on_param_set(name, value, addr)``: called after a PARAM_SET changed a value.
     Counters: ``rx_messages`` (packets handled), ``rx_errors`` (damaged datagrams,
@@ -87,7 +88,7 @@ class SimParamServer:
         self,
         params: SimParameters,
         *,
-        bind: Address = ("0.0.0.0", 0),
+        bind: Address = ("127.0.0.1", 0),
         default_peer: Address = ("127.0.0.1", 14740),
         sysid: int = SIM_SYSID,
         compid: int = SIM_COMPID,

@@ -19,8 +19,8 @@ from mavsim_core import ports as port_scheme
 
 PEOPLE = tuple(range(10))  # what someone runs by hand while the suite runs
 # landing_benchmark 11-19 (one per job), flight_benchmark 20, vehicle_benchmark 21+ (one per vehicle),
-# estimator 25, mission 26, command latency 27, log download 28
-BENCHMARKS = (*range(11, 20), 20, 21, 22, 25, 26, 27, 28)
+# estimator 25, mission 26, command latency 27, log download 28, flood 29
+BENCHMARKS = (*range(11, 20), 20, 21, 22, 25, 26, 27, 28, 29)
 
 INSTANCES: dict[str, dict[str, int]] = {
     "test_e2e_estimation": {"quad_x": 30},
@@ -59,6 +59,13 @@ INSTANCES: dict[str, dict[str, int]] = {
     "test_gcs_link_files": {"link": 86},
     "test_gcs_link_telemetry_more": {"link": 87},
     "test_e2e_multi_vehicle": {f"vehicle{k}": 88 + k for k in range(3)},
+    "test_e2e_link_abuse": {"stack": 94},
+    "test_e2e_command_validation": {"stack": 93},
+    "test_e2e_fuzz": {"stack": 96},
+    "test_e2e_sim_link_loss": {"sim_restart": 91, "fc_restart": 92},
+    "test_e2e_param_persistence": {"stack": 98},
+    "test_e2e_gcs_lossy": {"stack": 99},
+    "test_e2e_failure_detection": {"stack": 97},
 }
 
 

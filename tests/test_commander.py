@@ -316,7 +316,7 @@ def test_reposition():
     np.testing.assert_allclose(b.pos, [10.0, 5.0, -4.0], atol=1e-6)
     assert b.cmd.setpoint.yaw_rad == pytest.approx(math.pi / 2)  # param4 is yaw in radians (east)
     assert b.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, 95.0, lon, math.nan) == DENIED
-    assert b.texts()[-1] == "Reposition denied: latitude/longitude out of range"
+    assert b.texts()[-1] == "Reposition denied: latitude/longitude 95, 8.54566 out of range"
     far_lat, far_lon, _ = ned_to_geodetic([1500.0, 0.0, 0.0], *ORIGIN)
     assert b.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, far_lat, far_lon, math.nan) == DENIED
     assert b.texts()[-1] == "Reposition denied: target more than 1 km away"

@@ -27,7 +27,7 @@ def test_precland_is_refused_on_the_ground_and_for_an_unknown_land_mode():
     assert b.texts()[-1] == "Precision landing denied: vehicle not flying"
     b.fly_up()
     assert b.command(mavlink.MAV_CMD_NAV_LAND, 0, 3) == DENIED
-    assert "precision land mode 3 unknown" in b.texts()[-1]
+    assert b.texts()[-1] == "Land denied: param2 (precision land mode) 3 is not one of 0, 1, 2"
     assert b.cmd.status.mode is Mode.AUTO_LOITER
 
 

@@ -39,7 +39,7 @@ import pytest
 importlib.import_module("autopilot.flight_controller")  # declares every parameter
 from autopilot.param_catalogue import default_store
 from gcs.client import VehicleClient, mavlink
-from gcs.errors import GcsTimeout, ParamRefused
+from gcs.errors import GcsTimeout, ParamRefused, ParamUnknown
 from gcs.launcher import Stack
 from gcs.plugins.param import DownloadStats, download_parameters
 from mavsim_core.param_encoding import INT32, REAL32, raw_param_value
@@ -210,8 +210,8 @@ def test_refused_sets_are_answered_and_change_nothing(client):
         client.param_set("SYS_AUTOSTART", 4010.0, param_type=mavlink.MAV_PARAM_TYPE_REAL32)
     with pytest.raises(ParamRefused, match="MPC_LAND_SPEED 1.8 refused: must be <= MPC_Z_VEL_MAX_DN"):
         client.param_set("MPC_LAND_SPEED", 1.8)
-    with pytest.raises(GcsTimeout):  # no PARAM_VALUE to echo for a name that does not exist ...
-        client.param_set("NO_SUCH_PARAM", 1.0, param_type=mavlink.MAV_PARAM_TYPE_REAL32, timeout_s=1.5)
+    with pytest.raises(ParamUnknown, match="unknown parameter NO_SUCH_PARAM"):  # no PARAM_VALUE: a PARAM_ERROR ...
+        client.param_set("NO_SUCH_PARAM", 1.0, param_type=mavlink.MAV_PARAM_TYPE_REAL32)
     texts = [t.text for t in client.statustexts[n_texts:]]
     assert "unknown parameter NO_SUCH_PARAM" in texts  # ... but a STATUSTEXT says why
     assert {p.name: p.value for p in client.param_list()} == before

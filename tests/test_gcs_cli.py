@@ -23,7 +23,7 @@ import pytest
 from gcs import geo
 from gcs.__main__ import build_parser, main, resolve_url, status_line
 from gcs.client import VehicleClient
-from gcs.errors import GcsTimeout
+from gcs.errors import GcsTimeout, NoAnswer
 from gcs.launcher import Stack, demo
 from mavsim_core import param_encoding
 from mavsim_core import px4_modes as modes
@@ -207,14 +207,14 @@ def test_unknown_mode_exits_1_without_connecting(capsys):
 # --------------------------------------------------------------------------- nothing answering
 
 
-def test_arm_without_vehicle_times_out_with_exit_2(capsys):
-    assert main(["--url", NOBODY_URL, "-i", str(NOBODY), "--timeout", "0.5", "arm"]) == 2
+def test_arm_without_vehicle_is_no_answer_with_exit_3(capsys):
+    assert main(["--url", NOBODY_URL, "-i", str(NOBODY), "--timeout", "0.5", "arm"]) == 3
     err = capsys.readouterr().err
-    assert "timed out after 0.5 s waiting for a heartbeat from the vehicle" in err
+    assert "no answer from the vehicle: timed out after 0.5 s waiting for a heartbeat from the vehicle" in err
     assert NOBODY_URL in err and f"sysid {NOBODY + 1}," in err
 
 
-def test_python_m_gcs_arm_without_vehicle_exits_2():
+def test_python_m_gcs_arm_without_vehicle_exits_3():
     proc = subprocess.run(
         [sys.executable, "-m", "gcs", "--url", NOBODY_URL, "--timeout", "0.5", "arm"],
         cwd=ROOT,
@@ -222,15 +222,15 @@ def test_python_m_gcs_arm_without_vehicle_exits_2():
         text=True,
         timeout=60,
     )
-    assert proc.returncode == 2
+    assert proc.returncode == 3
     assert "waiting for a heartbeat" in proc.stderr
     assert proc.stdout == ""
 
 
 def test_command_without_ack_times_out_naming_the_command():
     with VehicleClient(f"udpin:127.0.0.1:{free_udp_port()}", wait_heartbeat=False) as c:
-        with pytest.raises(GcsTimeout, match="MAV_CMD_COMPONENT_ARM_DISARM.*no COMMAND_ACK after 3 attempt"):
-            c.arm(timeout_s=0.6)
+        with pytest.raises(NoAnswer, match="MAV_CMD_COMPONENT_ARM_DISARM.*no COMMAND_ACK after 2 attempt"):
+            c.arm(timeout_s=0.6)  # sent at 0 and 0.5 s (ACK_TRY_S), then waits for the rest of its timeout
         with pytest.raises(GcsTimeout, match="waiting for the impossible"):
             c.wait_until(lambda: False, 0.3, "the impossible")
 

@@ -9,9 +9,10 @@ datagram when it returns), then ONE ``link.update`` runs, and we check what reac
   message reaches the vehicle and the command is acknowledged by that call;
 - MANUAL_CONTROL / SET_POSITION_TARGET_* / SET_ATTITUDE_TARGET reach the vehicle only when
   addressed to us; only a ground station's HEARTBEAT (MAV_TYPE_GCS) is reported;
-- the wall-clock budget (``link.RX_BUDGET_S``): past it, superseded messages are dropped unread and
-  counted (``rx_dropped``), commands are still answered (up to ``RX_KEEP_MAX``), and the next call
-  starts from what is new;
+- the wall-clock budget (``rx_drain.RX_BUDGET_S``): past it, everything but commands is dropped unparsed
+  and counted (``rx_dropped``), commands are still answered (``RX_KEEP_PER_SENDER`` per sender,
+  ``RX_KEEP_MAX`` in all), and the next call starts from what is new;
+- datagrams addressed to other systems are dropped unparsed (``rx_foreign``);
 - damaged datagrams in the flood are counted (``rx_errors``) and do not stop the drain.
 
 How long a datagram takes to handle depends on the machine (about 20 µs here), so the tests that
@@ -29,7 +30,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
-from autopilot.mavlink import link as link_module  # noqa: E402
+from autopilot.mavlink import rx_drain  # noqa: E402
 
 from gcs_link_harness import DT_US, GCS_COMP, GCS_SYS, command_long  # tests/gcs_link_harness.py
 from instances import instance  # tests/instances.py
@@ -89,7 +90,7 @@ def ready(make_harness):
 
 
 def test_flood_of_sticks_then_a_command_handled_in_one_update(ready, monkeypatch):
-    monkeypatch.setattr(link_module, "RX_BUDGET_S", GENEROUS_BUDGET_S)
+    monkeypatch.setattr(rx_drain, "RX_BUDGET_S", GENEROUS_BUDGET_S)
     h = ready
     gcs, api = h.clients["gcs"], h.clients["api"]
     sticks(gcs, 300)
@@ -153,46 +154,79 @@ def test_only_messages_to_us_reach_the_vehicle(ready):
 
 
 def test_past_the_budget_sticks_are_dropped_and_the_next_call_is_fresh(ready, monkeypatch):
-    monkeypatch.setattr(link_module, "RX_BUDGET_S", 0.0)
+    monkeypatch.setattr(rx_drain, "RX_BUDGET_S", 0.0)
     h = ready
     gcs, api = h.clients["gcs"], h.clients["api"]
     sticks(gcs, 120)
     api.mav.set_attitude_target_send(0, 1, 1, 0, [1, 0, 0, 0], 0, 0, 0, 0.5)
     sticks(api, 79)
-    one_update(h)  # one datagram per socket handled, the rest dropped unread
-    assert h.vehicle.control_messages == [("MANUAL_CONTROL", h.t_us), ("SET_ATTITUDE_TARGET", h.t_us)]
-    assert h.link.rx_dropped == 119 + 79
+    one_update(h)  # no time: every datagram read and dropped unparsed
+    assert h.vehicle.control_messages == []
+    assert h.link.rx_dropped == 120 + 80
     assert h.link.rx_errors == 0
     request_version(gcs)  # a fresh command: answered by the next call, nothing stale in front of it
     one_update(h)
     assert [a.result for a in version_acks(received(gcs))] == [mavlink.MAV_RESULT_ACCEPTED]
-    assert h.link.rx_dropped == 198 and len(h.vehicle.control_messages) == 2
+    assert h.link.rx_dropped == 200 and h.vehicle.control_messages == []
 
 
-def test_past_the_budget_commands_are_still_answered(ready, monkeypatch):
-    monkeypatch.setattr(link_module, "RX_BUDGET_S", 0.0)
-    monkeypatch.setattr(link_module, "RX_KEEP_MAX", 5)
+def test_past_the_budget_only_commands_are_handled_a_few_per_sender(ready, monkeypatch):
+    """Past the budget a command is handled, anything else dropped (a PARAM_REQUEST_READ too: its client
+    asks again); one sender gets RX_KEEP_PER_SENDER commands a call, so another sender's still gets
+    through; the commands over the counts are handled by the next call, those past the backlog dropped."""
+    monkeypatch.setattr(rx_drain, "RX_BUDGET_S", 0.0)
+    monkeypatch.setattr(rx_drain, "RX_KEEP_PER_SENDER", 3)
+    monkeypatch.setattr(rx_drain, "RX_KEEP_MAX", 4)
+    monkeypatch.setattr(rx_drain, "RX_BACKLOG_MAX", 4)
     h = ready
-    gcs = h.clients["gcs"]
+    gcs, api = h.clients["gcs"], h.clients["api"]
     sticks(gcs, 100)
-    request_version(gcs)  # past the budget, behind the sticks
+    request_version(gcs)
     gcs.mav.param_request_read_send(1, 1, b"MPC_XY_P", -1)
     sticks(gcs, 50)
-    for _ in range(6):  # 5 more commands: RX_KEEP_MAX (5) kept, the 6th dropped
+    for _ in range(6):  # 7 commands from this sender: 3 handled, 4 kept for the next call
         request_version(gcs)
+    for _ in range(2):  # from another sender: 1 handled (RX_KEEP_MAX is 4 in all), 1 over the backlog
+        request_version(api)
     one_update(h)
     got = received(gcs)
-    assert len(version_acks(got)) == 4  # the first and 3 more; the request is the 2nd kept datagram
-    assert [m.param_id for m in got if m.get_type() == "PARAM_VALUE"] == ["MPC_XY_P"]
-    assert len(h.vehicle.control_messages) == 1  # the first datagram, before the budget was checked
-    assert h.link.rx_dropped == 99 + 50 + 3
+    assert len(version_acks(got)) == 3
+    assert len(version_acks(received(api))) == 1
+    assert [m.param_id for m in got if m.get_type() == "PARAM_VALUE"] == []
+    assert h.vehicle.control_messages == []
+    assert h.link.rx_dropped == 100 + 1 + 50 + 1
+    one_update(h)  # the backlog: 3 of this sender's 4, then the last one
+    assert len(version_acks(received(gcs))) == 3
+    one_update(h)
+    assert len(version_acks(received(gcs))) == 1
+    assert h.link.rx_dropped == 152
+
+
+def test_datagrams_for_other_systems_are_dropped_unparsed(ready, monkeypatch):
+    """CRC-valid commands, sticks and parameter writes addressed to another system: nothing reaches the
+    vehicle, nothing is answered, all counted in ``rx_foreign``; ours in the same flood are handled."""
+    monkeypatch.setattr(rx_drain, "RX_BUDGET_S", GENEROUS_BUDGET_S)
+    h = ready
+    gcs = h.clients["gcs"]
+    for _ in range(20):
+        gcs.mav.command_long_send(7, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+        gcs.mav.manual_control_send(7, 0, 0, 900, 0, 0)
+        gcs.mav.param_set_send(7, 1, b"MC_ROLLRATE_P", 0.0, mavlink.MAV_PARAM_TYPE_REAL32)
+    sticks(gcs, 1)
+    request_version(gcs)
+    one_update(h)
+    got = received(gcs)
+    assert h.link.rx_foreign == 60 and h.link.rx_dropped == 0 and h.link.rx_errors == 0
+    assert h.vehicle.control_messages == [("MANUAL_CONTROL", h.t_us)]
+    assert [a.command for a in got if a.get_type() == "COMMAND_ACK"] == [REQUEST_MESSAGE]
+    assert h.vehicle.commands == [] and [m for m in got if m.get_type() == "PARAM_VALUE"] == []
 
 
 # --------------------------------------------------------------------------- damaged input
 
 
 def test_damaged_datagrams_in_the_flood_do_not_stop_the_drain(ready, monkeypatch):
-    monkeypatch.setattr(link_module, "RX_BUDGET_S", GENEROUS_BUDGET_S)
+    monkeypatch.setattr(rx_drain, "RX_BUDGET_S", GENEROUS_BUDGET_S)
     h = ready
     gcs = h.clients["gcs"]
     encoder = mavlink.MAVLink(None, GCS_SYS, GCS_COMP)

@@ -241,6 +241,17 @@ def test_set_and_get_message_interval_round_trip(link, msg_id, mtype):
     assert set_interval(link, msg_id, -7) == mavlink.MAV_RESULT_DENIED
 
 
+def test_heartbeat_interval_is_not_a_clients_to_change(link):
+    """SET_MESSAGE_INTERVAL for HEARTBEAT is refused whatever the interval (PX4 refuses it too): every
+    ground station on the endpoint relies on its 1 Hz to see the vehicle (issue 18, finding 6)."""
+    hb = mavlink.MAVLINK_MSG_ID_HEARTBEAT
+    for interval_us in (-1, 0, 100_000, 5_000_000):
+        assert set_interval(link, hb, interval_us) == mavlink.MAV_RESULT_DENIED
+    assert interval(link, hb) == (ACCEPTED, 1_000_000)
+    link.pump(0.1)
+    assert abs(count(link, "HEARTBEAT", 3.0) - 3) <= 1
+
+
 def test_unknown_messages_and_request_message_244(link):
     for msg_id in (mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE, mavlink.MAVLINK_MSG_ID_PARAM_VALUE, 9999):
         assert interval(link, msg_id) == (UNSUPPORTED, 0)  # 0: not available

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from autopilot.parameters import RULES, ParamDef, ParamError, ParameterStore, ParamRule, ParamType
+from autopilot.parameters import FLIGHT_FLOORS, RULES, ParamDef, ParamError, ParameterStore, ParamRule, ParamType
 
 from float32 import f32  # tests/float32.py
 
@@ -101,3 +101,45 @@ def test_vehicle_defaults_replace_declared_ones(store):
     assert store.values() == before
     store.set_defaults({"MPC_LAND_SPEED": 1.8, "MPC_Z_VEL_MAX_DN": 2.0})  # together they are fine
     assert store.get("MPC_LAND_SPEED") == 1.8
+
+
+# --------------------------------------------------------------------------- gains' floors while armed
+
+
+def test_flight_critical_gains_have_floors_while_armed(store):
+    """Issue 18, finding 6: MC_ROLLRATE_P = 0 (in range) was accepted in flight.  Armed, the gains of
+    FLIGHT_FLOORS are refused below their floor (a fraction of the default) and nothing changes; raising
+    them stays allowed (live tuning); disarmed, any declared value is accepted."""
+    armed = [True]
+    store.armed = lambda: armed[0]
+    default = store.get("MC_ROLLRATE_P")
+    for low in (0.0, 0.4 * default):
+        with pytest.raises(ParamError, match="MC_ROLLRATE_P .* refused while armed: at least 6"):
+            store.set("MC_ROLLRATE_P", low)
+    assert store.get("MC_ROLLRATE_P") == default
+    assert store.set("MC_ROLLRATE_P", f32(0.5 * default)) == f32(0.5 * default)  # the floor itself (float32)
+    assert store.set("MC_ROLLRATE_P", 10 * default) == 10 * default  # up: within the declared range
+    with pytest.raises(ParamError, match="MC_PITCH_P .* refused while armed"):
+        store.set("MC_PITCH_P", 0.0)
+    with pytest.raises(ParamError, match="MC_YAWRATE_MAX .* refused while armed"):
+        store.set("MC_YAWRATE_MAX", 0.0)
+    store.set("IMU_GYRO_CUTOFF", 0.0)  # 0: no filter, which flies
+    with pytest.raises(ParamError, match=r"IMU_GYRO_CUTOFF 1\.5 refused while armed: at least 7\.5 or 0"):
+        store.set("IMU_GYRO_CUTOFF", 1.5)
+    assert store.set("MC_ROLLRATE_I", 0.0) == 0.0  # not a floored gain
+    armed[0] = False
+    assert store.set("MC_ROLLRATE_P", 0.0) == 0.0 and store.set("IMU_GYRO_CUTOFF", 1.5) == 1.5
+    armed[0] = True  # already below: may be raised, not set lower still
+    with pytest.raises(ParamError):
+        store.set("MC_ROLLRATE_P", 1.0)
+    assert store.set("MC_ROLLRATE_P", default) == default
+
+
+def test_floors_follow_the_vehicle_defaults_and_every_floor_names_a_declared_gain(store):
+    assert {f.name for f in FLIGHT_FLOORS} <= set(store.names())
+    assert all(0 < f.fraction < 1 for f in FLIGHT_FLOORS)
+    store.set_defaults({"MC_ROLL_P": 8.0})
+    store.armed = lambda: True
+    with pytest.raises(ParamError, match="at least 2 until disarmed"):  # 0.25 of the vehicle's 8
+        store.set("MC_ROLL_P", 1.9)
+    assert store.set("MC_ROLL_P", 2.0) == 2.0

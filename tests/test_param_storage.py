@@ -18,7 +18,14 @@ import pytest
 
 from autopilot import param_storage
 from autopilot.param_catalogue import default_store
-from autopilot.param_storage import ParamSaver, atomic_write_text, load_file, prepare_parameters, state_file
+from autopilot.param_storage import (
+    ParamSaver,
+    SaveOutcome,
+    atomic_write_text,
+    load_file,
+    prepare_parameters,
+    state_file,
+)
 from params.param_file import QGC, read_param_file
 from params.vehicle import VEHICLE_DIR
 
@@ -110,27 +117,33 @@ def wait_for(predicate, timeout_s: float = 10.0):
         time.sleep(0.01)
 
 
-def test_saver_writes_changes_at_once_then_at_most_once_per_interval(store, tmp_path):
+def test_saver_writes_each_requested_snapshot_in_its_thread_and_skips_unchanged_text(store, tmp_path):
     path = tmp_path / "quad_x-0.params"
-    saver = ParamSaver(store, path, vehicle_name="quad_x", min_interval_s=0.3)
+    saver = ParamSaver(store, path, vehicle_name="quad_x")
     try:
         assert saver.saves == 0 and not path.exists()
         store.set("MPC_XY_P", 1.2)
-        wait_for(lambda: saver.saves == 1)
-        assert read_param_file(path).values() == {"MPC_XY_P": pytest.approx(1.2)}
-        for i in range(50):  # a burst (a ground station loading a file): one more write, not fifty
+        assert not path.exists()  # written when asked (the link asks before it acknowledges a change)
+        ticket = saver.request_save()
+        assert saver.wait(ticket) == SaveOutcome(True) and saver.save_outcome(ticket) == SaveOutcome(True)
+        assert saver.saves == 1 and read_param_file(path).values() == {"MPC_XY_P": pytest.approx(1.2)}
+        for i in range(50):  # a burst (a ground station loading a file) within one link update: one snapshot
             store.set("MC_ROLL_P", 5.0 + i * 0.01)
         store.set("SYS_AUTOSTART", 4002)
-        wait_for(lambda: saver.saves == 2)
+        assert saver.wait(saver.request_save()).ok and saver.saves == 2
         assert read_param_file(path).values() == {
             "MC_ROLL_P": pytest.approx(5.49),
             "MPC_XY_P": pytest.approx(1.2),
             "SYS_AUTOSTART": 4002,
         }
+        store.set("SYS_AUTOSTART", 4002)  # the same value again (a resent PARAM_SET): nothing to write
+        assert saver.wait(saver.request_save()).ok and saver.saves == 2
+        tickets = [saver.request_save() for _ in range(20)]  # requests made while a write runs are merged
+        assert all(saver.wait(t).ok for t in tickets)
         store.set("MPC_XY_P", 0.95)  # back to the default: no longer saved
     finally:
-        saver.close()  # writes what the interval held back
-    assert saver.saves == 3
+        saver.close()  # writes what is left and stops the thread
+    assert saver.saves == 3 and not saver._thread.is_alive()
     assert set(read_param_file(path).values()) == {"MC_ROLL_P", "SYS_AUTOSTART"}
     restored = default_store()
     applied, messages = load_file(restored, path)
@@ -138,17 +151,43 @@ def test_saver_writes_changes_at_once_then_at_most_once_per_interval(store, tmp_
     assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left behind
 
 
-def test_saver_initial_save_and_write_errors_are_reported(store, tmp_path):
+def test_saver_initial_save_and_write_errors_are_reported_and_retried(store, tmp_path):
     reports: list[str] = []
-    saver = ParamSaver(
-        store, tmp_path / "missing-dir" / "x.params", initial_save=True, report=reports.append, min_interval_s=0.01
-    )
-    wait_for(lambda: reports)
+    missing = tmp_path / "missing-dir"
+    saver = ParamSaver(store, missing / "x.params", initial_save=True, report=reports.append)
+    assert "cannot save parameters to" in reports[0] and saver.saves == 0 and saver.failures == 1
+    store.set("MPC_XY_P", 1.2)
+    assert saver.wait(saver.request_save()) == SaveOutcome(False, "No such file or directory")  # for a STATUSTEXT
+    missing.mkdir()
+    assert saver.wait(saver.request_save()).ok and saver.saves == 1  # tried again
     saver.close()
-    assert "cannot save parameters to" in reports[0] and saver.saves == 0
-    saver = ParamSaver(store, tmp_path / "x.params", initial_save=True)
+    saver = ParamSaver(store, tmp_path / "y.params", initial_save=True)
     saver.close()
-    assert saver.saves == 1 and read_param_file(tmp_path / "x.params", QGC).entries == []
+    assert saver.saves == 1 and read_param_file(tmp_path / "y.params", QGC).values() == {"MPC_XY_P": 1.2}
+
+
+def test_start_up_removes_stale_temporaries_and_keeps_a_corrupt_state_file(store, tmp_path):
+    path = state_file(tmp_path, "quad_x", 3)
+    path.write_bytes(b"\x00\xffnot a parameter file\n1\t1\tMPC_XY_P\t1.3\t9\n")
+    ours = [tmp_path / ".quad_x-3.params.a1b2.tmp", tmp_path / ".quad_x-3.plan.json.c3d4.tmp"]
+    theirs = [tmp_path / ".quad_x-31.params.e5f6.tmp", tmp_path / ".firefly-3.params.g7h8.tmp"]
+    for p in ours + theirs:
+        p.write_text("half")
+    log: list[str] = []
+    warnings = prepare_parameters(store, state_path=path, log=log.append)
+    assert not any(p.exists() for p in ours) and all(p.exists() for p in theirs)
+    kept = tmp_path / "quad_x-3.params.corrupt"
+    assert kept.read_bytes().startswith(b"\x00\xffnot a parameter") and not path.exists()
+    assert store.changed() == {}  # nothing of a damaged file is applied, not even its good line
+    assert warnings == ["Saved parameters corrupt, defaults used; file kept as quad_x-3.params.corrupt"]
+    assert any(f"kept as {kept}, defaults used" in line and "line 1:" in line for line in log)
+    assert any("removed 2 temporary file(s)" in line for line in log)
+    path.write_text("garbage again\n")  # a second damaged file does not replace the first one kept
+    assert prepare_parameters(store, state_path=path, log=log.append) != []
+    assert (tmp_path / "quad_x-3.params.1.corrupt").read_text() == "garbage again\n" and kept.exists()
+    ParamSaver(store, path, initial_save=True).close()  # a header-only state file (no change) is not corrupt
+    assert prepare_parameters(store, state_path=path, log=log.append) == []
+    assert any("saved parameters: 0 values" in line for line in log)
 
 
 def test_atomic_write_failure_leaves_the_old_file(tmp_path, monkeypatch):

@@ -21,6 +21,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander import failsafes, health, mission_control, mode_entry, prearm_checks, precision_landing
 from autopilot.commander.external_inputs import ExternalInputs
+from autopilot.commander.failure_detector import FailureDetector, check_failures
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.commander.mission_control import Plans
 from autopilot.commander.vehicle_commands import VehicleCommands
@@ -70,6 +71,8 @@ MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTO
 class Commander(FlightCommands, VehicleCommands):
     """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
 
+    at_rest: bool = True  # the flight controller's rest detector (autopilot/estimation/rest_detector.py) sets it
+
     def __init__(self, params: ParameterStore, mav_type_name: str) -> None:
         self.params = params
         self.mav_type = MAV_TYPES.get(mav_type_name, S.MAV_TYPE_QUADROTOR)
@@ -98,6 +101,7 @@ class Commander(FlightCommands, VehicleCommands):
         self.wall_s: float | None = None  # wall clock (s) of the latest update, for the input-loss timers
         self.hover_thrust_frac = 0.5  # weight / maximum thrust (the flight controller sets the vehicle's)
         self.failsafe = failsafes.FailsafeState()
+        self.failure_detector = FailureDetector(params)  # loss of control, crash check
         self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
@@ -194,8 +198,8 @@ class Commander(FlightCommands, VehicleCommands):
         self.estimator_checks = estimator_checks
         if gps is not None:
             self.gps = gps
-        if self.home is None and est.position_valid:
-            self._set_home(est)  # first valid position; set again at arming, as PX4 does
+        if self.home is None and est.position_valid and self.at_rest:
+            self._set_home(est)  # first valid position at rest (never a falling vehicle's); again at arming, as PX4
         if est.reset_count != self._reset_count:
             self._follow_reset(est)
         before = self.land_detector.state
@@ -219,6 +223,7 @@ class Commander(FlightCommands, VehicleCommands):
             if reason:
                 self._disarm(reason)
         failsafes.check(self, now_us)
+        check_failures(self, now_us)
         if (
             self.armed
             and self.mode is Mode.AUTO_TAKEOFF

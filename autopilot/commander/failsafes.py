@@ -92,6 +92,7 @@ class FailsafeState:
     battery_level: BatteryWarning = BatteryWarning.NONE  # the highest level reported while armed
     in_force: Mode | None = None  # the mode a failsafe action put the vehicle in (None: none in force)
     terminated: bool = False  # the motors were stopped by a failsafe (until the next arming)
+    critical_failure: bool = False  # armed, the failure detector finds a loss of control now (failure_detector)
 
 
 def status(c: Commander) -> FailsafeStatus:
@@ -101,7 +102,7 @@ def status(c: Commander) -> FailsafeStatus:
     battery_emergency = c.armed and level is BatteryWarning.EMERGENCY
     return FailsafeStatus(
         action_in_force=c.armed and st.in_force is not None and c.mode is st.in_force,
-        emergency=(st.terminated and not c.armed) or battery_emergency,
+        emergency=(st.terminated and not c.armed) or battery_emergency or (c.armed and st.critical_failure),
         rc_seen=c.inputs.manual is not None,
         rc_lost=st.rc_lost,
         gcs_lost=st.gcs_lost,

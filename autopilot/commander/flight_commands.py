@@ -22,6 +22,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.navigation import GotoTask, started
+from autopilot.navigation.mission_checks import HARD_CEILING_M
 from autopilot.navigation.precland import PrecLandMode
 from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
@@ -30,11 +31,28 @@ if TYPE_CHECKING:
     from autopilot.commander.mission_control import Plans
     from autopilot.control.position_control import PositionSetpoint
     from autopilot.navigation.flight_task import FlightTask
+    from autopilot.navigation.land_detector import LandDetector
     from autopilot.parameters import ParameterStore
     from autopilot.topics import HomePosition, VehicleEstimate
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_* constants
 REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
+MIN_TAKEOFF_M = 1.0  # lower take-off altitudes (above home) are raised to this
+
+
+def altitude_ceiling(params: ParameterStore) -> tuple[float, str]:
+    """The highest altitude above home a command may ask for (m), and its name: GF_MAX_VER_DIST when set (> 0),
+    else the hard ceiling of the mission checks (HARD_CEILING_M), as for mission items."""
+    limit = params.get("GF_MAX_VER_DIST")
+    if limit > 0:
+        return limit, f"GF_MAX_VER_DIST ceiling of {limit:g} m"
+    return HARD_CEILING_M, f"ceiling of {HARD_CEILING_M:g} m (GF_MAX_VER_DIST 0)"
+
+
+def above_ceiling(params: ParameterStore, above_home_m: float) -> str | None:
+    """Why ``above_home_m`` (m above home) may not be flown to, or None."""
+    limit, name = altitude_ceiling(params)
+    return f"{above_home_m:g} m above home is over the {name}" if above_home_m > limit else None
 
 
 def point_ned(
@@ -79,6 +97,8 @@ class FlightCommands:
     precland_mode: PrecLandMode
     setpoint: PositionSetpoint | None
     plans: Plans
+    land_detector: LandDetector
+    armed_at_us: int
     cruise_override_m_s: float | None = None  # DO_CHANGE_SPEED's speed for later repositions (None: MPC_XY_CRUISE)
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
@@ -101,10 +121,16 @@ class FlightCommands:
     def land(self, precision: int = 0) -> int:
         """Land where the vehicle is (AUTO.LAND), or on the landing target (AUTO.PRECLAND) with
         ``precision`` = NAV_LAND param 2 as in PX4: 1 opportunistic (an ordinary landing when no target
-        is found), 2 required (hold and report)."""
+        is found), 2 required (hold and report).  Armed on the ground the landing is done at once: AUTO.LAND,
+        landed now, so the vehicle disarms COM_DISARM_LAND seconds later as after any landing (not after
+        COM_DISARM_PRFLT, as an armed vehicle that never took off)."""
         if not self.armed:
             self.say(S.MAV_SEVERITY_CRITICAL, "Land denied: vehicle not armed")
             return S.MAV_RESULT_DENIED
+        if not self.in_air:
+            self.land_detector.landed_since_us = max(self.now_us, self.armed_at_us + 1)
+            self.say(S.MAV_SEVERITY_INFO, "Land: already on the ground")
+            return self._enter(Mode.AUTO_LAND)
         if precision in (1, 2):
             self.precland_mode = PrecLandMode(precision)
             return self._enter(Mode.AUTO_PRECLAND)
@@ -134,7 +160,11 @@ class FlightCommands:
             self.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: no home position")
             return S.MAV_RESULT_DENIED
         rel = self.params.get("MIS_TAKEOFF_ALT") if rel_alt_m is None else rel_alt_m
-        rel = max(rel, 1.0)
+        why = "altitude below home" if rel < 0 else above_ceiling(self.params, rel)
+        if why is not None:
+            self.say(S.MAV_SEVERITY_CRITICAL, f"Takeoff denied: {why}")
+            return S.MAV_RESULT_DENIED
+        rel = max(rel, MIN_TAKEOFF_M)
         return self._enter(Mode.AUTO_TAKEOFF, self.home.pos_ned_m[2] - rel)
 
     @publishes
@@ -149,8 +179,9 @@ class FlightCommands:
         """Fly to a point and hold there (AUTO.LOITER), along a straight line from the current setpoint.
 
         None keeps the current value: horizontal position (both lat/lon), altitude AMSL, yaw (radians);
-        speed None: DO_CHANGE_SPEED's, else MPC_XY_CRUISE.  Refused when not flying, without a position estimate, for
-        an impossible latitude/longitude or a target more than REPOSITION_MAX_M away.
+        speed None: DO_CHANGE_SPEED's, else MPC_XY_CRUISE; at most MPC_XY_VEL_MAX.  Refused when not flying,
+        without a position estimate, for an impossible latitude/longitude, a target more than REPOSITION_MAX_M
+        away or above the ceiling (:func:`altitude_ceiling`).
         """
         e = self.est
         if not (self.armed and self.in_air) or e is None:
@@ -166,10 +197,16 @@ class FlightCommands:
         if np.linalg.norm(goal - e.pos_ned_m) > REPOSITION_MAX_M:
             self.say(S.MAV_SEVERITY_CRITICAL, "Reposition denied: target more than 1 km away")
             return S.MAV_RESULT_DENIED
+        if self.home is not None and (why := above_ceiling(self.params, self.home.pos_ned_m[2] - goal[2])):
+            self.say(S.MAV_SEVERITY_CRITICAL, f"Reposition denied: {why}")
+            return S.MAV_RESULT_DENIED
         yaw = e.yaw_rad if yaw_rad is None else yaw_rad
         if speed_m_s is None:
             speed_m_s = self.cruise_override_m_s
         speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
+        if speed > (limit := self.params.get("MPC_XY_VEL_MAX")):
+            self.say(S.MAV_SEVERITY_INFO, f"Speed {speed:g} m/s limited to MPC_XY_VEL_MAX")
+            speed = limit
         start = (
             self.setpoint.pos_ned_m
             if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))

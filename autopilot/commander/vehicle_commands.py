@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander.flight_commands import REPOSITION_MAX_M, point_ned, publishes
+from autopilot.commander.flight_commands import REPOSITION_MAX_M, above_ceiling, point_ned, publishes
 from autopilot.navigation import GotoTask, LoiterTask, started
 from autopilot.navigation.geofence import stop_point
 from autopilot.navigation.mission import MissionTask
@@ -163,7 +163,8 @@ class VehicleCommands:
     # -- DO_SET_HOME ---------------------------------------------------------------------
     @publishes
     def set_home(self, lat_deg: float | None, lon_deg: float | None, alt_amsl_m: float | None) -> int:
-        """Home here (None) or at the given point."""
+        """Home here (None) or at the given point, at most REPOSITION_MAX_M from the vehicle (a return goes
+        there)."""
         e = self.est
         if e is None or not e.position_valid:
             return self._deny("Set home denied: no position estimate")
@@ -173,6 +174,8 @@ class VehicleCommands:
         home = point_ned(e, lat_deg, lon_deg, alt_amsl_m, e.pos_ned_m)
         if home is None:
             return self._deny("Set home denied: latitude/longitude out of range")
+        if np.linalg.norm(home - e.pos_ned_m) > REPOSITION_MAX_M:
+            return self._deny(f"Set home denied: more than {REPOSITION_MAX_M / 1000:g} km from the vehicle")
         self._set_home_at(home)
         return S.MAV_RESULT_ACCEPTED
 
@@ -180,7 +183,7 @@ class VehicleCommands:
     @publishes
     def condition_yaw(self, angle_rad: float, rate_rad_s: float | None, direction: int, relative: bool) -> int:
         """Turn in place while holding or going to a point: to ``angle_rad`` from north, or by it (``relative``;
-        direction -1 turns the other way), at ``rate_rad_s`` (None: MPC_YAWRAUTO_MAX)."""
+        direction -1 turns the other way), at ``rate_rad_s`` (None: MPC_YAWRAUTO_MAX; at most MC_YAWRATE_MAX)."""
         e, why = self._flying_estimate("Yaw")
         if e is None:
             return self._deny(why)
@@ -192,7 +195,8 @@ class VehicleCommands:
             turn = -abs(angle_rad) if direction < 0 else angle_rad
         else:
             turn = turn_angle(start, angle_rad, direction)
-        rate = rate_rad_s if rate_rad_s is not None else math.radians(self.params.get("MPC_YAWRAUTO_MAX"))
+        default, limit = (math.radians(self.params.get(n)) for n in ("MPC_YAWRAUTO_MAX", "MC_YAWRATE_MAX"))
+        rate = min(rate_rad_s, limit) if rate_rad_s is not None else default
         self.task = started(YawTurn(inner, start, turn, rate), e, self.now_us)
         return S.MAV_RESULT_ACCEPTED
 
@@ -369,6 +373,8 @@ class VehicleCommands:
             return self._deny(f"Orbit denied: radius {abs(radius):g} m outside {ORBIT_RADIUS_MIN_M:g}..{limit:g} m")
         if np.linalg.norm(centre[:2] - e.pos_ned_m[:2]) > REPOSITION_MAX_M:
             return self._deny("Orbit denied: centre more than 1 km away")
+        if self.home is not None and (too_high := above_ceiling(self.params, self.home.pos_ned_m[2] - centre[2])):
+            return self._deny(f"Orbit denied: {too_high}")
         speed = abs(speed_m_s) if speed_m_s is not None else (now.speed_m_s if now else ORBIT_DEFAULT_SPEED_M_S)
         limit = orbit_speed_limit(radius, self.params.get("MPC_ACC_HOR"))
         if speed > limit:

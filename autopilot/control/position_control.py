@@ -14,7 +14,9 @@ component leaves the axis to its velocity setpoint; a NaN velocity too leaves it
 to its acceleration setpoint (no velocity loop on the axis); with all three NaN
 the axis holds (velocity setpoint zero).  A NaN estimate component takes its axis
 out of the loops it feeds.  NaN never reaches an integrator or the thrust, and
-:class:`PositionControlOutput` says which axes were controlled.
+:class:`PositionControlOutput` says which axes were controlled.  A ``dt`` that is not in
+(0, :data:`MAX_DT_S`] (time going back, a gap) integrates nothing: no integrator growth, no
+derivative (it starts again from the step's velocity), no jerk-limited feed-forward change.
 
 Pure: no I/O, no clock; ``dt`` is an input.
 """
@@ -32,6 +34,7 @@ from mavsim_core.quaternion import cross
 Axes3 = tuple[float, float, float]  # north, east, down
 Flags3 = tuple[bool, bool, bool]
 _GRAVITY_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
+MAX_DT_S = 0.1  # the longest step integrated, s (the loop runs every 20 ms)
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,7 +150,7 @@ class PositionControl:
         # The trajectory's acceleration, fed forward at most MPC_JERK_AUTO faster per second: the
         # moves' speed profile is trapezoidal, and a step in it would be a step of the attitude
         # setpoint that saturates the motors.
-        step = g.jerk_max_m_s3 * dt
+        step = g.jerk_max_m_s3 * dt if _dt_ok(dt) else 0.0  # (a negative step would swap the clip's bounds)
         self.acc_ff += np.clip(np.where(acc_given, acc_want, 0.0) - self.acc_ff, -step, step)
         acc_sp = acc_sp + self.acc_ff
 
@@ -167,11 +170,12 @@ class PositionControl:
     def _velocity_pid(self, vel: np.ndarray, vel_err: np.ndarray, dt: float) -> np.ndarray:
         """P and I on the velocity error, D on the measured velocity (low-passed, clamped); m/s^2."""
         g = self.gains
-        d_raw = np.zeros(3) if self.prev_vel is None or dt <= 0 else -(vel - self.prev_vel) / dt
+        dt_ok = _dt_ok(dt)
+        d_raw = np.zeros(3) if self.prev_vel is None or not dt_ok else -(vel - self.prev_vel) / dt
         if not _finite(d_raw):
             d_raw = np.where(np.isfinite(d_raw), d_raw, self.d_filt)  # a NaN velocity leaves the filter as it was
         self.prev_vel = vel.copy()
-        if g.vel_d_lowpass_hz > 0 and dt > 0:
+        if g.vel_d_lowpass_hz > 0 and dt_ok:
             self.d_filt += dt / (dt + 1.0 / (2.0 * math.pi * g.vel_d_lowpass_hz)) * (d_raw - self.d_filt)
         else:
             self.d_filt[:] = d_raw
@@ -201,7 +205,9 @@ class PositionControl:
         return thrust, sat
 
     def _integrate(self, vel_err: np.ndarray, acc_sp: np.ndarray, sat: np.ndarray, dt: float) -> None:
-        """Integrate unless that would push further into saturation (anti-windup); clamp."""
+        """Integrate unless that would push further into saturation (anti-windup) or ``dt`` is not usable; clamp."""
+        if not _dt_ok(dt):
+            return
         grow = self._vel_i * vel_err * dt
         if sat[2]:
             grow[2] = 0.0
@@ -211,6 +217,11 @@ class PositionControl:
             grow = np.where(np.isfinite(grow), grow, 0.0)  # NaN never reaches the integrator
         self.vel_int += grow
         self.vel_int = np.minimum(np.maximum(self.vel_int, -self._int_lim), self._int_lim)
+
+
+def _dt_ok(dt: float) -> bool:
+    """A step that may be integrated: 0 < dt <= MAX_DT_S (not NaN, not time going back, not a gap)."""
+    return 0.0 < dt <= MAX_DT_S
 
 
 def _finite(v: np.ndarray) -> bool:

@@ -4,7 +4,9 @@ alpha_sp = P e + I integral(e) + D d(-rate)/dt, per FRD axis, in rad/s^2; the
 caller turns it into torque with the vehicle's inertia (tau = J alpha), so gains
 carry over between airframes.  [Q 3.4]'s clamps: the integrator is
 limited to :attr:`RateGains.int_lim_rad_s2` and stops growing on an axis the mixer
-reports saturated in the same direction.  NaN inputs never reach the integrator.
+reports saturated in the same direction.  NaN inputs never reach the integrator, and neither does a
+``dt`` that is not in (0, :data:`MAX_DT_S`] (time going back, or a gap: a restarted simulator, a stall):
+that step has no integration and no derivative, which starts again from the sample's rate.
 
 Pure: the gains arrive as a :class:`RateGains` record (from parameters, see
 :mod:`autopilot.control.gains_from_params`); no I/O, no clock, ``dt`` is an input.
@@ -20,6 +22,7 @@ import numpy as np
 Axes3 = tuple[float, float, float]  # roll, pitch, yaw (FRD x, y, z)
 
 _D_CUTOFF_HZ = 30.0
+MAX_DT_S = 0.02  # the longest step integrated, s (PX4's rate controller limits its dt to 20 ms too)
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,7 +73,8 @@ class RateControl:
         if not math.isfinite(err[0] + err[1] + err[2]):
             return np.zeros(3)  # NaN never reaches the integrator
         p, ki, kd, int_lim, lim = self._k
-        if self.prev_rate is not None and dt > 0:
+        dt_ok = 0.0 < dt <= MAX_DT_S  # (False for NaN)
+        if self.prev_rate is not None and dt_ok:
             a = dt / (dt + 1.0 / (2 * math.pi * _D_CUTOFF_HZ))
             for i in range(3):
                 raw = -(float(rate[i]) - self.prev_rate[i]) / dt
@@ -80,7 +84,7 @@ class RateControl:
         for i in range(3):
             d_term = min(max(kd[i] * self.d_filtered[i], -lim), lim)
             out[i] = p[i] * err[i] + self.integral[i] + d_term
-            if integrate and dt > 0:
+            if integrate and dt_ok:
                 grow = ki[i] * err[i] * dt
                 if (grow > 0 and sat_pos is not None and sat_pos[i]) or (
                     grow < 0 and sat_neg is not None and sat_neg[i]

@@ -22,7 +22,9 @@ its constant-position fusion when nothing aids it.  Beside this module:
 :mod:`autopilot.estimation.gps_fusion` (origin, delayed fusion, glitch rejection, reset),
 :mod:`autopilot.estimation.mag_health` (stuck, field strength, inconsistent heading),
 :mod:`autopilot.estimation.sensor_checks` (accelerometer, gyro, barometer: no data, stale data; a
-failed barometer is not fused, a failed accelerometer or gyro makes the attitude invalid) and
+failed barometer is not fused, a failed accelerometer or gyro makes the attitude invalid),
+:mod:`autopilot.estimation.height_sources` (the barometer against the GPS height; the GPS height
+flown on while the barometer is failed) and
 :mod:`autopilot.estimation.estimator_outputs` (the estimate, status flags and pre-arm failures
 published from the filters' state).
 """
@@ -37,6 +39,7 @@ import numpy as np
 from autopilot.estimation.ekf import P_BARO_GATE, P_BARO_NOISE, P_HDG_GATE, P_HEAD_NOISE, P_NOAID_NOISE, ErrorStateEkf
 from autopilot.estimation.estimator_outputs import ekf_prearm_failures, estimator_status, vehicle_estimate
 from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GpsFusion, finite3
+from autopilot.estimation.height_sources import GpsHeight, HeightSources
 from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field
 from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import PositionVelocityFilter
@@ -45,6 +48,7 @@ from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import EstimatorStatus, GpsSample, ImuSample, VehicleEstimate
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from mavsim_core.geodesy import geodetic_to_ned
 
 _GRAVITY = np.array([0.0, 0.0, GRAVITY_M_S2])
 BARO_PERIOD_US = 20_000  # barometer fused (and the EKF predicted) at 50 Hz
@@ -85,6 +89,7 @@ class Estimator:
         self.gps = GpsFusion(self.ekf, self.position, self.events, self._p)
         self.mag = MagHealth(self.events)
         self.sensor_checks = SensorChecks(self.events)
+        self.heights = HeightSources(self.events, self._p)  # barometer vs GPS height, the GPS fallback
         self.rate_frd = np.zeros(3)
         self.accel_ned = np.zeros(3)
         self.last_imu_us: int | None = None
@@ -195,6 +200,8 @@ class Estimator:
             self.last_baro_alt_m = pressure_to_altitude_m(s.pressure_hpa)
             if self.gps.origin is not None:
                 baro = -(self.last_baro_alt_m - self.gps.baro_offset_m)
+                self.heights.on_baro(s.timestamp_us, baro)
+                baro = baro if self.heights.baro_ok else None  # inconsistent with the GPS height: not fused
         if self.defer_filters:
             self._deferred_filters = (s.timestamp_us, mag, baro)
             self.r_ned_frd = quat.to_matrix(self.q)
@@ -321,6 +328,11 @@ class Estimator:
 
     def _fuse_gps(self, g: GpsSample) -> None:
         if not self.gps.fuse(g, self.last_baro_alt_m, self.ekf.initialised and self.attitude.initialised):
+            if self.gps.origin is not None and self.gps.last_us == g.timestamp_us:  # a good fix: the heights
+                down = float(geodetic_to_ned(g.lat_deg, g.lon_deg, g.alt_amsl_m, *self.gps.origin)[2])
+                fix = GpsHeight(g.timestamp_us - self.gps.delay_us, down, float(g.vel_ned_m_s[2]), g.epv_m)
+                lkf = (self.position, self.gps.history)
+                self.heights.on_gps(fix, self.sensor_checks.ok(BARO), self.ekf, lkf)
             return
         # This fix set the origin: magnetic declination and field strength there (World Magnetic
         # Model), and the heading re-aligned now that declination is known.

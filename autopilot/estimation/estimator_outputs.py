@@ -125,14 +125,22 @@ def estimator_status(est: Estimator) -> EstimatorStatus:
         mag_fault=est.mag.fault,
         gps_glitch=est.gps.glitch,
         position_ok=pos_ok,
-        failed_sensors=tuple(est.sensor_checks.failed),
+        failed_sensors=tuple(failed_sensors(est)),
     )
+
+
+def failed_sensors(est: Estimator) -> dict[str, str]:
+    """The failed sensors and why: the sensor checks', and a barometer inconsistent with the GPS height."""
+    failed = dict(est.sensor_checks.failed)
+    if est.heights.failed:
+        failed.setdefault("barometer", est.heights.failed)
+    return failed
 
 
 def ekf_prearm_failures(est: Estimator) -> list[str]:
     """Why the EKF is not yet fit to fly on (empty when converged and consistent)."""
     e = est.ekf
-    out = [f"{name.capitalize()} failed: {why}" for name, why in est.sensor_checks.failed.items()]
+    out = [f"{name.capitalize()} failed: {why}" for name, why in failed_sensors(est).items()]
     if not e.initialised or e.time_aligned_s < ALIGN_TIME_S:
         return out + ["EKF attitude not aligned"]
     if e.tilt_std_rad() > MAX_TILT_STD_RAD:

@@ -125,5 +125,8 @@ class PositionVelocityFilter:
         self.p_h = self._update_scalar([0, 1], self.p_h, 1, vel_ned_m_s[:2], self.gps_v_noise**2, vel_then[:2])
         self.p_v = self._update_scalar([2], self.p_v, 1, vel_ned_m_s[2:3], (1.5 * self.gps_v_noise) ** 2, vel_then[2:3])
 
-    def fuse_height(self, down_m: float) -> None:
-        self.p_v = self._update_scalar([2], self.p_v, 0, np.array([down_m]), self.baro_noise**2)
+    def fuse_height(self, down_m: float, then_m: float | None = None, noise_m: float | None = None) -> None:
+        """A height (m down): the barometer's now, or (``then_m``, ``noise_m``) the GPS height's of a delayed fix."""
+        r = (self.baro_noise if noise_m is None else noise_m) ** 2
+        ref = None if then_m is None else np.array([then_m])
+        self.p_v = self._update_scalar([2], self.p_v, 0, np.array([down_m]), r, ref)

@@ -9,6 +9,11 @@ force magic 21196, PX4's mode numbers) and calls a typed method either of the li
 table gets MAV_RESULT_UNSUPPORTED.  Refusals are explained by the commander in a
 STATUSTEXT (its event queue).
 
+Every field a row reads is checked (:mod:`autopilot.mavlink.command_fields`: NaN is "not
+given", an infinity anywhere, a value outside its range or enumeration, a MAV_BOOL other
+than 0 or 1 are refused with MAV_RESULT_DENIED and a STATUSTEXT naming the field) before
+anything changes; a COMMAND_INT's frame decides what its altitude means (AMSL, or above home).
+
 Two entry points share the table: the link runs its own rows (:func:`run`) and hands
 the others to the vehicle (``VehicleInterface.handle_command``), whose flight
 controller implementation runs the vehicle rows (:func:`handle_vehicle_command`).
@@ -23,21 +28,19 @@ from typing import Any, Callable, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.mavlink import command_fields as f
+from autopilot.mavlink.command_fields import FieldError, Params, command_int_params, command_long_params
 from autopilot.topics import CommanderStatus
 from mavsim_core.px4_modes import Mode
 
-FORCE_MAGIC = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM: arm or disarm whatever the checks say
-INT32_MAX = 2**31 - 1  # COMMAND_INT x/y "not given"
+__all__ = ["COMMANDS", "FORCE_MAGIC", "command_int_params", "command_long_params", "handle_vehicle_command", "run"]
 
-_GLOBAL_FRAMES = frozenset({
-    mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_INT,
-    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-})  # fmt: skip
-_LOCAL_FRAMES = frozenset({
-    mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_ENU, mavlink.MAV_FRAME_LOCAL_OFFSET_NED,
-    mavlink.MAV_FRAME_BODY_NED, mavlink.MAV_FRAME_BODY_OFFSET_NED, mavlink.MAV_FRAME_BODY_FRD,
-    mavlink.MAV_FRAME_LOCAL_FRD, mavlink.MAV_FRAME_LOCAL_FLU,
+FORCE_MAGIC = 21196  # param2 of MAV_CMD_COMPONENT_ARM_DISARM: arm or disarm whatever the checks say
+INTERVAL_MAX_US = 2**31 - 1  # MESSAGE_INTERVAL.interval_us is an int32
+# Commands with a global position in param5..7: COMMAND_INT frames are read by command_fields.to_amsl
+LOCATION_COMMANDS = frozenset({
+    mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_LAND, mavlink.MAV_CMD_DO_REPOSITION,
+    mavlink.MAV_CMD_DO_SET_HOME, mavlink.MAV_CMD_DO_ORBIT,
 })  # fmt: skip
 
 
@@ -98,62 +101,28 @@ class By(Enum):
     VEHICLE = "vehicle"
 
 
-Params = tuple[float, ...]  # param1..param7; for COMMAND_INT x, y already in degrees (global frames) or m
-
-
 @dataclass(frozen=True)
 class Command:
     by: By
     handler: Callable[[Any, Params], int]  # (LinkCommands or CommanderCommands, params) -> MAV_RESULT
-
-
-def int_param(x: float, default: int = 0) -> int:
-    """A command parameter as an integer; NaN or infinite ("unused", as MAVSDK sends) gives default."""
-    return int(x) if math.isfinite(x) else default
-
-
-def given(x: float) -> float | None:
-    """A float parameter, or None when not given (NaN, as MAVLink's commands mark it)."""
-    return x if math.isfinite(x) else None
-
-
-# --------------------------------------------------------------------------- decoding messages
-
-
-def command_long_params(msg: mavlink.MAVLink_message) -> Params:
-    """COMMAND_LONG's seven parameters, unchanged (positions: lat/lon degrees, altitude AMSL m)."""
-    return (msg.param1, msg.param2, msg.param3, msg.param4, msg.param5, msg.param6, msg.param7)
-
-
-def command_int_params(msg: mavlink.MAVLink_message) -> Params:
-    """COMMAND_INT's parameters with x, y as floats: degE7 -> degrees in global frames, m * 1e4 -> m in
-    local frames, INT32_MAX (both) = not given (NaN)."""
-    if msg.x == INT32_MAX and msg.y == INT32_MAX:
-        x = y = math.nan
-    elif msg.frame in _GLOBAL_FRAMES:
-        x, y = msg.x * 1e-7, msg.y * 1e-7
-    elif msg.frame in _LOCAL_FRAMES:
-        x, y = msg.x * 1e-4, msg.y * 1e-4
-    else:
-        x, y = float(msg.x), float(msg.y)
-    return (msg.param1, msg.param2, msg.param3, msg.param4, x, y, msg.z)
+    label: str  # what a refusal's STATUSTEXT calls it: "<label> denied: <why>"
 
 
 # --------------------------------------------------------------------------- the link's commands
 
 
 def _set_message_interval(link: LinkCommands, p: Params) -> int:
-    """param1 message id, param2 interval µs (-1 disable, 0 default)."""
-    if not (math.isfinite(p[0]) and math.isfinite(p[1])):
-        return mavlink.MAV_RESULT_DENIED
-    return link.set_message_interval(int(p[0]), int(round(p[1])))
+    """param1 message id, param2 interval µs (-1 disable, 0 default, > 0 up to INT32_MAX)."""
+    msg_id = f.message_id(p[0])
+    interval = f.required(p[1], "param2 (interval)")
+    if not (interval in (-1.0, 0.0) or 0 < interval <= INTERVAL_MAX_US):
+        raise FieldError(f"param2 (interval) {interval:g} µs is not -1, 0 or 1..{INTERVAL_MAX_US}")
+    return link.set_message_interval(msg_id, int(round(interval)))
 
 
 def _request_message(link: LinkCommands, p: Params) -> int:
-    """param1 message id, param2 its first parameter (PARAM_VALUE: the index)."""
-    if not math.isfinite(p[0]):
-        return mavlink.MAV_RESULT_DENIED
-    return link.request_message(int(p[0]), p[1])
+    """param1 message id, param2 its first parameter (PARAM_VALUE: the index; checked by the message)."""
+    return link.request_message(f.message_id(p[0]), p[1])
 
 
 def _request_autopilot_capabilities(link: LinkCommands, p: Params) -> int:
@@ -170,9 +139,10 @@ def _deny(cmd: CommanderCommands, why: str) -> int:
 
 
 def _arm_disarm(cmd: CommanderCommands, p: Params) -> int:
-    """param1 >= 0.5 arm, else disarm; param2 21196 forces either."""
-    force = int_param(p[1]) == FORCE_MAGIC
-    if p[0] >= 0.5:
+    """param1 1 arm, 0 disarm (nothing else: the MAVLink spec); param2 0 (or NaN) checked, 21196 forced."""
+    arm = f.flag(p[0], "param1 (arm)")
+    force = f.choice(p[1], "param2 (force)", (0, FORCE_MAGIC), nan=0) == FORCE_MAGIC
+    if arm:
         if cmd.terminated:  # DO_FLIGHTTERMINATION holds until a reboot, forced or not
             return _deny(cmd, "Arming denied: flight terminated (reboot to clear)")
         return cmd.arm(force)
@@ -181,24 +151,24 @@ def _arm_disarm(cmd: CommanderCommands, p: Params) -> int:
 
 def _takeoff(cmd: CommanderCommands, p: Params) -> int:
     """param7 altitude AMSL (m); NaN: MIS_TAKEOFF_ALT; below home: read as metres above home (MAVProxy's
-    ``takeoff 5`` sends 5)."""
+    ``takeoff 5`` sends 5).  The commander refuses altitudes above its ceiling (GF_MAX_VER_DIST)."""
     home = cmd.status.home
-    alt = p[6]
-    if home is None or not math.isfinite(alt):
+    alt = f.optional(p[6], "param7 (altitude)")
+    if home is None or alt is None:
         return cmd.takeoff(None)  # the default altitude, or refused for want of a home
-    if alt < home.alt_amsl_m:
+    if 0 <= alt < home.alt_amsl_m:
         cmd.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff altitude {alt:g} m is below home: using {alt:g} m above home")
         return cmd.takeoff(alt)
     return cmd.takeoff(alt - home.alt_amsl_m)
 
 
 def _land(cmd: CommanderCommands, p: Params) -> int:
-    """param2: precision landing as PX4 (0 none, 1 opportunistic, 2 required); other values refused."""
-    precision = p[1] if len(p) > 1 and math.isfinite(p[1]) else 0.0
-    if precision not in (0.0, 1.0, 2.0):
-        cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Land denied: precision land mode {precision:g} unknown (0, 1, 2)")
-        return mavlink.MAV_RESULT_DENIED
-    return cmd.land(int(precision))
+    """param2: precision landing as PX4 (0 or NaN none, 1 opportunistic, 2 required); param5/6: NaN (or both 0)
+    only: the vehicle lands where it is (fly there first with DO_REPOSITION)."""
+    precision = f.choice(p[1], "param2 (precision land mode)", (0, 1, 2), nan=0)
+    if f.lat_lon(p[4], p[5], zero_is_here=True) is not None:
+        raise FieldError("landing at a given latitude/longitude is not supported (NaN: here)")
+    return cmd.land(precision)
 
 
 def _return_to_launch(cmd: CommanderCommands, p: Params) -> int:
@@ -206,33 +176,34 @@ def _return_to_launch(cmd: CommanderCommands, p: Params) -> int:
 
 
 def _do_set_mode(cmd: CommanderCommands, p: Params) -> int:
-    """param1 base_mode, param2 PX4 main mode, param3 PX4 sub mode (as MAVSDK and MAVProxy send them)."""
-    return handle_set_mode(cmd, int_param(p[0]), int_param(p[1]) << 16 | int_param(p[2]) << 24)
+    """param1 base_mode, param2 PX4 main mode, param3 PX4 sub mode (NaN: 0), as MAVSDK and MAVProxy send them."""
+    base = f.whole(p[0], "param1 (base mode)", 0, 255)
+    main = f.whole(p[1], "param2 (custom main mode)", 0, 255)
+    sub = f.whole(p[2], "param3 (custom sub mode)", 0, 255, nan=0)
+    return handle_set_mode(cmd, base, main << 16 | sub << 24)
 
 
 def _reposition(cmd: CommanderCommands, p: Params) -> int:
     """param1 ground speed m/s (<= 0 or NaN: the default), param4 yaw in RADIANS (NaN: keep the heading; as
     the MAVLink spec, PX4 and MAVSDK), param5/6 lat/lon deg (NaN or both 0: here), param7 altitude AMSL m
-    (NaN: keep).  Infinite values are not "not given": refused."""
-    if any(math.isinf(x) for x in (p[3], p[4], p[5], p[6])):
-        return _deny(cmd, "Reposition denied: infinite position or yaw")
-    speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
-    lat, lon = p[4], p[5]
-    if not (math.isfinite(lat) and math.isfinite(lon)) or (lat == 0 and lon == 0):
-        lat = lon = None
-    return cmd.reposition(lat, lon, given(p[6]), given(p[3]), speed)
+    (NaN: keep)."""
+    speed = f.optional(p[0], "param1 (ground speed)")
+    yaw = f.yaw_rad(p[3])
+    here = f.lat_lon(p[4], p[5], zero_is_here=True)
+    lat, lon = here if here is not None else (None, None)
+    alt = f.optional(p[6], "param7 (altitude)")
+    return cmd.reposition(lat, lon, alt, yaw, speed if speed is not None and speed > 0 else None)
 
 
 def _set_mission_current(cmd: CommanderCommands, p: Params) -> int:
     """param1 the item (-1 or NaN: keep), param2 1: reset the mission (DO_JUMP counters), as PX4."""
     status = cmd.status.mission
-    seq = int_param(p[0], -1)
-    reset = int_param(p[1]) == 1
+    seq = f.whole(p[0], "param1 (item)", -1, 65535, nan=-1)
+    reset = f.flag(p[1], "param2 (reset)", nan=False)
     if seq == -1:
         seq = min(status.seq, max(status.total - 1, 0))
         if status.total == 0:
-            cmd.say(mavlink.MAV_SEVERITY_CRITICAL, "Set current mission item denied: no mission")
-            return mavlink.MAV_RESULT_DENIED
+            return _deny(cmd, "Set current mission item denied: no mission")
     done, why = cmd.set_mission_current(seq, reset)
     if not done:
         cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Set current mission item denied: {why}")
@@ -240,27 +211,31 @@ def _set_mission_current(cmd: CommanderCommands, p: Params) -> int:
 
 
 def _change_speed(cmd: CommanderCommands, p: Params) -> int:
-    """param1 speed type (0 air, 1 ground: both the horizontal speed of a multicopter; 2 climb, 3 descent:
-    not supported), param2 m/s (-1 or NaN: no change, -2: back to MPC_XY_CRUISE), param3 throttle (ignored)."""
-    kind = int_param(p[0], 1)
+    """param1 speed type (0 air, 1 ground, NaN: ground; both the horizontal speed of a multicopter; 2 climb,
+    3 descent: not supported), param2 m/s (-1 or NaN: no change, -2: back to MPC_XY_CRUISE), param3 throttle
+    (ignored)."""
+    kind = f.choice(p[0], "param1 (speed type)", (0, 1, 2, 3), nan=1)
     if kind not in (0, 1):
         return _deny(cmd, f"Change speed denied: speed type {kind} not supported (0, 1)")
-    if not math.isfinite(p[1]) or p[1] == -1:
+    speed = f.optional(p[1], "param2 (speed)")
+    if speed is None or speed == -1:
         return mavlink.MAV_RESULT_ACCEPTED  # no change
-    if p[1] == -2:
+    if speed == -2:
         return cmd.change_speed(None)
-    if p[1] <= 0:
-        return _deny(cmd, f"Change speed denied: {p[1]:g} m/s is not a speed")
-    return cmd.change_speed(p[1])
+    if speed <= 0:
+        return _deny(cmd, f"Change speed denied: {speed:g} m/s is not a speed")
+    return cmd.change_speed(speed)
 
 
 def _set_home(cmd: CommanderCommands, p: Params) -> int:
-    """param1 1: the current position; else param5/6 lat/lon deg and param7 altitude AMSL m (all finite)."""
-    if int_param(p[0]) == 1:
+    """param1 1: the current position; 0: param5/6 lat/lon deg and param7 altitude AMSL m (all given)."""
+    if f.flag(p[0], "param1 (use current location)"):
         return cmd.set_home(None, None, None)
-    if not all(math.isfinite(x) for x in (p[4], p[5], p[6])):
+    where = f.lat_lon(p[4], p[5])
+    alt = f.optional(p[6], "param7 (altitude)")
+    if where is None or alt is None:
         return _deny(cmd, "Set home denied: latitude, longitude and altitude required")
-    return cmd.set_home(p[4], p[5], p[6])
+    return cmd.set_home(where[0], where[1], alt)
 
 
 def _get_home_position(link: LinkCommands, p: Params) -> int:
@@ -269,74 +244,80 @@ def _get_home_position(link: LinkCommands, p: Params) -> int:
 
 
 def _condition_yaw(cmd: CommanderCommands, p: Params) -> int:
-    """param1 angle deg (absolute from north, or relative), param2 rate deg/s (<= 0 or NaN: MPC_YAWRAUTO_MAX),
-    param3 direction (-1 counter-clockwise, 0 shortest, 1 clockwise), param4 1 relative, 0 absolute."""
-    if not math.isfinite(p[0]):
-        return _deny(cmd, "Yaw denied: angle not given")
-    rate = math.radians(p[1]) if math.isfinite(p[1]) and p[1] > 0 else None
-    direction = max(-1, min(1, int_param(p[2])))
-    return cmd.condition_yaw(math.radians(p[0]), rate, direction, int_param(p[3]) == 1)
+    """param1 angle deg (absolute from north, or relative; -360..360), param2 rate deg/s (<= 0 or NaN:
+    MPC_YAWRAUTO_MAX), param3 direction (-1 counter-clockwise, 0 or NaN shortest, 1 clockwise), param4 1
+    relative, 0 (or NaN) absolute."""
+    angle = f.within(p[0], "param1 (angle)", -360.0, 360.0)
+    rate = f.optional(p[1], "param2 (rate)")
+    direction = f.choice(p[2], "param3 (direction)", (-1, 0, 1), nan=0)
+    relative = f.flag(p[3], "param4 (relative)", nan=False)
+    rate_rad_s = math.radians(rate) if rate is not None and rate > 0 else None
+    return cmd.condition_yaw(math.radians(angle), rate_rad_s, direction, relative)
 
 
 def _pause_continue(cmd: CommanderCommands, p: Params) -> int:
     """param1 0: pause (hold here, AUTO.LOITER), 1: continue the mission."""
-    action = int_param(p[0], -1)
-    if action not in (0, 1):
-        return _deny(cmd, "Pause/continue denied: param1 must be 0 (pause) or 1 (continue)")
-    return cmd.pause_continue(action == 0)
+    return cmd.pause_continue(not f.flag(p[0], "param1 (continue)"))
 
 
 def _flight_termination(cmd: CommanderCommands, p: Params) -> int:
-    """param1 >= 0.5: motors off and disarmed, for good (until a reboot); below: nothing (accepted)."""
-    if math.isfinite(p[0]) and p[0] >= 0.5:
+    """param1 > 0.5: motors off and disarmed, for good (until a reboot); NaN or below: nothing (accepted)."""
+    value = f.optional(p[0], "param1 (terminate)")
+    if value is not None and value > 0.5:
         return cmd.terminate_flight()
     return mavlink.MAV_RESULT_ACCEPTED
 
 
 def _preflight_storage(cmd: CommanderCommands, p: Params) -> int:
     """param1 0 read the saved parameters, 1 write, 2 and 4 reset to defaults, 3 sensors (none); param2 ignored."""
-    return cmd.param_storage(int_param(p[0], -1))
+    return cmd.param_storage(f.whole(p[0], "param1 (parameter storage action)", 0, 4))
 
 
 def _reboot_shutdown(cmd: CommanderCommands, p: Params) -> int:
-    """param1 0 nothing, 1 reboot (the flight controller's state restarts in place), 2 shutdown, 3 bootloader:
-    not simulated; param2.. (companion computer, camera, mount) ignored: there are none."""
-    action = int_param(p[0], 0)
+    """param1 0 (or NaN) nothing, 1 reboot (the flight controller's state restarts in place), 2 shutdown, 3
+    bootloader: not simulated; param2.. (companion computer, camera, mount) ignored: there are none."""
+    action = f.whole(p[0], "param1 (autopilot action)", 0, 3, nan=0)
     if action == 0:
         return mavlink.MAV_RESULT_ACCEPTED
     if action == 1:
         return cmd.reboot()
-    what = {2: "shutdown", 3: "reboot to bootloader"}.get(action)
-    if what is not None:
-        cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Reboot/shutdown: {what} not supported in simulation")
-        return mavlink.MAV_RESULT_UNSUPPORTED
-    return _deny(cmd, f"Reboot/shutdown denied: unknown action {action}")
+    what = {2: "shutdown", 3: "reboot to bootloader"}[action]
+    cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Reboot/shutdown: {what} not supported in simulation")
+    return mavlink.MAV_RESULT_UNSUPPORTED
 
 
 def _motor_test(cmd: CommanderCommands, p: Params) -> int:
-    """param1 motor (1-based), param2 throttle type (0 percent, 1 PWM µs 1000-2000), param3 the value,
-    param4 timeout s, param5 motor count (0 or 1: one motor)."""
-    kind = int_param(p[1], -1)
-    value = p[2]
+    """param1 motor (1-based), param2 throttle type (0 percent 0-100, 1 PWM µs 1000-2000; 2 pilot and 3 compass
+    calibration: not supported), param3 the value, param4 timeout s (>= 0), param5 motor count (0, 1 or NaN:
+    one motor)."""
+    motor = f.whole(p[0], "param1 (motor)", 1, 255)
+    kind = f.choice(p[1], "param2 (throttle type)", (0, 1, 2, 3))
     if kind not in (mavlink.MOTOR_TEST_THROTTLE_PERCENT, mavlink.MOTOR_TEST_THROTTLE_PWM):
         cmd.say(mavlink.MAV_SEVERITY_CRITICAL, f"Motor test denied: throttle type {kind} not supported (0, 1)")
         return mavlink.MAV_RESULT_UNSUPPORTED
-    if not (math.isfinite(value) and math.isfinite(p[3])):
-        return _deny(cmd, "Motor test denied: throttle and timeout required")
-    frac = value / 100.0 if kind == mavlink.MOTOR_TEST_THROTTLE_PERCENT else (value - 1000.0) / 1000.0
-    return cmd.motor_test(int_param(p[0]), min(max(frac, 0.0), 1.0), max(p[3], 0.0), int_param(p[4]))
+    if kind == mavlink.MOTOR_TEST_THROTTLE_PERCENT:
+        frac = f.within(p[2], "param3 (throttle %)", 0.0, 100.0) / 100.0
+    else:
+        frac = (f.within(p[2], "param3 (throttle PWM)", 1000.0, 2000.0) - 1000.0) / 1000.0
+    timeout_s = f.within(p[3], "param4 (timeout)", 0.0, math.inf)
+    return cmd.motor_test(motor, frac, timeout_s, f.whole(p[4], "param5 (motor count)", 0, 255, nan=0))
 
 
 def _orbit(cmd: CommanderCommands, p: Params) -> int:
-    """param1 radius m (sign: > 0 clockwise, < 0 counter-clockwise; NaN: keep/default), param2 speed m/s
-    (NaN: keep/default), param3 ORBIT_YAW_BEHAVIOUR (NaN: MC_ORBIT_YAW_MOD), param5/6 centre lat/lon deg and
-    param7 altitude AMSL m (NaN: here / the current orbit's)."""
-    if any(math.isinf(x) for x in (p[0], p[1], p[4], p[5], p[6])):
-        return _deny(cmd, "Orbit denied: infinite parameter")
-    lat, lon = p[4], p[5]
-    lat, lon = (None, None) if not (math.isfinite(lat) and math.isfinite(lon)) else (lat, lon)
-    yaw = int_param(p[2], -1)
-    return cmd.orbit(given(p[0]), given(p[1]), None if yaw < 0 else yaw, lat, lon, given(p[6]))
+    """param1 radius m (sign: > 0 clockwise, < 0 counter-clockwise; NaN: keep/default), param2 speed m/s >= 0
+    (NaN: keep/default), param3 ORBIT_YAW_BEHAVIOUR 0..5 (NaN or 5: MC_ORBIT_YAW_MOD / unchanged), param4 NaN
+    or 0 (orbit for ever: a given angle is not supported), param5/6 centre lat/lon deg and param7 altitude
+    AMSL m (NaN: here / the current orbit's)."""
+    radius = f.optional(p[0], "param1 (radius)")
+    speed = f.optional(p[1], "param2 (speed)")
+    if speed is not None and speed < 0:
+        raise FieldError(f"param2 (speed) {speed:g} m/s is negative")
+    yaw = f.whole(p[2], "param3 (yaw behaviour)", 0, 5, nan=5)
+    if f.optional(p[3], "param4 (orbits)") not in (None, 0.0):
+        raise FieldError("orbiting a given angle is not supported (param4 NaN or 0: for ever)")
+    centre = f.lat_lon(p[4], p[5])
+    lat, lon = centre if centre is not None else (None, None)
+    return cmd.orbit(radius, speed, None if yaw == 5 else yaw, lat, lon, f.optional(p[6], "param7 (altitude)"))
 
 
 def handle_set_mode(cmd: CommanderCommands, base_mode: int, custom_mode: int) -> int:
@@ -354,41 +335,54 @@ def handle_set_mode(cmd: CommanderCommands, base_mode: int, custom_mode: int) ->
 # --------------------------------------------------------------------------- the table
 
 COMMANDS: dict[int, Command] = {
-    mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: Command(By.LINK, _set_message_interval),
-    mavlink.MAV_CMD_REQUEST_MESSAGE: Command(By.LINK, _request_message),
-    mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: Command(By.LINK, _request_autopilot_capabilities),
-    mavlink.MAV_CMD_COMPONENT_ARM_DISARM: Command(By.VEHICLE, _arm_disarm),
-    mavlink.MAV_CMD_NAV_TAKEOFF: Command(By.VEHICLE, _takeoff),
-    mavlink.MAV_CMD_NAV_LAND: Command(By.VEHICLE, _land),
-    mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: Command(By.VEHICLE, _return_to_launch),
-    mavlink.MAV_CMD_DO_SET_MODE: Command(By.VEHICLE, _do_set_mode),
-    mavlink.MAV_CMD_DO_REPOSITION: Command(By.VEHICLE, _reposition),
-    mavlink.MAV_CMD_DO_SET_MISSION_CURRENT: Command(By.VEHICLE, _set_mission_current),
-    mavlink.MAV_CMD_DO_CHANGE_SPEED: Command(By.VEHICLE, _change_speed),
-    mavlink.MAV_CMD_DO_SET_HOME: Command(By.VEHICLE, _set_home),
-    mavlink.MAV_CMD_GET_HOME_POSITION: Command(By.LINK, _get_home_position),
-    mavlink.MAV_CMD_CONDITION_YAW: Command(By.VEHICLE, _condition_yaw),
-    mavlink.MAV_CMD_DO_PAUSE_CONTINUE: Command(By.VEHICLE, _pause_continue),
-    mavlink.MAV_CMD_DO_FLIGHTTERMINATION: Command(By.VEHICLE, _flight_termination),
-    mavlink.MAV_CMD_PREFLIGHT_STORAGE: Command(By.VEHICLE, _preflight_storage),
-    mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: Command(By.VEHICLE, _reboot_shutdown),
-    mavlink.MAV_CMD_DO_MOTOR_TEST: Command(By.VEHICLE, _motor_test),
-    mavlink.MAV_CMD_DO_ORBIT: Command(By.VEHICLE, _orbit),
+    mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: Command(By.LINK, _set_message_interval, "Set message interval"),
+    mavlink.MAV_CMD_REQUEST_MESSAGE: Command(By.LINK, _request_message, "Request message"),
+    mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: Command(By.LINK, _request_autopilot_capabilities, "Capabilities"),
+    mavlink.MAV_CMD_COMPONENT_ARM_DISARM: Command(By.VEHICLE, _arm_disarm, "Arming"),
+    mavlink.MAV_CMD_NAV_TAKEOFF: Command(By.VEHICLE, _takeoff, "Takeoff"),
+    mavlink.MAV_CMD_NAV_LAND: Command(By.VEHICLE, _land, "Land"),
+    mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: Command(By.VEHICLE, _return_to_launch, "Return"),
+    mavlink.MAV_CMD_DO_SET_MODE: Command(By.VEHICLE, _do_set_mode, "Mode change"),
+    mavlink.MAV_CMD_DO_REPOSITION: Command(By.VEHICLE, _reposition, "Reposition"),
+    mavlink.MAV_CMD_DO_SET_MISSION_CURRENT: Command(By.VEHICLE, _set_mission_current, "Set current mission item"),
+    mavlink.MAV_CMD_DO_CHANGE_SPEED: Command(By.VEHICLE, _change_speed, "Change speed"),
+    mavlink.MAV_CMD_DO_SET_HOME: Command(By.VEHICLE, _set_home, "Set home"),
+    mavlink.MAV_CMD_GET_HOME_POSITION: Command(By.LINK, _get_home_position, "Get home position"),
+    mavlink.MAV_CMD_CONDITION_YAW: Command(By.VEHICLE, _condition_yaw, "Yaw"),
+    mavlink.MAV_CMD_DO_PAUSE_CONTINUE: Command(By.VEHICLE, _pause_continue, "Pause/continue"),
+    mavlink.MAV_CMD_DO_FLIGHTTERMINATION: Command(By.VEHICLE, _flight_termination, "Flight termination"),
+    mavlink.MAV_CMD_PREFLIGHT_STORAGE: Command(By.VEHICLE, _preflight_storage, "Parameter storage"),
+    mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: Command(By.VEHICLE, _reboot_shutdown, "Reboot/shutdown"),
+    mavlink.MAV_CMD_DO_MOTOR_TEST: Command(By.VEHICLE, _motor_test, "Motor test"),
+    mavlink.MAV_CMD_DO_ORBIT: Command(By.VEHICLE, _orbit, "Orbit"),
 }
 
 
 def run(command: int, params: Params, frame: int, link: LinkCommands, vehicle: Any) -> int:
-    """The link's entry: its own rows here; every other command (known or not) goes to
-    ``vehicle.handle_command(command, params, frame)`` (a VehicleInterface)."""
+    """The link's entry: its own rows here (a bad field: MAV_RESULT_DENIED); every other command (known or not)
+    goes to ``vehicle.handle_command(command, params, frame)`` (a VehicleInterface)."""
     row = COMMANDS.get(command)
     if row is not None and row.by is By.LINK:
-        return int(row.handler(link, params))
+        try:
+            f.no_infinity(params)
+            return int(row.handler(link, params))
+        except FieldError:
+            return mavlink.MAV_RESULT_DENIED
     return int(vehicle.handle_command(command, params, frame))
 
 
 def handle_vehicle_command(cmd: CommanderCommands, command: int, params: Params, frame: int) -> int:
-    """The vehicle's entry: run a vehicle row on the commander; MAV_RESULT_UNSUPPORTED for anything else."""
+    """The vehicle's entry: run a vehicle row on the commander; MAV_RESULT_UNSUPPORTED for anything else.  A
+    field the row cannot accept (:mod:`autopilot.mavlink.command_fields`): MAV_RESULT_DENIED, and a STATUSTEXT
+    naming it; nothing changes."""
     row = COMMANDS.get(command)
     if row is None or row.by is not By.VEHICLE:
         return mavlink.MAV_RESULT_UNSUPPORTED
-    return int(row.handler(cmd, params))
+    try:
+        f.no_infinity(params)
+        if command in LOCATION_COMMANDS:
+            home = cmd.status.home
+            params = f.to_amsl(params, frame, home.alt_amsl_m if home is not None else None)
+        return int(row.handler(cmd, params))
+    except FieldError as exc:
+        return _deny(cmd, f"{row.label} denied: {exc}")

@@ -7,9 +7,10 @@ iteration held and sent several per datagram (up to MAX_DATAGRAM_BYTES, as PX4's
 links buffer theirs), the telemetry streams with their intervals (µs of simulated time),
 the position in a parameter list being served, and the traffic tap.  Its socket's receive buffer is
 enlarged (RX_SOCKET_BUFFER_BYTES) so a burst of a few hundred small datagrams (sticks at 150 Hz while
-the loop was busy) waits for the link instead of being dropped by the kernel; what the link has no
-time for is sorted by :meth:`LinkEndpoint.discard` without parsing: streams that the next message
-supersedes (sticks, setpoints, heartbeats) are dropped, anything else (commands) is still handled.
+the loop was busy) waits for the link instead of being dropped by the kernel; the link reads them all
+(:meth:`LinkEndpoint.read_waiting`) and sorts them by their headers (:mod:`autopilot.mavlink.rx_triage`).
+HEARTBEAT's interval is not a client's to change (PX4 refuses SET_MESSAGE_INTERVAL for it too): every
+ground station on an endpoint relies on it to see the vehicle.
 """
 
 from __future__ import annotations
@@ -29,28 +30,9 @@ if TYPE_CHECKING:
 
 MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
 RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net.core.rmem_max)
-# Messages a newer one of the same kind replaces: when the link is out of time they are dropped unread.
-# HEARTBEAT 0, MANUAL_CONTROL 69, SET_ATTITUDE_TARGET 82, SET_POSITION_TARGET_LOCAL_NED 84, _GLOBAL_INT 86.
-SUPERSEDED_IDS = frozenset({0, 69, 82, 84, 86})
 # A stream goes out at most once per link update (50 Hz of simulated time): a shorter interval is accepted and
 # capped, as PX4 accepts any interval and sends a stream at most once per iteration of its MAVLink loop.
 MIN_STREAM_INTERVAL_US = 20_000
-
-
-def packet_ids(data: bytes) -> list[int] | None:
-    """The message ids of the MAVLink packets of a datagram, read from their headers only (no CRC
-    check); None if the datagram is not a sequence of whole v1/v2 packets."""
-    ids, i, n = [], 0, len(data)
-    while i < n:
-        if data[i] == 0xFD and i + 10 <= n:  # v2: len, incompat flags (1 = signed), ..., msgid (3 bytes)
-            ids.append(data[i + 7] | data[i + 8] << 8 | data[i + 9] << 16)
-            i += 12 + data[i + 1] + (13 if data[i + 2] & 1 else 0)
-        elif data[i] == 0xFE and i + 6 <= n:  # v1: len, seq, sys, comp, msgid
-            ids.append(data[i + 5])
-            i += 8 + data[i + 1]
-        else:
-            return None
-    return ids if i == n else None
 
 
 @dataclass(slots=True)
@@ -123,7 +105,8 @@ class LinkEndpoint(UdpEndpoint):
         batch, self._batch = self._batch, None
         if not batch:
             return
-        out, size = [], 0
+        out: list[bytes] = []
+        size = 0
         for packet in batch:
             if out and size + len(packet) > MAX_DATAGRAM_BYTES:
                 self.send_datagram(b"".join(out))
@@ -141,10 +124,13 @@ class LinkEndpoint(UdpEndpoint):
         self.next_due_us = min(due) if due else 2**63
 
     def set_interval(self, msg_id: int, interval_us: int, now_us: int) -> int:
-        """MAV_CMD_SET_MESSAGE_INTERVAL on this endpoint: -1 disable, 0 default, > 0 µs; a MAV_RESULT."""
+        """MAV_CMD_SET_MESSAGE_INTERVAL on this endpoint: -1 disable, 0 default, > 0 µs; a MAV_RESULT
+        (DENIED for HEARTBEAT, which keeps its 1 Hz whoever asks)."""
         stream = self.streams.get(msg_id)
         if stream is None:
             return mavlink.MAV_RESULT_UNSUPPORTED
+        if msg_id == mavlink.MAVLINK_MSG_ID_HEARTBEAT:  # (PX4 answers FAILED; DENIED: understood, not allowed)
+            return mavlink.MAV_RESULT_DENIED
         if interval_us == 0:
             interval_us = self.default_intervals_us[msg_id]
         elif interval_us < -1:
@@ -164,21 +150,12 @@ class LinkEndpoint(UdpEndpoint):
         self.send(mavlink.MAVLink_message_interval_message(int(msg_id), interval_us))
         return mavlink.MAV_RESULT_UNSUPPORTED if stream is None else mavlink.MAV_RESULT_ACCEPTED
 
-    def discard(self, most: int, keep_most: int) -> tuple[int, list[tuple[bytes, tuple[str, int]]]]:
-        """Read up to ``most`` queued datagrams without parsing them (the link's time is spent): those
-        holding only :data:`SUPERSEDED_IDS` messages, damaged ones and any past the first ``keep_most``
-        others are dropped; returns (how many dropped, the kept datagrams with their senders)."""
-        dropped, kept = 0, []
-        for _ in range(most):
-            got = self.recv()
-            if got is None:
-                break
-            ids = packet_ids(got[0])
-            if ids and len(kept) < keep_most and not SUPERSEDED_IDS.issuperset(ids):
-                kept.append(got)
-            else:
-                dropped += 1
-        return dropped, kept
+    def read_waiting(self, most: int) -> list[tuple[bytes, tuple[str, int]]]:
+        """Up to ``most`` queued datagrams with their senders, unparsed (empty when nothing waits)."""
+        out: list[tuple[bytes, tuple[str, int]]] = []
+        while len(out) < most and (got := self.recv()) is not None:
+            out.append(got)
+        return out
 
 
 class EndpointCommands:

@@ -14,7 +14,9 @@ command table (:mod:`autopilot.mavlink.commands`), parameters are served by
 :mod:`autopilot.mavlink.param_service`, mission, fence and rally plans by
 :mod:`autopilot.mavlink.mission_protocol`.  The link keeps the sockets
 (:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and requests,
-AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT, MISSION_ITEM_REACHED and the traffic tap.
+AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT, MISSION_ITEM_REACHED and the traffic tap; what arrives is
+read by :mod:`autopilot.mavlink.rx_drain` (every socket drained each call, a wall-clock budget for
+handling, commands first past it: a flood cannot block LAND).
 
 :meth:`GcsLink.update` (50 Hz) receives, answers and streams; :meth:`GcsLink.poll` (the other
 steps) only answers what has arrived.  What one call sends to a destination goes out packed
@@ -28,18 +30,19 @@ from __future__ import annotations
 
 import logging
 import select
-import time
 from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink import commands
+from autopilot.mavlink.command_retries import RetransmittedCommands
 from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, EndpointCommands, LinkEndpoint
 from autopilot.mavlink.identity import Identity, autopilot_version, instance_identity
 from autopilot.mavlink.link_service import Handler, LinkService, ServiceCommand
 from autopilot.mavlink.message_requests import MessageRequests
 from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
+from autopilot.mavlink.rx_drain import RxDrain
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION
 from autopilot.mavlink.telemetry_more import DEFAULT_STREAM_RATES_HZ, link_builders
 from autopilot.mavlink.telemetry_streams import TelemetryStreams
@@ -49,21 +52,14 @@ from mavsim_core.statustext import StatustextChunker
 
 log = logging.getLogger(__name__)
 
-# Each call drains every socket: at most RX_BUDGET_S of wall time handling datagrams (~20 µs each) so a
-# flood cannot starve the control loop; what is queued after that is read unparsed (endpoint.discard):
-# sticks, setpoints, heartbeats are discarded, counted in ``rx_dropped``, commands and requests (up to
-# RX_KEEP_MAX) still handled: a command is answered within one call, the next call starts from what is new.
-RX_BUDGET_S = 0.004
-RX_DISCARD_MAX = 2000  # datagrams read past the budget per socket and call at most
-RX_KEEP_MAX = 50  # of those, datagrams with more than superseded messages still handled
-
 
 class GcsLink:
     """MAVLink ground-station link of the flight controller (PX4 SITL identity and ports).
 
     Construct it once, call :meth:`update` every control iteration with the simulated
     time, :meth:`close` at exit.  Counters: ``rx_errors`` (damaged input, failed
-    handlers), ``rx_messages`` (good messages handled), ``tx_errors`` (failed sends).
+    handlers), ``rx_messages`` (good messages handled), ``rx_dropped`` and ``rx_foreign`` (datagrams
+    dropped unparsed: no time left, addressed to other systems), ``tx_errors`` (failed sends).
     """
 
     def __init__(
@@ -131,7 +127,9 @@ class GcsLink:
             self._readable.register(ep.sock, select.POLLIN)
         self.rx_errors = 0
         self.rx_messages = 0
-        self.rx_dropped = 0  # datagrams discarded unread because a call's RX_BUDGET_S was spent (or damaged then)
+        self.rx_dropped = 0  # datagrams for us dropped unparsed because a call's time budget was spent
+        self.rx_foreign = 0  # datagrams addressed to other systems only, dropped unparsed
+        self._rx = RxDrain(sysid, self._handle_datagram, self)
         self._now_us = 0
         self._streams = TelemetryStreams(vehicle, self._endpoints, builders)
         self._statustext = StatustextChunker()
@@ -142,6 +140,7 @@ class GcsLink:
         self._handlers = self._message_handlers()
         self._services: list[LinkService] = []
         self._service_commands: dict[int, ServiceCommand] = {}
+        self._retransmitted = RetransmittedCommands()  # COMMAND_LONG resent with confirmation > 0 (command_retries)
         # Messages a service sends on MAV_CMD_REQUEST_MESSAGE (message id -> send(endpoint) -> MAV_RESULT),
         # before the streamed ones: e.g. COMPONENT_METADATA (autopilot/mavlink/component_metadata.py).
         self.requestable: dict[int, Callable[[LinkEndpoint], int]] = {}
@@ -190,6 +189,11 @@ class GcsLink:
         return tuple(self._endpoints)
 
     @property
+    def param_service(self) -> ParamService:
+        """The parameter protocol (the process sets its ``persist``: changes saved before acknowledged)."""
+        return self._params
+
+    @property
     def now_us(self) -> int:
         """The simulated time (µs) of the current or last update."""
         return self._now_us
@@ -230,7 +234,7 @@ class GcsLink:
     def poll(self, now_us: int) -> None:
         """Answer what has arrived, without streaming: one poll(2) of both sockets when nothing came, so
         it can run every step and a mission upload moves an item a step, not an update."""
-        if not self._readable.poll(0):  # one system call, no exception: 0.5 µs when nothing came
+        if not self._readable.poll(0) and not self._rx.backlog:  # one system call: 0.5 µs when nothing came
             return
         self._now_us = max(self._now_us, now_us)
         self._streams.begin(self._now_us)
@@ -246,18 +250,8 @@ class GcsLink:
                 ep.flush()
 
     def _receive(self) -> None:
-        """Drain both sockets within RX_BUDGET_S (wall clock); past it, handle only what is not superseded
-        (commands) and discard and count the rest."""
-        deadline = time.perf_counter() + RX_BUDGET_S
-        for ep in self._endpoints:
-            while (got := ep.recv()) is not None:
-                self._handle_datagram(ep, *got)
-                if time.perf_counter() > deadline:
-                    dropped, kept = ep.discard(RX_DISCARD_MAX, RX_KEEP_MAX)
-                    self.rx_dropped += dropped
-                    for data, addr in kept:
-                        self._handle_datagram(ep, data, addr)
-                    break
+        """Drain both sockets: what is for us within a wall-clock budget, past it commands only (rx_drain)."""
+        self._rx.drain(self._endpoints)
 
     def _send_events(self) -> None:
         """The vehicle's STATUSTEXTs and reached mission items since the last call."""
@@ -323,6 +317,11 @@ class GcsLink:
     def _run_command(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, params: commands.Params, frame: int) -> None:
         """Execute a command through the command table and send exactly one COMMAND_ACK."""
         command = msg.command
+        sender, long = (msg.get_srcSystem(), msg.get_srcComponent()), msg.get_type() == "COMMAND_LONG"
+        earlier = self._retransmitted.earlier_result(sender, command, params, msg.confirmation) if long else None
+        if earlier is not None:  # a copy of a command carried out, its ACK lost: that answer again, nothing else
+            self._ack(ep, msg, command, earlier)
+            return
         try:
             service = self._service_commands.get(command)
             if service is not None:
@@ -332,6 +331,8 @@ class GcsLink:
         except Exception:
             log.exception("gcs_link: command %d failed", command)
             result = mavlink.MAV_RESULT_FAILED
+        if long:
+            self._retransmitted.carried_out(sender, command, params, result)
         self._ack(ep, msg, command, result)
 
     def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int) -> None:

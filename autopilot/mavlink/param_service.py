@@ -4,6 +4,16 @@ PARAM_REQUEST_LIST (served PARAM_BURST values per link update), PARAM_REQUEST_RE
 name or index), PARAM_SET (set, then the value is broadcast: the new one, or the old one
 with a STATUSTEXT saying why the set was refused), and every accepted change made
 elsewhere (a parameter file, another ground station) broadcast at the next update.
+A name or index that does not exist is answered with PARAM_ERROR (MAV_PARAM_ERROR_DOES_NOT_EXIST)
+and a STATUSTEXT.
+
+Saved before acknowledged: with ``persist`` set (the process's state saver, ``--state-dir``:
+:class:`autopilot.param_storage.ParamSaver`), the changes since the last update are handed to the
+saver's thread in one snapshot, and their PARAM_VALUEs (and the answers to reads of them) go out
+at the first update after that write is done: the control loop never waits on the disk, and no
+value is acknowledged before it is on the disk.  A write that fails is reported by a STATUSTEXT
+and the values are still echoed and used until a restart, as PX4 keeps a parameter it could not
+save.
 
 Values travel byte-wise encoded, as PX4 sends them (:mod:`mavsim_core.param_encoding`):
 an INT32's 4 bytes are copied into the float field, never converted.
@@ -13,7 +23,7 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import Callable
+from typing import Callable, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -56,6 +66,19 @@ def param_value(store: ParameterStore, name: str) -> mavlink.MAVLink_message:
     return _ParamValueMessage(name, raw, mav_type, len(store), store.index(name))
 
 
+class SaveResult(Protocol):
+    ok: bool
+    reason: str
+
+
+class ParamPersistence(Protocol):
+    """What the parameter service needs of a saver (:class:`autopilot.param_storage.ParamSaver`)."""
+
+    def request_save(self) -> int: ...
+
+    def save_outcome(self, ticket: int) -> SaveResult | None: ...
+
+
 class ParamService:
     """Serves one :class:`ParameterStore` on the link's endpoints.
 
@@ -73,8 +96,13 @@ class ParamService:
         self.store = store
         self._statustext = statustext
         self._broadcast = broadcast
-        self._changed: dict[str, None] = {}  # ordered set of names to broadcast
+        self._changed: dict[str, None] = {}  # ordered set of names changed, not yet handed to the saver
+        self._writing: tuple[int, list[str]] | None = None  # (save ticket, names) being written
+        self._held_reads: list[tuple[LinkEndpoint, str]] = []  # reads of names not saved yet
+        self._ready: dict[str, None] = {}  # ordered set of names to broadcast (saved, or nothing is saved)
         self.closed = False
+        # The process's saver: changes are on the disk before they are acknowledged; None: not saved.
+        self.persist: ParamPersistence | None = None
         store.subscribe(self._on_param_changed)
 
     def _on_param_changed(self, name: str, value: float) -> None:
@@ -83,14 +111,43 @@ class ParamService:
             self._changed[name] = None
 
     def update(self, endpoints: list[LinkEndpoint]) -> None:
-        """Once per link update: broadcast changed values, continue list requests (PARAM_BURST each)."""
-        if self._changed:
-            for name in list(self._changed)[:PARAM_BURST]:
-                del self._changed[name]
-                self._broadcast(param_value(self.store, name))
+        """Once per link update: save changed values, broadcast the saved ones, continue list requests (PARAM_BURST
+        values each)."""
+        self._advance_saves()
+        for name in list(self._ready)[:PARAM_BURST]:
+            del self._ready[name]
+            self._broadcast(param_value(self.store, name))
         for ep in endpoints:
             if ep.param_cursor is not None:
                 self._send_burst(ep)
+
+    def _advance_saves(self) -> None:
+        """Release what the last write saved (STATUSTEXT if it failed), then hand the next changes to the saver."""
+        if self.persist is None:
+            self._ready.update(self._changed)
+            self._changed.clear()
+            return
+        if self._writing is not None:
+            ticket, names = self._writing
+            outcome = self.persist.save_outcome(ticket)
+            if outcome is None:
+                return  # still writing
+            if not outcome.ok:
+                more = f" (and {len(names) - 1} more)" if len(names) > 1 else ""
+                text = f"{names[0]}{more} set but not saved: {outcome.reason}; in use until a restart"
+                self._statustext(mavlink.MAV_SEVERITY_CRITICAL, text, None)
+            self._ready.update(dict.fromkeys(names))
+            self._writing = None
+        if self._changed:
+            self._writing = (self.persist.request_save(), list(self._changed))
+            self._changed.clear()
+        unsaved = set(self._changed) | set(self._writing[1] if self._writing else ())
+        held, self._held_reads = self._held_reads, []
+        for ep, name in held:
+            if name in unsaved:
+                self._held_reads.append((ep, name))
+            else:
+                ep.send(param_value(self.store, name))
 
     def _send_burst(self, ep: LinkEndpoint) -> None:
         names = self.store.names()
@@ -108,22 +165,34 @@ class ParamService:
         store = self.store
         if msg.param_index >= 0:
             if msg.param_index >= len(store):
-                self._statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter index {msg.param_index}", ep.name)
+                self._no_such(ep, msg, msg.param_id, msg.param_index, f"unknown parameter index {msg.param_index}")
                 return
             name = store.name_at(msg.param_index)
         else:
             name = msg.param_id
             if name not in store:
-                self._statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter {name}", ep.name)
+                self._no_such(ep, msg, name, -1, f"unknown parameter {name}")
                 return
+        unsaved = name in self._changed or (self._writing is not None and name in self._writing[1])
+        if unsaved and self.persist is not None:
+            self._held_reads.append((ep, name))  # not saved yet: answered once it is
+            return
         ep.send(param_value(store, name))
+
+    def _no_such(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, name: str, index: int, text: str) -> None:
+        """PARAM_ERROR (DOES_NOT_EXIST) to the asker and a STATUSTEXT saying so, on the asking endpoint."""
+        name_b = name.encode("ascii", "replace")[:16]
+        error = mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST
+        index = max(-1, min(index, 32767))  # int16 on the wire
+        ep.send(mavlink.MAVLink_param_error_message(msg.get_srcSystem(), msg.get_srcComponent(), name_b, index, error))
+        self._statustext(mavlink.MAV_SEVERITY_ERROR, text, ep.name)
 
     def on_set(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         """Set, then broadcast the value: the new one (via the store listener) or, if refused, the old one."""
         store = self.store
         name = msg.param_id
         if name not in store:
-            self._statustext(mavlink.MAV_SEVERITY_ERROR, f"unknown parameter {name}", ep.name)
+            self._no_such(ep, msg, name, -1, f"unknown parameter {name}")
             return
         try:
             value = decode_param_bytes(raw_param_value(msg), msg.param_type)

@@ -6,6 +6,12 @@ HIL_GPS into :mod:`autopilot.topics` samples (SI units, FRD/NED as sent; a field
 HIL_ACTUATOR_CONTROLS stamped with the same time.  :meth:`SimLink.request` sends the simulator
 another message (a PARAM_SET of the failure injection) and waits for its answer, keeping what else
 arrives meanwhile for :meth:`SimLink.receive`.
+
+Handshake: right after the TCP connection is made the flight controller sends a HEARTBEAT (the simulator
+serves only a peer that has sent a valid MAVLink message, :mod:`sitl.peer_accept`), and with
+``handshake_timeout_s`` it counts as connected only once the simulator's first valid message has
+arrived within that time (wall clock); otherwise it closes the socket and connects again, so a port
+held by something that accepts and stays silent never passes for the simulator.
 """
 
 from __future__ import annotations
@@ -79,21 +85,14 @@ class SimLink:
         self.pending: list = []  # received during a request(), for the next receive()
         self.closed = False  # the simulator closed the link (seen by a request()): receive() says so next
 
-    def connect(self, retry_s: float = 0.2, on_wait=None) -> None:
-        """Connect, retrying until the simulator listens; on_wait() is called between tries."""
+    def connect(self, retry_s: float = 0.2, on_wait=None, handshake_timeout_s: float | None = None) -> None:
+        """Connect and send a HEARTBEAT, retrying until the simulator listens; on_wait() is called between
+        tries and while waiting for the simulator's answer.  With ``handshake_timeout_s`` (wall seconds),
+        return only once the simulator's first valid message has arrived (kept for :meth:`receive`)."""
         warned = False
         while True:
             try:
-                s = socket.create_connection(self.addr, timeout=2.0)
-                s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                s.settimeout(None)
-                self.sock = s
-                self.receiver = SpinReceiver(s)
-                self.mav = mavlink.MAVLink(None, self.sysid, self.compid)  # a new link: fresh parser state
-                self.mav.robust_parsing = True
-                self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
-                self.pending, self.closed = [], False
-                return
+                self._open()
             except OSError:
                 if not warned:
                     print(f"[autopilot] waiting for the simulator on TCP {self.addr[0]}:{self.addr[1]}", flush=True)
@@ -101,6 +100,57 @@ class SimLink:
                 if on_wait:
                     on_wait()
                 time.sleep(retry_s)
+                continue
+            if handshake_timeout_s is None or self._answered(handshake_timeout_s, on_wait):
+                return
+            print(
+                f"[autopilot] no MAVLink from TCP {self.addr[0]}:{self.addr[1]} within {handshake_timeout_s:g} s: "
+                "not the simulator, or busy; connecting again",
+                flush=True,
+            )
+            self.close()
+
+    def _open(self) -> None:
+        """A new TCP connection, fresh parser state, and our HEARTBEAT on it (the simulator's handshake)."""
+        s = socket.create_connection(self.addr, timeout=2.0)
+        try:
+            s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            s.settimeout(None)
+            self.mav = mavlink.MAVLink(None, self.sysid, self.compid)
+            self.mav.robust_parsing = True
+            hb = mavlink.MAVLink_heartbeat_message(
+                mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_PX4, 0, 0, mavlink.MAV_STATE_BOOT, 3
+            )
+            s.sendall(hb.pack(self.mav))
+            self.mav.seq = (self.mav.seq + 1) % 256
+        except OSError:
+            s.close()
+            raise
+        self.sock = s
+        self.receiver = SpinReceiver(s)
+        self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
+        self.pending, self.closed = [], False
+
+    def _answered(self, timeout_s: float, on_wait) -> bool:
+        """Wait up to ``timeout_s`` for the simulator's first valid message (kept in ``pending``)."""
+        deadline = time.monotonic() + timeout_s
+        while (remaining := deadline - time.monotonic()) > 0:
+            msgs = self.receive(timeout_s=min(remaining, 0.05))
+            if msgs is None:
+                return False
+            valid = [m for m in msgs if m.get_type() != "BAD_DATA"]
+            if valid:
+                self.pending = valid + self.pending
+                return True
+            if on_wait:
+                on_wait()
+        return False
+
+    def close(self) -> None:
+        """Close the connection (the next :meth:`receive` says the link closed)."""
+        if self.sock is not None:
+            self.sock.close()
+        self.closed = True
 
     def receive(self, timeout_s: float | None = None) -> list | None:
         """Messages received (possibly empty on timeout); None when the link closed."""

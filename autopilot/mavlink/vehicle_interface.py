@@ -10,6 +10,7 @@ command table (:mod:`autopilot.mavlink.commands`) on the commander's typed metho
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -142,9 +143,12 @@ class FlightControllerVehicle:
             self.utc_at_zero_us = time.time_ns() // 1000 - fc.last_us
         self.flight_times.update(status)
         extras = self.flight_times.extras(fc.last_imu, self.utc_at_zero_us)
-        return telemetry_snapshot(
+        snap = telemetry_snapshot(
             status, fc.actuators, fc.control_setpoints(), estimator.status(), estimator.use_ekf, extras
         )
+        if fc.sim_link_lost and snap.system_status != mavlink.MAV_STATE_EMERGENCY:  # no sensor data at all
+            snap = dataclasses.replace(snap, system_status=mavlink.MAV_STATE_CRITICAL)
+        return snap
 
     def handle_command(self, command: int, params: tuple[float, ...], frame: int) -> int:
         return commands.handle_vehicle_command(self.fc.commander, command, params, frame)

@@ -62,7 +62,7 @@ class LandDetector:
     def _filter(self, now_us: int, vel_ned: np.ndarray, thrust: float) -> None:
         dt = 0.0 if self._last_us is None else (now_us - self._last_us) * 1e-6
         self._last_us = now_us
-        a = min(1.0, dt / FILTER_TIME_S)
+        a = min(1.0, max(0.0, dt / FILTER_TIME_S))  # time going back filters nothing
         self._f_vz += a * (abs(float(vel_ned[2])) - self._f_vz)
         self._f_vxy += a * (float(np.hypot(vel_ned[0], vel_ned[1])) - self._f_vxy)
         self._f_thrust += a * (thrust - self._f_thrust)

@@ -8,7 +8,7 @@ Used by ``flight-demo``, the end-to-end tests and the benchmarks::
 
 The simulator starts first; the flight controller is started once the
 simulator listens on its TCP port (4560 + instance, :mod:`mavsim_core.ports`), checked through
-``/proc/net/tcp`` so no probe connection steals the simulator's accept.  Each
+``/proc/net/tcp``: a probe connection would hold its accept up to the handshake timeout.  Each
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
 ``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given); the
 flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.fc.npy`` from
@@ -365,3 +365,36 @@ class Stack:
         self._log_files.pop("autopilot").close()
         self._spawn("autopilot", self.autopilot_command(), log_mode="a")
         return proc.returncode
+
+    def kill_sitl(self, sig: int = signal.SIGKILL, timeout_s: float = 5.0) -> int | None:
+        """Signal the simulator (default SIGKILL: a crash) and wait for it; its exit code.  The flight controller
+        runs on and reconnects once :meth:`start_sitl` has started it again."""
+        return self._kill("sitl", sig, timeout_s)
+
+    def start_sitl(self) -> None:
+        """Start the simulator again (after :meth:`kill_sitl`), same command line, same log; wait until it listens."""
+        self._start_again("sitl", self.sitl_command())
+        self._wait_sitl_listening()
+
+    def kill_autopilot(self, sig: int = signal.SIGKILL, timeout_s: float = 5.0) -> int | None:
+        """Signal the flight controller (default SIGKILL: a crash, nothing saved at exit) and wait; its exit code."""
+        return self._kill("autopilot", sig, timeout_s)
+
+    def start_autopilot(self) -> None:
+        """Start the flight controller again (after :meth:`kill_autopilot`), same command line, same log."""
+        self._start_again("autopilot", self.autopilot_command())
+
+    def _kill(self, name: str, sig: int, timeout_s: float) -> int | None:
+        if (proc := self.procs.get(name)) is None:
+            raise StackError("stack not started")
+        self._signal(proc, sig)
+        proc.wait(timeout=timeout_s)
+        log = self._log_files.pop(name, None)
+        if log is not None:
+            log.close()
+        return proc.returncode
+
+    def _start_again(self, name: str, cmd: list[str]) -> None:
+        if (proc := self.procs.get(name)) is not None and proc.poll() is None:
+            raise StackError(f"{name} is still running")
+        self._spawn(name, cmd, log_mode="a")

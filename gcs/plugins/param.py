@@ -1,7 +1,12 @@
 """Param plugin: read, set and download a vehicle's parameters.
 
 Reads and sets use PARAM_REQUEST_READ / PARAM_SET and the PARAM_VALUE answer,
-with PX4's byte-wise encoding of integers (:mod:`mavsim_core.param_encoding`).
+with PX4's byte-wise encoding of integers (:mod:`mavsim_core.param_encoding`).  As the
+parameter protocol asks, the request is sent again every PARAM_TRY_S without an answer (MAVSDK's
+per-try timeout) until one comes or the caller's timeout has passed; a set is done when the
+vehicle echoes the value.  A name the vehicle does not have is told by its PARAM_ERROR
+(MAV_PARAM_ERROR_DOES_NOT_EXIST) or its STATUSTEXT "unknown parameter NAME":
+:class:`~gcs.errors.ParamUnknown`; no answer at all is :class:`~gcs.errors.NoAnswer`.
 
 The full download (:func:`download_parameters`) works as QGroundControl's:
 PARAM_REQUEST_LIST makes the vehicle send one PARAM_VALUE per parameter, each
@@ -25,18 +30,21 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
+from pymavlink.dialects.v20 import common as mavlink2
+
 from mavsim_core import param_encoding
 from params import param_file
 
 from ..connection import Connection
-from ..errors import GcsTimeout, ParamListError, ParamRefused
+from ..errors import GcsTimeout, NoAnswer, ParamListError, ParamRefused, ParamUnknown
 
 QUIET_S = 0.25  # no new parameter for this long: ask for the missing ones
 READ_BATCH = 10  # PARAM_REQUEST_READs sent per quiet interval
-LIST_RETRIES = 3  # PARAM_REQUEST_LISTs sent if no PARAM_VALUE at all comes back
+LIST_TRY_S = 0.5  # PARAM_REQUEST_LIST sent again this often (wall s) while no PARAM_VALUE at all comes back
 NO_INDEX = 65535  # param_index of a PARAM_VALUE that is not part of the list (MAVLink: -1 as uint16)
 PARAM_ID_LEN = 16  # bytes of a MAVLink parameter name
-LATE_ECHO_S = 1.0  # wall seconds to wait for the echo of a set after a late answer to an earlier request
+PARAM_TRY_S = 0.5  # wall seconds a try waits for its PARAM_VALUE before the request goes again (as MAVSDK)
+UNKNOWN_TEXT = "unknown parameter {}"  # the STATUSTEXT of a vehicle without PARAM_ERROR (and ours, with it)
 
 
 @dataclass(frozen=True)
@@ -70,6 +78,12 @@ def decode_param_value(msg) -> int | float:
     return param_encoding.decode_param_bytes(param_encoding.raw_param_value(msg), msg.param_type)
 
 
+def _param_error_name(error: int) -> str:
+    """``VALUE_OUT_OF_RANGE`` for a MAV_PARAM_ERROR number (the name without its prefix)."""
+    entry = mavlink2.enums["MAV_PARAM_ERROR"].get(error)
+    return entry.name.removeprefix("MAV_PARAM_ERROR_") if entry is not None else f"MAV_PARAM_ERROR {error}"
+
+
 def _param_id(name: str) -> bytes:
     name_b = name.encode("ascii")
     if not name_b or len(name_b) > PARAM_ID_LEN:
@@ -87,19 +101,22 @@ class Param:
         """The MAV_PARAM_TYPE of a parameter answered on this link so far, or None."""
         return self.link._param_types.get(name)
 
-    def get(self, name: str, timeout_s: float | None = None, retries: int = 3) -> int | float:
-        """Read a parameter (PARAM_REQUEST_READ): int for INT32, float for REAL32.
+    def get(self, name: str, timeout_s: float | None = None, retries: int | None = None) -> int | float:
+        """Read a parameter (PARAM_REQUEST_READ, sent again every PARAM_TRY_S, at most ``retries`` times: None
+        as often as ``timeout_s`` allows): int for INT32, float for REAL32.
 
-        Raises :class:`GcsTimeout` if the vehicle does not answer (e.g. unknown name).
+        Raises :class:`ParamUnknown` if the vehicle has no such parameter, :class:`NoAnswer` if it does
+        not answer.
         """
         link = self.link
         name_b = _param_id(name)
+        link.drain()  # a PARAM_VALUE queued before the request is not its answer
         msg = self._exchange(
             name,
             lambda: link.conn.mav.param_request_read_send(link.target_system, link.target_component, name_b, -1),
             timeout_s,
             retries,
-            f"PARAM_VALUE for {name} (unknown parameter?)",
+            f"PARAM_VALUE for {name}",
         )
         return decode_param_value(msg)
 
@@ -109,14 +126,15 @@ class Param:
         value: float | int,
         param_type: int | None = None,
         timeout_s: float | None = None,
-        retries: int = 3,
+        retries: int | None = None,
     ) -> int | float:
-        """Set a parameter (PARAM_SET) and return the value the vehicle echoes.
+        """Set a parameter (PARAM_SET, sent again as :meth:`get`) and return the value the vehicle echoes.
 
         ``param_type`` is a MAV_PARAM_TYPE (6 INT32, 9 REAL32); if omitted the
         parameter is read first to learn it.  Integers are sent byte-wise
         encoded, as PX4 expects.  Raises :class:`ParamRefused` if the echoed
-        value differs (the vehicle kept the old one), with its STATUSTEXT reason.
+        value differs (the vehicle kept the old one), with its STATUSTEXT reason;
+        :class:`ParamUnknown` and :class:`NoAnswer` as :meth:`get`.
         """
         link = self.link
         name_b = _param_id(name)
@@ -125,30 +143,35 @@ class Param:
                 self.get(name, timeout_s)
             param_type = link._param_types[name]
         raw = param_encoding.encode_param_bytes(value, param_type)
-        link.drain()  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
-        texts_before = len(link.statustexts)
-        msg = self._exchange(
-            name, lambda: self._send_set(name_b, raw, param_type), timeout_s, retries, f"PARAM_VALUE echo for {name}"
-        )
         want = param_encoding.decode_param_bytes(raw, param_type)
 
         def matches(m) -> bool:
             v = decode_param_value(m)
             return v == want or (isinstance(v, float) and math.isnan(v) and math.isnan(want))
 
+        link.drain()  # older PARAM_VALUEs and STATUSTEXTs must not pass for this set's answer
+        texts_before = len(link.statustexts)
+        others = []
+
+        def answers(m) -> bool:
+            """The echo of this set, or a refusal: another value with the vehicle's reason (a STATUSTEXT in the
+            same datagram).  Another value without a reason is a late answer to an earlier request (another
+            station's change, a read) unless it comes twice."""
+            if matches(m) or len(link.statustexts) > texts_before:
+                return True
+            others.append(m)
+            return len(others) >= 2
+
+        msg = self._exchange(
+            name,
+            lambda: self._send_set(name_b, raw, param_type),
+            timeout_s,
+            retries,
+            f"PARAM_VALUE echo for {name}",
+            answers,
+        )
         got = decode_param_value(msg)
         if not matches(msg):
-            # A refusal comes with a STATUSTEXT (in the same datagram as the echo); without one this
-            # was a late answer to an earlier request (another station's change, a read), and the
-            # echo of this set follows.
-            if len(link.statustexts) == texts_before:
-                later = link.recv(
-                    ("PARAM_VALUE", "STATUSTEXT"),
-                    LATE_ECHO_S,
-                    lambda m: m.get_type() == "STATUSTEXT" or (param_id_text(m.param_id) == name and matches(m)),
-                )
-                if later is not None and later.get_type() == "PARAM_VALUE":
-                    return decode_param_value(later)
             reason = link.reason_since(texts_before)
             because = f" ({reason})" if reason else ""
             kept = param_file.format_value(got, param_type if param_encoding.is_integer_type(param_type) else None)
@@ -164,19 +187,50 @@ class Param:
         """Every parameter of the vehicle in index order (see :func:`download_parameters`)."""
         return download_parameters(self.link, progress, timeout_s, stats)
 
-    def _exchange(self, name: str, send: Callable[[], None], timeout_s: float | None, retries: int, what: str):
-        """Send (up to ``retries`` times) until a PARAM_VALUE named ``name`` answers; GcsTimeout if none."""
+    def _exchange(
+        self,
+        name: str,
+        send: Callable[[], None],
+        timeout_s: float | None,
+        retries: int | None,
+        what: str,
+        answers: Callable[[object], bool] | None = None,
+    ):
+        """Send every PARAM_TRY_S (at most ``retries`` times) until a PARAM_VALUE named ``name`` (that
+        ``answers``) arrives; ParamUnknown if the vehicle says it has no such parameter, NoAnswer if nothing."""
         link = self.link
         timeout = link._timeout(timeout_s)
-        retries = max(1, retries)
-        for _ in range(retries):
-            link.drain()  # a PARAM_VALUE queued before the request is not its answer
-            send()
-            msg = link.recv("PARAM_VALUE", timeout / retries, lambda m: param_id_text(m.param_id) == name)
-            if msg is not None:
+        texts_before = len(link.statustexts)
+        unknown = UNKNOWN_TEXT.format(name)
+
+        def about(m) -> bool:
+            mtype = m.get_type()
+            if mtype == "STATUSTEXT":
+                return any(st.text == unknown for st in link.statustexts[texts_before:])
+            return param_id_text(m.param_id) == name and (mtype != "PARAM_VALUE" or answers is None or answers(m))
+
+        start = time.monotonic()
+        deadline, next_try, attempts = start + timeout, start, 0
+        while (now := time.monotonic()) < deadline:
+            if now >= next_try:
+                if retries is None or attempts < max(1, retries):
+                    send()
+                    attempts += 1
+                    next_try = now + PARAM_TRY_S
+                else:
+                    next_try = deadline  # no tries left: listen until the timeout
+            msg = link.recv(("PARAM_VALUE", "PARAM_ERROR", "STATUSTEXT"), min(next_try, deadline) - now, about)
+            if msg is None:
+                continue
+            if msg.get_type() == "PARAM_VALUE":
                 link._param_types[name] = msg.param_type
                 return msg
-        raise GcsTimeout(f"timed out after {timeout:g} s waiting for {what} [{link.describe()}]")
+            if msg.get_type() == "STATUSTEXT" or msg.error == mavlink2.MAV_PARAM_ERROR_DOES_NOT_EXIST:
+                raise ParamUnknown(f"{unknown} (the vehicle has none of that name)")
+            raise ParamRefused(f"{name}: {_param_error_name(msg.error)}")
+        raise NoAnswer(
+            f"timed out after {timeout:g} s waiting for {what} ({attempts} request(s), no answer) [{link.describe()}]"
+        )
 
     def _send_set(self, name_b: bytes, raw: bytes, param_type: int) -> None:
         """PARAM_SET with the exact 4 value bytes (a Python float would alter signalling-NaN patterns)."""
@@ -249,39 +303,39 @@ def download_parameters(
     ``progress(received, count)`` is called for each new index.  Raises
     :class:`ParamListError` if the stream is inconsistent and
     :class:`GcsTimeout` (naming the missing indices) if it is not complete
-    within ``timeout_s`` wall seconds (default: the connection's timeout).
+    within ``timeout_s`` wall seconds (default: the connection's timeout);
+    :class:`NoAnswer` if not one PARAM_VALUE came (PARAM_REQUEST_LIST is sent again every
+    LIST_TRY_S until one does).
     """
     c = link
     timeout = c._timeout(timeout_s)
     start = time.monotonic()
     deadline = start + timeout
     col = _Collector(c, progress)
-    lists_sent = 0
     re_requested = 0
     c.drain()  # what is queued belongs to earlier exchanges
     c.add_listener(col)
     try:
         c.conn.mav.param_request_list_send(c.target_system, c.target_component)
-        lists_sent = 1
-        col.last_new = time.monotonic()
+        list_sent = col.last_new = time.monotonic()
         while col.count is None or len(col.by_index) < col.count:
             if col.error is not None:
                 raise ParamListError(f"inconsistent parameter list from the vehicle: {col.error}")
             now = time.monotonic()
             if now >= deadline:
-                raise GcsTimeout(_timeout_text(col, timeout))
+                raise (NoAnswer if col.count is None else GcsTimeout)(_timeout_text(col, timeout))
             c.pump(min(0.05, deadline - now))
+            if col.count is None:  # nothing yet: the request (or every answer) was lost
+                if time.monotonic() - list_sent >= LIST_TRY_S:
+                    c.conn.mav.param_request_list_send(c.target_system, c.target_component)
+                    list_sent = time.monotonic()
+                continue
             if time.monotonic() - col.last_new < QUIET_S:
                 continue
-            if col.count is None:
-                if lists_sent < LIST_RETRIES:
-                    c.conn.mav.param_request_list_send(c.target_system, c.target_component)
-                    lists_sent += 1
-            else:
-                missing = [i for i in range(col.count) if i not in col.by_index][:READ_BATCH]
-                for i in missing:
-                    c.conn.mav.param_request_read_send(c.target_system, c.target_component, b"", i)
-                re_requested += len(missing)
+            missing = [i for i in range(col.count) if i not in col.by_index][:READ_BATCH]
+            for i in missing:
+                c.conn.mav.param_request_read_send(c.target_system, c.target_component, b"", i)
+            re_requested += len(missing)
             col.last_new = time.monotonic()
         if col.error is not None:
             raise ParamListError(f"inconsistent parameter list from the vehicle: {col.error}")

@@ -1,0 +1,98 @@
+"""The ground-station link's receive loop: drain every socket each call, handle what fits a time budget.
+
+Each call (:meth:`RxDrain.drain`, from every :meth:`GcsLink.update` and :meth:`GcsLink.poll`) reads
+every datagram waiting on both sockets (up to RX_READ_MAX each) and sorts it by its headers
+(:func:`autopilot.mavlink.rx_triage.triage`, ~2 µs a datagram) before parsing anything:
+
+* not whole MAVLink packets: dropped, counted as damage (``rx_errors``);
+* every packet addressed to another system: dropped unparsed (``rx_foreign``);
+* the rest is parsed and handled (~20 µs a datagram) in arrival order while the call's wall-clock
+  budget RX_BUDGET_S lasts, shared by the sockets (a flood on one cannot take the other's time);
+* past the budget, commands and SET_MODE for us are still handled: RX_KEEP_PER_SENDER per sender
+  address and RX_KEEP_MAX in all per call, so a flood of commands from one address cannot crowd
+  out the pilot's; commands over those counts wait for the next call (a backlog of RX_BACKLOG_MAX,
+  handled first); everything else is dropped and counted (``rx_dropped``): sticks, setpoints and
+  heartbeats are replaced by newer ones, requests are asked again by their protocols' retries.
+
+So a flood costs the flight controller at most the budget plus ~2 µs a datagram per call, its
+control loop keeps its rate, and LAND or RTL is answered within the call that reads it.
+(PX4 reads its UDP link in a thread of its own and queues commands for the commander: the queue,
+not the loop, overflows.)  The budget is 1 ms: at real time a lockstep step is 4 ms, of which the
+flight controller's own work takes under 1 ms.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Callable, Protocol, Sequence
+
+from autopilot.mavlink.endpoint import LinkEndpoint
+from autopilot.mavlink.rx_triage import Kind, triage
+
+RX_BUDGET_S = 0.001  # wall-clock time per call for parsing and handling, both sockets together
+RX_READ_MAX = 1000  # datagrams read per socket and call at most (the rest waits in the socket's buffer)
+RX_KEEP_MAX = 20  # commands handled per call past the budget
+RX_KEEP_PER_SENDER = 5  # of those, from one sender address
+RX_BACKLOG_MAX = 200  # commands past those counts kept for the next call; more are dropped
+
+Address = tuple[str, int]
+Handle = Callable[[LinkEndpoint, bytes, Address], None]
+
+
+class RxCounters(Protocol):
+    """Where the counts go (the link's counters)."""
+
+    rx_errors: int  # damaged datagrams
+    rx_dropped: int  # datagrams for us dropped unparsed: no time left (or a full backlog)
+    rx_foreign: int  # datagrams addressed to other systems only, dropped unparsed
+
+
+class RxDrain:
+    """The receive loop of one link: ``handle(endpoint, datagram, sender)`` parses and handles a datagram."""
+
+    def __init__(self, sysid: int, handle: Handle, counters: RxCounters) -> None:
+        self.sysid = sysid
+        self.handle = handle
+        self.counters = counters
+        self.backlog: deque[tuple[LinkEndpoint, bytes, Address]] = deque()  # commands read, not yet handled
+
+    def drain(self, endpoints: Sequence[LinkEndpoint]) -> None:
+        """Read both sockets; handle the backlog, then what came, within the budget (see the module)."""
+        end = time.perf_counter() + RX_BUDGET_S
+        waiting = [(ep, ep.read_waiting(RX_READ_MAX)) for ep in endpoints]
+        kept: dict[Address, int] = {}  # commands handled past the budget in this call, per sender
+        backlog, self.backlog = self.backlog, deque()
+        for ep, data, addr in backlog:  # read by an earlier call: before anything newer
+            self._command(ep, data, addr, time.perf_counter() < end, kept)
+        for k, (ep, datagrams) in enumerate(waiting):
+            now = time.perf_counter()
+            deadline = now + max(end - now, 0.0) / (len(waiting) - k)  # the time left, shared by the sockets left
+            for data, addr in datagrams:
+                self._sort(ep, data, addr, deadline, kept)
+
+    def _sort(self, ep: LinkEndpoint, data: bytes, addr: Address, deadline: float, kept: dict[Address, int]) -> None:
+        kind = triage(data, self.sysid)
+        if kind is Kind.DAMAGED:
+            self.counters.rx_errors += 1
+        elif kind is Kind.FOREIGN:
+            self.counters.rx_foreign += 1
+        elif kind is Kind.COMMAND:
+            self._command(ep, data, addr, time.perf_counter() < deadline, kept)
+        elif time.perf_counter() < deadline:
+            self.handle(ep, data, addr)
+        else:
+            self.counters.rx_dropped += 1
+
+    def _command(self, ep: LinkEndpoint, data: bytes, addr: Address, in_time: bool, kept: dict[Address, int]) -> None:
+        """A datagram holding a command: handled in time, or within the sender's and the call's counts past
+        the budget, else kept for the next call (or dropped when the backlog is full)."""
+        if not in_time:
+            if kept.get(addr, 0) >= RX_KEEP_PER_SENDER or sum(kept.values()) >= RX_KEEP_MAX:
+                if len(self.backlog) < RX_BACKLOG_MAX:
+                    self.backlog.append((ep, data, addr))
+                else:
+                    self.counters.rx_dropped += 1
+                return
+            kept[addr] = kept.get(addr, 0) + 1
+        self.handle(ep, data, addr)

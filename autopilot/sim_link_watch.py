@@ -1,0 +1,50 @@
+"""Whether the simulator link is up, and the clock the ground-station link runs on while it is not.
+
+In lockstep the flight controller's clock is the simulator's (HIL_SENSOR ``time_usec``): when the
+simulator dies or hangs that clock stops, and with it every stream of the ground-station link,
+HEARTBEAT included.  :class:`SimLinkWatch` declares the link lost when it closes or when no HIL_SENSOR
+has come for :data:`SIM_LOSS_TIMEOUT_S` of wall-clock time, and from then on gives the ground-station
+link a time that goes on with the wall clock from the latest sensor time, so ground stations keep
+getting HEARTBEAT (1 Hz) and STATUSTEXT and see what happened.  The next HIL_SENSOR regains the link;
+whether the flight controller's state is still good then is decided by the sensor time itself
+(:meth:`autopilot.flight_controller.FlightController.step`: a clock that restarted means a new world).
+
+Pure: wall-clock (s, time.monotonic) and simulated (µs) times are inputs.
+"""
+
+from __future__ import annotations
+
+SIM_LOSS_TIMEOUT_S = 1.0  # wall seconds without a HIL_SENSOR on an open link: the simulator is lost
+
+
+class SimLinkWatch:
+    """Lost/regained state of the simulator link (see the module docstring)."""
+
+    def __init__(self, loss_timeout_s: float = SIM_LOSS_TIMEOUT_S) -> None:
+        self.loss_timeout_s = loss_timeout_s
+        self.sim_us = 0  # time of the latest HIL_SENSOR, simulated µs
+        self.sensor_wall_s: float | None = None  # wall time it arrived (None: none yet)
+        self.lost = False
+
+    def on_sensor(self, sim_us: int, wall_s: float) -> bool:
+        """A HIL_SENSOR stamped ``sim_us`` arrived at ``wall_s``; True if it ends a loss (the link is regained)."""
+        regained = self.lost
+        self.sim_us, self.sensor_wall_s, self.lost = sim_us, wall_s, False
+        return regained
+
+    def check(self, wall_s: float, closed: bool) -> bool:
+        """True when the link is lost from now on: it ``closed``, or no sensor data came for the timeout.
+        Nothing is lost before the first HIL_SENSOR (the simulator was never there)."""
+        if self.lost or self.sensor_wall_s is None:
+            return False
+        if closed or wall_s - self.sensor_wall_s >= self.loss_timeout_s:
+            self.lost = True
+            return True
+        return False
+
+    def link_time_us(self, wall_s: float) -> int:
+        """The ground-station link's time, µs: the latest sensor time, carried on by the wall clock while
+        the link is lost (streams stay at their rates); the latest sensor time otherwise."""
+        if not self.lost or self.sensor_wall_s is None:
+            return self.sim_us
+        return self.sim_us + max(0, round((wall_s - self.sensor_wall_s) * 1e6))

@@ -1,0 +1,144 @@
+"""End-to-end: failures the flight controller must find by itself (issue 18, findings 8 and 9).
+
+Real ``sitl`` and ``autopilot`` processes (``--speed max``), a pymavlink ground station
+(:class:`gcs.client.VehicleClient`) and the simulator's own component
+(:class:`gcs.sim_client.SimClient`: the truth and the ``SIM_*`` fault parameters).  The flight
+controller is told nothing of the faults: it must see them in its sensors.  One stack, one flight
+after another in this order (a quadcopter that lost a motor ends upside down, so that flight is last):
+
+1. the GPS height jumps (``SIM_GPS_GLITCH_D``): the GPS is blamed, not the barometer, nothing moves;
+2. the barometer drifts (``SIM_BARO_DRIFT``) in a hover: the estimator finds it inconsistent with the
+   GPS height (EKF2_BARO_GATE), says so, clears the SYS_STATUS barometer bit and flies on the GPS
+   height, so the true altitude stays near the one held; the barometer is healthy again once it
+   agrees again;
+3. a motor stops (``SIM_ENGINE_FAIL``) in a hover: the failure detector (FD_FAIL_R/FD_FAIL_P,
+   FD_FAIL_R_TTRI/FD_FAIL_P_TTRI) reports the loss of control within about a second, HEARTBEAT says
+   EMERGENCY, and the vehicle is disarmed once it lies on the ground.
+
+Durations are simulated seconds; wall-clock timeouts are safety nets only.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from gcs.client import VehicleClient, mavlink
+from gcs.launcher import Stack
+from gcs.sim_client import SimClient
+from mavsim_core import ports
+
+from e2e_flight_helpers import texts_since, wait_text
+from instances import instance  # tests/instances.py: every test's instance numbers
+
+pytestmark = pytest.mark.e2e
+WAIT_S = 120.0
+ALT_M = 5.0
+BARO_BIT = mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+DRIFT_M_S = 0.3  # the barometer's altitude drifts up this fast: 6 m in 20 s (the audit saw 10-12 m)
+DRIFT_S = 20.0
+
+
+@pytest.fixture(scope="module")
+def vehicle():
+    i = instance("test_e2e_failure_detection", "stack")
+    with (
+        Stack(instance=i, speed="max") as stack,
+        SimClient(ports.sim_component_port(i)) as truth,
+        VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
+        truth.wait_connected()
+        yield client, truth
+
+
+def take_off(client: VehicleClient, truth: SimClient):
+    """Arm, take off to ALT_M (unless already holding there), settle 2 s; the truth sample of the hover point."""
+    if not (client.armed() and client.mode_name() == "LOITER"):
+        client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
+        client.arm().check()
+        client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
+    client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
+    client.wait_sim_time(2.0)
+    return truth.latest()
+
+
+def baro_healthy(client: VehicleClient) -> bool:
+    return bool(client.latest("SYS_STATUS").onboard_control_sensors_health & BARO_BIT)
+
+
+def drift(client: VehicleClient, truth: SimClient, rate_m_s: float) -> float:
+    """Set the barometer's drift rate; the vehicle time it took effect (s)."""
+    truth.set("SIM_BARO_DRIFT", rate_m_s)
+    return client.sim_time_s()
+
+
+def test_a_gps_height_glitch_is_blamed_on_the_gps_not_the_barometer(vehicle):
+    """The GPS height jumps 8 m (SIM_GPS_GLITCH_D) while its velocity does not: the GPS is at fault, the
+    barometer stays the height reference and the vehicle does not move."""
+    client, truth = vehicle
+    hold = take_off(client, truth)
+    n = len(client.statustexts)
+    truth.set("SIM_GPS_GLITCH_D", 8.0)
+    try:
+        wait_text(client, n, "GPS height inconsistent with the barometer")
+        client.wait_sim_time(3.0)
+        assert baro_healthy(client)
+    finally:
+        truth.set("SIM_GPS_GLITCH_D", 0.0)
+    wait_text(client, n, "GPS height consistent again")
+    moved = max(abs(s.pos_ned_m[2] - hold.pos_ned_m[2]) for s in truth.since(hold.time_ms))
+    assert moved < 0.5, f"moved {moved:.1f} m vertically ({texts_since(client, n)})"
+    assert not any("Barometer" in t for t in texts_since(client, n))
+
+
+def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(vehicle):
+    client, truth = vehicle
+    hold = take_off(client, truth)
+    n = len(client.statustexts)
+    started = drift(client, truth, DRIFT_M_S)
+    try:
+        client.wait_sim_time(DRIFT_S)
+        during = truth.since(hold.time_ms)
+        sink = max(s.pos_ned_m[2] - hold.pos_ned_m[2] for s in during)  # m, + is below the hover point
+        now = truth.latest().pos_ned_m[2] - hold.pos_ned_m[2]
+        texts = texts_since(client, n)
+        print(f"barometer drifting {DRIFT_M_S} m/s: {texts}; sank at most {sink:.2f} m, now {now:+.2f} m")
+        assert any("Barometer failed: inconsistent with GPS height" in t for t in texts), texts
+        assert not baro_healthy(client), "SYS_STATUS still says the barometer is healthy"
+        assert sink < 1.3, f"sank {sink:.1f} m on a barometer {DRIFT_M_S * DRIFT_S:.0f} m wrong ({texts})"
+        assert abs(now) < 0.5, f"{now:+.1f} m (down) from the hover point on the GPS height"
+        assert client.mode_name() == "LOITER" and client.armed()
+    finally:
+        back = drift(client, truth, -2 * DRIFT_M_S)  # back twice as fast, half as long: the error undone
+        client.wait_until(lambda: client.sim_time_s() >= back + (back - started) / 2, WAIT_S, "the drift undone")
+        drift(client, truth, 0.0)
+    wait_text(client, n, "Barometer healthy again")
+    client.wait_until(lambda: baro_healthy(client), WAIT_S, "the barometer healthy in SYS_STATUS")
+    client.land().check()
+    client.wait_until(client.landed_and_disarmed, WAIT_S, "landed and disarmed")
+
+
+def test_a_motor_lost_in_a_hover_is_reported_within_a_second_and_the_wreck_disarmed(vehicle):
+    """PX4's defaults: CBRK_FLIGHTTERM 121212 (no flight termination), so the detector reports (CRITICAL
+    STATUSTEXT, HEARTBEAT EMERGENCY) and the motors run on while the vehicle falls; lying on the ground
+    it is disarmed (FS_CRASH_CHECK)."""
+    client, truth = vehicle
+    hold = take_off(client, truth)
+    n = len(client.statustexts)
+    t0 = client.sim_time_s()
+    truth.set("SIM_ENGINE_FAIL", 1)
+    try:
+        client.wait_until(lambda: truth.latest().pos_ned_m[2] > -0.3, WAIT_S, "on the ground")
+        client.wait_sim_time(5.0)
+        texts = texts_since(client, n)
+        found = [st for st in client.statustexts[n:] if st.text.startswith("Critical failure detected")]
+        assert found, texts
+        assert found[0].severity == mavlink.MAV_SEVERITY_CRITICAL
+        assert found[0].sim_time_s - t0 < 1.5, f"found {found[0].sim_time_s - t0:.1f} s after the motor stopped"
+        assert not client.armed(), f"still armed on the ground ({texts})"
+        assert "Disarmed (crash detected)" in texts, texts
+        assert client.latest("HEARTBEAT").system_status == mavlink.MAV_STATE_EMERGENCY
+        fall = truth.since(hold.time_ms)
+        assert max(abs(s.pos_ned_m[0] - hold.pos_ned_m[0]) for s in fall) < 5.0
+        assert client.param_get("CBRK_FLIGHTTERM") == 121212
+    finally:
+        truth.set("SIM_ENGINE_FAIL", 0)
