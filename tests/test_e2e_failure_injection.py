@@ -238,9 +238,9 @@ def test_a_stuck_gps_is_found_and_the_vehicle_lands_where_it_was(mavsdk_stack):
 
 
 def test_a_quadcopter_with_a_motor_off_falls_where_it_was(mavsdk_stack):
-    """Three rotors cannot hold a quadcopter: it falls, near where it was (no fly-away).  The flight
-    controller does not notice (PX4's failure detector, FD_FAIL_R/FD_FAIL_P, is not implemented): after
-    the fall it is disarmed by force, as a pilot would kill it."""
+    """Three rotors cannot hold a quadcopter: it falls, near where it was (no fly-away).  The failure
+    detector (FD_FAIL_R/FD_FAIL_P) reports it and the crash check disarms the wreck
+    (test_e2e_failure_detection); here a forced disarm at touchdown comes before the crash check's 2 s."""
     stack, truth = mavsdk_stack
     with client_of(stack) as client:
         hold = take_off(client, truth)

@@ -23,6 +23,7 @@ flight controller's own work takes under 1 ms.
 
 from __future__ import annotations
 
+import select
 import time
 from collections import deque
 from typing import Callable, Protocol, Sequence
@@ -49,18 +50,27 @@ class RxCounters(Protocol):
 
 
 class RxDrain:
-    """The receive loop of one link: ``handle(endpoint, datagram, sender)`` parses and handles a datagram."""
+    """The receive loop of a link's ``endpoints``: ``handle(endpoint, datagram, sender)`` parses and handles
+    one datagram; the counts go to ``counters``."""
 
-    def __init__(self, sysid: int, handle: Handle, counters: RxCounters) -> None:
+    def __init__(self, sysid: int, endpoints: Sequence[LinkEndpoint], handle: Handle, counters: RxCounters) -> None:
         self.sysid = sysid
+        self.endpoints = endpoints
         self.handle = handle
         self.counters = counters
         self.backlog: deque[tuple[LinkEndpoint, bytes, Address]] = deque()  # commands read, not yet handled
+        self._readable = select.poll()  # every socket, for pending()
+        for ep in endpoints:
+            self._readable.register(ep.sock, select.POLLIN)
 
-    def drain(self, endpoints: Sequence[LinkEndpoint]) -> None:
-        """Read both sockets; handle the backlog, then what came, within the budget (see the module)."""
+    def pending(self) -> bool:
+        """Something to read or a command kept from the last call (one poll(2), no exception)."""
+        return bool(self._readable.poll(0)) or bool(self.backlog)
+
+    def drain(self) -> None:
+        """Read every socket; handle the backlog, then what came, within the budget (see the module)."""
         end = time.perf_counter() + RX_BUDGET_S
-        waiting = [(ep, ep.read_waiting(RX_READ_MAX)) for ep in endpoints]
+        waiting = [(ep, ep.read_waiting(RX_READ_MAX)) for ep in self.endpoints]
         kept: dict[Address, int] = {}  # commands handled past the budget in this call, per sender
         backlog, self.backlog = self.backlog, deque()
         for ep, data, addr in backlog:  # read by an earlier call: before anything newer

@@ -33,6 +33,7 @@ NAN3 = np.full(3, np.nan)
 ACCEL_FIELDS, GYRO_FIELDS, MAG_FIELDS, PRESSURE_FIELD = 0x007, 0x038, 0x1C0, 0x200
 _ACTUATORS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
 _ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+WAIT_SLICE_S = 0.02  # while connecting, on_wait() (the ground-station link) runs at 50 Hz of wall time
 
 
 def imu_from_msg(m) -> ImuSample:
@@ -97,9 +98,7 @@ class SimLink:
                 if not warned:
                     print(f"[autopilot] waiting for the simulator on TCP {self.addr[0]}:{self.addr[1]}", flush=True)
                     warned = True
-                if on_wait:
-                    on_wait()
-                time.sleep(retry_s)
+                self._wait(retry_s, on_wait)
                 continue
             if handshake_timeout_s is None or self._answered(handshake_timeout_s, on_wait):
                 return
@@ -109,6 +108,18 @@ class SimLink:
                 flush=True,
             )
             self.close()
+
+    @staticmethod
+    def _wait(seconds: float, on_wait) -> None:
+        """Sleep ``seconds``, calling on_wait() every WAIT_SLICE_S meanwhile (the ground-station link)."""
+        end = time.monotonic() + seconds
+        while True:
+            if on_wait:
+                on_wait()
+            remaining = end - time.monotonic()
+            if remaining <= 0:
+                return
+            time.sleep(min(WAIT_SLICE_S, remaining))
 
     def _open(self) -> None:
         """A new TCP connection, fresh parser state, and our HEARTBEAT on it (the simulator's handshake)."""
@@ -135,7 +146,7 @@ class SimLink:
         """Wait up to ``timeout_s`` for the simulator's first valid message (kept in ``pending``)."""
         deadline = time.monotonic() + timeout_s
         while (remaining := deadline - time.monotonic()) > 0:
-            msgs = self.receive(timeout_s=min(remaining, 0.05))
+            msgs = self.receive(timeout_s=min(remaining, WAIT_SLICE_S))
             if msgs is None:
                 return False
             valid = [m for m in msgs if m.get_type() != "BAD_DATA"]
