@@ -22,7 +22,17 @@ from mavsim_core.px4_modes import UnknownModeError, custom_mode_to_name, lookup_
 
 from .client import VehicleClient
 from .connection import Connection
-from .errors import CommandRefused, CommandResult, GcsError, GcsTimeout, ParamListError, ParamRefused, StatusText
+from .errors import (
+    CommandRefused,
+    CommandResult,
+    GcsError,
+    GcsTimeout,
+    NoAnswer,
+    ParamListError,
+    ParamRefused,
+    ParamUnknown,
+    StatusText,
+)
 from .plugins.param import VehicleParam
 from .plugins.telemetry import Home
 
@@ -33,8 +43,10 @@ __all__ = [
     "GcsError",
     "GcsTimeout",
     "Home",
+    "NoAnswer",
     "ParamListError",
     "ParamRefused",
+    "ParamUnknown",
     "StatusText",
     "VehicleClient",
     "VehicleParam",

@@ -9,9 +9,10 @@ datagram when it returns), then ONE ``link.update`` runs, and we check what reac
   message reaches the vehicle and the command is acknowledged by that call;
 - MANUAL_CONTROL / SET_POSITION_TARGET_* / SET_ATTITUDE_TARGET reach the vehicle only when
   addressed to us; only a ground station's HEARTBEAT (MAV_TYPE_GCS) is reported;
-- the wall-clock budget (``rx_drain.RX_BUDGET_S``): past it, everything but commands is dropped unparsed
-  and counted (``rx_dropped``), commands are still answered (``RX_KEEP_PER_SENDER`` per sender,
-  ``RX_KEEP_MAX`` in all), and the next call starts from what is new;
+- the time budget (``rx_drain.RX_BUDGET_S``, CPU time): past it and the first ``RX_MIN_HANDLED``
+  datagrams of a socket, everything but commands is dropped unparsed and counted (``rx_dropped``),
+  commands are still answered (``RX_KEEP_PER_SENDER`` per sender, ``RX_KEEP_MAX`` in all), and the
+  next call starts from what is new;
 - datagrams addressed to other systems are dropped unparsed (``rx_foreign``);
 - damaged datagrams in the flood are counted (``rx_errors``) and do not stop the drain.
 
@@ -150,11 +151,33 @@ def test_only_messages_to_us_reach_the_vehicle(ready):
     assert h.vehicle.gcs_heartbeats[-1] == h.t_us and h.vehicle.control_messages[-1] == ("MANUAL_CONTROL", h.t_us)
 
 
-# --------------------------------------------------------------------------- the wall-clock budget
+# --------------------------------------------------------------------------- the time budget
+
+
+def test_a_quiet_link_is_handled_whatever_the_budget(ready, monkeypatch):
+    """The first RX_MIN_HANDLED datagrams of each socket are handled in every call even with no time
+    left (a link's usual traffic: a preempted or slow call loses none of it); the rest is dropped."""
+    monkeypatch.setattr(rx_drain, "RX_BUDGET_S", 0.0)
+    monkeypatch.setattr(rx_drain, "RX_POLL_BUDGET_S", 0.0)
+    h = ready
+    gcs, api = h.clients["gcs"], h.clients["api"]
+    gcs.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+    gcs.mav.param_request_read_send(1, 1, b"MPC_XY_P", -1)
+    sticks(gcs, 2)
+    sticks(api, 5)
+    one_update(h)
+    assert h.vehicle.gcs_heartbeats == [h.t_us] and len(h.vehicle.control_messages) == 2 + 4
+    assert [m.param_id for m in received(gcs) if m.get_type() == "PARAM_VALUE"] == ["MPC_XY_P"]
+    assert h.link.rx_dropped == 1
+    sticks(gcs, 1)
+    time.sleep(0.05)
+    h.link.poll(h.t_us + DT_US)  # a poll too
+    assert len(h.vehicle.control_messages) == 7
 
 
 def test_past_the_budget_sticks_are_dropped_and_the_next_call_is_fresh(ready, monkeypatch):
     monkeypatch.setattr(rx_drain, "RX_BUDGET_S", 0.0)
+    monkeypatch.setattr(rx_drain, "RX_MIN_HANDLED", 0)
     h = ready
     gcs, api = h.clients["gcs"], h.clients["api"]
     sticks(gcs, 120)
@@ -175,6 +198,7 @@ def test_past_the_budget_only_commands_are_handled_a_few_per_sender(ready, monke
     asks again); one sender gets RX_KEEP_PER_SENDER commands a call, so another sender's still gets
     through; the commands over the counts are handled by the next call, those past the backlog dropped."""
     monkeypatch.setattr(rx_drain, "RX_BUDGET_S", 0.0)
+    monkeypatch.setattr(rx_drain, "RX_MIN_HANDLED", 0)
     monkeypatch.setattr(rx_drain, "RX_KEEP_PER_SENDER", 3)
     monkeypatch.setattr(rx_drain, "RX_KEEP_MAX", 4)
     monkeypatch.setattr(rx_drain, "RX_BACKLOG_MAX", 4)

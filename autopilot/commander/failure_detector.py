@@ -21,8 +21,9 @@ CRITICAL STATUSTEXT "Critical failure detected (roll): <action>":
 Crash check, as ArduPilot's (``FS_CRASH_CHECK`` 1, Copter's ``crash_check``: attitude off by more than
 30 degrees with an acceleration below 3 m/s^2 for 2 s -> "Crash: Disarming"): after a loss of control
 in this arming, a vehicle tilted more than ``CRASH_TILT_DEG`` whose acceleration (NED, gravity
-removed) stays below ``CRASH_ACCEL_M_S2`` for ``CRASH_TIME_S`` lies on the ground: it is disarmed, so
-motors do not run on a wreck.  Requiring the loss of control first keeps a hover in a strong wind (a
+removed) stays below ``CRASH_ACCEL_M_S2`` for ``CRASH_TIME_S`` lies on the ground: "Crash detected:
+disarming" (CRITICAL), and it is disarmed, so motors do not run on a wreck (HEARTBEAT EMERGENCY until
+the next arming).  Requiring the loss of control first keeps a hover in a strong wind (a
 steady tilt, at rest) from ever being taken for a crash.  Angles are radians inside, degrees in the
 parameters; times are simulated µs.
 """
@@ -144,6 +145,7 @@ def check_failures(c: Commander, now_us: int) -> None:
         return
     tilt = math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
     if fd.crashed(now_us, tilt, est.accel_ned_m_s2):
+        c.say(S.MAV_SEVERITY_CRITICAL, "Crash detected: disarming")
         c._disarm("crash detected")
         c.failsafe.terminated = True  # the motors were stopped by a failsafe: EMERGENCY until the next arming
         fd.reset()

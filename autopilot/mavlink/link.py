@@ -15,7 +15,7 @@ command table (:mod:`autopilot.mavlink.commands`), parameters are served by
 :mod:`autopilot.mavlink.mission_protocol`.  The link keeps the sockets
 (:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and requests,
 AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT, MISSION_ITEM_REACHED and the traffic tap; what arrives is
-read by :mod:`autopilot.mavlink.rx_drain` (every socket drained each call, a wall-clock budget for
+read by :mod:`autopilot.mavlink.rx_drain` (every socket drained each call, a CPU-time budget for
 handling, commands first past it: a flood cannot block LAND).
 
 :meth:`GcsLink.update` (50 Hz) receives, answers and streams; :meth:`GcsLink.poll` (the other
@@ -235,7 +235,7 @@ class GcsLink:
         for ep in self._endpoints:
             ep.begin_batch()
         try:
-            self._receive()
+            self._receive(poll=True)
             self._send_events()
             for service in self._services:
                 service.update(self._now_us)
@@ -243,9 +243,9 @@ class GcsLink:
             for ep in self._endpoints:
                 ep.flush()
 
-    def _receive(self) -> None:
-        """Drain both sockets: what is for us within a wall-clock budget, past it commands only (rx_drain)."""
-        self._rx.drain()
+    def _receive(self, poll: bool = False) -> None:
+        """Drain both sockets: what is for us within a time budget, past it commands only (rx_drain)."""
+        self._rx.drain(poll)
 
     def _send_events(self) -> None:
         """The vehicle's STATUSTEXTs and reached mission items since the last call."""
