@@ -98,7 +98,7 @@ def apply_entries(store: ParameterStore, entries: list[ParamEntry]) -> tuple[int
             mine.append(e)
 
     def apply(e: ParamEntry) -> None:
-        ptype = None
+        ptype: str | None = None  # (a ParamType is a str)
         if e.mav_type is not None:
             ptype = _PTYPE.get(e.mav_type)
             if ptype is None:  # another integer type: PX4 has INT32 only

@@ -15,7 +15,8 @@ lost, the ack latency (median, max, ms), LANDs seen executed, the real-time fact
 per wall second, from ATTITUDE.time_boot_ms) and its ratio to the no-flood phase (1.00: no control
 update missed), and the CPU (% of one core, /proc) of the flight controller, the simulator, the
 flooder and this ground station.  The figure asked for is the highest rate at which every LAND is
-acknowledged within one retry and executed and the ratio stays >= RTF_OK.  The machine is shared: a
+acknowledged within one retry and executed and the ratio stays within 2 % of 1 (RTF_OK; above 1 is a
+simulation catching up after a stall), at that rate and every lower one.  The machine is shared: a
 ratio below 1 may be another program's load; run it twice.
 
 Usage: ``python benchmarks/flood_benchmark.py [--instance 29] [--speed 1]
@@ -47,7 +48,7 @@ from link_flood import KINDS, Flood, GroundStation  # noqa: E402  (tests/link_fl
 ALT_M = 15.0
 WARMUP_S = 1.0  # the flood runs this long before the first LAND
 SEEN_S = 1.5  # LAND must show in a HEARTBEAT within this (wall) time of its ack to count as executed
-RTF_OK = 0.98  # real-time factor ratio to the no-flood phase above which no control update was missed
+RTF_OK = 0.98  # real-time factor ratio to the no-flood phase (and its inverse) for "no control update missed"
 LAND_MODE = modes.encode_custom_mode(modes.MAIN_AUTO, modes.SUB_AUTO_LAND)
 
 
@@ -105,8 +106,8 @@ def report(phases: list[dict]) -> None:
     print(
         "rate/s  sent/s  LANDs  1st try  1 retry  lost  median ms  max ms  executed  RTF    ratio  CPU% FC/sim/flood/gs"
     )
-    best = None
-    for p in phases:
+    best, failed = 0.0, False
+    for p in sorted(phases, key=lambda p: p["rate"]):
         rows = p["trials"]
         lat = [r["latency"] * 1e3 for r in rows if r["latency"] is not None]
         first = sum(r["attempts"] == 1 and r["latency"] is not None for r in rows)
@@ -118,12 +119,12 @@ def report(phases: list[dict]) -> None:
             f"{p['rate']:6.0f}  {p['sent_hz']:6.0f}  {len(rows):5d}  {first:7d}  {acked - first:7d}"
             f"  {len(rows) - acked:4d}  {figures}  {executed:8d}  {p['rtf']:5.3f}  {ratio:5.3f}  {cpu:>12}"
         )
-        if acked == len(rows) and executed == len(rows) and ratio >= RTF_OK:
-            best = max(best or 0.0, p["sent_hz"])
+        failed = failed or not (acked == executed == len(rows) and abs(ratio - 1) <= 1 - RTF_OK)
+        best = best if failed else p["sent_hz"]
     results = sorted({r["result"] for p in phases for r in p["trials"] if r["result"] is not None})
     print(f"ack results: {results} (0 = ACCEPTED)")
-    print(f"absorbed: {best or 0:.0f} junk datagrams/s with every LAND acknowledged within one retry and executed, "
-          f"real-time factor >= {RTF_OK:g} of the no-flood phase")  # fmt: skip
+    print(f"absorbed: {best:.0f} junk datagrams/s (and every lower rate) with every LAND acknowledged within one "
+          f"retry and executed, the real-time factor within {1 - RTF_OK:.0%} of the no-flood phase's")  # fmt: skip
 
 
 def main() -> int:
