@@ -158,19 +158,19 @@ def test_signed_gcs_flies_while_the_unsigned_disarm_has_no_effect(stack, observe
 def test_the_key_survives_a_restart(stack, state_dir, observer):
     stack.restart_autopilot()
     observer.wait_until(lambda: "MAVLink signing ON: key loaded from" in stack.tail("autopilot", 40), WAIT_S, "start")
-    p = run_gcs(observer, "--timeout", "5", "arm", url=API_URL)  # no key: it hears the vehicle, gets no answer
-    assert p.returncode == 3 and "timed out after 5 s waiting for" in p.stderr, p.stdout + p.stderr
+    p = run_gcs(observer, "--timeout", "2", "arm", url=API_URL)  # no key: it hears the vehicle, gets no answer
+    assert p.returncode == 3 and "timed out after 2 s waiting for" in p.stderr, p.stdout + p.stderr
     assert "heartbeat" not in p.stderr
     assert not observer.armed()
     p = run_gcs(observer, "--signing-key", PASSPHRASE, "arm")
     assert p.returncode == 0, p.stderr
     p = run_gcs(observer, "--signing-key", PASSPHRASE, "disarm")
     assert p.returncode == 0, p.stderr
-    p = run_gcs(observer, "--timeout", "5", "--signing-key", "a wrong passphrase", "status", "--once", url=API_URL)
+    p = run_gcs(observer, "--timeout", "2", "--signing-key", "a wrong passphrase", "status", "--once", url=API_URL)
     assert (
         p.returncode == 3 and "messages refused as not signed with it: has the vehicle this --signing-key?" in p.stderr
     )
-    p = run_gcs(observer, "--timeout", "5", "--signing-key", "a wrong passphrase", "status", "--once")
+    p = run_gcs(observer, "--timeout", "2", "--signing-key", "a wrong passphrase", "status", "--once")
     assert p.returncode == 3 and "nothing heard, none refused: has the vehicle this --signing-key?" in p.stderr
 
 

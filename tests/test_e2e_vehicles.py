@@ -135,47 +135,6 @@ def test_hexacopter_survives_a_motor_losing_most_of_its_thrust(firefly):
     truth.set("SIM_ENGINE_FAIL", 0)
 
 
-def test_hexacopter_with_a_motor_stopped_keeps_position_while_it_spins_and_descends(firefly):
-    """Motor 1 stopped (SIM_ENGINE_MUL 0): the five others cannot balance the rotors' drag
-    torque, so the heading is given up (the mixer keeps roll, pitch and thrust first) and the
-    hexacopter spins up to some 250-300 deg/s, but it holds its position and height, and on LAND
-    it comes down under control where it is: survivable with the yaw lost, ending in a
-    controlled descent.  The touchdown itself, spinning that fast, can tip it over (one run in
-    two during development), so after touchdown it is disarmed with the force flag if the land
-    detector has not done it, as a pilot would."""
-    client, truth = firefly
-    point = take_off(client, truth)
-    truth.set("SIM_ENGINE_MUL", 0.0)
-    truth.set("SIM_ENGINE_FAIL", 1)
-    try:
-        err = hold_errors(client, truth, point, 10.0)
-        spin = abs(math.degrees(client.latest("ATTITUDE").yawspeed))
-        print(
-            f"motor 1 stopped: max horizontal error {np.hypot(err[:, 0], err[:, 1]).max():.2f} m, "
-            f"max vertical {np.abs(err[:, 2]).max():.2f} m, yaw rate {spin:.0f} deg/s"
-        )
-        assert spin > 90  # the heading is really lost: this is not the partial-failure case
-        assert np.hypot(err[:, 0], err[:, 1]).max() < 3.0
-        assert np.abs(err[:, 2]).max() < 1.5
-        t0 = truth.latest().time_ms
-        ground_down_m = point[2] + ALT_M
-        client.land().check()
-        client.wait_until(lambda: truth.latest().pos_ned_m[2] > ground_down_m - 0.3, WAIT_S, "touchdown")
-        descent = truth.since(t0)
-        offset = math.hypot(*(np.array(descent[-1].pos_ned_m[:2]) - point[:2]))
-        fastest = max(s.vel_ned_m_s[2] for s in descent)
-        print(f"descent: fastest {fastest:.2f} m/s down, touchdown {offset:.2f} m from the hover point")
-        assert fastest < 2.5  # no fall: MPC_LAND_SPEED plus margin
-        assert offset < 2.0
-        client.wait_sim_time(5.0)
-        if client.armed():
-            client.disarm(force=True).check()
-        client.wait_until(lambda: not client.armed(), WAIT_S, "disarmed")
-    finally:
-        truth.set("SIM_ENGINE_FAIL", 0)
-        truth.set("SIM_ENGINE_MUL", 1.0)
-
-
 def collect(client: VehicleClient, kind: str, seconds: float) -> list:
     """Messages of one type received over ``seconds`` of simulated time."""
     out = []
@@ -196,8 +155,8 @@ def test_quad_holds_position_in_the_windy_scenario():
     ):
         point = take_off(client, truth)
         assert truth.get("SIM_WIND_SPD") == 5.0
-        client.wait_sim_time(5.0)
-        err = hold_errors(client, truth, point, 20.0)
+        client.wait_sim_time(3.0)
+        err = hold_errors(client, truth, point, 10.0)
         assert rms(np.hypot(err[:, 0], err[:, 1])) < 0.5
         assert rms(err[:, 2]) < 0.3
         land(client)
