@@ -138,9 +138,10 @@ def truth_yaw(truth) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def truth_and_stack_fixtures(instance: int):
+def truth_and_stack_fixtures(instance: int, params: dict[str, float] | None = None):
     """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at full speed)
-    fixtures for one instance: ``truth, stack = truth_and_stack_fixtures(INSTANCE)`` in a test file."""
+    fixtures for one instance: ``truth, stack = truth_and_stack_fixtures(INSTANCE)`` in a test file;
+    ``params``: flight-controller parameters applied at start-up (``autopilot --params``)."""
     import pytest
 
     from gcs.launcher import Stack
@@ -152,8 +153,13 @@ def truth_and_stack_fixtures(instance: int):
             yield listener
 
     @pytest.fixture(scope="module")
-    def stack(truth):
-        with Stack(instance=instance, speed="max") as s:
+    def stack(truth, tmp_path_factory):
+        args: list[str] = []
+        if params:
+            path = tmp_path_factory.mktemp("startup-params") / "startup.params"
+            path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
+            args = ["--params", str(path)]
+        with Stack(instance=instance, speed="max", extra_autopilot_args=args) as s:
             yield s
 
     return truth, stack

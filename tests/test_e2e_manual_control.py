@@ -37,7 +37,10 @@ from instances import instance  # tests/instances.py: every test's instance numb
 
 pytestmark = pytest.mark.e2e
 INSTANCE = instance("test_e2e_manual_control", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
+# The sticks come from this test's process at 25 Hz of wall time; on a loaded 2-core machine it can be
+# starved for longer than PX4's 0.5 s, a (correct) RC-loss failsafe that is not what these tests fly:
+# RC loss has its own tests (test_e2e_failsafes.py).
+truth, stack = truth_and_stack_fixtures(INSTANCE, params={"COM_RC_LOSS_T": 3.0})
 STICK_PERIOD_S = 0.04  # MAVSDK sticks at 25 Hz (wall clock)
 MPC_VEL_MANUAL = 1.0  # the default full-stick speed, m/s
 WAIT_S = 120.0  # wall-clock safety net of each wait
