@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--params",
         metavar="FILE",
         help="apply a parameter file at start-up (QGroundControl's tab-separated format or MAVProxy's "
-        "NAME VALUE); bad lines are reported and skipped",
+        "NAME VALUE); bad lines are reported and skipped, an unreadable file stops the start (exit 1)",
     )
     p.add_argument(
         "--state-dir",
@@ -91,6 +91,13 @@ def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str, war
     from autopilot.param_storage import ParamSaver, prepare_parameters, state_file
     from params.vehicle import vehicle_path
 
+    if args.params is not None:  # a start-up file that cannot be read stops the start (a typo, not a default)
+        try:
+            with open(args.params, "rb"):
+                pass
+        except OSError as exc:
+            print(f"autopilot: cannot read the --params file {args.params}: {exc.strerror or exc}", file=sys.stderr)
+            return False
     state_path = None
     if args.state_dir:
         try:
@@ -159,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings: list[str] = []
     saver = _prepare_parameters(params, args, spec.name, warnings)
     if saver is False:
-        return 2
+        return 1
     fc = FlightController(spec, params, sysid=args.sysid)
     from pymavlink.dialects.v20.common import MAV_SEVERITY_CRITICAL
 

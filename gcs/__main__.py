@@ -36,13 +36,19 @@ from mavsim_core import px4_modes as modes
 
 from . import fly_cli, mission_cli, param_cli, signing_cli, ugv_cli
 from .client import VehicleClient
-from .errors import CommandRefused, CommandResult, GcsError, GcsTimeout, NoAnswer, ParamRefused
+from .errors import (
+    EXIT_OK,
+    EXIT_REFUSED,
+    CommandResult,
+    GcsError,
+    GcsTimeout,
+    report_error,
+)
 from .plugins.telemetry import GPS_FIX_NAMES
 
 DEFAULT_GCS_PORT = 14550
 CONNECT_TIMEOUT_S = 10.0
 ANSWER_TIMEOUT_S = 10.0  # wall seconds a request is retried for (COMMAND_ACK, PARAM_VALUE) unless --timeout
-EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_NO_ANSWER = 0, 1, 2, 3
 EXIT_CODES = "Exit codes: 0 done, 1 refused by the vehicle or failed, 2 usage error, 3 no answer from the vehicle."
 
 # Default wall-clock waits for each command's effect, when --timeout is not given.
@@ -371,23 +377,8 @@ def main(argv: list[str] | None = None) -> int:
             "signing": lambda: signing_cli.run_signing_command(client, args),
         }[args.command]
         return handler()
-    except CommandRefused as exc:
-        res = exc.result
-        reason = f": {res.reason}" if res.reason else " (the vehicle gave no reason)"
-        print(f"gcs: {args.command} refused: {res.result_name} ({res.command_name}){reason}", file=sys.stderr)
-        return EXIT_REFUSED
-    except ParamRefused as exc:
-        print(f"gcs: {args.command} refused: {exc}", file=sys.stderr)
-        return EXIT_REFUSED
-    except NoAnswer as exc:
-        print(f"gcs: {args.command}: no answer from the vehicle: {exc}", file=sys.stderr)
-        return EXIT_NO_ANSWER
-    except GcsTimeout as exc:  # the vehicle answers but did not do it in time
-        print(f"gcs: {args.command} failed: {exc}", file=sys.stderr)
-        return EXIT_REFUSED
-    except ValueError as exc:  # bad parameter value / name
-        print(f"gcs: error: {exc}", file=sys.stderr)
-        return EXIT_REFUSED
+    except (GcsError, ValueError, OSError, OverflowError) as exc:  # refused, no answer, bad value, bad --url
+        return report_error(exc, args.command)
     except KeyboardInterrupt:
         print("gcs: interrupted", file=sys.stderr)
         return 130

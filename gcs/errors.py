@@ -15,6 +15,8 @@ from pymavlink import mavutil
 
 mavlink = mavutil.mavlink
 
+EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_NO_ANSWER = 0, 1, 2, 3  # the ``gcs`` CLI's exit codes
+
 
 class GcsError(Exception):
     """Base class of the errors this client raises."""
@@ -110,3 +112,26 @@ class CommandResult:
         if not self.accepted:
             raise CommandRefused(self)
         return self
+
+
+def report_error(exc: BaseException, command: str) -> int:
+    """Print ``exc`` as the ``gcs`` CLI's one line on stderr; its exit code (see EXIT_*): refusals and
+    failures 1, a connection URL that cannot be opened 2 (a usage error), no answer from the vehicle 3."""
+    import sys
+
+    if isinstance(exc, CommandRefused):
+        res = exc.result
+        reason = f": {res.reason}" if res.reason else " (the vehicle gave no reason)"
+        text, code = f"{command} refused: {res.result_name} ({res.command_name}){reason}", EXIT_REFUSED
+    elif isinstance(exc, ParamRefused):
+        text, code = f"{command} refused: {exc}", EXIT_REFUSED
+    elif isinstance(exc, NoAnswer):
+        text, code = f"{command}: no answer from the vehicle: {exc}", EXIT_NO_ANSWER
+    elif isinstance(exc, GcsTimeout):  # the vehicle answers but did not do it in time
+        text, code = f"{command} failed: {exc}", EXIT_REFUSED
+    elif isinstance(exc, (OSError, OverflowError)):  # the connection: a device, socket or port that cannot open
+        text, code = f"cannot open the connection: {exc}", EXIT_USAGE
+    else:  # a bad parameter value or name (ValueError), another client error
+        text, code = f"error: {exc}", EXIT_REFUSED
+    print(f"gcs: {text}", file=sys.stderr)
+    return code

@@ -99,17 +99,21 @@ def test_arming_denied_until_estimate_ready_then_accepted():
 # --------------------------------------------------------------------------- the flight demo
 
 
-def test_flight_demo_flies_its_square(capsys):
+def test_flight_demo_flies_its_square(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # --log-dir relative to where the user is, not to the installed package
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
         rc = demo.main(
             ["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S), "--step-timeout", str(WAIT_S)]
+            + ["--log-dir", "demo"]
         )
     finally:
         signal.signal(signal.SIGTERM, sigterm)
     out = capsys.readouterr()
     assert rc == 0, out.err + out.out[-3000:]
     assert "flight demo: OK" in out.out
+    assert list((tmp_path / "demo").glob("*.ulg")) and list((tmp_path / "demo").glob("*.truth.npy"))
+    assert f"gcs plot {tmp_path / 'demo'}" in out.out  # the next command, with where the logs went
     for expected in (
         "armed",
         "taking off to 5 m",

@@ -204,6 +204,29 @@ def test_unknown_mode_exits_1_without_connecting(capsys):
     assert "unknown mode 'GUIDED'" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "url, why",
+    [("nonsense", "could not open port nonsense"), ("udpin:0.0.0.0:99999", "port must be 0-65535")],
+)
+def test_a_url_that_cannot_open_is_a_usage_error_in_one_line(url, why, capsys):
+    assert main(["--url", url, "--timeout", "0.2", "status"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gcs: cannot open the connection:") and why in err and "Traceback" not in err
+
+
+def test_autopilot_with_an_unreadable_params_file_does_not_start(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "autopilot", "--instance", str(NOBODY), "--params", str(tmp_path / "missing.params")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert f"autopilot: cannot read the --params file {tmp_path / 'missing.params'}" in proc.stderr
+    assert "waiting for the simulator" not in proc.stdout
+
+
 # --------------------------------------------------------------------------- nothing answering
 
 

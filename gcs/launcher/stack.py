@@ -134,7 +134,7 @@ class Stack:
         self.sitl_module = sitl_module.split()
         self.autopilot_module = autopilot_module.split()
         self.flight_logs = flight_logs
-        self._log_dir_arg = Path(log_dir) if log_dir is not None else None
+        self._log_dir_arg = Path(log_dir).resolve() if log_dir is not None else None  # the caller's cwd's
         self.log_dir: Path | None = None
         self.procs: dict[str, subprocess.Popen] = {}
         self._log_files: dict[str, object] = {}
