@@ -15,6 +15,19 @@ from autopilot.param_catalogue import default_store  # noqa: E402
 from params.vehicle import load_vehicle  # noqa: E402
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _stack_logs_under_pytest_basetemp(tmp_path_factory):
+    """A Stack started without ``log_dir`` makes a temp dir for its logs (kept after it stops, for a person
+    to read); in the tests those go under pytest's own base temp directory, which pytest prunes (the
+    last three runs are kept), instead of piling up in /tmp."""
+    import tempfile
+
+    before = tempfile.tempdir
+    tempfile.tempdir = str(tmp_path_factory.mktemp("stacks"))
+    yield
+    tempfile.tempdir = before
+
+
 @pytest.fixture(scope="module")
 def quad():
     """The quad_x vehicle file (params/vehicles/quad_x.toml)."""
