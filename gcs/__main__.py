@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 
@@ -39,6 +40,7 @@ from .client import VehicleClient
 from .errors import (
     EXIT_OK,
     EXIT_REFUSED,
+    EXIT_USAGE,
     CommandResult,
     GcsError,
     GcsTimeout,
@@ -159,6 +161,9 @@ def build_parser() -> argparse.ArgumentParser:
         )
     )
     return parser
+
+
+URL_SCHEMES = ("udpin:", "udpout:", "udpbcast:", "udp:", "tcpin:", "tcp:", "mcast:")  # pymavlink's network URLs
 
 
 def resolve_url(args: argparse.Namespace) -> str:
@@ -353,6 +358,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"gcs: error: {exc}", file=sys.stderr)
             return EXIT_REFUSED
     url = resolve_url(args)
+    if not url.startswith(URL_SCHEMES) and not os.path.exists(url):  # pymavlink would take it for a serial device
+        print(f"gcs: --url {url}: neither udpin:/udp:/tcp:HOST:PORT nor an existing serial device", file=sys.stderr)
+        return EXIT_USAGE
     client = None
     try:
         client = VehicleClient(

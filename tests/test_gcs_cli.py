@@ -206,12 +206,15 @@ def test_unknown_mode_exits_1_without_connecting(capsys):
 
 @pytest.mark.parametrize(
     "url, why",
-    [("nonsense", "could not open port nonsense"), ("udpin:0.0.0.0:99999", "port must be 0-65535")],
+    [
+        ("nonsense", "gcs: --url nonsense: neither udpin:/udp:/tcp:HOST:PORT nor an existing serial device"),
+        ("udpin:0.0.0.0:99999", "gcs: cannot open the connection: bind(): port must be 0-65535"),
+    ],
 )
 def test_a_url_that_cannot_open_is_a_usage_error_in_one_line(url, why, capsys):
     assert main(["--url", url, "--timeout", "0.2", "status"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("gcs: cannot open the connection:") and why in err and "Traceback" not in err
+    assert err.startswith(why) and "Traceback" not in err
 
 
 def test_autopilot_with_an_unreadable_params_file_does_not_start(tmp_path):
