@@ -156,7 +156,7 @@ def test_battery_low_warns_critical_returns_emergency_lands(battery):
 FAULTS = [
     ({"SIM_GPS_GLITCH_N": 20.0, "SIM_GPS_GLITCH_E": 20.0}, {"SIM_GPS_GLITCH_N": 0.0, "SIM_GPS_GLITCH_E": 0.0}),
 ]
-HOLD_S = 15.0  # simulated seconds each fault lasts
+HOLD_S = 10.0  # simulated seconds each fault lasts
 
 
 def worst_drift_m(truth: SimClient, since_ms: int, point) -> float:

@@ -100,7 +100,7 @@ def test_a_stuck_barometer_is_found_and_the_height_held_on_gps(vehicle):
     truth.set("SIM_BARO_STUCK", 1)
     try:
         wait_text(client, n, "Barometer failed: stale data")
-        client.wait_sim_time(15.0)
+        client.wait_sim_time(8.0)
         moved = max(abs(s.pos_ned_m[2] - hold.pos_ned_m[2]) for s in truth.since(hold.time_ms))
         assert moved < 0.5, f"moved {moved:.1f} m vertically on the GPS height ({texts_since(client, n)})"
         assert not baro_healthy(client)

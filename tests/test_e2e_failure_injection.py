@@ -280,13 +280,13 @@ def test_magnetometer_and_barometer_faults_in_flight_are_found_and_the_vehicle_h
         take_off(client, truth)
         mag = SENSOR["mag"]
         healthy_again = "magnetometer healthy again"
-        h, v = _fault_then_ok(client, truth, MAG, OFF, "EKF: no magnetometer data", healthy_again, mag, 8.0)
+        h, v = _fault_then_ok(client, truth, MAG, OFF, "EKF: no magnetometer data", healthy_again, mag, 5.0)
         assert h < 1.5 and v < 1.0, f"mag off: drift {h:.1f} m, {v:.1f} m"
         h, v = _fault_then_ok(client, truth, MAG, STUCK, "EKF: magnetometer stuck", healthy_again, mag, 3.0)
         assert h < 1.5 and v < 1.0, f"mag stuck: drift {h:.1f} m, {v:.1f} m"
         baro = SENSOR["baro"]
         for ftype, detected in ((STUCK, "Barometer failed: stale data"), (OFF, "Barometer failed: no data")):
-            h, v = _fault_then_ok(client, truth, BARO, ftype, detected, "Barometer healthy again", baro, 8.0)
+            h, v = _fault_then_ok(client, truth, BARO, ftype, detected, "Barometer healthy again", baro, 5.0)
             assert h < 1.5 and v < 1.0, f"baro {ftype}: drift {h:.1f} m, {v:.1f} m"
 
 

@@ -40,7 +40,7 @@ INSTANCE = instance("test_e2e_fuzz", "stack")
 WAIT_S = 120.0  # wall-clock safety net of each wait
 ALT_M = 5.0
 HOVER_TOL_M = 0.4
-FRAMES, JUNK = 15_000, 5_000
+FRAMES, JUNK = 10_000, 3_000
 BURST = 40  # datagrams sent between two looks at the replies (a steady stream, not a flood)
 SEED = 18
 
