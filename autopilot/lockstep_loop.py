@@ -72,7 +72,8 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
             t = m.get_type()
             if t == "HIL_SENSOR":
                 imu = imu_from_msg(m)
-                if watch.on_sensor(imu.timestamp_us, time.monotonic()):
+                wall_s = time.monotonic()  # one reading per step: the link watch and the input-loss timers
+                if watch.on_sensor(imu.timestamp_us, wall_s):
                     print("[autopilot] sensor data from the simulator again: link regained", flush=True)
                     fc.on_sim_link_regained()
                 commands = fc.step(imu, gps)
@@ -84,7 +85,7 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                     recorder.on_step(imu)
                 # While the simulator steps its physics: the outer loops, and in another
                 # period the ground-station link (both 50 Hz), so the two never add up.
-                fc.wall_s = time.monotonic()  # the input-loss timers also measure the clients' clock
+                fc.wall_s = wall_s  # the input-loss timers also measure the clients' clock
                 fc.after_step()
                 if (now_us // LOCKSTEP_DT_US) % LINK_EVERY == LINK_PHASE:
                     link.update(now_us)
