@@ -216,7 +216,9 @@ def test_follows_the_ground_vehicles_broadcast_and_holds_when_it_stops():
         assert client.mode_name() == "FOLLOW_TARGET"  # still in the mode, holding, as PX4
         t_lost = truth.latest().time_ms
         client.wait_sim_time(4.0)
-        held = [s.pos_ned_m for s in truth.since(t_lost + 2000)]
+        held_samples = truth.since(t_lost + 2000)  # truth's UDP stream may drop samples on a loaded host
+        held = [s.pos_ned_m for s in held_samples]
+        held_s = (held_samples[-1].time_ms - held_samples[0].time_ms) / 1000 if held_samples else 0.0
         stack.check_alive()
     print(f"UGV: distance {min(dists):.2f}..{max(dists):.2f} m (set {DST_M:g}), ", end="")
     print(f"height {min(heights):.2f}..{max(heights):.2f} m")
@@ -224,5 +226,5 @@ def test_follows_the_ground_vehicles_broadcast_and_holds_when_it_stops():
     assert all(abs(d - DST_M) <= 1.0 for d in dists)
     assert all(abs(h - 8.0) <= 1.0 for h in heights)
     drift = max(math.dist(p[:2], held[0][:2]) for p in held)
-    print(f"after the broadcast stopped: drift {drift:.3f} m over {len(held) / 50:.1f} s")
-    assert len(held) > 50 and drift <= 0.5
+    print(f"after the broadcast stopped: drift {drift:.3f} m over {held_s:.1f} s")
+    assert held_s >= 1.5 and drift <= 0.5  # watched for most of the 2 s after settling
