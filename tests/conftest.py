@@ -29,6 +29,24 @@ def _stack_logs_under_pytest_basetemp(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def free_instance():
+    """``free_instance()`` -> an instance number (``-i``) that no other test, in this run or a concurrent one, and
+    no stack a person runs on this machine is using; each call gives another.  All are released when the test
+    module ends.  See ``tests/instances.py``."""
+    from instances import lease
+
+    leases = []
+
+    def take() -> int:
+        leases.append(lease())
+        return leases[-1].number
+
+    yield take
+    for held in leases:
+        held.release()
+
+
+@pytest.fixture(scope="module")
 def quad():
     """The quad_x vehicle file (params/vehicles/quad_x.toml)."""
     return load_vehicle("quad_x")

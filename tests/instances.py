@@ -13,7 +13,12 @@ but never another file's.  The table keeps clear of people's instances (0-9: ``f
 
 from __future__ import annotations
 
+import fcntl
+import os
+import socket
+from dataclasses import dataclass
 from itertools import combinations
+from pathlib import Path
 
 from mavsim_core import ports as port_scheme
 
@@ -94,3 +99,57 @@ def all_instances() -> list[tuple[str, str, int]]:
 def collisions(numbers: list[int]) -> list[tuple[int, int, set[tuple[str, int]]]]:
     """Pairs of (distinct positions in) ``numbers`` that share a port, with the ports shared."""
     return [(a, b, ports(a) & ports(b)) for a, b in combinations(numbers, 2) if ports(a) & ports(b)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Free instances, handed out at run time (the ``free_instance`` fixture in conftest.py)
+
+POOL = range(30, port_scheme.MAX_INSTANCE + 1)  # clear of people's 0-9, of 10 and of the benchmarks' 11-29
+LOCK_DIR = Path(os.environ.get("TMPDIR", "/tmp")) / "mavsim-flight-test-instances"
+
+
+@dataclass
+class Lease:
+    """Instance ``number``, held (an exclusive ``flock`` on its lock file) until :meth:`release` or the process ends."""
+
+    number: int
+    _fd: int
+
+    def release(self) -> None:
+        if self._fd >= 0:
+            os.close(self._fd)  # closing drops the lock
+            self._fd = -1
+
+
+def ports_free(i: int) -> bool:
+    """True if nothing on this machine binds a port of instance ``i`` (a user's stack, another test run)."""
+    for proto, port in ports(i):
+        kind = socket.SOCK_STREAM if proto == "tcp" else socket.SOCK_DGRAM
+        with socket.socket(socket.AF_INET, kind) as s:
+            try:
+                s.bind(("", port))  # the wildcard address collides with a bind on 127.0.0.1 too
+            except OSError:
+                return False
+    return True
+
+
+def lease() -> Lease:
+    """A free instance of :data:`POOL`: no test of any pytest run on this machine holds it and its ports are free.
+
+    The lock files live in :data:`LOCK_DIR`, shared by every pytest-xdist worker and every concurrent run;
+    a lock dies with its process, so a killed run leaves nothing held.
+    """
+    LOCK_DIR.mkdir(parents=True, exist_ok=True)
+    for i in POOL:
+        fd = os.open(LOCK_DIR / f"instance-{i:02d}.lock", os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue
+        if ports_free(i):
+            return Lease(i, fd)
+        os.close(fd)
+    raise RuntimeError(
+        f"no free test instance in {POOL.start}-{POOL.stop - 1}: every one is held or its ports are taken"
+    )
