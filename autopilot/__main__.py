@@ -12,26 +12,40 @@ import signal
 import sys
 
 from mavsim_core import ports
-from params.vehicle import VehicleFileError, load_vehicle
+from mavsim_core.cli_args import EXIT_CODES_EPILOG, add_instance_option, add_version_option, port_number
+from mavsim_core.cli_checks import check_readable, host_address, make_dir, startup_failed, system_id
+from params.vehicle_arg import vehicle_argument
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="autopilot", description="Multirotor flight controller (PX4-compatible MAVLink)")
-    p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
+    p = argparse.ArgumentParser(
+        prog="autopilot", description="Multirotor flight controller (PX4-compatible MAVLink)", epilog=EXIT_CODES_EPILOG
+    )
+    add_version_option(p)
     p.add_argument(
-        "--instance", "-i", type=int, default=0, metavar="N",
+        "--vehicle", default="quad_x", type=vehicle_argument,
+        help="vehicle name in params/vehicles or a .toml path (relative to the working directory)",
+    )  # fmt: skip
+    add_instance_option(
+        p,
         help=f"vehicle instance 0-{ports.MAX_INSTANCE}, as PX4's -i: system id 1+N, simulator TCP 4560+N, "
         "API link to UDP 14540+N, ground-station link to the shared UDP 14550 from local port 18570+N",
-    )  # fmt: skip
-    p.add_argument("--sim-host", default="127.0.0.1")
-    p.add_argument("--sim-port", type=int, help="simulator TCP port (default 4560+N)")
-    p.add_argument("--gcs-port", type=int, help="UDP port ground stations listen on (default 14550, every instance)")
-    p.add_argument("--api-port", type=int, help="UDP port APIs such as MAVSDK listen on (default 14540+N)")
-    p.add_argument("--gcs-local-port", type=int, help="local UDP port of the ground-station link (default 18570+N)")
-    p.add_argument(
-        "--api-local-port", type=int, help="local UDP port of the API link, where companions send (default 14640+N)"
     )
-    p.add_argument("--sysid", type=int, help="MAVLink system id (default 1+N)")
+    p.add_argument("--sim-host", default="127.0.0.1", type=host_address, help="the simulator's host")
+    p.add_argument("--sim-port", type=port_number, help="simulator TCP port (default 4560+N)")
+    p.add_argument(
+        "--gcs-port", type=port_number, help="UDP port ground stations listen on (default 14550, every instance)"
+    )
+    p.add_argument("--api-port", type=port_number, help="UDP port APIs such as MAVSDK listen on (default 14540+N)")
+    p.add_argument(
+        "--gcs-local-port", type=port_number, help="local UDP port of the ground-station link (default 18570+N)"
+    )
+    p.add_argument(
+        "--api-local-port",
+        type=port_number,
+        help="local UDP port of the API link, where companions send (default 14640+N)",
+    )
+    p.add_argument("--sysid", type=system_id, help="MAVLink system id 1-255 (default 1+N)")
     # -- parameters (autopilot/param_storage.py)
     p.add_argument(
         "--params",
@@ -52,17 +66,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--log-dir",
         default="logs",
         metavar="DIR",
-        help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs)",
+        help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs); a directory "
+        "that cannot be created stops the start (exit 1)",
     )
     p.add_argument("--no-log", action="store_true", help="write no flight logs")
     return p
 
 
-def _resolve_ports(args: argparse.Namespace) -> str | None:
-    """Fill in the ports and system id of ``args.instance`` not given; the problem with them, or None."""
+def _resolve_ports(args: argparse.Namespace) -> None:
+    """Fill in the ports and system id of ``args.instance`` not given (argparse checked the ranges)."""
     n = args.instance
-    if not 0 <= n <= ports.MAX_INSTANCE:
-        return f"--instance must be 0..{ports.MAX_INSTANCE} (PX4's port scheme leaves room for no more), not {n}"
     defaults = {
         "sim_port": ports.sim_tcp_port(n),
         "gcs_port": ports.GCS_PORT,
@@ -74,37 +87,19 @@ def _resolve_ports(args: argparse.Namespace) -> str | None:
     for name, default in defaults.items():
         if getattr(args, name) is None:
             setattr(args, name, default)
-    if not 1 <= args.sysid <= 255:
-        return f"--sysid must be 1..255, not {args.sysid}"
-    for name in defaults.keys() - {"sysid"}:
-        if not 1 <= getattr(args, name) <= 65535:
-            return f"--{name.replace('_', '-')} must be 1..65535, not {getattr(args, name)}"
-    return None
 
 
 def _prepare_parameters(params, args: argparse.Namespace, vehicle_name: str, warnings: list[str]):
-    """Vehicle defaults, saved state and --params into the store; the ParamSaver (None: not saving, False: error).
+    """Vehicle defaults, saved state and --params into the store; the ParamSaver (None: not saving).
 
-    ``warnings`` gets what the ground stations should be told (a corrupt state file kept aside)."""
-    from pathlib import Path
-
+    ``warnings`` gets what the ground stations should be told (a corrupt state file kept aside).
+    OSError naming the option if --state-dir cannot be created."""
     from autopilot.param_storage import ParamSaver, prepare_parameters, state_file
     from params.vehicle import vehicle_path
 
-    if args.params is not None:  # a start-up file that cannot be read stops the start (a typo, not a default)
-        try:
-            with open(args.params, "rb"):
-                pass
-        except OSError as exc:
-            print(f"autopilot: cannot read the --params file {args.params}: {exc.strerror or exc}", file=sys.stderr)
-            return False
     state_path = None
     if args.state_dir:
-        try:
-            Path(args.state_dir).mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            print(f"autopilot: cannot create the state directory {args.state_dir}: {exc}", file=sys.stderr)
-            return False
+        make_dir("--state-dir", args.state_dir)
         state_path = state_file(args.state_dir, vehicle_name, args.instance)
     warnings += prepare_parameters(
         params,
@@ -145,28 +140,53 @@ def _keep_plans(fc, args: argparse.Namespace, vehicle_name: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    problem = _resolve_ports(args)
-    if problem:
-        print(f"autopilot: {problem}", file=sys.stderr)
-        return 2
+    _resolve_ports(args)
+    parts: list = []  # what _start opened, closed on the way out whatever happens
     try:
-        spec = load_vehicle(args.vehicle)
-    except VehicleFileError as exc:
-        print(f"autopilot: {exc}", file=sys.stderr)
-        return 2
+        started = _start(args, parts)
+    except (OSError, ValueError, KeyboardInterrupt) as exc:  # the start only: the loop's bugs keep their traceback
+        _close(parts)
+        return startup_failed("autopilot", exc, args.instance)
+    from autopilot.lockstep_loop import run_lockstep
+
+    try:
+        run_lockstep(*started)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        _close(parts)
+    return 0
+
+
+def _close(parts: list) -> None:
+    """Close what the start opened, in this order: the link, the parameter saver, the flight logs."""
+    for part in parts:
+        part.close()
+
+
+def _start(args: argparse.Namespace, parts: list) -> tuple:
+    """Everything before the loop; the arguments of :func:`run_lockstep`.  ``parts`` gets what needs closing.
+
+    Raises OSError or ValueError when starting fails (a port in use, a file that cannot be read)."""
+    from params.vehicle import load_vehicle
+
+    spec = load_vehicle(args.vehicle)  # checked by argparse already
     from autopilot.flight_controller import FlightController
     from autopilot.link_setup import add_link_services
-    from autopilot.lockstep_loop import run_lockstep
     from autopilot.mavlink.link import GcsLink
     from autopilot.mavlink.sim_link import SimLink
     from autopilot.mavlink.vehicle_interface import FlightControllerVehicle
     from autopilot.param_catalogue import default_store
 
+    if args.params is not None:  # a start-up file that cannot be read stops the start (a typo, not a default)
+        check_readable("--params", args.params)
+    if not args.no_log:  # before anything is opened: a log directory that cannot be created stops the start
+        make_dir("--log-dir", args.log_dir)
     params = default_store()
     warnings: list[str] = []
     saver = _prepare_parameters(params, args, spec.name, warnings)
-    if saver is False:
-        return 1
+    if saver is not None:
+        parts.append(saver)
     fc = FlightController(spec, params, sysid=args.sysid)
     from pymavlink.dialects.v20.common import MAV_SEVERITY_CRITICAL
 
@@ -175,30 +195,24 @@ def main(argv: list[str] | None = None) -> int:
     fc.commander.param_saver = saver  # PREFLIGHT_STORAGE read/write (None without --state-dir)
     if args.state_dir:
         _keep_plans(fc, args, spec.name)
-    try:
-        link = GcsLink(
-            FlightControllerVehicle(fc),
-            instance=args.instance,
-            sysid=args.sysid,
-            compid=1,
-            gcs_port=args.gcs_port,
-            api_port=args.api_port,
-            local_gcs_port=args.gcs_local_port,
-            local_api_port=args.api_local_port,
-        )
-    except OSError as exc:
-        print(f"autopilot: cannot open the ground-station UDP ports: {exc}", file=sys.stderr)
-        return 2
-    # -- flight logs: one .tlog + control-rate log per arming
-    recorder = None
+    link = GcsLink(
+        FlightControllerVehicle(fc),
+        instance=args.instance,
+        sysid=args.sysid,
+        compid=1,
+        gcs_port=args.gcs_port,
+        api_port=args.api_port,
+        local_gcs_port=args.gcs_local_port,
+        local_api_port=args.api_local_port,
+    )
+    parts.insert(0, link)
+    recorder = None  # flight logs: one .tlog + control-rate log per arming
     if not args.no_log:
         from autopilot.flight_recorder import FlightRecorder
 
-        try:
-            recorder = FlightRecorder(args.log_dir, fc, instance=args.instance, sysid=args.sysid)
-            link.set_traffic_tap(recorder.tap)
-        except OSError as exc:
-            print(f"autopilot: cannot write flight logs to {args.log_dir}: {exc}; flying without logs", file=sys.stderr)
+        recorder = FlightRecorder(args.log_dir, fc, instance=args.instance, sysid=args.sysid)
+        parts.append(recorder)
+        link.set_traffic_tap(recorder.tap)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the logs like Ctrl-C
     sim = SimLink(args.sim_host, args.sim_port, args.sysid)
     add_link_services(link, fc, sim, args, recorder)
@@ -208,17 +222,7 @@ def main(argv: list[str] | None = None) -> int:
         f"(from {args.api_local_port})",
         flush=True,
     )
-    try:
-        run_lockstep(sim, fc, link, recorder)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        link.close()
-        if saver is not None:
-            saver.close()
-        if recorder is not None:
-            recorder.close()
-    return 0
+    return sim, fc, link, recorder
 
 
 if __name__ == "__main__":

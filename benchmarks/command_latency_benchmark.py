@@ -1,30 +1,29 @@
 """Benchmark: how fast the flight controller acknowledges commands while sticks stream in.
 
 Starts the simulator and the flight controller (real time by default: ``--speed 1``), vehicle on
-the ground, disarmed.  A pymavlink-encoded client on the ground-station port (UDP 14550+I) then,
-for each MANUAL_CONTROL rate (``--rates``, Hz of wall time; 0 = no sticks): streams MANUAL_CONTROL
-with the sticks at centre from a paced thread, and sends ``--commands`` harmless COMMAND_LONGs
-(MAV_CMD_REQUEST_MESSAGE for AUTOPILOT_VERSION), one every COMMAND_PERIOD_S.  Each command goes
-out under its own source component, which its COMMAND_ACK echoes as ``target_component``, so
-acks are matched to commands even when several are outstanding.  Latency = send -> ack on the
-wall clock; a command without an ack within LOST_AFTER_S is lost.
+the ground, disarmed.  A pymavlink-encoded client on the stack's ground-station port (UDP
+14840+I, ``Stack.gcs_port``) then, for each MANUAL_CONTROL rate (``--rates``, Hz of wall time;
+0 = no sticks): streams MANUAL_CONTROL with the sticks at centre from a paced thread, and sends
+``--commands`` harmless COMMAND_LONGs (MAV_CMD_REQUEST_MESSAGE for AUTOPILOT_VERSION), one every
+COMMAND_PERIOD_S.  Each command goes out under its own source component, which its COMMAND_ACK
+echoes as ``target_component``, so acks are matched to commands even when several are
+outstanding.  Latency = send -> ack on the wall clock; a command without an ack within
+LOST_AFTER_S is lost.
 
-It prints each phase's progress as it goes and then a table: rate, commands, acked, lost,
-median / p95 / max latency in ms, and the median and max in control updates (the link updates
-every 20 ms of simulated time; the simulator's speed is measured from ATTITUDE.time_boot_ms
-against the wall clock, so the figure holds at any ``--speed``).  The flight controller answers
+A progress bar (stderr) counts the commands sent and acknowledged; then it prints a table: rate,
+commands, acked, lost, median / p95 / max latency in ms, and the median and max in control updates
+(the link updates every 20 ms of simulated time; the simulator's speed is measured from
+ATTITUDE.time_boot_ms against the wall clock, so the figure holds at any ``--speed``).  The flight controller answers
 what arrives at every 4 ms lockstep step (``GcsLink.poll``), so the expected median is a fraction
 of one update whatever the stick rate.  The link's ``rx_dropped`` is not printed: the flight
 controller process does not report it to the outside.
 
-Usage: ``python benchmarks/command_latency_benchmark.py [--instance N] [--speed S]
-[--rates 0,50,200] [--commands N] [--vehicle NAME]`` (default instance 27, clear of the tests'
-and the other benchmarks').
+Usage: ``python benchmarks/command_latency_benchmark.py [-i N] [--speed S] [--rates 0,50,200]
+[--commands N] [--vehicle NAME]`` (default instance 27, clear of the tests' and the other benchmarks').
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import socket
 import statistics
@@ -39,6 +38,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from gcs.launcher import Stack  # noqa: E402
+
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
 
 GCS_SYSID, STICKS_COMPID = 255, 190
 FIRST_COMMAND_COMPID = 1  # commands use source components 1..COMPIDS (never STICKS_COMPID)
@@ -130,7 +132,7 @@ def stream_sticks(gs: GroundStation, rate_hz: float, stop: threading.Event, sent
     sent.append(k)
 
 
-def run_phase(gs: GroundStation, rate_hz: float, n: int, first_compid: int) -> dict:
+def run_phase(gs: GroundStation, rate_hz: float, n: int, first_compid: int, progress: Progress) -> dict:
     """Sticks at ``rate_hz`` while ``n`` commands go out; latency of each (s, None if lost)."""
     stop, sticks_sent = threading.Event(), []
     sticks = None
@@ -147,14 +149,14 @@ def run_phase(gs: GroundStation, rate_hz: float, n: int, first_compid: int) -> d
         compid = FIRST_COMMAND_COMPID + (first_compid + k) % COMPIDS
         gs.acks.pop(compid, None)
         sent[compid] = gs.send(request, mavlink.MAVLink(None, GCS_SYSID, compid))
-        if (k + 1) % 10 == 0:
-            got = sum(1 for c in sent if c in gs.acks)
-            print(f"  {rate_hz:g} Hz: {k + 1}/{n} commands sent, {got} acked", flush=True)
+        progress.note(f"{sum(1 for c in sent if c in gs.acks)}/{k + 1} acked")
+        progress.done()
         time.sleep(COMMAND_PERIOD_S)
     end = time.perf_counter() + LOST_AFTER_S
     while time.perf_counter() < end and any(c not in gs.acks for c in sent):
         time.sleep(0.01)
     stop.set()
+    progress.note(f"{sum(1 for c in sent if c in gs.acks)}/{n} acked")
     if sticks is not None:
         sticks.join()
     wall = time.perf_counter() - phase_start
@@ -196,24 +198,29 @@ def report(rows: list[dict]) -> None:
     print(f"ack results: {', '.join(results) or 'none'}")
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--instance", type=int, default=27)
-    ap.add_argument("--speed", default="1", help="simulator speed: N x real time (default 1) or max")
-    ap.add_argument("--rates", default="0,50,200", help="MANUAL_CONTROL rates, Hz, comma-separated (0: none)")
-    ap.add_argument("--commands", type=int, default=50, help="commands per rate (default 50)")
-    ap.add_argument("--vehicle", default="quad_x")
-    args = ap.parse_args()
-    rates = [float(x) for x in args.rates.split(",") if x.strip()]
+def main(argv: list[str] | None = None) -> int:
+    ap = parser(__doc__)
+    add_instance(ap, 27)
+    ap.add_argument("--speed", default="1", help="simulator speed: N x real time, or max")
+    ap.add_argument("--rates", default="0,50,200", help="MANUAL_CONTROL rates, Hz (wall), comma-separated (0: none)")
+    ap.add_argument("--commands", type=int, default=50, help="commands (REQUEST_MESSAGE) sent per rate")
+    ap.add_argument("--vehicle", default="quad_x", help="vehicle file name (params/vehicles/) or path")
+    args = ap.parse_args(argv)
+    try:
+        rates = [float(x) for x in args.rates.split(",") if x.strip()]
+    except ValueError:
+        ap.error(f"argument --rates: comma-separated numbers, not {args.rates!r}")
     rows = []
-    with Stack(instance=args.instance, speed=args.speed, vehicle=args.vehicle, flight_logs=False) as stack:
+    progress = Progress(len(rates) * args.commands, "cmd", "starting the stack")
+    with progress, Stack(instance=args.instance, speed=args.speed, vehicle=args.vehicle, flight_logs=False) as stack:
         gs = GroundStation(stack.gcs_port, stack.sysid)
         try:
             gs.wait_ready(stack)
-            print(f"stack up (instance {args.instance}, speed {args.speed}); logs in {stack.log_dir}", flush=True)
+            progress.say(f"stack up (instance {args.instance}, speed {args.speed}); logs in {stack.log_dir}")
             for i, rate in enumerate(rates):
-                print(f"MANUAL_CONTROL at {rate:g} Hz, {args.commands} commands every {COMMAND_PERIOD_S} s", flush=True)
-                rows.append(run_phase(gs, rate, args.commands, i * args.commands))
+                progress.label(f"MANUAL_CONTROL {rate:g} Hz")
+                progress.say(f"MANUAL_CONTROL at {rate:g} Hz, {args.commands} commands every {COMMAND_PERIOD_S} s")
+                rows.append(run_phase(gs, rate, args.commands, i * args.commands, progress))
                 stack.check_alive()
         finally:
             gs.close()

@@ -19,14 +19,16 @@ body rates and velocity; the two are sampled at 50 Hz with different phases):
   against the truth's height above the start point;
 * velocity: horizontal and vertical, m/s.
 
-Also printed: the real-time factor of each flight (simulated / wall seconds).
+Also printed: the real-time factor of each flight (simulated / wall seconds).  A progress bar
+(stderr) counts the phases of every flight (ready, take-off, four corners, hover, landing) and shows
+the current flight's simulated seconds.
 
-Usage: ``python benchmarks/estimator_benchmark.py [--seeds 0 1 2] [--vehicle quad_x]``
+Usage: ``python benchmarks/estimator_benchmark.py [--seeds 0 1 2] [--vehicle quad_x] [--estimators 2 1]
+[-i N] [--fc-param NAME=VALUE]``
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -44,12 +46,16 @@ from mavsim_core import ports
 from mavsim_core import quaternion as quat  # noqa: E402
 from sitl.scenario import load_scenario  # noqa: E402
 
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
+
 ALT_M = 5.0
 SQUARE_M = 10.0
 HOVER_S = 20.0
 WIND = load_scenario("windy").parameters  # params/scenarios/windy.toml: the same wind as `sitl --scenario windy`
 EARTH_RADIUS_M = 6_378_137.0
 ESTIMATORS = {2: "EKF", 1: "Mahony"}
+PHASES = 8  # of each flight: ready, take-off, four corners, hover in wind, landed
 
 
 def _truth_at(truth: SimClient, time_ms: int):
@@ -122,12 +128,15 @@ def errors(rec: Recorder, truth: SimClient, home_truth_alt_m: float) -> dict:
     }
 
 
-def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str] = ()) -> dict:
+def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str], progress: Progress) -> dict:
+    """One flight on estimator ``group``; its errors against the truth and its real-time factor."""
+    progress.phase("starting the stack")
     with (
         Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, flight_logs=False) as stack,
         SimClient(ports.sim_component_port(instance)) as truth,
     ):
-        c = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
+        c = VehicleClient(stack.api_url, timeout_s=60, idle=progress.idle(stack.check_alive))
+        progress.watch(c)
         c.param_set("SYS_MC_EST_GROUP", group)
         for item in fc_params:
             name, value = item.split("=", 1)
@@ -136,6 +145,7 @@ def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str]
             c.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mid, 20_000).check()
         c.wait_until(c.prearm_ok, 120, "ready to arm")
         truth.wait_connected()
+        progress.done(phase="take-off")
         rec = Recorder()
         c.add_listener(rec)
         home_truth_alt = truth.latest_state.alt / 1000.0
@@ -146,17 +156,22 @@ def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str]
         c.wait_until(lambda: c.takeoff_done(ALT_M), 120, "take-off")
         home = c.latest("HOME_POSITION")
         n0, e0 = home.x, home.y
-        for dn, de in ((SQUARE_M, 0), (SQUARE_M, SQUARE_M), (0, SQUARE_M), (0, 0)):
+        for k, (dn, de) in enumerate(((SQUARE_M, 0), (SQUARE_M, SQUARE_M), (0, SQUARE_M), (0, 0))):
+            progress.done(phase=f"corner {k + 1} of 4")
             c.goto_ned(n0 + dn, e0 + de, home.z - ALT_M).check()
             c.wait_until(lambda: c.arrived(n0 + dn, e0 + de, 0.5, 0.5), 120, "corner")
+        progress.done(phase=f"hover {HOVER_S:g} s in wind")
         for name, value in WIND.items():
             truth.set(name, value)
         c.wait_sim_time(HOVER_S)
+        progress.done(phase="landing")
         c.land().check()
         c.wait_until(lambda: c.landed_state() == mavlink.MAV_LANDED_STATE_ON_GROUND, 180, "landed")
         rec.on = False
         rtf = (c.sim_time_s() - sim0) / (time.monotonic() - wall0)
         c.wait_until(c.landed_and_disarmed, 60, "disarmed")
+        progress.done(phase="landed")
+        progress.watch(None)
         c.close()
         out = errors(rec, truth, home_truth_alt)
         out["rtf"] = rtf
@@ -164,10 +179,12 @@ def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str]
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    ap.add_argument("--vehicle", default="quad_x")
-    ap.add_argument("--instance", type=int, default=25)
+    ap = parser(__doc__)
+    ap.add_argument(
+        "--seeds", type=int, nargs="+", default=[0, 1, 2], help="simulator seeds, one flight per estimator each"
+    )
+    ap.add_argument("--vehicle", default="quad_x", help="vehicle file name (params/vehicles/) or path")
+    add_instance(ap, 25)
     ap.add_argument(
         "--estimators",
         type=int,
@@ -193,15 +210,16 @@ def main(argv: list[str] | None = None) -> int:
         f"{'vel h':>8} {'vel v':>8} {'RTF':>6}"
     )
     summary: dict[int, list[dict]] = {g: [] for g in args.estimators}
-    for seed in args.seeds:
-        for g in args.estimators:
-            r = fly(args.vehicle, args.instance, seed, g, args.fc_param)
-            summary[g].append(r)
-            print(
-                f"{ESTIMATORS[g]:9} {seed:4d} {r['rp_deg']:9.3f}° {r['yaw_deg']:5.2f}° {r['h_m']:6.3f}m "
-                f"{r['v_m']:6.3f}m {r['vel_h']:5.3f}m/s {r['vel_v']:5.3f}m/s {r['rtf']:5.1f}x",
-                flush=True,
-            )
+    with Progress(PHASES * len(args.seeds) * len(args.estimators), "phase") as progress:
+        for seed in args.seeds:
+            for g in args.estimators:
+                progress.label(f"seed {seed} {ESTIMATORS[g]}")
+                r = fly(args.vehicle, args.instance, seed, g, args.fc_param, progress)
+                summary[g].append(r)
+                progress.say(
+                    f"{ESTIMATORS[g]:9} {seed:4d} {r['rp_deg']:9.3f}° {r['yaw_deg']:5.2f}° {r['h_m']:6.3f}m "
+                    f"{r['v_m']:6.3f}m {r['vel_h']:5.3f}m/s {r['vel_v']:5.3f}m/s {r['rtf']:5.1f}x"
+                )
     for g, rs in summary.items():
 
         def agg(k):

@@ -6,7 +6,8 @@ fix, exactly as the flight controller does (deferred mode: ``update_imu`` on the
 critical path, ``run_deferred`` after the motor commands), and prints the mean time per
 sample of each part for ``SYS_MC_EST_GROUP`` 2 (EKF selected) and 1 (Mahony selected;
 the other estimator always keeps running at 10 Hz).  Wall-clock microseconds on this
-machine: compare versions by alternating runs, not with another day's figure.
+machine: compare versions by alternating runs, not with another day's figure.  A progress bar
+(stderr) counts the simulated seconds fed to each estimator.  No options.
 
 Usage: ``python benchmarks/estimator_cost.py``
 """
@@ -25,9 +26,14 @@ from autopilot.estimation.estimator import Estimator  # noqa: E402
 from autopilot.param_catalogue import default_store
 from autopilot.topics import GpsSample, ImuSample  # noqa: E402
 
+from _cli import parser  # noqa: E402
+from _progress import Progress  # noqa: E402
+
 SECONDS = 60.0
 WARM_UP_S = 20.0  # converged before timing starts
 PERIOD_US = 4000
+SAMPLES_PER_S = 1_000_000 // PERIOD_US
+GROUPS = ((2, "EKF selected"), (1, "Mahony selected"))
 
 
 def samples(n: int) -> list[ImuSample]:
@@ -47,8 +53,8 @@ def samples(n: int) -> list[ImuSample]:
     ]
 
 
-def measure(group: int, imus: list[ImuSample]) -> tuple[float, float]:
-    """Mean µs per sample: (update_imu + update_gps, run_deferred)."""
+def measure(group: int, imus: list[ImuSample], progress: Progress) -> tuple[float, float]:
+    """Mean µs per sample: (update_imu + update_gps, run_deferred); one step of ``progress`` per simulated second."""
     params = default_store()
     params.set("SYS_MC_EST_GROUP", group)
     est = Estimator(params)
@@ -71,20 +77,25 @@ def measure(group: int, imus: list[ImuSample]) -> tuple[float, float]:
         if k >= warm:
             critical += t1 - t0
             deferred += t2 - t1
+        if (k + 1) % SAMPLES_PER_S == 0:
+            progress.done(phase="timed" if k >= warm else f"warm-up {WARM_UP_S:g} s (not timed)")
     n = len(imus) - warm
     return critical / n * 1e6, deferred / n * 1e6
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    parser(__doc__).parse_args(argv)  # --help, and no option
     imus = samples(int(SECONDS * 1e6 / PERIOD_US))
     print(f"estimators, mean per 4 ms IMU sample over {SECONDS - WARM_UP_S:.0f} s (in-process, this machine)")
-    for group, name in ((2, "EKF selected"), (1, "Mahony selected")):
-        critical, deferred = measure(group, imus)
-        print(
-            f"SYS_MC_EST_GROUP={group} ({name:15}): {critical:5.1f} us before the motor commands "
-            f"(output predictor, IMU sums), {deferred:5.1f} us after them (the 50 Hz filter run, GPS "
-            f"fusion), {critical + deferred:5.1f} us in all"
-        )
+    with Progress(int(SECONDS) * len(GROUPS), "sim s") as progress:
+        for group, name in GROUPS:
+            progress.label(f"SYS_MC_EST_GROUP={group}")
+            critical, deferred = measure(group, imus, progress)
+            progress.say(
+                f"SYS_MC_EST_GROUP={group} ({name:15}): {critical:5.1f} us before the motor commands "
+                f"(output predictor, IMU sums), {deferred:5.1f} us after them (the 50 Hz filter run, GPS "
+                f"fusion), {critical + deferred:5.1f} us in all"
+            )
     return 0
 
 

@@ -12,13 +12,15 @@ vehicle was armed).  Then it flies the demo square and lands.  It prints:
   the whole flight;
 - the landing error from the take-off point.
 
-Usage: ``python benchmarks/flight_benchmark.py [--instance N] [--hover S] [--vehicle NAME] [--param NAME=VALUE]``
-(``--param SDLOG_MODE=-1``: the flight without its ULog, to measure what logging costs).
+A progress bar (stderr) counts the flight's phases (ready, take-off, settle, hover, four corners,
+landing) and shows the simulated seconds flown.  ``--param SDLOG_MODE=-1``: the flight without its
+ULog, to measure what logging costs.
+
+Usage: ``python benchmarks/flight_benchmark.py [-i N] [--hover S] [--vehicle NAME] [--param NAME=VALUE]``
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import time
@@ -34,8 +36,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
+
 ALT_M = 5.0
 SIDE_M = 10.0
+PHASES = 9  # ready, take-off, settle, hover, four corners, landed
 
 
 class Truth:
@@ -60,29 +66,47 @@ def rms(a: np.ndarray) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--instance", type=int, default=20)
+    ap = parser(__doc__)
+    add_instance(ap, 20)
     ap.add_argument("--hover", type=float, default=30.0, help="hover duration, simulated seconds")
-    ap.add_argument("--vehicle", default="quad_x")
-    ap.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="a flight-controller parameter")
+    ap.add_argument("--vehicle", default="quad_x", help="vehicle file name (params/vehicles/) or path")
+    ap.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a flight-controller parameter for the flight (autopilot --params), repeatable",
+    )
     args = ap.parse_args(argv)
-    extra: list[str] = []
-    if args.param:
-        params_file = Path(tempfile.mkdtemp(prefix="flight-benchmark-")) / "benchmark.params"
-        params_file.write_text("".join(p.replace("=", " ", 1) + "\n" for p in args.param))  # MAVProxy's NAME VALUE
-        extra = ["--params", str(params_file)]
+    with tempfile.TemporaryDirectory(prefix="flight-benchmark-") as tmp, Progress(PHASES, "phase") as progress:
+        extra: list[str] = []
+        if args.param:
+            params_file = Path(tmp) / "benchmark.params"
+            params_file.write_text("".join(p.replace("=", " ", 1) + "\n" for p in args.param))  # MAVProxy's NAME VALUE
+            extra = ["--params", str(params_file)]
+        progress.label(f"{args.vehicle} flight")
+        progress.phase("starting the stack")
+        return fly(args, extra, progress)
 
+
+def fly(args, extra: list[str], progress: Progress) -> int:
+    """The flight and its figures (printed)."""
     with Stack(instance=args.instance, speed="max", vehicle=args.vehicle, extra_autopilot_args=extra) as stack:
         truth = Truth(ports.sim_component_port(args.instance))
-        client = VehicleClient(stack.api_url, timeout_s=60, idle=lambda: (truth.pump(), stack.check_alive()))
+        idle = progress.idle(lambda: (truth.pump(), stack.check_alive()))
+        client = VehicleClient(stack.api_url, timeout_s=60, idle=idle)
+        progress.watch(client)
         client.wait_until(client.prearm_ok, 120, "ready to arm")
+        progress.done(phase="take-off")
         truth.pump()
         start_truth = truth.pos_ned.copy()
         wall_flight0, sim_flight0 = time.monotonic(), client.sim_time_s()
         client.arm().check()
         client.takeoff(client.home().alt_amsl_m + ALT_M).check()
         client.wait_until(lambda: client.takeoff_done(ALT_M), 120, "take-off to 5 m")
+        progress.done(phase="settle")
         client.wait_sim_time(5.0)  # settle
+        progress.done(phase=f"hover {args.hover:g} s")
         target = start_truth + np.array([0.0, 0.0, -ALT_M])
         samples, est_err = [], []
         wall0, sim0 = time.monotonic(), truth.time_s
@@ -102,15 +126,20 @@ def main(argv: list[str] | None = None) -> int:
         err = np.array(samples)
         eerr = np.array(est_err) if est_err else np.zeros((0, 3))
 
-        for n, e in ((SIDE_M, 0.0), (SIDE_M, SIDE_M), (0.0, SIDE_M), (0.0, 0.0)):
+        for k, (n, e) in enumerate(((SIDE_M, 0.0), (SIDE_M, SIDE_M), (0.0, SIDE_M), (0.0, 0.0))):
+            progress.done(phase=f"corner {k + 1} of 4")
             client.goto_ned(n, e, -ALT_M).check()
             client.wait_until(lambda: client.arrived(n, e, 0.3, 0.3), 120, f"corner {n:.0f},{e:.0f}")
+        progress.done(phase="landing")
         client.land().check()
         client.wait_until(client.landed_and_disarmed, 180, "landed and disarmed")
+        progress.done(phase="landed")
         truth.pump()
         flight_rtf = (client.sim_time_s() - sim_flight0) / (time.monotonic() - wall_flight0)
         land_err = float(np.hypot(*(truth.pos_ned - start_truth)[:2]))
+        progress.watch(None)
         client.close()
+    progress.close()
 
     print(f"vehicle {args.vehicle}, hover {args.hover:.0f} s at {ALT_M:.0f} m, {len(err)} truth samples (50 Hz)")
     print(

@@ -19,13 +19,14 @@ acknowledged within one retry and executed and the ratio stays within 2 % of 1 (
 simulation catching up after a stall), at that rate and every lower one.  The machine is shared: a
 ratio below 1 may be another program's load; run it twice.
 
-Usage: ``python benchmarks/flood_benchmark.py [--instance 29] [--speed 1]
+A progress bar (stderr) counts the LAND trials of every rate and how many were acknowledged.
+
+Usage: ``python benchmarks/flood_benchmark.py [-i 29] [--speed 1]
 [--rates 0,1000,2500,5000,10000,20000] [--trials 5] [--kinds random,foreign,heartbeat,param_read]``.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import sys
@@ -43,6 +44,8 @@ from gcs.launcher import Stack  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 from mavsim_core import px4_modes as modes  # noqa: E402
 
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
 from link_flood import KINDS, Flood, GroundStation  # noqa: E402  (tests/link_flood.py)
 
 ALT_M = 15.0
@@ -58,14 +61,17 @@ def cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def take_off(stack: Stack) -> None:
+def take_off(stack: Stack, progress: Progress) -> None:
     """Arm and climb to ALT_M with the bundled client on the API port (closed afterwards)."""
-    with VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive) as client:
+    with VehicleClient(stack.api_url, timeout_s=60, idle=progress.idle(stack.check_alive)) as client:
+        progress.watch(client)
         client.wait_until(lambda: client.prearm_ok(), 90, "ready to arm")
+        progress.phase(f"take-off to {ALT_M:g} m")
         client.param_set("MIS_TAKEOFF_ALT", ALT_M)
         client.arm(timeout_s=10).check()
         client.takeoff().check()
         client.wait_until(lambda: client.takeoff_done(ALT_M, 1.0), 120, f"hover at {ALT_M:g} m")
+        progress.watch(None)
 
 
 def land_trial(gs: GroundStation, compid: int) -> dict:
@@ -85,12 +91,19 @@ def land_trial(gs: GroundStation, compid: int) -> dict:
     return {"attempts": attempts, "latency": latency, "result": result, "executed": executed}
 
 
-def run_phase(gs: GroundStation, flood: Flood, stack: Stack, rate: float, trials: int, first_compid: int) -> dict:
+def run_phase(
+    gs: GroundStation, flood: Flood, stack: Stack, rate: float, trials: int, first_compid: int, progress: Progress
+) -> dict:
+    """``trials`` LAND trials under ``rate`` junk datagrams per second; the figures of the phase."""
     flood.rate_hz = rate
     time.sleep(WARMUP_S)
     pids = stack.procs["autopilot"].pid, stack.procs["sitl"].pid, flood.pid, os.getpid()
     t0, sent0, cpu0 = time.perf_counter(), flood.sent, [cpu_s(p) for p in pids]
-    rows = [land_trial(gs, 1 + (first_compid + k) % 150) for k in range(trials)]
+    rows = []
+    for _ in range(trials):
+        rows.append(land_trial(gs, 1 + (first_compid + len(rows)) % 150))
+        progress.note(f"{sum(r['latency'] is not None for r in rows)}/{len(rows)} acked")
+        progress.done()
     t1, sent1, cpu1 = time.perf_counter(), flood.sent, [cpu_s(p) for p in pids]
     flood.rate_hz = 0
     stack.check_alive()
@@ -127,31 +140,44 @@ def report(phases: list[dict]) -> None:
           f"retry and executed, the real-time factor within {1 - RTF_OK:.0%} of the no-flood phase's")  # fmt: skip
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--instance", type=int, default=29)
-    ap.add_argument("--speed", default="1", help="simulator speed (default 1: real time)")
+def main(argv: list[str] | None = None) -> int:
+    ap = parser(__doc__)
+    add_instance(ap, 29)
+    ap.add_argument("--speed", default="1", help="simulator speed: N x real time, or max")
     ap.add_argument(
         "--rates", default="0,1000,2500,5000,10000,20000", help="junk datagrams per second, comma-separated"
     )
     ap.add_argument("--trials", type=int, default=5, help="LAND commands per rate")
     ap.add_argument("--kinds", default=",".join(KINDS), help=f"junk kinds, comma-separated, of {', '.join(KINDS)}")
-    args = ap.parse_args()
-    rates = [float(x) for x in args.rates.split(",") if x.strip()]
+    args = ap.parse_args(argv)
+    try:
+        rates = [float(x) for x in args.rates.split(",") if x.strip()]
+    except ValueError:
+        ap.error(f"argument --rates: comma-separated numbers, not {args.rates!r}")
     kinds = tuple(k.strip() for k in args.kinds.split(",") if k.strip())
+    if unknown := set(kinds) - set(KINDS):
+        ap.error(f"argument --kinds: {', '.join(sorted(unknown))} not one of {', '.join(KINDS)}")
     phases = []
-    with Stack(instance=args.instance, speed=args.speed, flight_logs=False) as stack:
+    progress = Progress(len(rates) * args.trials, "LAND", "starting the stack")
+    with progress, Stack(instance=args.instance, speed=args.speed, flight_logs=False) as stack:
         gs = GroundStation(stack.gcs_port, stack.sysid)
         fc = ("127.0.0.1", ports.gcs_local_port(args.instance))
         try:
-            take_off(stack)
-            print(f"hovering at {ALT_M:g} m (instance {args.instance}, speed {args.speed}); logs in {stack.log_dir}")
+            progress.label("take-off")
+            take_off(stack, progress)
+            progress.say(
+                f"hovering at {ALT_M:g} m (instance {args.instance}, speed {args.speed}); logs in {stack.log_dir}"
+            )
             with Flood(fc, stack.sysid, kinds) as flood:
                 for i, rate in enumerate(rates):
-                    phases.append(run_phase(gs, flood, stack, rate, args.trials, i * args.trials))
+                    progress.label(f"flood {rate:g}/s")
+                    progress.phase("")
+                    phases.append(run_phase(gs, flood, stack, rate, args.trials, i * args.trials, progress))
                     p = phases[-1]
                     acked = sum(r["latency"] is not None for r in p["trials"])
-                    print(f"  {rate:g}/s: sent {p['sent_hz']:.0f}/s, RTF {p['rtf']:.3f}, {acked}/{args.trials} acked")
+                    progress.say(
+                        f"  {rate:g}/s: sent {p['sent_hz']:.0f}/s, RTF {p['rtf']:.3f}, {acked}/{args.trials} acked"
+                    )
         finally:
             gs.close()
     report(phases)

@@ -8,7 +8,8 @@ seeds.  Speed 0 is the static pad (the path does not matter: one cell per wind a
 
 Each landing is its own simulator + flight-controller pair on its own instance number
 (``--base-instance`` + k, k < ``--jobs``), run ``--jobs`` at a time (default: the number of
-cores).  Every landing prints a progress line (runs done, failures, ETA); the results go to a
+cores).  A progress bar (stderr) counts the landings done and the failures, with the time left;
+every landing prints its line (its cell, error or reason, real-time factor); the results go to a
 CSV (one row per landing, appended as each ends) and a PNG summary, and a table per cell is
 printed at the end: success rate, touchdown error mean / p95 / max, time to land, real-time
 factor (simulated / wall seconds of the whole flight, camera and detection on).
@@ -17,8 +18,10 @@ Targets (issue 13): static pad error <= 5 cm in 10 of 10 runs, calm and windy; 1
 <= 10 cm in 10 of 10; 1 m/s circle >= 90 % success with error <= 15 cm; 3 m/s line >= 90 %
 success with error <= 15 cm; real-time factor >= 5x.
 
+The whole default grid is 68 cells, 680 landings (hours); choose a few cells with the flags.
+
 Usage: ``python benchmarks/landing_benchmark.py [--runs 10] [--speeds 0 1 3] [--paths line circle]
-[--winds calm windy] [--vehicles quad_x firefly] [--jobs N] [--out DIR]``
+[--winds calm windy] [--vehicles quad_x firefly] [--jobs N] [--out DIR] [--keep-logs] [--fc-param NAME=VALUE]``
 """
 
 from __future__ import annotations
@@ -31,13 +34,10 @@ import queue
 import re
 import sys
 import threading
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-
-from mavsim_core import ports
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -45,7 +45,11 @@ from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 from gcs.launcher.landing_run import LandingResult, LandingSetup, fly_landing  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
+from mavsim_core import ports  # noqa: E402
 from sitl.ugv_paths import Pose2  # noqa: E402
+
+from _cli import instance_number, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
 
 BASE_INSTANCE = 11  # 11-19 (one per job): apart from people's 0-9, 10, the other benchmarks' 20-27 and the tests' 30-99
 
@@ -197,14 +201,20 @@ def plot(rows: list[dict], path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--runs", type=int, default=10, help="landings per cell (default 10)")
-    ap.add_argument("--speeds", type=float, nargs="+", default=[0, 0.5, 1, 2, 3], help="UGV speeds, m/s")
-    ap.add_argument("--paths", nargs="+", default=["line", "circle", "figure8", "random"])
-    ap.add_argument("--winds", nargs="+", default=["calm", "windy"], choices=["calm", "windy"])
-    ap.add_argument("--vehicles", nargs="+", default=["quad_x", "firefly"])
-    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="landings at a time (default: cores)")
-    ap.add_argument("--base-instance", type=int, default=BASE_INSTANCE)
+    ap = parser(__doc__)
+    ap.add_argument("--runs", type=int, default=10, help="landings per cell")
+    ap.add_argument(
+        "--speeds", type=float, nargs="+", default=[0, 0.5, 1, 2, 3], help="UGV speeds, m/s (0: static pad)"
+    )
+    ap.add_argument(
+        "--paths", nargs="+", default=["line", "circle", "figure8", "random"], help="UGV paths (for speeds above 0)"
+    )
+    ap.add_argument("--winds", nargs="+", default=["calm", "windy"], choices=["calm", "windy"], help="wind cases")
+    ap.add_argument("--vehicles", nargs="+", default=["quad_x", "firefly"], help="vehicle file names")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="landings at a time (the number of cores)")
+    ap.add_argument(
+        "--base-instance", type=instance_number, default=BASE_INSTANCE, help="instance of job 0; job k uses base + k"
+    )
     ap.add_argument("--out", type=Path, default=Path("landing_benchmark"), help="CSV, PNG and logs go here")
     ap.add_argument("--keep-logs", action="store_true", help="keep each landing's flight logs under --out")
     ap.add_argument(
@@ -215,8 +225,10 @@ def main(argv: list[str] | None = None) -> int:
         help="a flight-controller parameter for every landing (e.g. PLD_PREDICTOR=1: the polynomial predictor)",
     )
     args = ap.parse_args(argv)
-    if args.jobs > 9:
-        ap.error("--jobs at most 9 (instances base..base+8, clear of the other benchmarks)")
+    if not 1 <= args.jobs <= 9:
+        ap.error("argument --jobs: 1 to 9 (instances base..base+8, clear of the other benchmarks)")
+    if args.base_instance + args.jobs - 1 > ports.MAX_INSTANCE:
+        ap.error(f"argument --base-instance: {args.jobs} jobs need instances up to {ports.MAX_INSTANCE}")
     args.out.mkdir(parents=True, exist_ok=True)
     work = [(cell, k) for cell in cells_from(args) for k in range(args.runs)]
     csv_path = args.out / "landings.csv"
@@ -226,12 +238,22 @@ def main(argv: list[str] | None = None) -> int:
         fc_params = args.out / "fc.params"
         fc_params.write_text("".join(f"{a.split('=', 1)[0]} {a.split('=', 1)[1]}\n" for a in args.fc_param))
     print(f"{len(work)} landings, {args.jobs} at a time; results in {csv_path}", flush=True)
+    with Progress(len(work), "landing", "landings") as progress:
+        progress.note("failures 0")
+        rows = run_campaign(work, args, csv_path, fc_params, progress)
+    print("\n" + summarise(rows))
+    plot(rows, args.out / "landings.png")
+    print(f"\nCSV: {csv_path}\nPNG: {args.out / 'landings.png'}")
+    return 0
+
+
+def run_campaign(work: list, args: argparse.Namespace, csv_path: Path, fc_params: Path | None, progress: Progress):
+    """Fly every (cell, run) of ``work``, ``args.jobs`` at a time; the CSV rows, in the order they ended."""
     todo: queue.Queue = queue.Queue()
     for item in work:
         todo.put(item)
     rows: list[dict] = []
     lock = threading.Lock()
-    t0 = time.monotonic()
 
     def worker(slot: int) -> None:
         while True:
@@ -247,24 +269,21 @@ def main(argv: list[str] | None = None) -> int:
             with lock:
                 rows.append(row)
                 _append_csv(csv_path, row)
-                done, fails = len(rows), sum(not r["success"] for r in rows)
-                eta = (time.monotonic() - t0) / done * (len(work) - done)
-                print(
-                    f"[{done}/{len(work)}] {cell.label()} #{k}: "
+                fails = sum(not r["success"] for r in rows)
+                progress.say(
+                    f"[{len(rows)}/{len(work)}] {cell.label()} #{k}: "
                     + (f"landed, error {res.touchdown_error_m * 100:.1f} cm" if res.success else f"FAILED {res.reason}")
-                    + f", RTF {res.real_time_factor:.1f}; failures {fails}; ETA {eta / 60:.1f} min",
-                    flush=True,
+                    + f", RTF {res.real_time_factor:.1f}"
                 )
+                progress.note(f"failures {fails}")
+                progress.done()
 
     threads = [threading.Thread(target=worker, args=(j,)) for j in range(args.jobs)]
     for th in threads:
         th.start()
     for th in threads:
         th.join()
-    print("\n" + summarise(rows))
-    plot(rows, args.out / "landings.png")
-    print(f"\nCSV: {csv_path}\nPNG: {args.out / 'landings.png'}")
-    return 0
+    return rows
 
 
 def _append_csv(path: Path, row: dict) -> None:

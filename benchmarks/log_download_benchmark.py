@@ -7,12 +7,14 @@ with pymavlink asking for the whole file in one LOG_REQUEST_DATA.  Both copies a
 the file on disk.  Prints the log's size and simulated duration and each download's wall time and
 rate.
 
-Usage: ``python benchmarks/log_download_benchmark.py [--speed 1|max] [--hover S] [--instance N]``
+A progress bar (stderr) counts the phases (ready, take-off, hover, landing, logs closed, the two
+downloads) and shows the simulated seconds flown.
+
+Usage: ``python benchmarks/log_download_benchmark.py [--speed 1|max] [--hover S] [-i N]``
 """
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import os
 import sys
@@ -28,20 +30,31 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
+
 ALT_M = 5.0
+PHASES = 7  # ready, take-off, hover, landed, logs closed, MAVSDK's download, pymavlink's
 
 
-def fly(stack: Stack, hover_s: float) -> None:
-    client = VehicleClient(stack.api_url, timeout_s=120, idle=stack.check_alive)
+def fly(stack: Stack, hover_s: float, progress: Progress) -> None:
+    """Take off, hover ``hover_s`` simulated seconds, land; wait until the flight's logs are closed."""
+    client = VehicleClient(stack.api_url, timeout_s=120, idle=progress.idle(stack.check_alive))
+    progress.watch(client)
     try:
         client.wait_until(client.prearm_ok, 120, "ready to arm")
+        progress.done(phase="take-off")
         client.arm().check()
         client.takeoff(client.home().alt_amsl_m + ALT_M).check()
         client.wait_until(lambda: client.takeoff_done(ALT_M), 120, "take-off")
+        progress.done(phase=f"hover {hover_s:g} s")
         client.wait_sim_time(hover_s)
+        progress.done(phase="landing")
         client.land().check()
         client.wait_until(client.landed_and_disarmed, 180, "landed and disarmed")
+        progress.done(phase="closing the logs")
     finally:
+        progress.watch(None)
         client.close()
     deadline = time.monotonic() + 60
     while "flight log closed" not in stack.log_path("autopilot").read_text():
@@ -88,22 +101,28 @@ def pymavlink_download(stack: Stack) -> tuple[bytes, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--speed", default="max", help="1 (real time) or max (lockstep as fast as it goes)")
     ap.add_argument("--hover", type=float, default=30.0, help="hover duration, simulated seconds")
-    ap.add_argument("--instance", type=int, default=28)
+    add_instance(ap, 28)
     args = ap.parse_args(argv)
-    with Stack(instance=args.instance, speed=args.speed) as stack:
-        fly(stack, args.hover)
-        on_disk = sorted(stack.log_dir.glob("*.ulg"))[-1].read_bytes()
-        path = Path(tempfile.mkdtemp(prefix="log-download-")) / "flight.ulg"
-        size, mavsdk_s = asyncio.run(mavsdk_download(stack, path))
-        assert path.read_bytes() == on_disk, "MAVSDK's copy differs from the file"
-        data, pymavlink_s = pymavlink_download(stack)
-        assert data == on_disk, "pymavlink's copy differs from the file"
-    from pyulog import ULog
+    with tempfile.TemporaryDirectory(prefix="log-download-") as tmp, Progress(PHASES, "phase") as progress:
+        progress.label(f"speed {args.speed}")
+        progress.phase("starting the stack")
+        path = Path(tmp) / "flight.ulg"
+        with Stack(instance=args.instance, speed=args.speed) as stack:
+            fly(stack, args.hover, progress)
+            on_disk = sorted(stack.log_dir.glob("*.ulg"))[-1].read_bytes()
+            progress.done(phase="MAVSDK download")
+            size, mavsdk_s = asyncio.run(mavsdk_download(stack, path))
+            assert path.read_bytes() == on_disk, "MAVSDK's copy differs from the file"
+            progress.done(phase="pymavlink download")
+            data, pymavlink_s = pymavlink_download(stack)
+            assert data == on_disk, "pymavlink's copy differs from the file"
+            progress.done(phase="done")
+        from pyulog import ULog
 
-    log = ULog(str(path))
+        log = ULog(str(path))
     duration_s = (log.last_timestamp - log.start_timestamp) / 1e6
     print(f"speed {args.speed}: ULog of {size / 1e6:.2f} MB for {duration_s:.0f} simulated seconds of flight")
     print(f"MAVSDK LogFiles: {mavsdk_s:.2f} s wall, {size / mavsdk_s / 1e6:.2f} MB/s")

@@ -10,14 +10,16 @@ Starts the simulator and the flight controller (``--speed max``, lockstep), then
    distance from the true position to the nearest leg, RMS and maximum over the legs' straight
    parts and corners, and each corner's closest approach.
 
-Usage: ``python benchmarks/mission_benchmark.py [--instance N] [--side M] [--vehicle NAME] [--speed S]
-[--no-flight]`` (default instance 26, clear of the tests' and the other benchmarks').  The flight
-controller answers a request within one 4 ms lockstep step, so at ``--speed 1`` an item takes 4 ms.
+The flight controller answers a request within one 4 ms lockstep step, so at ``--speed 1`` an item
+takes 4 ms.  A progress bar (stderr) counts the phases (ready, the two transfers, the mission's
+start, each of its items, the landing) and shows the simulated seconds flown.
+
+Usage: ``python benchmarks/mission_benchmark.py [-i N] [--side M] [--vehicle NAME] [--speed S]
+[--no-flight]``
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -32,10 +34,15 @@ from gcs.launcher import Stack  # noqa: E402
 from gcs.mission_transfer import download, upload  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
 from mavsim_core import mission_items as mi  # noqa: E402
-from mavsim_core import ports
+from mavsim_core import ports  # noqa: E402
+
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
 
 HOME = (47.397742, 8.545594)  # the simulator's default home
 ALT_M = 8.0
+TRANSFER_ITEMS = (100, 500)
+FLIGHT_PHASES = 7  # the mission started, items 1-5 current in turn, landed
 
 
 def latlon_e7(north_m: float, east_m: float) -> tuple[int, int]:
@@ -67,7 +74,8 @@ def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(p - (a + t * ab)))
 
 
-def fly_square(client: VehicleClient, truth: SimClient, side: float) -> dict:
+def fly_square(client: VehicleClient, truth: SimClient, side: float, progress: Progress) -> dict:
+    """Upload and fly the square mission; the cross-track figures of its legs against the truth."""
     corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side), (0.0, 0.0)]
     items = [item(0, mi.NAV_TAKEOFF, 0, 0, ALT_M)]
     items += [item(k + 1, mi.NAV_WAYPOINT, n, e, ALT_M) for k, (n, e) in enumerate(corners[1:])]
@@ -76,15 +84,19 @@ def fly_square(client: VehicleClient, truth: SimClient, side: float) -> dict:
     client.wait_until(lambda: client.prearm_ok() and not client.armed(), 90, "ready to arm")
     client.set_mode("MISSION")
     client.arm()
+    progress.done(phase="take-off (item 0)")
     current = {}
 
     def on(msg) -> None:
         if msg.get_type() == "MISSION_CURRENT":
+            if msg.seq not in current and 1 <= msg.seq < len(items):
+                progress.done(phase=f"item {msg.seq} of {len(items) - 1}")
             current[msg.seq] = current.get(msg.seq) or truth.latest().time_ms
 
     client.add_listener(on)
     client.wait_until(lambda: not client.armed() and len(current) > 3, 300, "the mission's landing")
     client.remove_listener(on)
+    progress.finish("landed")
     # the legs: from arriving at the first corner (current item 2) to the last corner (item 5 done)
     start, end = current[2], current.get(6, truth.latest().time_ms)
     samples = [s for s in truth.since(start) if s.time_ms <= end]
@@ -99,33 +111,37 @@ def fly_square(client: VehicleClient, truth: SimClient, side: float) -> dict:
     }  # fmt: skip
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--instance", type=int, default=26)
-    ap.add_argument("--side", type=float, default=30.0, help="side of the square mission, m (default 30)")
-    ap.add_argument("--vehicle", default="quad_x")
-    ap.add_argument("--speed", default="max", help="simulator speed: max (default) or N x real time")
+def main(argv: list[str] | None = None) -> int:
+    ap = parser(__doc__)
+    add_instance(ap, 26)
+    ap.add_argument("--side", type=float, default=30.0, help="side of the square mission, m")
+    ap.add_argument("--vehicle", default="quad_x", help="vehicle file name (params/vehicles/) or path")
+    ap.add_argument("--speed", default="max", help="simulator speed: max or N x real time")
     ap.add_argument("--no-flight", action="store_true", help="only the transfer times")
-    args = ap.parse_args()
-    truth = SimClient(ports.sim_component_port(args.instance))
-    try:
+    args = ap.parse_args(argv)
+    progress = Progress(1 + len(TRANSFER_ITEMS) + (0 if args.no_flight else FLIGHT_PHASES), "phase", "mission")
+    progress.phase("starting the stack")
+    with progress, SimClient(ports.sim_component_port(args.instance)) as truth:
         with Stack(instance=args.instance, speed=args.speed, vehicle=args.vehicle, flight_logs=False) as stack:
-            with VehicleClient(f"udpin:0.0.0.0:{14550 + args.instance}", timeout_s=60, idle=stack.check_alive) as c:
+            with VehicleClient(stack.gcs_url, timeout_s=60, idle=progress.idle(stack.check_alive)) as c:
+                progress.watch(c)
                 c.wait_until(c.prearm_ok, 90, "ready to arm")
-                for n in (100, 500):
+                for n in TRANSFER_ITEMS:
+                    progress.done(phase=f"{n} items up and down")
                     up, down = transfer_times(c, n)
-                    print(f"{n:4d} items: upload {up:.3f} s, download {down:.3f} s (speed {args.speed})", flush=True)
+                    progress.say(f"{n:4d} items: upload {up:.3f} s, download {down:.3f} s (speed {args.speed})")
                 if args.no_flight:
+                    progress.done(phase="done")
                     return 0
-                r = fly_square(c, truth, args.side)
-        print(
-            f"4-leg mission, {args.side:g} m square at cruise speed ({args.vehicle}): "
-            f"cross-track RMS {r['rms']:.3f} m, "
-            f"max {r['max']:.3f} m; mean ground speed {r['mean_speed']:.2f} m/s over {r['duration_s']:.1f} s"
-        )
-        print("closest approach to each corner: " + ", ".join(f"{d:.2f} m" for d in r["closest"]))
-    finally:
-        truth.close()
+                progress.done(phase="mission upload, arming")
+                r = fly_square(c, truth, args.side, progress)
+                progress.watch(None)
+    print(
+        f"4-leg mission, {args.side:g} m square at cruise speed ({args.vehicle}): "
+        f"cross-track RMS {r['rms']:.3f} m, "
+        f"max {r['max']:.3f} m; mean ground speed {r['mean_speed']:.2f} m/s over {r['duration_s']:.1f} s"
+    )
+    print("closest approach to each corner: " + ", ".join(f"{d:.2f} m" for d in r["closest"]))
     return 0
 
 

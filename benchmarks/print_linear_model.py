@@ -1,4 +1,4 @@
-"""Print the hover linearisation ([F eqs. 4.17-4.19] of a vehicle.
+"""Print the hover linearisation ([F] eqs. 4.17-4.19) of a vehicle.
 
 A and B come from sitl.linearize.linearize_hover (central differences through the
 simulator's MuJoCo model); the largest difference from the corrected analytic model
@@ -6,12 +6,13 @@ of [F] (sitl.linearize.seed_hover_model) and the eigenvalues of A follow.
 Frames: state (x_n, y_n, z_n NED m; u, v, w FRD m/s; phi, theta, psi rad; p, q, r FRD
 rad/s), input (T - m g N; tau_roll, tau_pitch, tau_yaw FRD N m).
 
+A tool of a few seconds (most of it imports): no progress bar.
+
 Usage: ``python benchmarks/print_linear_model.py firefly [--aero] [--yaw-deg 30]``
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -23,6 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from params.vehicle import load_vehicle  # noqa: E402
 from sitl.linearize import linearize_hover, seed_hover_model  # noqa: E402
 
+from _cli import parser  # noqa: E402
+
 
 def table(matrix: np.ndarray, rows, cols) -> str:
     width = 11
@@ -33,12 +36,12 @@ def table(matrix: np.ndarray, rows, cols) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> None:
+    ap = parser(__doc__, progress=False)
     ap.add_argument("vehicle", nargs="?", default="quad_x", help="vehicle name or TOML path")
     ap.add_argument("--aero", action="store_true", help="include rotor drag, rolling moment and body drag")
     ap.add_argument("--yaw-deg", type=float, default=0.0, help="hover heading, degrees from North")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     spec = load_vehicle(args.vehicle)
     yaw = math.radians(args.yaw_deg)
     lm = linearize_hover(spec, include_aero=args.aero, yaw_rad=yaw)

@@ -17,29 +17,35 @@ Errors are ground truth (the simulator's LOCAL_POSITION_NED, float metres) again
 the commanded point.  Real-time factor = simulated seconds / wall seconds over the
 windy hover (all effects on) and over the whole flight.
 
-Usage: ``python benchmarks/vehicle_benchmark.py [--vehicles quad_x firefly] [--hover S] [--seed N]``
+A progress bar (stderr) counts the phases of each vehicle's flight (the numbered steps above, the
+settling between them) and shows its simulated seconds.
+
+Usage: ``python benchmarks/vehicle_benchmark.py [--vehicles quad_x firefly] [--hover S] [--seed N] [-i N]
+[--sim-param NAME=VALUE] [--fc-param NAME=VALUE]``
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from mavsim_core import ports
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gcs.client import VehicleClient  # noqa: E402
 from gcs.launcher import Stack  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
+from mavsim_core import ports  # noqa: E402
 from sitl.scenario import load_scenario  # noqa: E402
+
+from _cli import add_instance, parser  # noqa: E402
+from _progress import Progress  # noqa: E402
 
 ALT_M = 5.0
 STEP_M = 10.0
+PHASES = 9  # of each flight: ready, take-off, settle, calm hover, step, back, wind settle, wind hover, landed
 WIND = load_scenario("windy").parameters  # params/scenarios/windy.toml: the same wind as `sitl --scenario windy`
 
 
@@ -108,17 +114,22 @@ def step_response(truth: SimClient, client: VehicleClient, start: np.ndarray, se
     }
 
 
-def fly(vehicle: str, instance: int, hover_s: float, seed: int, sim_params: list[str], fc_params: list[str]) -> dict:
+def fly(vehicle: str, instance: int, args, progress: Progress) -> dict:
+    """One vehicle's flight (the module docstring's steps); its figures."""
     out: dict = {"vehicle": vehicle}
-    extra = [a for p in sim_params for a in ("--param", p)]
+    extra = [a for p in args.sim_param for a in ("--param", p)]
+    hover_s = args.hover
+    progress.phase("starting the stack")
     with (
-        Stack(instance=instance, speed="max", vehicle=vehicle, seed=seed, extra_sitl_args=extra) as stack,
+        Stack(instance=instance, speed="max", vehicle=vehicle, seed=args.seed, extra_sitl_args=extra) as stack,
         SimClient(ports.sim_component_port(instance)) as truth,
     ):
-        client = VehicleClient(stack.api_url, timeout_s=60, idle=stack.check_alive)
+        client = VehicleClient(stack.api_url, timeout_s=60, idle=progress.idle(stack.check_alive))
+        progress.watch(client)
         client.wait_until(client.prearm_ok, 120, "ready to arm")
         truth.wait_connected()
-        for item in fc_params:
+        progress.done(phase="take-off")
+        for item in args.fc_param:
             name, value = item.split("=", 1)
             client.param_set(name, float(value))
         start = np.array(truth.latest().pos_ned_m)
@@ -126,7 +137,9 @@ def fly(vehicle: str, instance: int, hover_s: float, seed: int, sim_params: list
         client.arm().check()
         client.takeoff(client.home().alt_amsl_m + ALT_M).check()
         client.wait_until(lambda: client.takeoff_done(ALT_M), 120, "take-off to 5 m")
+        progress.done(phase="settle")
         client.wait_sim_time(5.0)
+        progress.done(phase=f"calm hover {hover_s:g} s")
         target = start + np.array([0.0, 0.0, -ALT_M])
         # The estimator's home is where it armed; commands are relative to it, truth to the start point.
         home = client.latest("HOME_POSITION")
@@ -134,30 +147,39 @@ def fly(vehicle: str, instance: int, hover_s: float, seed: int, sim_params: list
         err, _, ctrl = hover_errors(truth, client, target, hover_s, step_start)
         out["calm_h"], out["calm_v"] = rms(np.hypot(err[:, 0], err[:, 1])), rms(err[:, 2])
         out["calm_ctrl_h"] = rms(np.hypot(ctrl[:, 0], ctrl[:, 1]))
+        progress.done(phase=f"{STEP_M:g} m step")
         out["step"] = step_response(truth, client, step_start)
+        progress.done(phase="back")
         client.goto_ned(*step_start).check()
         client.wait_until(lambda: client.arrived(step_start[0], step_start[1], 0.3, 0.3), 120, "back")
+        progress.done(phase="wind on, settle")
         for name, value in WIND.items():
             truth.set(name, value)
         client.wait_sim_time(10.0)
+        progress.done(phase=f"windy hover {hover_s:g} s")
         err, rtf, ctrl = hover_errors(truth, client, target, hover_s, step_start)
         out["wind_h"], out["wind_v"] = rms(np.hypot(err[:, 0], err[:, 1])), rms(err[:, 2])
         out["wind_ctrl_h"] = rms(np.hypot(ctrl[:, 0], ctrl[:, 1]))
         out["wind_max_h"] = float(np.hypot(err[:, 0], err[:, 1]).max())
         out["rtf_wind"] = rtf
+        progress.done(phase="landing")
         client.land().check()
         client.wait_until(client.landed_and_disarmed, 180, "landed and disarmed")
+        progress.done(phase="landed")
         out["rtf_flight"] = (client.sim_time_s() - sim_flight0) / (time.monotonic() - wall_flight0)
+        progress.watch(None)
         client.close()
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--vehicles", nargs="+", default=["quad_x", "firefly"])
-    ap.add_argument("--instance", type=int, default=21)
+    ap = parser(__doc__)
+    ap.add_argument(
+        "--vehicles", nargs="+", default=["quad_x", "firefly"], help="vehicle file names (params/vehicles/) or paths"
+    )
+    add_instance(ap, 21)  # the first vehicle's; the next ones 22, 23 ...
     ap.add_argument("--hover", type=float, default=30.0, help="each hover, simulated seconds")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0, help="simulator seed (sensor noise, wind)")
     ap.add_argument(
         "--sim-param",
         action="append",
@@ -173,10 +195,15 @@ def main(argv: list[str] | None = None) -> int:
         help="a flight-controller parameter set before take-off (e.g. MPC_XY_P=1.2), repeatable",
     )
     args = ap.parse_args(argv)
-    results = [
-        fly(v, args.instance + i, args.hover, args.seed, args.sim_param, args.fc_param)
-        for i, v in enumerate(args.vehicles)
-    ]
+    if args.instance + len(args.vehicles) - 1 > ports.MAX_INSTANCE:
+        ap.error(
+            f"argument -i/--instance: {len(args.vehicles)} vehicles need instances N to N+{len(args.vehicles) - 1}"
+        )
+    with Progress(PHASES * len(args.vehicles), "phase") as progress:
+        results = []
+        for i, vehicle in enumerate(args.vehicles):
+            progress.label(vehicle)
+            results.append(fly(vehicle, args.instance + i, args, progress))
     if args.sim_param or args.fc_param:
         print("settings: " + " ".join(args.sim_param + args.fc_param))
     print(

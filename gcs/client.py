@@ -209,10 +209,17 @@ class VehicleClient(Connection):
         ground_speed_m_s: float = -1.0,
         yaw_deg: float = math.nan,
         timeout_s: float | None = None,
+        frame: int = mavlink.MAV_FRAME_GLOBAL,
     ) -> CommandResult:
-        """DO_REPOSITION to (lat, lon, alt AMSL) (:meth:`Action.goto_global`)."""
+        """DO_REPOSITION to (lat, lon, alt AMSL; above home in a relative ``frame``) (:meth:`Action.goto_global`)."""
         return self.action.goto_global(
-            lat_deg, lon_deg, alt_amsl_m, ground_speed_m_s=ground_speed_m_s, yaw_deg=yaw_deg, timeout_s=timeout_s
+            lat_deg,
+            lon_deg,
+            alt_amsl_m,
+            ground_speed_m_s=ground_speed_m_s,
+            yaw_deg=yaw_deg,
+            timeout_s=timeout_s,
+            frame=frame,
         )
 
     def ned_to_global(self, north_m: float, east_m: float, down_rel_home_m: float) -> tuple[float, float, float]:

@@ -13,9 +13,11 @@ from dataclasses import dataclass
 
 from pymavlink import mavutil
 
-mavlink = mavutil.mavlink
+# the ``gcs`` CLI's exit codes are those of every console script (mavsim_core/cli_args.py)
+from mavsim_core.cli_args import EXIT_FAILED as EXIT_REFUSED
+from mavsim_core.cli_args import EXIT_NO_ANSWER, EXIT_OK, EXIT_USAGE  # noqa: F401 - EXIT_OK: for the CLI modules
 
-EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_NO_ANSWER = 0, 1, 2, 3  # the ``gcs`` CLI's exit codes
+mavlink = mavutil.mavlink
 
 
 class GcsError(Exception):
@@ -37,6 +39,11 @@ class CommandRefused(GcsError):
     def __init__(self, result: "CommandResult") -> None:
         super().__init__(result.describe())
         self.result = result
+
+
+class CommandAborted(GcsError):
+    """The vehicle stopped carrying out a command before it was done (it left the mode the command put it
+    in, or disarmed).  The ``gcs`` CLI exits 1."""
 
 
 class ParamRefused(GcsError):
@@ -123,11 +130,13 @@ def report_error(exc: BaseException, command: str) -> int:
         res = exc.result
         reason = f": {res.reason}" if res.reason else " (the vehicle gave no reason)"
         text, code = f"{command} refused: {res.result_name} ({res.command_name}){reason}", EXIT_REFUSED
+    elif isinstance(exc, ParamUnknown):
+        text, code = f"{command}: {exc}", EXIT_REFUSED
     elif isinstance(exc, ParamRefused):
         text, code = f"{command} refused: {exc}", EXIT_REFUSED
     elif isinstance(exc, NoAnswer):
         text, code = f"{command}: no answer from the vehicle: {exc}", EXIT_NO_ANSWER
-    elif isinstance(exc, GcsTimeout):  # the vehicle answers but did not do it in time
+    elif isinstance(exc, (GcsTimeout, CommandAborted)):  # the vehicle answers but did not do it (in time)
         text, code = f"{command} failed: {exc}", EXIT_REFUSED
     elif isinstance(exc, (OSError, OverflowError)):  # the connection: a device, socket or port that cannot open
         text, code = f"cannot open the connection: {exc}", EXIT_USAGE

@@ -36,6 +36,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, TextIO
 
+from . import cli_types
 from .client import VehicleClient
 from .errors import GcsError
 
@@ -64,8 +65,12 @@ def add_fly_parser(sub: argparse._SubParsersAction) -> None:
         "Sticks return to centre when their key stops coming; key scripts: lines 'SECONDS KEY'.",
     )
     p.add_argument("--keys", metavar="FILE", default=None, help="a key script instead of the keyboard")
-    p.add_argument("--rate", type=float, default=25.0, metavar="HZ", help="MANUAL_CONTROL rate (default 25)")
-    p.add_argument("--stick", type=float, default=1.0, metavar="F", help="deflection per key, 0-1 (default 1)")
+    p.add_argument(
+        "--rate", type=cli_types.positive, default=25.0, metavar="HZ", help="MANUAL_CONTROL rate (default 25)"
+    )
+    p.add_argument(
+        "--stick", type=cli_types.fraction, default=1.0, metavar="F", help="deflection per key, 0-1 (default 1)"
+    )
 
 
 @dataclass

@@ -17,11 +17,11 @@ import sys
 import time
 
 from gcs.client import VehicleClient
+from gcs.errors import EXIT_NO_ANSWER, EXIT_OK, EXIT_REFUSED
 from gcs.mission_files import Plan, PlanFileError, read_plan_file, write_plan_file
 from gcs.mission_transfer import MissionRefused, download, upload
 from mavsim_core import mission_items as mi
 
-EXIT_OK, EXIT_REFUSED = 0, 1
 STATES = {0: "unknown", 1: "no mission", 2: "not started", 3: "active", 4: "paused", 5: "complete"}
 TYPES = {"mission": (mi.MISSION,), "fence": (mi.FENCE,), "rally": (mi.RALLY,), "all": (mi.MISSION, mi.FENCE, mi.RALLY)}
 
@@ -65,13 +65,13 @@ def run_mission_command(client: VehicleClient, args: argparse.Namespace) -> int:
             print(f"cleared: {args.type}")
             return EXIT_OK
         if action == "start":
-            client.set_mode("MISSION")
+            client.set_mode("MISSION").check()
             if not client.armed():
-                client.arm()
+                client.arm().check()
             print("mission started")
             return EXIT_OK
         if action == "pause":
-            client.set_mode("LOITER")
+            client.set_mode("LOITER").check()
             print("mission paused (LOITER)")
             return EXIT_OK
         return _status(client, args.once)
@@ -119,7 +119,7 @@ def _status(client: VehicleClient, once: bool) -> int:
         msg = client.recv("MISSION_CURRENT", 3.0)
         if msg is None:
             print("gcs: mission status: no MISSION_CURRENT from the vehicle", file=sys.stderr)
-            return 2
+            return EXIT_NO_ANSWER
         state = STATES.get(msg.mission_state, str(msg.mission_state))
         mode = client.mode_name() or "?"
         print(f"item {msg.seq} of {msg.total}, {state}, mode {mode}", flush=True)

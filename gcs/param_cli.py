@@ -41,11 +41,11 @@ from params.param_file import (
     same_value,
 )
 
+from . import cli_types
 from .client import VehicleClient
-from .errors import ParamListError, ParamRefused
+from .errors import EXIT_OK, EXIT_REFUSED, ParamListError, ParamRefused
 from .plugins.param import DownloadStats, VehicleParam, download_parameters
 
-EXIT_OK, EXIT_REFUSED = 0, 1
 DOWNLOAD_TIMEOUT_S = 30.0  # wall seconds for the full download unless --timeout is given
 
 
@@ -56,10 +56,12 @@ def add_param_parser(sub: argparse._SubParsersAction) -> None:
     s = psub.add_parser("list", help="download and print every parameter (progress on stderr)")
     s.add_argument("patterns", nargs="*", metavar="PATTERN", help="only names matching these (fnmatch, e.g. 'MPC_*')")
     g = psub.add_parser("get", help="print a parameter")
-    g.add_argument("name")
+    g.add_argument("name", type=cli_types.param_name, metavar="NAME")
     s = psub.add_parser("set", help="set a parameter (its type is read from the vehicle first)")
-    s.add_argument("name")
-    s.add_argument("value", type=float)
+    s.add_argument("name", type=cli_types.param_name, metavar="NAME")
+    s.add_argument(
+        "value", type=cli_types.finite, metavar="VALUE", help="a finite number (an integer for INT32 parameters)"
+    )
     s = psub.add_parser("save", help="download every parameter and write them to FILE ('-': stdout)")
     s.add_argument("file", metavar="FILE")
     s.add_argument(
@@ -108,6 +110,18 @@ class ProgressBar:
 
 def _err(text: str) -> None:
     print(f"gcs: {text}", file=sys.stderr)
+
+
+def check_file(args: argparse.Namespace) -> int | None:
+    """Before connecting: ``param load`` / ``diff`` of a file that cannot be read is refused (exit 1) at once."""
+    if args.param_command not in ("load", "diff"):
+        return None
+    try:
+        read_param_file(args.file)
+    except ParamFileError as exc:
+        _err(f"param {args.param_command}: {exc}")
+        return EXIT_REFUSED
+    return None
 
 
 def _download(client: VehicleClient, args: argparse.Namespace) -> list[VehicleParam]:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli_types import positive_int
 from .flight_logs import FlightData, FlightLogError, load, log_stem, resolve_log
 from .plot_landing import fig_landing, has_landing
 
@@ -301,7 +302,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the simulator's .truth.npy of the flight (default: found beside the log)",
     )
     p.add_argument("--no-truth", action="store_true", help="do not look for the simulator's log")
-    p.add_argument("--dpi", type=int, default=100, help="resolution of the PNGs (default 100)")
+    p.add_argument("--dpi", type=positive_int, default=100, help="resolution of the PNGs (default 100)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -30,8 +30,8 @@ import sys
 from mavsim_core.mavlink_signing import KEY_BYTES, is_disabling_key, key_from_text, timestamp_now
 
 from .client import VehicleClient, mavlink
+from .errors import EXIT_OK, EXIT_REFUSED
 
-EXIT_OK, EXIT_REFUSED = 0, 1
 KEY_ENV = "GCS_SIGNING_KEY"
 
 

@@ -23,6 +23,8 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core import ports
 
+from . import cli_types
+from .errors import EXIT_NO_ANSWER, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
 from .sim_client import SimClient, SimParamError
 
 PATHS = {"stop": 0, "line": 1, "circle": 2, "figure8": 3, "random": 4, "manual": 5}
@@ -36,18 +38,23 @@ def add_ugv_parser(sub: argparse._SubParsersAction) -> None:
     u.add_parser("status", help="print the UGV's true position, speed and heading")
     s = u.add_parser("set", help="set its path, speed, radius (SIM_UGV_* parameters)")
     s.add_argument("--path", choices=tuple(PATHS), default=None)
-    s.add_argument("--speed", type=float, default=None, metavar="M_S", help="m/s along the path (0-4)")
-    s.add_argument("--radius", type=float, default=None, metavar="M", help="circle / figure-8 radius, m")
+    s.add_argument("--speed", type=cli_types.finite, default=None, metavar="M_S", help="m/s along the path (0-4)")
+    s.add_argument("--radius", type=cli_types.finite, default=None, metavar="M", help="circle / figure-8 radius, m")
     s.add_argument(
         "--follow-target", choices=("on", "off"), default=None,
         help="broadcast FOLLOW_TARGET to the flight controller, for AUTO.FOLLOW_TARGET (SIM_UGV_FLW)",
     )  # fmt: skip
     d = u.add_parser("drive", help="drive it from the keyboard (w/s faster/slower, a/d turn, space stop, q quit)")
-    d.add_argument("--duration", type=float, default=None, metavar="S", help="stop after this many wall seconds")
+    d.add_argument(
+        "--duration", type=cli_types.positive, default=None, metavar="S", help="stop after this many wall seconds"
+    )
 
 
 def run_ugv_command(args: argparse.Namespace) -> int:
-    """0 done, 1 refused (no UGV, bad value), 2 no simulator answering."""
+    """0 done, 1 refused (no UGV, bad value), 2 usage error, 3 no simulator answering."""
+    if args.ugv_command == "set" and not _set_values(args):
+        print("gcs: ugv set: give --path, --speed, --radius or --follow-target", file=sys.stderr)
+        return EXIT_USAGE
     try:
         with SimClient(ports.sim_component_port(args.instance or 0)) as sim:
             sim.wait_connected(args.timeout or 10.0)
@@ -58,10 +65,10 @@ def run_ugv_command(args: argparse.Namespace) -> int:
             return _drive(sim, args)
     except SimParamError as exc:
         print(f"gcs: ugv {args.ugv_command}: {exc}", file=sys.stderr)
-        return 2 if "no " in str(exc) else 1
+        return EXIT_NO_ANSWER if "no " in str(exc) else EXIT_REFUSED
     except OSError as exc:
         print(f"gcs: ugv: cannot listen on UDP {ports.sim_component_port(args.instance or 0)}: {exc}", file=sys.stderr)
-        return 1
+        return EXIT_REFUSED
 
 
 def _wait_ugv(sim: SimClient, timeout_s: float = 2.0):
@@ -77,25 +84,26 @@ def _status(sim: SimClient) -> int:
     u = _wait_ugv(sim)
     if u is None:
         print("gcs: ugv status: the simulator has no UGV (start it with --param SIM_UGV_EN=1)", file=sys.stderr)
-        return 1
+        return EXIT_REFUSED
     n, e, d = u.pos_ned_m
     print(
         f"UGV deck N {n:7.2f} E {e:7.2f} m (height {-d:.2f} m)  speed {math.hypot(*u.vel_ned_m_s[:2]):.2f} m/s  "
         f"heading {math.degrees(u.yaw_rad) % 360:5.1f} deg  path {int(sim.get('SIM_UGV_PATH'))}"
     )
-    return 0
+    return EXIT_OK
+
+
+def _set_values(args: argparse.Namespace) -> dict[str, float]:
+    """The SIM_UGV_* parameters ``gcs ugv set`` was given, by name."""
+    values = {"SIM_UGV_PATH": PATHS.get(args.path), "SIM_UGV_SPD": args.speed, "SIM_UGV_RAD": args.radius}
+    values["SIM_UGV_FLW"] = {"on": 1, "off": 0}.get(args.follow_target)
+    return {k: v for k, v in values.items() if v is not None}
 
 
 def _set(sim: SimClient, args: argparse.Namespace) -> int:
-    values = {"SIM_UGV_PATH": PATHS.get(args.path), "SIM_UGV_SPD": args.speed, "SIM_UGV_RAD": args.radius}
-    values["SIM_UGV_FLW"] = {"on": 1, "off": 0}.get(args.follow_target)
-    values = {k: v for k, v in values.items() if v is not None}
-    if not values:
-        print("gcs: ugv set: give --path, --speed, --radius or --follow-target", file=sys.stderr)
-        return 1
-    for name, value in values.items():
+    for name, value in _set_values(args).items():
         print(f"{name} = {sim.set(name, value):g}")
-    return 0
+    return EXIT_OK
 
 
 class _Keys:
@@ -134,7 +142,7 @@ class _Keys:
 def _drive(sim: SimClient, args: argparse.Namespace) -> int:
     if _wait_ugv(sim) is None:
         print("gcs: ugv drive: the simulator has no UGV (start it with --param SIM_UGV_EN=1)", file=sys.stderr)
-        return 1
+        return EXIT_REFUSED
     keys = _Keys()
     x = r = 0
     start = time.monotonic()
@@ -153,7 +161,7 @@ def _drive(sim: SimClient, args: argparse.Namespace) -> int:
     finally:
         keys.restore()
         sim._send(mavlink.MAVLink_manual_control_message(0, 0, 0, 500, 0, 0))
-    return 0
+    return EXIT_OK
 
 
 def _apply_key(ch: str, x: int, r: int) -> tuple[int, int]:

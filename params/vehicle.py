@@ -163,6 +163,8 @@ def vehicle_path(name_or_path: str) -> Path:
     p = Path(name_or_path)
     if p.suffix == ".toml" and p.exists():
         return p
+    if p.suffix == ".toml" or len(p.parts) > 1:
+        raise VehicleFileError(f"no such vehicle file '{name_or_path}'")
     cand = VEHICLE_DIR / f"{name_or_path}.toml"
     if cand.exists():
         return cand

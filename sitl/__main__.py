@@ -3,12 +3,22 @@
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 from pathlib import Path
 
 from mavsim_core import ports
-from params.vehicle import VehicleFileError, load_vehicle
+from mavsim_core.cli_args import EXIT_CODES_EPILOG, EXIT_USAGE, add_instance_option, add_version_option, port_number
+from mavsim_core.cli_checks import (
+    host_address,
+    make_dir,
+    non_negative_int,
+    port_or_zero,
+    positive_number,
+    startup_failed,
+)
+from params.vehicle_arg import vehicle_argument
 from sitl.scenario import Scenario, ScenarioError, list_scenarios, load_scenario
 from sitl.sim_params import SimParamError, SimParameters, format_table
 from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, UgvSettings, WindSettings
@@ -17,24 +27,28 @@ DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4's default SITL home, Zurich
 
 
 def parse_speed(text: str) -> float | None:
+    """argparse ``type`` of ``--speed``: ``max`` (None: unpaced) or a finite real-time factor > 0."""
     if text.lower() == "max":
         return None
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"speed must be a number or 'max', not {text!r}") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError("speed must be > 0")
+        raise argparse.ArgumentTypeError(f"must be a number or 'max', not {text!r}") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a real-time factor > 0 or 'max', not {text!r}")
     return v
 
 
 def parse_home(text: str) -> tuple[float, float, float]:
+    """argparse ``type`` of ``--home``: ``LAT,LON,ALT`` (degrees, degrees, metres AMSL)."""
     try:
         lat, lon, alt = (float(x) for x in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError("home must be LAT,LON,ALT (degrees, degrees, metres AMSL)") from None
-    if not (-90 < lat < 90 and -180 <= lon <= 180):
-        raise argparse.ArgumentTypeError("home latitude/longitude out of range")
+        raise argparse.ArgumentTypeError(f"must be LAT,LON,ALT (degrees, degrees, metres AMSL), not {text!r}") from None
+    if not (-90 < lat < 90 and -180 <= lon <= 180 and math.isfinite(alt)):
+        raise argparse.ArgumentTypeError(
+            f"latitude must be -90..90, longitude -180..180 and altitude a finite number, not {text!r}"
+        )
     return lat, lon, alt
 
 
@@ -56,47 +70,53 @@ def parse_param_assignment(text: str) -> tuple[str, int | float]:
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="sitl", description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)"
+        prog="sitl",
+        description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)",
+        epilog=EXIT_CODES_EPILOG,
     )
-    p.add_argument("--vehicle", default="quad_x", help="vehicle name in params/vehicles or a .toml path")
-    p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
+    add_version_option(p)
     p.add_argument(
-        "--instance", "-i", type=int, default=0, metavar="N",
+        "--vehicle", default="quad_x", type=vehicle_argument,
+        help="vehicle name in params/vehicles or a .toml path (relative to the working directory)",
+    )  # fmt: skip
+    p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
+    add_instance_option(
+        p,
         help=f"vehicle instance 0-{ports.MAX_INSTANCE}, as PX4's -i: system id 1+N, TCP port 4560+N, "
         "ground truth and SIM_* parameters to UDP 14740+N",
-    )  # fmt: skip
-    p.add_argument("--port", type=int, help="TCP port the flight controller connects to (default 4560+N)")
+    )
+    p.add_argument("--port", type=port_number, help="TCP port the flight controller connects to (default 4560+N)")
     p.add_argument(
-        "--bind", default="127.0.0.1", metavar="ADDR",
+        "--bind", default="127.0.0.1", metavar="ADDR", type=host_address,
         help="local address of the TCP port and of the simulator's MAVLink component (ground truth, SIM_* "
         "parameters); default 127.0.0.1: only this machine reaches them; 0.0.0.0: every interface (anyone on "
         "the network can then drive the simulation and set SIM_* parameters)",
     )  # fmt: skip
     p.add_argument(
-        "--truth-port", type=int,
+        "--truth-port", type=port_or_zero,
         help="UDP port the simulator's MAVLink component (ground truth, SIM_* parameters, the ground vehicle) "
         "sends to (default 14740+N); 0 disables it",
     )  # fmt: skip
-    p.add_argument("--truth-host", default="127.0.0.1")
+    p.add_argument("--truth-host", default="127.0.0.1", type=host_address)
     p.add_argument(
         "--truth-local-port",
-        type=int,
+        type=port_or_zero,
         default=0,
         help="local UDP port of the simulator's MAVLink component; 0 = chosen by the OS",
     )
     p.add_argument(
-        "--ugv-radio-port", type=int,
+        "--ugv-radio-port", type=port_number,
         help="UDP port the ground vehicle's FOLLOW_TARGET goes to (SIM_UGV_FLW=1), on --truth-host: the flight "
         "controller's API-side socket (default 14640+N)",
     )  # fmt: skip
     p.add_argument("--home", type=parse_home, default=DEFAULT_HOME, help="LAT,LON,ALT of the start point")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the sensor noise")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many simulated seconds")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="random seed of the sensor noise")
+    p.add_argument("--duration", type=positive_number, default=None, help="stop after this many simulated seconds")
     p.add_argument(
         "--scenario",
         metavar="NAME|FILE",
-        help=f"SIM_* parameters and timed events from a TOML file or a shipped scenario "
-        f"({', '.join(list_scenarios())})",
+        help=f"SIM_* parameters and timed events from a TOML file (relative to the working directory) or a "
+        f"shipped scenario ({', '.join(list_scenarios())})",
     )
     p.add_argument(
         "--param",
@@ -115,7 +135,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--log-dir",
         metavar="DIR",
         default=None,
-        help="write a ground-truth log (.truth.npy) per arming here (default: none)",
+        help="write a ground-truth log (.truth.npy) per arming here (default: none); created if need be, "
+        "a directory that cannot be created stops the start (exit 1)",
     )
     p.add_argument(
         "--save-frames",
@@ -184,64 +205,12 @@ def _print_started(spec, args: argparse.Namespace, scenario: Scenario | None, se
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if not 0 <= args.instance <= ports.MAX_INSTANCE:
-        print(f"sitl: --instance must be 0..{ports.MAX_INSTANCE}, not {args.instance}", file=sys.stderr)
-        return 2
-    if args.port is None:
-        args.port = ports.sim_tcp_port(args.instance)
-    if args.truth_port is None:
-        args.truth_port = ports.sim_component_port(args.instance)
     try:
-        (wind, sensors, motors, ugv, camera), scenario = configure(args)
-    except ScenarioError as exc:
-        print(f"sitl: scenario {exc}", file=sys.stderr)
-        return 2
-    except SimParamError as exc:
-        print(f"sitl: --param {exc}", file=sys.stderr)
-        return 2
-    if args.list_params:
-        print(format_table(SimParameters(wind, sensors, motors, ugv, camera).describe()))
-        return 0
-    try:
-        spec = load_vehicle(args.vehicle)
-    except VehicleFileError as exc:
-        print(f"sitl: {exc}", file=sys.stderr)
-        return 2
-    from sitl.lockstep import LockstepServer
-    from sitl.simulation import Simulation
-
-    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera)
-    truth = (args.truth_host, args.truth_port) if args.truth_port else None
-    truth_bind = (args.bind, args.truth_local_port)
-    try:
-        server = LockstepServer(
-            sim,
-            args.port,
-            truth,
-            args.speed,
-            truth_bind=truth_bind,
-            bind_host=args.bind,
-            events=scenario.events if scenario else (),
-            sysid=ports.system_id(args.instance),
-        )
-    except OSError as exc:
-        print(f"sitl: {exc.strerror or exc}", file=sys.stderr)
-        return 2
-    server.companion = _companion(sim, camera, args)
-    if sim.ugv is not None:  # its telemetry radio: FOLLOW_TARGET while SIM_UGV_FLW = 1 (sitl/ugv_broadcast.py)
-        from sitl.ugv_broadcast import UgvRadio
-
-        port = args.ugv_radio_port or ports.api_local_port(args.instance)
-        server.ugv_radio = UgvRadio(ugv, (args.truth_host, port), ports.system_id(args.instance), args.home)
-    if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
-        from sitl.truth_log import TruthRecorder
-
-        try:
-            server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance, ugv=sim.ugv is not None)
-        except OSError as exc:
-            print(f"sitl: cannot write ground-truth logs to {args.log_dir}: {exc}", file=sys.stderr)
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
-    _print_started(spec, args, scenario, server, truth)
+        server = _start(args)
+    except (OSError, ValueError, KeyboardInterrupt) as exc:  # the start only: the loop's bugs keep their traceback
+        return startup_failed("sitl", exc, args.instance)
+    if isinstance(server, int):
+        return server
     try:
         server.run(args.duration)
     except KeyboardInterrupt:
@@ -251,6 +220,71 @@ def main(argv: list[str] | None = None) -> int:
         if server.truth_log is not None:
             server.truth_log.close()
     return 0
+
+
+def _start(args: argparse.Namespace):
+    """Everything before the loop: the LockstepServer, listening; or the exit code (0 ``--list-params``, 2).
+
+    Raises OSError or ValueError when starting fails (a port in use, a directory that cannot be created).
+    """
+    if args.port is None:
+        args.port = ports.sim_tcp_port(args.instance)
+    if args.truth_port is None:
+        args.truth_port = ports.sim_component_port(args.instance)
+    try:
+        (wind, sensors, motors, ugv, camera), scenario = configure(args)
+    except ScenarioError as exc:
+        print(f"sitl: --scenario {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except SimParamError as exc:
+        print(f"sitl: --param {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    if args.list_params:
+        print(format_table(SimParameters(wind, sensors, motors, ugv, camera).describe()))
+        return 0
+    from params.vehicle import load_vehicle
+
+    spec = load_vehicle(args.vehicle)  # checked by argparse already
+    for option, path in (("--log-dir", args.log_dir), ("--save-frames", args.save_frames)):
+        if path:
+            make_dir(option, path)
+    from sitl.lockstep import LockstepServer
+    from sitl.simulation import Simulation
+
+    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera)
+    truth = (args.truth_host, args.truth_port) if args.truth_port else None
+    server = LockstepServer(
+        sim,
+        args.port,
+        truth,
+        args.speed,
+        truth_bind=(args.bind, args.truth_local_port),
+        bind_host=args.bind,
+        events=scenario.events if scenario else (),
+        sysid=ports.system_id(args.instance),
+    )
+    try:
+        _attach(server, sim, spec, camera, ugv, args)
+    except BaseException:
+        server.close()
+        raise
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
+    _print_started(spec, args, scenario, server, truth)
+    return server
+
+
+def _attach(server, sim, spec, camera: CameraSettings, ugv: UgvSettings, args: argparse.Namespace) -> None:
+    """The server's optional parts: the vision companion, the UGV's radio, the ground-truth log."""
+    server.companion = _companion(sim, camera, args)
+    if sim.ugv is not None:  # its telemetry radio: FOLLOW_TARGET while SIM_UGV_FLW = 1 (sitl/ugv_broadcast.py)
+        from sitl.ugv_broadcast import UgvRadio
+
+        port = args.ugv_radio_port or ports.api_local_port(args.instance)
+        server.ugv_radio = UgvRadio(ugv, (args.truth_host, port), ports.system_id(args.instance), args.home)
+    if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
+        from sitl.truth_log import TruthRecorder
+
+        server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance, ugv=sim.ugv is not None)
 
 
 if __name__ == "__main__":

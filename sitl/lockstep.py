@@ -115,16 +115,16 @@ class LockstepServer:
             )
             self.param_server.on_manual_control = self._on_manual_control
         self.listener: socket.socket | None = None
+        self.truth_log = None  # sitl.truth_log.TruthRecorder (sitl --log-dir): fed every period
+        self.ugv_radio = None  # sitl.ugv_broadcast.UgvRadio: the UGV's FOLLOW_TARGET (SIM_UGV_FLW), when it exists
         try:
             self.listener = listen(bind_host, port)
         except OSError:
-            self.close()
+            self.close()  # reads ugv_radio: set before
             raise
         self.motor_commands = np.zeros(sim.rotors.n)
         self.steps = 0
         self.armed = False  # the flight controller's HIL_ACTUATOR_CONTROLS mode flag
-        self.truth_log = None  # sitl.truth_log.TruthRecorder (sitl --log-dir): fed every period
-        self.ugv_radio = None  # sitl.ugv_broadcast.UgvRadio: the UGV's FOLLOW_TARGET (SIM_UGV_FLW), when it exists
 
     def close(self) -> None:
         if self.companion is not None:

@@ -1,6 +1,7 @@
 """Fixtures shared by the unit-test files (pytest finds them here by name).
 
-Instance numbers of tests that bind ports are in ``instances.py`` beside this file.
+Tests that bind ports take their instance numbers from ``free_instance`` (or ``inst``, one per module), which
+leases them at run time (``instances.py`` beside this file).
 """
 
 from __future__ import annotations
@@ -16,16 +17,22 @@ from params.vehicle import load_vehicle  # noqa: E402
 
 
 @pytest.fixture(scope="session", autouse=True)
-def _stack_logs_under_pytest_basetemp(tmp_path_factory):
+def _temp_dirs_under_pytest_basetemp(tmp_path_factory):
     """A Stack started without ``log_dir`` makes a temp dir for its logs (kept after it stops, for a person
-    to read); in the tests those go under pytest's own base temp directory, which pytest prunes (the
-    last three runs are kept), instead of piling up in /tmp."""
+    to read), and so does ``flight-demo`` run as a command; in the tests those go under pytest's own base
+    temp directory, which pytest prunes (the last three runs are kept), instead of piling up in /tmp:
+    ``tempfile`` in this process, ``TMPDIR`` for the processes the tests start."""
     import tempfile
 
-    before = tempfile.tempdir
-    tempfile.tempdir = str(tmp_path_factory.mktemp("stacks"))
+    temp = str(tmp_path_factory.mktemp("temp"))
+    before, before_env = tempfile.tempdir, os.environ.get("TMPDIR")
+    tempfile.tempdir = os.environ["TMPDIR"] = temp
     yield
     tempfile.tempdir = before
+    if before_env is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = before_env
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +51,13 @@ def free_instance():
     yield take
     for held in leases:
         held.release()
+
+
+@pytest.fixture(scope="module")
+def inst(free_instance) -> int:
+    """One free instance for the test module's stack (``free_instance()`` once); ``truth_and_stack_fixtures``
+    (tests/e2e_flight_helpers.py) starts its stack on it."""
+    return free_instance()
 
 
 @pytest.fixture(scope="module")

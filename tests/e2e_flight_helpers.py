@@ -138,28 +138,29 @@ def truth_yaw(truth) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def truth_and_stack_fixtures(instance: int, params: dict[str, float] | None = None):
+def truth_and_stack_fixtures(params: dict[str, float] | None = None):
     """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at full speed)
-    fixtures for one instance: ``truth, stack = truth_and_stack_fixtures(INSTANCE)`` in a test file;
-    ``params``: flight-controller parameters applied at start-up (``autopilot --params``)."""
+    fixtures on the module's free instance (the ``inst`` fixture of conftest.py): ``truth, stack =
+    truth_and_stack_fixtures()`` in a test file; ``params``: flight-controller parameters applied at
+    start-up (``autopilot --params``)."""
     import pytest
 
     from gcs.launcher import Stack
     from gcs.sim_client import SimClient
 
     @pytest.fixture(scope="module")
-    def truth():
-        with SimClient(ports.sim_component_port(instance)) as listener:
+    def truth(inst):
+        with SimClient(ports.sim_component_port(inst)) as listener:
             yield listener
 
     @pytest.fixture(scope="module")
-    def stack(truth, tmp_path_factory):
+    def stack(inst, truth, tmp_path_factory):
         args: list[str] = []
         if params:
             path = tmp_path_factory.mktemp("startup-params") / "startup.params"
             path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
             args = ["--params", str(path)]
-        with Stack(instance=instance, speed="max", extra_autopilot_args=args) as s:
+        with Stack(instance=inst, speed="max", extra_autopilot_args=args) as s:
             yield s
 
     return truth, stack

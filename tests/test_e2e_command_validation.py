@@ -27,10 +27,8 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 
 from e2e_flight_helpers import horizontal, latlon  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_command_validation", "stack")
 WAIT_S = 120.0  # wall-clock safety net of each wait
 ALT_M = 5.0
 HOVER_TOL_M = 0.4
@@ -40,12 +38,12 @@ HEARTBEAT_S = 1.5  # simulated seconds: HEARTBEAT comes at 1 Hz, so its arming f
 
 
 @pytest.fixture(scope="module")
-def vehicle():
+def vehicle(inst):
     """(client, truth) of one stack; pre-flight auto-disarm off, so slow steps on a busy machine cannot
     disarm the vehicle between commands."""
     with (
-        Stack(instance=INSTANCE, speed="max") as stack,
-        SimClient(ports.sim_component_port(INSTANCE)) as truth,
+        Stack(instance=inst, speed="max") as stack,
+        SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         truth.wait_connected()

@@ -29,8 +29,6 @@ from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.action import ActionError, OrbitYawBehavior  # noqa: E402
 
-from mavsim_core import ports
-
 from e2e_flight_helpers import (
     latlon,
     sim_sleep,
@@ -38,11 +36,9 @@ from e2e_flight_helpers import (
     truth_yaw,
     until,
 )  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_commands", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
+truth, stack = truth_and_stack_fixtures()
 ALT_M = 5.0
 
 
@@ -50,9 +46,9 @@ def truth_speed(truth) -> float:
     return math.hypot(*truth.latest().vel_ned_m_s[:2])
 
 
-async def _session(body):
+async def _session(stack, body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action = TelemetryAsync(system), ActionAsync(system)
@@ -126,7 +122,7 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
         out["orbit_speeds"] = [math.hypot(*s.vel_ned_m_s[:2]) for s in samples]
         await _land(tel, action)
 
-    asyncio.run(_session(body))
+    asyncio.run(_session(stack, body))
     stack.check_alive()
     radii, speeds = out["orbit_radii"], out["orbit_speeds"]
     print(
@@ -143,24 +139,20 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
     assert sum(speeds) / len(speeds) == pytest.approx(2.0, abs=0.3)
 
 
-def _gcs() -> mavutil.mavfile:
+def _gcs(stack) -> mavutil.mavfile:
     return mavutil.mavlink_connection(
-        f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", source_system=255, source_component=190, dialect="common"
+        f"udpin:127.0.0.1:{stack.gcs_port}", source_system=255, source_component=190, dialect="common"
     )
 
 
 def test_get_home_position_and_motor_test_on_the_ground(stack, truth):
-    conn = _gcs()
+    conn = _gcs(stack)
     try:
         assert conn.wait_heartbeat(timeout=30) is not None
-        conn.mav.command_long_send(
-            ports.system_id(INSTANCE), 1, mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0
-        )
+        conn.mav.command_long_send(stack.sysid, 1, mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0)
         home = conn.recv_match(type="HOME_POSITION", blocking=True, timeout=10)
         assert home is not None and abs(home.latitude * 1e-7 - latlon(0, 0)[0]) < 1e-4
-        conn.mav.command_long_send(
-            ports.system_id(INSTANCE), 1, mavlink.MAV_CMD_DO_MOTOR_TEST, 0, 3, 0, 15, 2.0, 0, 0, 0
-        )
+        conn.mav.command_long_send(stack.sysid, 1, mavlink.MAV_CMD_DO_MOTOR_TEST, 0, 3, 0, 15, 2.0, 0, 0, 0)
         ack = None
         while ack is None or ack.command != mavlink.MAV_CMD_DO_MOTOR_TEST:
             ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=10)
@@ -220,7 +212,7 @@ def test_reboot_comes_back_disarmed_and_answering(stack, truth):
         await action.disarm()
         return await action.get_return_to_launch_altitude()
 
-    assert asyncio.run(_session(body)) == pytest.approx(17.0)
+    assert asyncio.run(_session(stack, body)) == pytest.approx(17.0)
     stack.check_alive()
 
 
@@ -237,5 +229,5 @@ def test_terminate_stops_the_motors_in_the_air_and_arming_is_refused(stack, trut
             await action.arm()
         return await tel.armed()
 
-    assert asyncio.run(_session(body)) is False
+    assert asyncio.run(_session(stack, body)) is False
     stack.check_alive()

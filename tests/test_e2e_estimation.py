@@ -3,7 +3,7 @@
 Real ``sitl`` and ``autopilot`` processes (``--speed max``, the simulator's default
 sensor errors), a client on the API port and :class:`gcs.sim_client.SimClient`
 for ground truth and the ``SIM_*`` failures.  Durations are simulated seconds.
-Its instance is in the one table of tests/instances.py.
+Its instance is a free one (the ``inst`` fixture of conftest.py).
 """
 
 from __future__ import annotations
@@ -19,10 +19,7 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 from mavsim_core import quaternion as quat
 
-from instances import instance  # tests/instances.py: every test's instance numbers
-
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_estimation", "quad_x")
 WAIT_S = 120.0
 ALT_M = 5.0
 
@@ -42,10 +39,10 @@ def horizontal_from(truth: SimClient, point) -> float:
 
 
 @pytest.fixture(scope="module")
-def flying():
+def flying(inst):
     with (
-        Stack(instance=INSTANCE, vehicle="quad_x") as stack,
-        SimClient(ports.sim_component_port(INSTANCE)) as truth,
+        Stack(instance=inst, vehicle="quad_x") as stack,
+        SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000).check()

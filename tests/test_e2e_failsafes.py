@@ -23,7 +23,6 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 
 from e2e_flight_helpers import Recorder, texts_since, wait_text
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 WAIT_S = 120.0
@@ -31,12 +30,12 @@ ALT_M = 4.0
 NO_FLY_AWAY_M = 10.0
 
 
-def start(role: str, vehicle: str = "quad_x"):
-    """A module fixture: (client, truth) of a fresh stack of this file's ``role``."""
+def start(vehicle: str = "quad_x"):
+    """A module fixture: (client, truth) of a fresh stack on a free instance."""
 
     @pytest.fixture(scope="module")
-    def fixture():
-        i = instance("test_e2e_failsafes", role)
+    def fixture(free_instance):
+        i = free_instance()
         with (
             Stack(instance=i, vehicle=vehicle, speed="max") as stack,
             SimClient(ports.sim_component_port(i)) as truth,
@@ -48,9 +47,9 @@ def start(role: str, vehicle: str = "quad_x"):
     return fixture
 
 
-links = start("stack0")
-battery = start("stack1")
-faults = start("stack2")
+links = start()
+battery = start()
+faults = start()
 
 
 def take_off(client: VehicleClient) -> None:

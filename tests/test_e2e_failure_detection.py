@@ -29,7 +29,6 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 
 from e2e_flight_helpers import Recorder, horizontal, texts_since, wait_text
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 WAIT_S = 120.0
@@ -40,11 +39,10 @@ DRIFT_S = 20.0
 
 
 @pytest.fixture(scope="module")
-def vehicle():
-    i = instance("test_e2e_failure_detection", "stack")
+def vehicle(inst):
     with (
-        Stack(instance=i, speed="max") as stack,
-        SimClient(ports.sim_component_port(i)) as truth,
+        Stack(instance=inst, speed="max") as stack,
+        SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         truth.wait_connected()

@@ -32,7 +32,6 @@ from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     wait_armable,
     wait_text,
 )
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
 WAIT_S = 120.0
@@ -49,12 +48,12 @@ SENSOR = {
 }
 
 
-def start(role: str, vehicle: str = "quad_x"):
-    """A module fixture: (stack, truth) of a fresh stack of this file's ``role``."""
+def start(vehicle: str = "quad_x"):
+    """A module fixture: (stack, truth) of a fresh stack on a free instance."""
 
     @pytest.fixture(scope="module")
-    def fixture():
-        i = instance("test_e2e_failure_injection", role)
+    def fixture(free_instance):
+        i = free_instance()
         with Stack(instance=i, vehicle=vehicle, speed="max") as stack, SimClient(ports.sim_component_port(i)) as truth:
             truth.wait_connected()
             yield stack, truth
@@ -62,10 +61,10 @@ def start(role: str, vehicle: str = "quad_x"):
     return fixture
 
 
-mavsdk_stack = start("stack0")
-sensor_stack = start("stack1")
-imu_stack = start("stack2")
-hexa_stack = start("stack3", vehicle="firefly")
+mavsdk_stack = start()
+sensor_stack = start()
+imu_stack = start()
+hexa_stack = start(vehicle="firefly")
 
 
 def client_of(stack: Stack) -> VehicleClient:

@@ -15,8 +15,8 @@ waiting" timeouts.  The scenarios that start their own stacks (arming before the
 estimate is ready, the flight demo) are in tests/test_e2e_flight_own_stacks.py;
 the helpers of both files in tests/e2e_flight_helpers.py.
 
-Instances: this file's one, from the one table in tests/instances.py (which says
-which ports an instance uses and checks that no two tests' instances share one).
+Instance: a free one, leased for this file (the ``inst`` fixture of tests/conftest.py; tests/instances.py
+says which ports an instance uses).
 """
 
 from __future__ import annotations
@@ -51,10 +51,8 @@ from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     wait_hovering,
     wait_text,
 )
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_flight", "shared")  # the shared max-speed stack
 
 UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
 
@@ -63,15 +61,15 @@ UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nobody implements it
 
 
 @pytest.fixture(scope="module")
-def truth():
-    listener = SimClient(ports.sim_component_port(INSTANCE))  # ground truth on the simulator's own port
+def truth(inst):
+    listener = SimClient(ports.sim_component_port(inst))  # ground truth on the simulator's own port
     yield listener
     listener.close()
 
 
 @pytest.fixture(scope="module")
-def stack(truth):
-    with Stack(instance=INSTANCE) as s:  # speed "max" is the default
+def stack(inst, truth):
+    with Stack(instance=inst) as s:  # speed "max" is the default
         yield s
 
 
@@ -106,7 +104,7 @@ def client(vehicle):
 
 def test_second_stack_on_a_busy_instance_is_refused(stack):
     with pytest.raises(StackError, match="already in use"):
-        Stack(instance=INSTANCE).start()
+        Stack(instance=stack.instance).start()
     assert stack.exited() == {}
 
 
@@ -283,14 +281,14 @@ def test_mavproxy_takeoff_goto_and_return_to_launch(client, truth):
     assert "Disarmed (landed)" in texts_since(client, n_texts)
 
 
-def run_gcs(client: VehicleClient, *args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
+def run_gcs(stack: Stack, client: VehicleClient, *args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
     """``python -m gcs --url <the stack's own ground-station port> -i I ...`` as a user runs it.
 
     ``client`` keeps listening meanwhile (a UDP socket left unread overflows within a wall second
     at max speed) and afterwards waits for a fresh HEARTBEAT and EXTENDED_SYS_STATE, so its view
     of the vehicle is current.
     """
-    cmd = [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE)}", "-i", str(INSTANCE)]
+    cmd = [sys.executable, "-m", "gcs", "--url", stack.gcs_url, "-i", str(stack.instance)]
     cmd += args
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -313,40 +311,40 @@ def run_gcs(client: VehicleClient, *args: str, timeout_s: float = 120.0) -> subp
     return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
-def test_gcs_cli_flight(client, truth):
+def test_gcs_cli_flight(stack, client, truth):
     """(e) status, arm, takeoff 3, a refused disarm in the air, land: exit codes and visible effects."""
     # The simulation runs several times faster than real time: keep the vehicle from disarming
     # for want of a take-off while the next command's process starts.
     client.param_set("COM_DISARM_PRFLT", 60.0, timeout_s=10)
     try:
-        p = run_gcs(client, "status", "--once")
+        p = run_gcs(stack, client, "status", "--once")
         assert p.returncode == 0, p.stderr
         line = p.stdout
         assert client.mode_name() in line and "disarmed" in line
         assert "alt   0.00 m" in line or "alt  -0.0" in line or "alt   0.0" in line, line
         assert "batt 16." in line  # 4 cells, nearly full
 
-        p = run_gcs(client, "arm")
+        p = run_gcs(stack, client, "arm")
         assert p.returncode == 0, p.stderr
         assert "armed" in p.stdout
         client.wait_armed(True, WAIT_S)
 
-        p = run_gcs(client, "takeoff", "3")
+        p = run_gcs(stack, client, "takeoff", "3")
         assert p.returncode == 0, p.stderr
         assert "m above home (mode" in p.stdout
         assert client.relative_alt_m() == pytest.approx(3.0, abs=0.5)
         assert client.landed_state() in (IN_AIR, mavlink.MAV_LANDED_STATE_TAKEOFF)
 
-        p = run_gcs(client, "disarm")
+        p = run_gcs(stack, client, "disarm")
         assert p.returncode == 1
         assert "disarm refused: DENIED" in p.stderr and "Disarm denied: vehicle in air" in p.stderr
         client.wait_sim_time(1.0, WAIT_S)
         assert client.armed() and client.relative_alt_m() == pytest.approx(3.0, abs=0.5)
 
-        p = run_gcs(client, "status", "--once")
+        p = run_gcs(stack, client, "status", "--once")
         assert p.returncode == 0 and "ARMED" in p.stdout
 
-        p = run_gcs(client, "land")
+        p = run_gcs(stack, client, "land")
         assert p.returncode == 0, p.stderr
         assert "landed and disarmed" in p.stdout
         client.wait_armed(False, WAIT_S)

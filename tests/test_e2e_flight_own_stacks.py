@@ -6,8 +6,8 @@ stack.  The flight demo (``flight-demo``) starts its own stack and flies its squ
 values are only "give up waiting" timeouts.  The scenarios on one shared max-speed stack are in
 tests/test_e2e_flight.py.
 
-Instances: this file's two, from the one table in tests/instances.py (which says
-which ports an instance uses and checks that no two tests' instances share one).
+Instances: free ones, leased as each test starts (the ``free_instance`` fixture of tests/conftest.py;
+tests/instances.py says which ports an instance uses).
 """
 
 from __future__ import annotations
@@ -24,26 +24,21 @@ from gcs.launcher import Stack, demo
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from mavsim_core import ports
-
 from e2e_flight_helpers import WAIT_S, arm  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE_REALTIME = instance("test_e2e_flight_own_stacks", "realtime")  # (a): a real-time stack, started and stopped
-INSTANCE_DEMO = instance("test_e2e_flight_own_stacks", "demo")  # flight-demo starts its own stack
 
 
 # --------------------------------------------------------------------------- (a) arming waits for the estimate
 
 
-def test_arming_denied_until_estimate_ready_then_accepted():
+def test_arming_denied_until_estimate_ready_then_accepted(free_instance):
     """Real time, armed at the first heartbeat: denied with a reason; once ready, accepted.
 
     The estimator needs a few simulated seconds; at speed 1 those are wall seconds, far more than
     a command's round trip, so both early attempts (the client's and the CLI's) come first.
     """
-    stack = Stack(instance=INSTANCE_REALTIME, speed=1)
+    stack = Stack(instance=free_instance(), speed=1)  # a real-time stack, started and stopped
     with stack:
         # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
         cli = subprocess.Popen(
@@ -52,7 +47,7 @@ def test_arming_denied_until_estimate_ready_then_accepted():
                 "-m",
                 "gcs",
                 "--url",
-                f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE_REALTIME)}",
+                stack.gcs_url,
                 "--timeout",
                 "30",
                 "arm",
@@ -99,12 +94,12 @@ def test_arming_denied_until_estimate_ready_then_accepted():
 # --------------------------------------------------------------------------- the flight demo
 
 
-def test_flight_demo_flies_its_square(capsys, tmp_path, monkeypatch):
+def test_flight_demo_flies_its_square(capsys, tmp_path, monkeypatch, free_instance):
     monkeypatch.chdir(tmp_path)  # --log-dir relative to where the user is, not to the installed package
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
         rc = demo.main(
-            ["--instance", str(INSTANCE_DEMO), "--ready-timeout", str(WAIT_S), "--step-timeout", str(WAIT_S)]
+            ["--instance", str(free_instance()), "--ready-timeout", str(WAIT_S), "--step-timeout", str(WAIT_S)]
             + ["--log-dir", "demo"]
         )
     finally:

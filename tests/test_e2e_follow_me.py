@@ -39,11 +39,8 @@ from gcs.sim_client import SimClient  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
 from e2e_flight_helpers import latlon, sim_ms, sim_sleep, until, wait_text  # noqa: E402
-from instances import instance  # noqa: E402
 
 pytestmark = pytest.mark.e2e
-MAVSDK_INSTANCE = instance("test_e2e_follow_me", "stack0")
-UGV_INSTANCE = instance("test_e2e_follow_me", "stack1")
 WAIT_S = 120.0  # wall-clock safety net of each wait
 HOME_ALT_M = 488.0  # the simulator's home altitude (AMSL): the target walks on the ground there
 DST_M, HT_M = 6.0, 9.0  # FLW_TGT_DST, FLW_TGT_HT (PX4's and MAVSDK's minimum height is 8 m)
@@ -73,14 +70,14 @@ def gaps(samples, target) -> tuple[list[float], list[float]]:
 
 
 @pytest.fixture(scope="module")
-def mavsdk_truth():
-    with SimClient(ports.sim_component_port(MAVSDK_INSTANCE)) as listener:
+def mavsdk_truth(inst):
+    with SimClient(ports.sim_component_port(inst)) as listener:
         yield listener
 
 
 @pytest.fixture(scope="module")
-def mavsdk_stack(mavsdk_truth):
-    with Stack(instance=MAVSDK_INSTANCE, speed="max", flight_logs=False) as s:
+def mavsdk_stack(inst, mavsdk_truth):
+    with Stack(instance=inst, speed="max", flight_logs=False) as s:
         yield s
 
 
@@ -102,10 +99,10 @@ async def _drive_target(fm, truth) -> int:
     return t0
 
 
-async def _mavsdk_flight(truth) -> dict:
+async def _mavsdk_flight(stack, truth) -> dict:
     out: dict = {}
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(MAVSDK_INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action, fm, param = TelemetryAsync(system), ActionAsync(system), FollowMeAsync(system), ParamAsync(system)
@@ -137,7 +134,7 @@ async def _mavsdk_flight(truth) -> dict:
 
 
 def test_mavsdk_follow_me_keeps_distance_and_height_through_a_turn_and_stop_holds(mavsdk_stack, mavsdk_truth):
-    out = asyncio.run(_mavsdk_flight(mavsdk_truth))
+    out = asyncio.run(_mavsdk_flight(mavsdk_stack, mavsdk_truth))
     mavsdk_stack.check_alive()
     assert out["params"] == pytest.approx([HT_M, DST_M, 180.0])  # set_config set PX4's parameters
     t0 = out["t0"]
@@ -181,10 +178,11 @@ UGV_DRIVE_S = 20.0
 UGV_SETTLE_S = 10.0
 
 
-def test_follows_the_ground_vehicles_broadcast_and_holds_when_it_stops():
+def test_follows_the_ground_vehicles_broadcast_and_holds_when_it_stops(free_instance):
+    i = free_instance()
     with (
-        SimClient(ports.sim_component_port(UGV_INSTANCE)) as truth,
-        Stack(instance=UGV_INSTANCE, speed="max", extra_sitl_args=UGV_ARGS, flight_logs=False) as stack,
+        SimClient(ports.sim_component_port(i)) as truth,
+        Stack(instance=i, speed="max", extra_sitl_args=UGV_ARGS, flight_logs=False) as stack,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         truth.wait_connected()

@@ -33,10 +33,8 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 
 from e2e_flight_helpers import Recorder  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_fuzz", "stack")
 WAIT_S = 120.0  # wall-clock safety net of each wait
 ALT_M = 5.0
 HOVER_TOL_M = 0.4
@@ -62,10 +60,10 @@ def drain_acks(sock: socket.socket, parser: mavlink.MAVLink, acks: list) -> None
                 acks.append(msg)
 
 
-def test_fuzzing_both_ports_while_hovering_changes_nothing():
+def test_fuzzing_both_ports_while_hovering_changes_nothing(inst):
     with (
-        Stack(instance=INSTANCE, speed="max") as stack,
-        SimClient(ports.sim_component_port(INSTANCE)) as truth,
+        Stack(instance=inst, speed="max") as stack,
+        SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         truth.wait_connected()
@@ -79,7 +77,7 @@ def test_fuzzing_both_ports_while_hovering_changes_nothing():
         hover, start_ms = truth.latest().pos_ned_m, truth.latest().time_ms
 
         fuzzer = Fuzzer(SEED, stack.sysid, real32)
-        targets = [("127.0.0.1", ports.gcs_local_port(INSTANCE)), ("127.0.0.1", ports.api_local_port(INSTANCE))]
+        targets = [("127.0.0.1", ports.gcs_local_port(inst)), ("127.0.0.1", ports.api_local_port(inst))]
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sock.setblocking(False)
         parser = mavlink.MAVLink(None)

@@ -1,6 +1,6 @@
 """End-to-end: the ``gcs`` CLI over a link that loses half of the datagrams each way (issue 18, finding 11).
 
-One max-speed stack (module scope, instance from tests/instances.py).  ``gcs`` runs as a subprocess and
+One max-speed stack (module scope, a free instance).  ``gcs`` runs as a subprocess and
 talks to a UDP relay in this test (:class:`LossyRelay`) that forwards to the flight controller's
 ground-station socket and back, dropping each datagram with a set probability, each way on its own.
 An observer (:class:`VehicleClient`, no loss) listens where the flight controller sends its ground-station
@@ -32,10 +32,8 @@ from gcs.launcher import Stack
 from mavsim_core import ports
 
 from e2e_flight_helpers import WAIT_S  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_gcs_lossy", "stack")
 ROOT = Path(__file__).resolve().parent.parent
 LOSS = 0.5  # probability that a datagram is dropped, each way
 PARAM_TIMEOUT_S = 20  # gcs --timeout for the parameter commands: 40 tries of 0.5 s at 25 % success each
@@ -99,13 +97,13 @@ class LossyRelay:
 
 
 @pytest.fixture(scope="module")
-def stack(tmp_path_factory):
+def stack(inst, tmp_path_factory):
     startup = tmp_path_factory.mktemp("lossy") / "startup.params"
     # The simulation runs faster than real time: the vehicle must not disarm for want of a take-off
     # while the next gcs process starts.
     startup.write_text("COM_DISARM_PRFLT -1\n")
     with Stack(
-        instance=INSTANCE,
+        instance=inst,
         speed="max",
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--params", str(startup)],
@@ -122,7 +120,7 @@ def observer(stack):
 
 @pytest.fixture(scope="module")
 def relay(stack, observer):
-    r = LossyRelay(("127.0.0.1", ports.gcs_local_port(INSTANCE)), LOSS)
+    r = LossyRelay(("127.0.0.1", ports.gcs_local_port(stack.instance)), LOSS)
     r.introduce()
     try:
         yield r
@@ -130,10 +128,10 @@ def relay(stack, observer):
         r.close()
 
 
-def run_gcs(observer: VehicleClient, relay: LossyRelay, *args: str) -> subprocess.CompletedProcess:
+def run_gcs(stack: Stack, observer: VehicleClient, relay: LossyRelay, *args: str) -> subprocess.CompletedProcess:
     """``python -m gcs --url udpout:<relay> -i INSTANCE ARGS`` (the observer keeps listening meanwhile);
     prints how long it took and what the relay dropped."""
-    cmd = [sys.executable, "-m", "gcs", "--url", f"udpout:127.0.0.1:{relay.port}", "-i", str(INSTANCE), *args]
+    cmd = [sys.executable, "-m", "gcs", "--url", f"udpout:127.0.0.1:{relay.port}", "-i", str(stack.instance), *args]
     before = dict(relay.counts)
     start = time.monotonic()
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -152,10 +150,10 @@ def run_gcs(observer: VehicleClient, relay: LossyRelay, *args: str) -> subproces
     return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
-def test_a_vehicle_that_hears_nothing_is_no_answer(observer, relay):
+def test_a_vehicle_that_hears_nothing_is_no_answer(stack, observer, relay):
     relay.loss_up, relay.loss_down = 1.0, 0.0  # the vehicle is heard, nothing reaches it
     try:
-        p = run_gcs(observer, relay, "--timeout", "3", "arm")
+        p = run_gcs(stack, observer, relay, "--timeout", "3", "arm")
     finally:
         relay.loss_up = relay.loss_down = LOSS
     assert p.returncode == 3, p.stdout + p.stderr
@@ -163,30 +161,30 @@ def test_a_vehicle_that_hears_nothing_is_no_answer(observer, relay):
     assert not observer.armed()
 
 
-def test_param_set_and_get_through_the_loss(observer, relay):
-    p = run_gcs(observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "set", "MPC_XY_P", "1.1")
+def test_param_set_and_get_through_the_loss(stack, observer, relay):
+    p = run_gcs(stack, observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "set", "MPC_XY_P", "1.1")
     assert p.returncode == 0 and p.stdout.strip() == "MPC_XY_P = 1.1", p.stdout + p.stderr
     assert observer.param_get("MPC_XY_P") == pytest.approx(1.1)
-    p = run_gcs(observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "get", "MPC_XY_P")
+    p = run_gcs(stack, observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "get", "MPC_XY_P")
     assert p.returncode == 0 and p.stdout.strip() == "MPC_XY_P = 1.1", p.stdout + p.stderr
     observer.param_set("MPC_XY_P", 0.95)
 
 
-def test_unknown_name_and_refused_value_are_refusals_not_timeouts(observer, relay):
-    p = run_gcs(observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "get", "NO_SUCH_PARAM")
+def test_unknown_name_and_refused_value_are_refusals_not_timeouts(stack, observer, relay):
+    p = run_gcs(stack, observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "get", "NO_SUCH_PARAM")
     assert p.returncode == 1 and "unknown parameter NO_SUCH_PARAM" in p.stderr, p.stdout + p.stderr
-    p = run_gcs(observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "set", "MPC_XY_P", "7")
+    p = run_gcs(stack, observer, relay, "--timeout", str(PARAM_TIMEOUT_S), "param", "set", "MPC_XY_P", "7")
     assert p.returncode == 1 and "outside range" in p.stderr, p.stdout + p.stderr
     assert observer.param_get("MPC_XY_P") == pytest.approx(0.95)
 
 
-def test_arm_and_takeoff_through_the_loss(observer, relay):
+def test_arm_and_takeoff_through_the_loss(stack, observer, relay):
     observer.wait_until(lambda: observer.prearm_ok() and observer.gps() is not None, WAIT_S, "ready to arm")
     observer.wait_home(WAIT_S)
-    p = run_gcs(observer, relay, "arm")
+    p = run_gcs(stack, observer, relay, "arm")
     assert p.returncode == 0 and "armed" in p.stdout, p.stdout + p.stderr
     observer.wait_armed(True, WAIT_S)
-    p = run_gcs(observer, relay, "takeoff", "2")
+    p = run_gcs(stack, observer, relay, "takeoff", "2")
     assert p.returncode == 0 and "m above home (mode" in p.stdout, p.stdout + p.stderr
     observer.wait_until(lambda: observer.takeoff_done(2.0), WAIT_S, "the vehicle at 2 m")
     assert observer.armed() and observer.relative_alt_m() == pytest.approx(2.0, abs=0.5)

@@ -1,6 +1,6 @@
 """End-to-end: what MAVSDK 4 learns about the vehicle, and the telemetry it asks for, from the real stack.
 
-A ``sitl`` + ``autopilot`` stack (its instance from tests/instances.py, ``--speed max``) and MAVSDK 4
+A ``sitl`` + ``autopilot`` stack (a free instance, ``--speed max``) and MAVSDK 4
 on the API port.  The Info plugin shows the version PX4 would show: flight software 1.14.0 (the PX4
 release whose behaviour is followed), the git hash of the running checkout (the 5 bytes PX4 sends,
 the commit's first 10 hex digits, of which MAVSDK 4.1 prints 9; the 3 bytes below them are the
@@ -32,14 +32,11 @@ from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.info import InfoError  # noqa: E402
 
 from autopilot.mavlink.identity import vendor_version
-from mavsim_core import ports
 
 from e2e_flight_helpers import truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_identity", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
+truth, stack = truth_and_stack_fixtures()
 WAIT_S = 60.0  # wall seconds before giving up on one answer (a busy 2-core machine)
 
 
@@ -53,9 +50,9 @@ def head_commit() -> str | None:
     return out.stdout.strip() if out.returncode == 0 else None
 
 
-async def _session(body):
+async def _session(stack, body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         return await body(system)
@@ -88,7 +85,7 @@ async def _info(system):
 
 
 def test_info_shows_the_version_and_a_stable_hardware_uid(stack):
-    version, ident = asyncio.run(_session(_info))
+    version, ident = asyncio.run(_session(stack, _info))
     print(f"\nMAVSDK Info: {version}\n{ident}")
     assert (version.flight_sw_major, version.flight_sw_minor, version.flight_sw_patch) == (1, 14, 0)
     vendor = (version.flight_sw_vendor_major, version.flight_sw_vendor_minor, version.flight_sw_vendor_patch)
@@ -103,7 +100,7 @@ def test_info_shows_the_version_and_a_stable_hardware_uid(stack):
     uid = ident.hardware_uid
     assert uid.strip("0") != "" and ident.legacy_uid != 0
     stack.restart_autopilot()
-    _, again = asyncio.run(_session(_info))
+    _, again = asyncio.run(_session(stack, _info))
     assert (again.hardware_uid, again.legacy_uid) == (uid, ident.legacy_uid)
 
 
@@ -128,7 +125,7 @@ async def _telemetry(system):
 
 def test_telemetry_plugin_gets_odometry_imu_altitude_and_time(stack):
     wall_us = time.time() * 1e6
-    got = asyncio.run(_session(_telemetry))
+    got = asyncio.run(_session(stack, _telemetry))
     od, imu, alt = got["odometry"], got["imu"], got["altitude"]
     print(f"\nMAVSDK Telemetry:\n{od}\n{imu}\n{alt}\nUTC {got['utc_us']} (wall {wall_us:.0f})")
     # on the ground at home, level: position within a metre of the origin, still, gravity on the z axis
@@ -166,7 +163,9 @@ async def _flight_information(system):
 
 
 def test_flight_information_counts_flights_and_times_since_arming(stack):
-    before, armed = asyncio.run(_session(lambda system: asyncio.wait_for(_flight_information(system), 2 * WAIT_S)))
+    before, armed = asyncio.run(
+        _session(stack, lambda system: asyncio.wait_for(_flight_information(system), 2 * WAIT_S))
+    )
     print(f"\nMAVSDK FlightInfo before arming: {before}\narmed: {armed}")
     assert before.flight_uid + 1 == armed.flight_uid  # the flight number counts the armings
     # times since boot (MAVLink's FLIGHT_INFORMATION), so MAVSDK's durations make sense: armed moments ago

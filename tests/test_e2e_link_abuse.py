@@ -1,6 +1,6 @@
 """End-to-end: the ground-station link under a flood and hostile senders (issue 18, findings 5 and 6).
 
-One max-speed stack (module scope, its instance from tests/instances.py) and its truth stream.  The
+One max-speed stack (module scope, on a free instance: the ``inst`` fixture) and its truth stream.  The
 pilot is a raw pymavlink ground station on the stack's ground-station port (tests/link_flood.py: the
 command protocol with one resend after 0.5 s, as MAVSDK); the take-off is the bundled client's, on the
 API port.  In order (the tests share one flight):
@@ -35,12 +35,10 @@ from gcs.client import VehicleClient  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
 from e2e_flight_helpers import truth_and_stack_fixtures  # noqa: E402  (tests/e2e_flight_helpers.py)
-from instances import instance  # noqa: E402  (tests/instances.py)
 from link_flood import KINDS, Flood, GroundStation  # noqa: E402  (tests/link_flood.py)
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_link_abuse", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
+truth, stack = truth_and_stack_fixtures()
 ALT_M = 5.0
 FLOOD_HZ = 20_000  # junk datagrams per wall second (the audit: 2,500/s left no command acknowledged)
 MIN_FLOOD_HZ = 5_000  # below this the machine did not produce a flood worth the name
@@ -108,7 +106,7 @@ def test_a_stranger_cannot_stop_the_heartbeat_and_its_rates_stay_on_its_endpoint
     encoder = mavlink.MAVLink(None, STRANGER_SYSID, 1)
     parser = mavlink.MAVLink(None)
     parser.robust_parsing = True
-    fc_gcs = ("127.0.0.1", ports.gcs_local_port(INSTANCE))
+    fc_gcs = ("127.0.0.1", ports.gcs_local_port(stack.instance))
 
     def stranger_command(msg_id: int, interval_us: float) -> int | None:
         cmd = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
@@ -177,7 +175,7 @@ def test_land_is_answered_and_flown_under_a_flood(stack, truth, pilot):
     hovering(stack, truth, pilot)
     rollrate_p = pilot.param_get("MC_ROLLRATE_P")
     nan = math.nan
-    with Flood(("127.0.0.1", ports.gcs_local_port(INSTANCE)), stack.sysid, KINDS) as flood:
+    with Flood(("127.0.0.1", ports.gcs_local_port(stack.instance)), stack.sysid, KINDS) as flood:
         flood.rate_hz = FLOOD_HZ
         wall0, sent0 = time.perf_counter(), flood.sent
         t0 = sim_sleep(truth, 0.5)

@@ -1,6 +1,6 @@
 """End-to-end: live tuning of the roll-rate gain in a hover ([Q 3.5]: gains changed in flight).
 
-A real ``sitl`` + ``autopilot`` stack (its instance from tests/instances.py, ``--speed max``,
+A real ``sitl`` + ``autopilot`` stack (a free instance, ``--speed max``,
 default seed) and a :class:`VehicleClient` on the flight controller's ground-station socket
 (``udpout`` to 18570 + instance, so no fixed port is bound here).  The test does what someone tuning with
 a ground station does.  It asks for ATTITUDE, ATTITUDE_TARGET and SERVO_OUTPUT_RAW at
@@ -48,11 +48,7 @@ from gcs.launcher import Stack
 from mavsim_core import ports
 from params.vehicle import load_vehicle
 
-from instances import instance  # tests/instances.py: every test's instance numbers
-
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_live_tuning", "stack")
-FC_GCS_URL = f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}"  # the flight controller's ground-station socket
 WAIT_S = 60.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
 ALT_M = 5.0
 GAIN_FACTOR = 10.0  # 12 -> 120 (the declared maximum is 150)
@@ -61,6 +57,11 @@ WINDOW_S = 5.0  # baseline and high-gain windows, simulated seconds
 SETTLE_S = 2.0  # the restored window ends this long after the gain is set back
 SKIP_S = 0.2  # left out after each gain change
 RUNNING_MEAN_S = 0.1  # the slow motion taken out of the rates: what is left is above ~5 Hz
+
+
+def fc_gcs_url(instance: int) -> str:
+    """The flight controller's ground-station socket (18570 + instance), as a ``udpout`` url."""
+    return f"udpout:127.0.0.1:{ports.gcs_local_port(instance)}"
 
 
 def fast_part(t_s: np.ndarray, x: np.ndarray, width_s: float = RUNNING_MEAN_S) -> np.ndarray:
@@ -141,10 +142,10 @@ def roll_weights(vehicle: str = "quad_x") -> list[float]:
     return [-0.5 * math.copysign(1.0, r.position_frd_m[1]) for r in load_vehicle(vehicle).rotors]
 
 
-def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_it_settles():
+def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_it_settles(inst):
     with (
-        Stack(instance=INSTANCE, speed="max", flight_logs=False, extra_sitl_args=["--truth-port", "0"]) as stack,
-        VehicleClient(FC_GCS_URL, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+        Stack(instance=inst, speed="max", flight_logs=False, extra_sitl_args=["--truth-port", "0"]) as stack,
+        VehicleClient(fc_gcs_url(inst), timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         for msg_id in (
             mavlink.MAVLINK_MSG_ID_ATTITUDE,

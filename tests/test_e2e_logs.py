@@ -33,13 +33,10 @@ from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from gcs.launcher import Stack  # noqa: E402
-from mavsim_core import ports  # noqa: E402
 
 from e2e_flight_helpers import until, wait_armable  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_logs", "stack")
 WAIT_S = 180.0  # wall-clock safety net of each wait
 ALT_M = 5.0
 TOPICS = {  # what Flight Review's and PlotJuggler's usual plots read
@@ -51,8 +48,8 @@ TOPICS = {  # what Flight Review's and PlotJuggler's usual plots read
 
 
 @pytest.fixture(scope="module")
-def stack():
-    with Stack(instance=INSTANCE, speed="max") as s:
+def stack(inst):
+    with Stack(instance=inst, speed="max") as s:
         yield s
 
 
@@ -82,7 +79,7 @@ async def _fly(system) -> None:
 
 async def _fly_and_download(stack, into: Path) -> dict:
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         await _fly(system)

@@ -24,8 +24,6 @@ from mavsdk.asyncio.plugins.manual_control import ManualControlAsync  # noqa: E4
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
-from mavsim_core import ports
-
 from e2e_flight_helpers import (
     sim_ms,
     sim_sleep,
@@ -33,14 +31,12 @@ from e2e_flight_helpers import (
     truth_yaw,
     until,
 )  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_manual_control", "stack")
 # The sticks come from this test's process at 25 Hz of wall time; on a loaded 2-core machine it can be
 # starved for longer than PX4's 0.5 s, a (correct) RC-loss failsafe that is not what these tests fly:
 # RC loss has its own tests (test_e2e_failsafes.py).
-truth, stack = truth_and_stack_fixtures(INSTANCE, params={"COM_RC_LOSS_T": 3.0})
+truth, stack = truth_and_stack_fixtures(params={"COM_RC_LOSS_T": 3.0})
 STICK_PERIOD_S = 0.04  # MAVSDK sticks at 25 Hz (wall clock)
 MPC_VEL_MANUAL = 1.0  # the default full-stick speed, m/s
 WAIT_S = 120.0  # wall-clock safety net of each wait
@@ -72,9 +68,9 @@ class Sticks:
                 pass
 
 
-async def _session(body):
+async def _session(stack, body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action = TelemetryAsync(system), ActionAsync(system)
@@ -133,7 +129,7 @@ def test_posctl_throttle_takes_off_full_stick_flies_mpc_vel_manual_centred_holds
         out["hold"] = [s.pos_ned_m for s in truth.since(t_hold)]
         return out
 
-    out = asyncio.run(_session(body))
+    out = asyncio.run(_session(stack, body))
     stack.check_alive()
     speeds = out["speeds"]
     mean = sum(speeds) / len(speeds)
@@ -173,7 +169,7 @@ def test_altctl_forward_stick_tilts_and_accelerates_centred_holds_altitude(stack
         out["alt_hold"] = [-s.pos_ned_m[2] for s in truth.since(t_hold)]
         return out
 
-    out = asyncio.run(_session(body))
+    out = asyncio.run(_session(stack, body))
     stack.check_alive()
     yaw, before, after = out["yaw"], out["before"], out["after"]
     fwd = (math.cos(yaw), math.sin(yaw))
@@ -207,7 +203,7 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
         "-m",
         "gcs",
         "--url",
-        f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE)}",
+        f"udpin:0.0.0.0:{stack.gcs_port}",
         "fly",
         "--keys",
         str(keys),
@@ -235,7 +231,7 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
         await ParamAsync(system).set_param_int("NAV_RCL_ACT", 2)
         return out
 
-    out = asyncio.run(_session(body))
+    out = asyncio.run(_session(stack, body))
     stack.check_alive()
     run = out["run"]
     assert run.returncode == 0, run.stdout + run.stderr

@@ -32,20 +32,18 @@ from mavsim_core import ports  # noqa: E402
 from mavsim_core.mavftp import Err, Op, crc32, decode  # noqa: E402
 
 from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_mavproxy", "stack")
 WAIT_S = 120.0  # wall-clock safety net of each wait
 PARAM_PCK = "@PARAM/param.pck"
 NOTES = os.urandom(50_000)  # a file put in the log directory, read back by the clients
 
 
 @pytest.fixture(scope="module")
-def stack():
+def stack(inst):
     from gcs.client import VehicleClient
 
-    with Stack(instance=INSTANCE, speed="max") as s:
+    with Stack(instance=inst, speed="max") as s:
         (s.log_dir / "notes.bin").write_bytes(NOTES)
         with VehicleClient(s.api_url, timeout_s=WAIT_S, idle=s.check_alive):
             pass  # running: clients connect to a vehicle that is up, as a user's do
@@ -143,14 +141,14 @@ def _ready_without_ftp_timeout(relay: RecordingRelay, expected_params: int, what
 
 
 def test_mavproxy_is_ready_without_waiting_for_ftp(stack):
-    count = _param_count(f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}")
-    relay = RecordingRelay(ports.gcs_local_port(INSTANCE))  # the flight controller's ground-station socket
+    count = _param_count(f"udpout:127.0.0.1:{ports.gcs_local_port(stack.instance)}")
+    relay = RecordingRelay(ports.gcs_local_port(stack.instance))  # the flight controller's ground-station socket
     _ready_without_ftp_timeout(relay, count, "the flight controller", Err.FILE_NOT_FOUND)
 
 
 def test_mavproxy_on_the_simulator_component_is_ready_without_waiting_for_ftp(stack):
-    count = _param_count(f"udpin:127.0.0.1:{ports.sim_component_port(INSTANCE)}")
-    relay = RecordingRelay(ports.sim_component_port(INSTANCE), bind_vehicle_side=True)
+    count = _param_count(f"udpin:127.0.0.1:{ports.sim_component_port(stack.instance)}")
+    relay = RecordingRelay(ports.sim_component_port(stack.instance), bind_vehicle_side=True)
     _ready_without_ftp_timeout(relay, count, "the simulator's component", Err.UNKNOWN_COMMAND)
 
 
@@ -173,9 +171,9 @@ def _param_count(url: str) -> int:
 
 
 def test_mavproxy_ftp_list_get_crc_and_a_refused_remove(stack, tmp_path):
-    mavproxy = MavproxySession(f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}", modules="ftp")
+    mavproxy = MavproxySession(f"udpout:127.0.0.1:{ports.gcs_local_port(stack.instance)}", modules="ftp")
     try:
-        mavproxy.expect(rf"online system {ports.system_id(INSTANCE)}\b")
+        mavproxy.expect(rf"online system {stack.sysid}\b")
         mavproxy.send("ftp list /")
         names = {mavproxy.expect(r"^(?:\S+> )*\s*D (\S+)").group(1) for _ in range(2)}
         assert names == {"log", "component_metadata"}
@@ -194,7 +192,7 @@ def test_mavproxy_ftp_list_get_crc_and_a_refused_remove(stack, tmp_path):
     assert (stack.log_dir / "notes.bin").read_bytes() == NOTES  # refused: still there
 
 
-async def _mavsdk_files(into) -> dict:
+async def _mavsdk_files(stack, into) -> dict:
     from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.component_metadata import ComponentMetadataAsync
     from mavsdk.asyncio.plugins.ftp import FtpAsync
@@ -204,7 +202,7 @@ async def _mavsdk_files(into) -> dict:
 
     out: dict = {}
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=WAIT_S)
         assert system is not None, "MAVSDK found no autopilot"
         ftp = FtpAsync(system)
@@ -237,7 +235,7 @@ async def _get(ftp, path, into) -> None:
 
 def test_mavsdk_ftp_and_component_metadata(stack, tmp_path):
     pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-    got = asyncio.run(asyncio.wait_for(_mavsdk_files(tmp_path), WAIT_S))
+    got = asyncio.run(asyncio.wait_for(_mavsdk_files(stack, tmp_path), WAIT_S))
     assert got["root"] == {("log", "DIRECTORY"), ("component_metadata", "DIRECTORY")}
     assert got["log"]["notes.bin"] == len(NOTES) and "autopilot.log" in got["log"]
     assert (tmp_path / "notes.bin").read_bytes() == NOTES  # MAVSDK's burst download

@@ -31,12 +31,14 @@ from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     truth_and_stack_fixtures,
 )
 from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_mission_clients", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
-GCS = [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{ports.own_gcs_port(INSTANCE)}", "-i", str(INSTANCE)]
+truth, stack = truth_and_stack_fixtures()
+
+
+def gcs(stack) -> list[str]:
+    """``python -m gcs`` on the stack's own ground-station port."""
+    return [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{stack.gcs_port}", "-i", str(stack.instance)]
 
 
 @pytest.fixture()
@@ -58,9 +60,9 @@ def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
     path = tmp_path / "square.waypoints"
     path.write_text("\n".join(lines) + "\n")
     start_ms = truth.latest().time_ms
-    mavproxy = MavproxySession(f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", modules="wp,cmdlong")
+    mavproxy = MavproxySession(f"udpin:127.0.0.1:{stack.gcs_port}", modules="wp,cmdlong")
     try:
-        mavproxy.expect(rf"online system {ports.system_id(INSTANCE)}\b")
+        mavproxy.expect(rf"online system {stack.sysid}\b")
         mavproxy.send(f"wp load {path}")
         mavproxy.expect(r"ACCEPTED")
         mavproxy.send("wp list")
@@ -104,16 +106,16 @@ def test_gcs_mission_plan_with_fence_and_rally_then_return_goes_to_the_rally_poi
     rally = (30.0, 30.0)
     plan = tmp_path / "survey.plan"
     plan.write_text(_plan_text(rally))
-    out = subprocess.run([*GCS, "mission", "upload", str(plan)], capture_output=True, text=True, timeout=60)
+    out = subprocess.run([*gcs(stack), "mission", "upload", str(plan)], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert "3 mission, 1 fence, 1 rally" in out.stdout
     # a broken file: refused before anything is sent, the line named, the vehicle's plan unchanged
     broken = tmp_path / "broken.waypoints"
     broken.write_text("QGC WPL 110\n0\t0\t3\t16\t0\t0\t0\t0\t47.4\tabc\t5\t1\n")
-    bad = subprocess.run([*GCS, "mission", "upload", str(broken)], capture_output=True, text=True, timeout=60)
+    bad = subprocess.run([*gcs(stack), "mission", "upload", str(broken)], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 1 and ":2:" in bad.stderr and "longitude" in bad.stderr, bad.stderr
     assert len(download(vehicle, mi.MISSION)) == 3 and len(download(vehicle, mi.RALLY)) == 1
-    out = subprocess.run([*GCS, "mission", "start"], capture_output=True, text=True, timeout=60)
+    out = subprocess.run([*gcs(stack), "mission", "start"], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     complete = mavlink.MISSION_STATE_COMPLETE
     vehicle.wait_until(lambda: getattr(vehicle.latest("MISSION_CURRENT"), "mission_state", 0) == complete, 120, "end")
@@ -170,7 +172,7 @@ class LossyProxy:
 
 
 def test_upload_and_download_through_a_link_that_drops_every_fifth_datagram(stack, vehicle):
-    proxy = LossyProxy(ports.gcs_local_port(INSTANCE))  # the vehicle's ground-station socket
+    proxy = LossyProxy(ports.gcs_local_port(stack.instance))  # the vehicle's ground-station socket
     items = parse_qgc_plan(_plan_text((5.0, 5.0))).mission
     items = [items[0]] + [
         mi.MissionItem(k, 3, 16, 0, 0, 0, float("nan"), *[round(v * 1e7) for v in latlon(k, -k)], 6.0)

@@ -26,14 +26,10 @@ from mavsdk.plugins import mission_raw as raw  # noqa: E402
 from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
-from mavsim_core import ports
-
 from e2e_flight_helpers import closest_approach, latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_missions", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
+truth, stack = truth_and_stack_fixtures()
 NAN = float("nan")
 ACCEPT_M = 2.0
 
@@ -46,9 +42,9 @@ def waypoint(north: float, east: float, alt: float, speed: float = NAN) -> Missi
     )  # fmt: skip
 
 
-async def _session(body):
+async def _session(stack, body):
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel = TelemetryAsync(system)
@@ -95,7 +91,7 @@ def test_mavsdk_square_mission_upload_download_fly(stack, truth):
         await _land_and_disarm(system, tel)
         return down, progress, start_ms
 
-    down, progress, start_ms = asyncio.run(_session(body))
+    down, progress, start_ms = asyncio.run(_session(stack, body))
     stack.check_alive()
     assert len(down) == len(items)
     for up, back in zip(items, down):
@@ -150,7 +146,7 @@ def test_mavsdk_raw_mission_with_do_jump_repeats_and_lands(stack, truth):
         await until(landed, 180, "landing and disarm at the mission's end")
         return down, seen, start_ms
 
-    down, seen, start_ms = asyncio.run(_session(body))
+    down, seen, start_ms = asyncio.run(_session(stack, body))
     stack.check_alive()
     assert [(d.command, d.x, d.y, d.param1, d.param2) for d in down] == [
         (i.command, i.x, i.y, i.param1, i.param2) for i in items
@@ -193,7 +189,7 @@ def test_mavsdk_geofence_stops_the_vehicle_at_an_inclusion_polygon(stack, truth)
         await _land_and_disarm(system, tel)
         return start_ms
 
-    start_ms = asyncio.run(_session(body))
+    start_ms = asyncio.run(_session(stack, body))
     stack.check_alive()
     farthest = max(s.pos_ned_m[0] for s in truth.since(start_ms))
     assert 5.0 < farthest < half, f"went {farthest:.1f} m north: the fence is at {half} m"

@@ -27,32 +27,42 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 
 from e2e_flight_helpers import until, wait_armable  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCES = [instance("test_e2e_multi_vehicle", f"vehicle{k}") for k in range(3)]
-SHARED_GCS_PORT = ports.own_gcs_port(INSTANCES[0])  # every instance's ground-station link goes here
-ALTITUDES_M = {n: 3.0 + k for k, n in enumerate(INSTANCES)}  # a different height per vehicle
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def fleet():
-    """The three stacks and their truth listeners: {instance: (stack, truth)}."""
+def fleet(free_instance):
+    """Three stacks on free instances and their truth listeners: {instance: (stack, truth)}, in start order.
+    Every instance's ground-station link goes to the first one's own port."""
+    numbers = sorted(free_instance() for _ in range(3))  # in order: the system ids MAVSDK lists are sorted
+    shared_gcs_port = ports.own_gcs_port(numbers[0])
     with ExitStack() as es:
         out = {}
-        for n in INSTANCES:
+        for n in numbers:
             truth = es.enter_context(SimClient(ports.sim_component_port(n)))
-            stack = es.enter_context(Stack(instance=n, speed="max", gcs_port=SHARED_GCS_PORT, flight_logs=False))
+            stack = es.enter_context(Stack(instance=n, speed="max", gcs_port=shared_gcs_port, flight_logs=False))
             out[n] = (stack, truth)
         yield out
 
 
-async def _fly_all() -> list[int]:
+def altitudes_m(fleet) -> dict[int, float]:
+    """A different height per vehicle: {instance: metres}."""
+    return {n: 3.0 + k for k, n in enumerate(fleet)}
+
+
+def shared_gcs_port(fleet) -> int:
+    """The one ground-station port every instance of the fleet sends to."""
+    return next(iter(fleet.values()))[0].gcs_port
+
+
+async def _fly_all(fleet) -> list[int]:
     """One MAVSDK on the shared port: wait for the three autopilots, take each off to its height."""
+    numbers, heights = list(fleet), altitudes_m(fleet)
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{SHARED_GCS_PORT}")
-        wanted = {ports.system_id(n) for n in INSTANCES}
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{shared_gcs_port(fleet)}")
+        wanted = {ports.system_id(n) for n in numbers}
 
         async def autopilots():
             return {await s.get_system_id(): s for s in await sdk.get_systems() if await s.has_autopilot()}
@@ -62,34 +72,35 @@ async def _fly_all() -> list[int]:
 
         await until(all_seen, 90, f"MAVSDK sees system ids {sorted(wanted)}")
         systems = await autopilots()
-        for n in INSTANCES:
+        for n in numbers:
             system = systems[ports.system_id(n)]
             tel, action = TelemetryAsync(system), ActionAsync(system)
 
             await wait_armable(tel, 90, f"system {ports.system_id(n)} ready to arm")
-            await action.set_takeoff_altitude(ALTITUDES_M[n])
+            await action.set_takeoff_altitude(heights[n])
             await action.arm()
             await action.takeoff()
-        for n in INSTANCES:
+        for n in numbers:
             tel = TelemetryAsync(systems[ports.system_id(n)])
 
-            async def up(tel=tel, alt=ALTITUDES_M[n]):
+            async def up(tel=tel, alt=heights[n]):
                 return (await tel.position()).relative_altitude_m > alt - 0.3
 
-            await until(up, 90, f"system {ports.system_id(n)} at {ALTITUDES_M[n]} m")
+            await until(up, 90, f"system {ports.system_id(n)} at {heights[n]} m")
         return sorted(systems)
 
 
 def test_one_mavsdk_on_the_shared_port_flies_three_vehicles_and_gcs_lands_each(fleet):
-    seen = asyncio.run(_fly_all())
-    assert seen == [ports.system_id(n) for n in INSTANCES] == [n + 1 for n in INSTANCES]
+    numbers, heights = list(fleet), altitudes_m(fleet)
+    seen = asyncio.run(_fly_all(fleet))
+    assert seen == [ports.system_id(n) for n in numbers] == [n + 1 for n in numbers]
     for n, (_, truth) in fleet.items():
         height = -truth.latest().pos_ned_m[2]
-        assert abs(height - ALTITUDES_M[n]) < 0.5, (n, height)  # each at its own system's height
+        assert abs(height - heights[n]) < 0.5, (n, height)  # each at its own system's height
     # gcs on the same shared port, one vehicle at a time by its instance (system id 1+N)
-    for k, n in enumerate(INSTANCES):
+    for k, n in enumerate(numbers):
         proc = subprocess.run(
-            [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{SHARED_GCS_PORT}", "-i", str(n), "land"],
+            [sys.executable, "-m", "gcs", "--url", f"udpin:0.0.0.0:{shared_gcs_port(fleet)}", "-i", str(n), "land"],
             cwd=ROOT,
             capture_output=True,
             text=True,
@@ -97,5 +108,5 @@ def test_one_mavsdk_on_the_shared_port_flies_three_vehicles_and_gcs_lands_each(f
         )
         assert proc.returncode == 0, proc.stdout + proc.stderr
         assert -fleet[n][1].latest().pos_ned_m[2] < 0.3  # this one is down
-        for other in INSTANCES[k + 1 :]:  # the others still in the air
-            assert -fleet[other][1].latest().pos_ned_m[2] > ALTITUDES_M[other] - 0.5, other
+        for other in numbers[k + 1 :]:  # the others still in the air
+            assert -fleet[other][1].latest().pos_ned_m[2] > heights[other] - 0.5, other

@@ -34,14 +34,10 @@ from mavsdk.asyncio.plugins.offboard import (  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
-from mavsim_core import ports
-
 from e2e_flight_helpers import latlon, sim_ms, sim_sleep, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_offboard", "stack")
-truth, stack = truth_and_stack_fixtures(INSTANCE)
+truth, stack = truth_and_stack_fixtures()
 WAIT_S = 120.0  # wall-clock safety net of each wait
 ALT_M = 5.0
 SQUARE = [(5.0, 0.0), (5.0, 5.0), (0.0, 5.0), (0.0, 0.0)]  # north, east from the estimator origin, m
@@ -114,10 +110,10 @@ async def _texts(tel, into: list[str]) -> None:
         into.append(st.text)
 
 
-async def _flight(truth) -> dict:
+async def _flight(stack, truth) -> dict:
     out: dict = {}
     async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{ports.api_port(INSTANCE)}")
+        await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action, offboard = TelemetryAsync(system), ActionAsync(system), OffboardAsync(system)
@@ -193,7 +189,7 @@ async def _flight(truth) -> dict:
 
 
 def test_offboard_position_velocity_attitude_stop_and_loss(stack, truth):
-    out = asyncio.run(_flight(truth))
+    out = asyncio.run(_flight(stack, truth))
     stack.check_alive()
     errors = out["square"]
     print("square corner errors (truth, m):", " ".join(f"{e:.3f}" for e in errors))

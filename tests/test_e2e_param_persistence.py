@@ -1,6 +1,6 @@
 """End-to-end: an acknowledged parameter change survives a crash of the flight controller (issue 18, finding 10).
 
-One max-speed stack (module scope, instance from tests/instances.py) with ``--state-dir``; it is never armed.
+One max-speed stack (module scope, a free instance) with ``--state-dir``; it is never armed.
 A pymavlink client (:class:`VehicleClient`) listens on the port the flight controller sends its
 ground-station link to, so it also hears what the flight controller says while it starts.
 
@@ -33,10 +33,8 @@ from gcs.plugins.param import decode_param_value, param_id_text
 from params.param_file import QGC, read_param_file
 
 from e2e_flight_helpers import WAIT_S, texts_since  # tests/e2e_flight_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_param_persistence", "stack")
 BURST = 100  # PARAM_SETs sent at once
 ROUNDS = 4  # each chosen parameter is set this many times, to a new value each time
 
@@ -52,9 +50,9 @@ def state_dir(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def stack(state_dir):
+def stack(inst, state_dir):
     with Stack(
-        instance=INSTANCE,
+        instance=inst,
         speed="max",
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir)],
@@ -69,8 +67,9 @@ def client(stack):
         yield c
 
 
-def state_path(state_dir: Path) -> Path:
-    return state_dir / f"quad_x-{INSTANCE}.params"
+def state_path(state_dir: Path, stack: Stack) -> Path:
+    """The flight controller's parameter file in ``state_dir`` (one per vehicle and instance)."""
+    return state_dir / f"quad_x-{stack.instance}.params"
 
 
 def burst_parameters() -> list[str]:
@@ -164,11 +163,11 @@ def test_every_acknowledged_value_survives_a_kill(stack, client, state_dir):
 
 
 def test_a_corrupt_state_file_is_kept_reported_and_replaced_by_defaults(stack, client, state_dir):
-    path = state_path(state_dir)
+    path = state_path(state_dir, stack)
     client.param_set("MPC_XY_P", 1.1)
     garbage = b"\x00\x17garbage\xff\xfe not a parameter file\n1\t1\tMPC_XY_P\t1.\x00\n"
     stale = state_dir / f".{path.name}.k1ll3d.tmp"  # what a write killed mid-way leaves behind
-    stale_plan = state_dir / f".quad_x-{INSTANCE}.plan.json.x7y8z9.tmp"
+    stale_plan = state_dir / f".quad_x-{stack.instance}.plan.json.x7y8z9.tmp"
     others = state_dir / ".quad_x-5.params.abcdef.tmp"  # another instance's write in progress: not ours
 
     def damage() -> None:
@@ -192,7 +191,7 @@ def test_a_corrupt_state_file_is_kept_reported_and_replaced_by_defaults(stack, c
 
 
 def test_a_failed_save_is_reported_and_the_value_still_used(stack, client, state_dir):
-    path = state_path(state_dir)
+    path = state_path(state_dir, stack)
     path.unlink()
     path.mkdir()  # the next save cannot replace it (even as root)
     try:

@@ -1,6 +1,6 @@
 """End-to-end: the parameter service of the real flight controller, over real sockets.
 
-One max-speed stack (module scope, instance from tests/instances.py) started with ``--state-dir`` and
+One max-speed stack (module scope, a free instance) started with ``--state-dir`` and
 ``--params``; it is never armed.  The clients:
 
 * a :class:`VehicleClient` (pymavlink);
@@ -50,12 +50,8 @@ ROOT = Path(__file__).resolve().parent.parent
 from mavsim_core import ports
 
 from e2e_params_clients import WAIT_S, MavproxySession, mavsdk_params  # tests/e2e_params_clients.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_params", "stack")
-FC_GCS_URL = f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}"  # the flight controller's ground-station socket
-FC_API_PORT = ports.api_local_port(INSTANCE)  # its API socket
 
 STARTUP_PARAMS = (
     "# start-up file of the end-to-end test (QGroundControl format)\n"
@@ -71,11 +67,11 @@ def state_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def stack(state_dir):
+def stack(inst, state_dir):
     startup = state_dir.parent / "startup.params"
     startup.write_text(STARTUP_PARAMS)
     with Stack(
-        instance=INSTANCE,
+        instance=inst,
         speed="max",
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir), "--params", str(startup)],
@@ -85,7 +81,7 @@ def stack(state_dir):
 
 @pytest.fixture(scope="module")
 def client(stack):
-    with VehicleClient(FC_GCS_URL, timeout_s=WAIT_S, idle=stack.check_alive) as c:
+    with VehicleClient(fc_gcs_url(stack), timeout_s=WAIT_S, idle=stack.check_alive) as c:
         yield c
 
 
@@ -94,14 +90,19 @@ def declared():
     return default_store()
 
 
-def run_gcs(*args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
-    """``python -m gcs --url udpout:127.0.0.1:<18570 + INSTANCE> ...``."""
-    cmd = [sys.executable, "-m", "gcs", "--url", FC_GCS_URL, *args]
+def fc_gcs_url(stack: Stack) -> str:
+    """The flight controller's ground-station socket (18570 + instance), as a ``udpout`` url."""
+    return f"udpout:127.0.0.1:{ports.gcs_local_port(stack.instance)}"
+
+
+def run_gcs(stack: Stack, *args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
+    """``python -m gcs --url udpout:127.0.0.1:<18570 + instance> ...``."""
+    cmd = [sys.executable, "-m", "gcs", "--url", fc_gcs_url(stack), *args]
     return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=timeout_s)
 
 
-def state_values(state_dir: Path) -> dict:
-    path = state_dir / f"quad_x-{INSTANCE}.params"
+def state_values(state_dir: Path, stack: Stack) -> dict:
+    path = state_dir / f"quad_x-{stack.instance}.params"
     return read_param_file(path, QGC).values() if path.exists() else {}
 
 
@@ -227,70 +228,70 @@ def test_values_persist_across_a_restart(stack, client, state_dir):
     assert get_when_up(client, "SYS_AUTOSTART") == 4003
     assert client.param_get("MC_ROLLRATE_P") == pytest.approx(14.5)
     assert client.param_get("MC_ROLL_P") == pytest.approx(7.0)  # --params applies again
-    saved = state_values(state_dir)
+    saved = state_values(state_dir, stack)
     assert saved["SYS_AUTOSTART"] == 4003 and saved["MC_ROLLRATE_P"] == pytest.approx(14.5)
     assert "saved parameters:" in stack.tail("autopilot", 40)
 
     client.param_set("MC_ROLLRATE_P", 12.0)
     client.param_set("SYS_AUTOSTART", 4001)
-    wait_for(lambda: set(state_values(state_dir)) == {"MC_ROLL_P"}, what="defaults dropped from the state file")
+    wait_for(lambda: set(state_values(state_dir, stack)) == {"MC_ROLL_P"}, what="defaults dropped from the state file")
 
 
 # --------------------------------------------------------------------------- gcs param
 
 
-def test_gcs_param_list_get_set(client):
-    p = run_gcs("param", "list", "MPC_XY_*")
+def test_gcs_param_list_get_set(stack, client):
+    p = run_gcs(stack, "param", "list", "MPC_XY_*")
     assert p.returncode == 0, p.stderr
     lines = p.stdout.splitlines()
     assert lines[0].startswith("MPC_XY_CRUISE") and all(line.startswith("MPC_XY_") for line in lines)
     assert "MPC_XY_P         0.95" in lines
     assert re.search(r"downloaded \d+ parameters in \d+\.\d\d s", p.stderr)
-    p = run_gcs("param", "set", "MPC_XY_P", "1.1")
+    p = run_gcs(stack, "param", "set", "MPC_XY_P", "1.1")
     assert p.returncode == 0 and p.stdout.strip() == "MPC_XY_P = 1.1", p.stderr
-    p = run_gcs("param", "get", "MPC_XY_P")
+    p = run_gcs(stack, "param", "get", "MPC_XY_P")
     assert p.returncode == 0 and p.stdout.strip() == "MPC_XY_P = 1.1"
-    p = run_gcs("param", "set", "MPC_XY_P", "7")
+    p = run_gcs(stack, "param", "set", "MPC_XY_P", "7")
     assert p.returncode == 1 and "outside range" in p.stderr
     client.param_set("MPC_XY_P", 0.95)
 
 
-def test_qgc_file_round_trips_through_gcs_param_save_and_load(client, tmp_path):
+def test_qgc_file_round_trips_through_gcs_param_save_and_load(stack, client, tmp_path):
     saved = tmp_path / "vehicle.params"
-    p = run_gcs("param", "save", str(saved))
+    p = run_gcs(stack, "param", "save", str(saved))
     assert p.returncode == 0, p.stderr
     pf = read_param_file(saved)
     vehicle = {q.name: q for q in client.param_list()}
     assert pf.format == QGC and pf.problems == [] and len(pf.entries) == len(vehicle)
-    sysid = ports.system_id(INSTANCE)  # QGroundControl writes the vehicle's system id into each line
+    sysid = stack.sysid  # QGroundControl writes the vehicle's system id into each line
     assert all(e.mav_type == vehicle[e.name].mav_type and e.sysid == sysid and e.compid == 1 for e in pf.entries)
 
     client.param_set("MPC_XY_P", 1.1)
     client.param_set("SYS_AUTOSTART", 4004)
-    p = run_gcs("param", "diff", str(saved))
+    p = run_gcs(stack, "param", "diff", str(saved))
     assert p.returncode == 0, p.stderr
     diff = {line.split()[0]: line.split()[1:] for line in p.stdout.splitlines()[1:]}
     assert diff == {"MPC_XY_P": ["0.95", "1.1"], "SYS_AUTOSTART": ["4001", "4004"]}
 
-    p = run_gcs("param", "load", str(saved))
+    p = run_gcs(stack, "param", "load", str(saved))
     assert p.returncode == 0, p.stderr
     assert "MPC_XY_P: 1.1 -> 0.95" in p.stdout and "SYS_AUTOSTART: 4004 -> 4001" in p.stdout
     assert f"loaded {saved}: 2 set, {len(vehicle) - 2} unchanged, 0 refused" in p.stdout
     assert client.param_get("MPC_XY_P") == pytest.approx(0.95) and client.param_get("SYS_AUTOSTART") == 4001
 
     mavproxy_copy = tmp_path / "copy.parm"
-    assert run_gcs("param", "save", str(mavproxy_copy), "--format", "mavproxy").returncode == 0
+    assert run_gcs(stack, "param", "save", str(mavproxy_copy), "--format", "mavproxy").returncode == 0
     again = parse_param_text(mavproxy_copy.read_text())
     assert again.format == "mavproxy" and again.values().keys() == pf.values().keys()
 
 
-def test_gcs_param_load_reports_each_refusal(client, tmp_path):
+def test_gcs_param_load_reports_each_refusal(stack, client, tmp_path):
     bad = tmp_path / "bad.parm"
     bad.write_text(
         "MPC_XY_P 5\nNOPE_PARAM 1\nMPC_LAND_SPEED 1.8\nMPC_Z_VEL_MAX_DN 2\nSYS_AUTOSTART 4001.5\nnot a line at all\n"
     )
     try:
-        p = run_gcs("param", "load", str(bad))
+        p = run_gcs(stack, "param", "load", str(bad))
         assert p.returncode == 1
         err = p.stderr
         assert f"{bad}, line 1: MPC_XY_P refused: MPC_XY_P not set to 5" in err and "outside range" in err
@@ -308,9 +309,9 @@ def test_gcs_param_load_reports_each_refusal(client, tmp_path):
 # --------------------------------------------------------------------------- other ground stations
 
 
-def test_mavsdk_param_plugin_sets_and_gets_int_and_float(client):
+def test_mavsdk_param_plugin_sets_and_gets_int_and_float(stack, client):
     pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-    seen = asyncio.run(mavsdk_params(FC_API_PORT))
+    seen = asyncio.run(mavsdk_params(ports.api_local_port(stack.instance)))
     assert seen == {
         "int_before": 4001,
         "int_after": 4005,
@@ -320,8 +321,8 @@ def test_mavsdk_param_plugin_sets_and_gets_int_and_float(client):
     assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(0.95)
 
 
-def test_mavproxy_param_set_and_show(client):
-    session = MavproxySession(FC_GCS_URL)
+def test_mavproxy_param_set_and_show(stack, client):
+    session = MavproxySession(fc_gcs_url(stack))
     try:
         count = int(session.expect(r"Received (\d+) parameters").group(1))
         assert count == len(client.param_list())

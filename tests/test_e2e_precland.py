@@ -21,8 +21,6 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 from sitl.ugv_paths import Pose2
 
-from instances import instance  # tests/instances.py: every test's instance numbers
-
 pytestmark = pytest.mark.e2e
 WAIT_S = 180.0
 
@@ -38,28 +36,28 @@ def _fly(setup: LandingSetup, inst: int):
         return fly_landing(client, truth, setup, timeout_s=WAIT_S)
 
 
-def test_precision_landing_on_the_static_pad():
+def test_precision_landing_on_the_static_pad(free_instance):
     """The UGV parked; the multicopter waits 0.5 m off it and lands on the marker within 5 cm."""
     setup = LandingSetup(path="static", speed_m_s=0.0, ugv_start=Pose2(3.0, 1.0, 0.5), meet_offset_m=(0.4, -0.3))
-    r = _fly(setup, instance("test_e2e_precland", "static"))
+    r = _fly(setup, free_instance())
     assert r.success, r.reason
     assert r.touchdown_error_m < 0.05
     assert any("docking" in p for p in r.phases) and any("done" in p for p in r.phases)
 
 
-def test_precision_landing_on_the_ugv_driving_at_1_m_s():
+def test_precision_landing_on_the_ugv_driving_at_1_m_s(free_instance):
     """The UGV drives a straight line at 1 m/s under the waiting multicopter, which lands on its deck."""
     setup = LandingSetup(path="line", speed_m_s=1.0, ugv_start=Pose2(4.0, -1.0, math.pi / 2), seed=3)
-    r = _fly(setup, instance("test_e2e_precland", "moving"))
+    r = _fly(setup, free_instance())
     assert r.success, r.reason
     assert r.touchdown_error_m < 0.10
     assert r.ugv_speed_at_touchdown_m_s > 0.8  # it landed on a moving deck
 
 
-def test_target_lost_then_search_then_ordinary_landing():
+def test_target_lost_then_search_then_ordinary_landing(free_instance):
     """The camera fails while tracking: PLD_BTOUT later a search, PLD_MAX_SRCH searches of PLD_SRCH_TOUT,
     then (opportunistic, NAV_LAND param 2 = 1) an ordinary landing; every phase is a STATUSTEXT."""
-    inst = instance("test_e2e_precland", "loss")
+    inst = free_instance()
     setup = LandingSetup(path="static", speed_m_s=0.0, ugv_start=Pose2(3.0, 0.0, 0.0), meet_offset_m=(0.0, 0.0))
     with (
         Stack(instance=inst, speed="max", seed=5, extra_sitl_args=setup.sim_args()) as stack,

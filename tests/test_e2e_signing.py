@@ -1,6 +1,6 @@
 """End-to-end: MAVLink 2 message signing on the real flight controller, set up and used by real clients.
 
-One max-speed stack (module scope, instance from tests/instances.py) started with ``--state-dir``.
+One max-speed stack (module scope, a free instance) started with ``--state-dir``.
 In order (the tests of this file share the vehicle's key):
 
 1. ``gcs signing setup PASSPHRASE`` gives the vehicle its key (kept in the state directory, mode
@@ -40,15 +40,9 @@ from gcs.signing_cli import has_signature  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
 from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py (MAVProxy: tests/mavproxy_env.py)
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 pytestmark = pytest.mark.e2e
-INSTANCE = instance("test_e2e_signing", "stack")
 ROOT = Path(__file__).resolve().parent.parent
-FC_GCS_URL = f"udpout:127.0.0.1:{ports.gcs_local_port(INSTANCE)}"  # the flight controller's ground-station socket
-# Where its API endpoint sends by default: a client there hears the vehicle even when the vehicle refuses it
-# (a client that only sends, as on FC_GCS_URL, becomes a destination only through a message the vehicle accepts).
-API_URL = f"udpin:0.0.0.0:{ports.api_port(INSTANCE)}"
 PASSPHRASE = "e2e signing passphrase"
 MAVPROXY_PASSPHRASE = "mavproxy-passphrase"
 WAIT_S = 60.0
@@ -61,9 +55,9 @@ def state_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def stack(state_dir):
+def stack(inst, state_dir):
     with Stack(
-        instance=INSTANCE,
+        instance=inst,
         speed="max",
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir)],
@@ -81,20 +75,29 @@ def observer(stack):
 @pytest.fixture(scope="module")
 def intruder(stack, observer):
     """Raw pymavlink without the key, made a peer of the vehicle before it had one (so it hears the answers)."""
-    conn = mavutil.mavlink_connection(FC_GCS_URL, source_system=INTRUDER_SYSID, source_component=190)
+    conn = mavutil.mavlink_connection(fc_gcs_url(stack), source_system=INTRUDER_SYSID, source_component=190)
     conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE)
     assert conn.recv_match(type="HEARTBEAT", blocking=True, timeout=WAIT_S) is not None
     yield conn
     conn.close()
 
 
-def key_file(state_dir: Path) -> Path:
-    return state_dir / f"quad_x-{INSTANCE}.signing"
+def fc_gcs_url(stack: Stack) -> str:
+    """The flight controller's ground-station socket (18570 + instance), as a ``udpout`` url.
+
+    A client that only sends there becomes a destination only through a message the vehicle accepts; one
+    on ``stack.api_url`` (where the API endpoint sends by default) hears the vehicle even when it is refused."""
+    return f"udpout:127.0.0.1:{ports.gcs_local_port(stack.instance)}"
 
 
-def run_gcs(observer: VehicleClient, *args: str, url: str = FC_GCS_URL, timeout_s: float = 180.0):
-    """``python -m gcs --url URL ARGS`` (a CompletedProcess); the observer keeps reading meanwhile."""
-    cmd = [sys.executable, "-m", "gcs", "--url", url, *args]
+def key_file(state_dir: Path, stack: Stack) -> Path:
+    return state_dir / f"quad_x-{stack.instance}.signing"
+
+
+def run_gcs(stack: Stack, observer: VehicleClient, *args: str, url: str | None = None, timeout_s: float = 180.0):
+    """``python -m gcs --url URL ARGS`` (URL: :func:`fc_gcs_url` unless given; a CompletedProcess); the
+    observer keeps reading meanwhile."""
+    cmd = [sys.executable, "-m", "gcs", "--url", url or fc_gcs_url(stack), *args]
     env = {k: v for k, v in os.environ.items() if k != "GCS_SIGNING_KEY"}
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
@@ -124,10 +127,10 @@ def intruder_command(intruder, observer: VehicleClient, param1: float, param2: f
 
 
 def test_gcs_sets_a_key_and_an_unsigned_arm_has_no_effect(stack, state_dir, observer, intruder):
-    p = run_gcs(observer, "signing", "setup", PASSPHRASE)
+    p = run_gcs(stack, observer, "signing", "setup", PASSPHRASE)
     assert p.returncode == 0, p.stderr
     assert f"signing on for system {stack.sysid}" in p.stdout
-    path = key_file(state_dir)
+    path = key_file(state_dir, stack)
     assert stat.S_IMODE(path.stat().st_mode) == 0o600
     assert f"key {hashlib.sha256(PASSPHRASE.encode()).hexdigest()}" in path.read_text()
     observer.wait_until(lambda: has_signature(observer.latest("HEARTBEAT")), 10, "a signed heartbeat")
@@ -142,62 +145,65 @@ def test_gcs_sets_a_key_and_an_unsigned_arm_has_no_effect(stack, state_dir, obse
 
 def test_signed_gcs_flies_while_the_unsigned_disarm_has_no_effect(stack, observer, intruder):
     key = ["--signing-key", PASSPHRASE]
-    p = run_gcs(observer, *key, "param", "set", "COM_DISARM_PRFLT", "60")  # (time runs fast between commands)
+    p = run_gcs(stack, observer, *key, "param", "set", "COM_DISARM_PRFLT", "60")  # (time runs fast between commands)
     assert p.returncode == 0, p.stderr
-    p = run_gcs(observer, *key, "arm")
+    p = run_gcs(stack, observer, *key, "arm")
     assert p.returncode == 0 and "armed" in p.stdout, p.stderr
-    p = run_gcs(observer, *key, "takeoff", "3")
+    p = run_gcs(stack, observer, *key, "takeoff", "3")
     assert p.returncode == 0, p.stderr
     observer.wait_until(lambda: (observer.relative_alt_m() or 0.0) > 2.5, 30, "the vehicle at 3 m")
     assert intruder_command(intruder, observer, 0.0, 21196.0) == []  # forced DISARM in the air: ignored
     assert observer.armed() and observer.relative_alt_m() > 2.5
-    p = run_gcs(observer, *key, "land")
+    p = run_gcs(stack, observer, *key, "land")
     assert p.returncode == 0 and "landed and disarmed" in p.stdout, p.stderr
 
 
 def test_the_key_survives_a_restart(stack, state_dir, observer):
     stack.restart_autopilot()
     observer.wait_until(lambda: "MAVLink signing ON: key loaded from" in stack.tail("autopilot", 40), WAIT_S, "start")
-    p = run_gcs(observer, "--timeout", "2", "arm", url=API_URL)  # no key: it hears the vehicle, gets no answer
+    # no key: it hears the vehicle, gets no answer
+    p = run_gcs(stack, observer, "--timeout", "2", "arm", url=stack.api_url)
     assert p.returncode == 3 and "timed out after 2 s waiting for" in p.stderr, p.stdout + p.stderr
     assert "heartbeat" not in p.stderr
     assert not observer.armed()
-    p = run_gcs(observer, "--signing-key", PASSPHRASE, "arm")
+    p = run_gcs(stack, observer, "--signing-key", PASSPHRASE, "arm")
     assert p.returncode == 0, p.stderr
-    p = run_gcs(observer, "--signing-key", PASSPHRASE, "disarm")
+    p = run_gcs(stack, observer, "--signing-key", PASSPHRASE, "disarm")
     assert p.returncode == 0, p.stderr
-    p = run_gcs(observer, "--timeout", "2", "--signing-key", "a wrong passphrase", "status", "--once", url=API_URL)
+    p = run_gcs(
+        stack, observer, "--timeout", "2", "--signing-key", "a wrong passphrase", "status", "--once", url=stack.api_url
+    )
     assert (
         p.returncode == 3 and "messages refused as not signed with it: has the vehicle this --signing-key?" in p.stderr
     )
-    p = run_gcs(observer, "--timeout", "2", "--signing-key", "a wrong passphrase", "status", "--once")
+    p = run_gcs(stack, observer, "--timeout", "2", "--signing-key", "a wrong passphrase", "status", "--once")
     assert p.returncode == 3 and "nothing heard, none refused: has the vehicle this --signing-key?" in p.stderr
 
 
 def test_gcs_disables_signing(stack, state_dir, observer):
-    p = run_gcs(observer, "signing", "disable", url=API_URL)  # without the key: refused here
+    p = run_gcs(stack, observer, "signing", "disable", url=stack.api_url)  # without the key: refused here
     assert p.returncode == 1 and "give the current one with --signing-key" in p.stderr
-    p = run_gcs(observer, "--signing-key", PASSPHRASE, "signing", "disable")
+    p = run_gcs(stack, observer, "--signing-key", PASSPHRASE, "signing", "disable")
     assert p.returncode == 0 and "signing off" in p.stdout, p.stderr
-    assert not key_file(state_dir).exists()
+    assert not key_file(state_dir, stack).exists()
     observer.wait_until(lambda: not has_signature(observer.latest("HEARTBEAT")), 10, "an unsigned heartbeat")
 
 
 def test_mavproxy_signing_setup_and_remove(stack, state_dir, observer):
-    session = MavproxySession(FC_GCS_URL, modules="signing")
+    session = MavproxySession(fc_gcs_url(stack), modules="signing")
     try:
         session.expect(r"online system \d+")
         session.send(f"signing setup {MAVPROXY_PASSPHRASE}")
         session.expect("Setup signing key")
         key = hashlib.sha256(MAVPROXY_PASSPHRASE.encode()).hexdigest()
         deadline = time.monotonic() + WAIT_S
-        while not (key_file(state_dir).exists() and f"key {key}" in key_file(state_dir).read_text()):
+        while not (key_file(state_dir, stack).exists() and f"key {key}" in key_file(state_dir, stack).read_text()):
             assert time.monotonic() < deadline, "the vehicle did not keep MAVProxy's key"
             observer.pump(0.1)
-        p = run_gcs(observer, "--signing-key", MAVPROXY_PASSPHRASE, "param", "get", "MPC_XY_P")
+        p = run_gcs(stack, observer, "--signing-key", MAVPROXY_PASSPHRASE, "param", "get", "MPC_XY_P")
         assert p.returncode == 0 and p.stdout.startswith("MPC_XY_P = "), p.stderr  # same passphrase, same key
         session.send("signing remove")
         session.expect("Removed signing")
-        observer.wait_until(lambda: not key_file(state_dir).exists(), 30, "the key file removed")
+        observer.wait_until(lambda: not key_file(state_dir, stack).exists(), 30, "the key file removed")
     finally:
         session.close()

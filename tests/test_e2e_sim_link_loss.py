@@ -36,11 +36,7 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from instances import instance  # tests/instances.py: every test's instance numbers
-
 pytestmark = pytest.mark.e2e
-SIM_RESTART = instance("test_e2e_sim_link_loss", "sim_restart")
-FC_RESTART = instance("test_e2e_sim_link_loss", "fc_restart")
 WAIT_S = 120.0  # wall-clock safety net of each wait (a loaded 2-core machine)
 ALT_M = 2.5  # MIS_TAKEOFF_ALT's default: NAV_TAKEOFF without an altitude
 FALL_ALT_M = 5.0  # the flight-controller restart: a fall of about a second
@@ -167,8 +163,8 @@ def sim_sleep(truth: SimClient, seconds: float) -> None:
 
 
 @pytest.fixture(scope="module")
-def sim_restart_stack():
-    with Stack(instance=SIM_RESTART, speed="max") as stack:
+def sim_restart_stack(inst):
+    with Stack(instance=inst, speed="max") as stack:
         gcs = GcsWatch(stack.gcs_url, stack.sysid)
         try:
             yield stack, gcs
@@ -208,7 +204,7 @@ def test_simulator_ports_are_loopback_only(sim_restart_stack):
 
 def test_simulator_killed_in_a_hover_and_restarted_no_fly_away(sim_restart_stack):
     stack, gcs = sim_restart_stack
-    truth = SimClient(ports.sim_component_port(SIM_RESTART))
+    truth = SimClient(ports.sim_component_port(stack.instance))
     try:
         take_off(gcs, truth, ALT_M)
         sim_sleep(truth, 1.0)
@@ -225,7 +221,7 @@ def test_simulator_killed_in_a_hover_and_restarted_no_fly_away(sim_restart_stack
     lost = [x for x in gcs.texts_since(index) if "Simulator link lost" in x[2]]
     assert lost and lost[0][1] == mavlink.MAV_SEVERITY_CRITICAL, gcs.texts_since(index)
 
-    truth = SimClient(ports.sim_component_port(SIM_RESTART))  # the restarted simulator's clock starts at 0
+    truth = SimClient(ports.sim_component_port(stack.instance))  # the restarted simulator's clock starts at 0
     try:
         stack.start_sitl()
         gcs.wait_text(index, "Simulator link regained")
@@ -249,7 +245,7 @@ def test_a_silent_client_on_the_simulator_port_is_dropped(sim_restart_stack):
     after its handshake timeout and serves the flight controller, so the simulation runs on."""
     stack, gcs = sim_restart_stack
     squatter = socket.create_connection(("127.0.0.1", stack.sitl_port), timeout=5)  # connects, never speaks
-    truth = SimClient(ports.sim_component_port(SIM_RESTART))
+    truth = SimClient(ports.sim_component_port(stack.instance))
     try:
         truth.wait_connected(timeout_s=WAIT_S)
         stack.restart_autopilot()
@@ -263,10 +259,10 @@ def test_a_silent_client_on_the_simulator_port_is_dropped(sim_restart_stack):
         truth.close()
 
 
-def test_flight_controller_restarted_in_the_air_sets_home_only_at_rest():
-    with Stack(instance=FC_RESTART, speed="max") as stack:
+def test_flight_controller_restarted_in_the_air_sets_home_only_at_rest(free_instance):
+    with Stack(instance=free_instance(), speed="max") as stack:
         gcs = GcsWatch(stack.gcs_url, stack.sysid)
-        truth = SimClient(ports.sim_component_port(FC_RESTART))
+        truth = SimClient(ports.sim_component_port(stack.instance))
         try:
             take_off(gcs, truth, FALL_ALT_M)
             index = gcs.text_index()

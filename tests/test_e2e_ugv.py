@@ -18,20 +18,18 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient, SimParamError
 from mavsim_core import ports
 
-from instances import instance
-
 pytestmark = pytest.mark.e2e
-INST = instance("test_e2e_ugv", "stack")
 
 
-def _gcs(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "gcs", "--instance", str(INST), *args]
+def _gcs(inst: int, *args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
+    """``python -m gcs --instance INST ARGS`` (the simulator's component of instance ``inst``)."""
+    cmd = [sys.executable, "-m", "gcs", "--instance", str(inst), *args]
     return subprocess.run(cmd, input=stdin, capture_output=True, text=True, timeout=120)
 
 
-def _ugv(seconds_of_sim: float = 0.0):
+def _ugv(inst: int, seconds_of_sim: float = 0.0):
     """The UGV's truth after ``seconds_of_sim`` more simulated seconds (and its truth before)."""
-    with SimClient(ports.sim_component_port(INST)) as sim:
+    with SimClient(ports.sim_component_port(inst)) as sim:
         sim.wait_connected(30)
         deadline = time.monotonic() + 30
         while (first := sim.ugv_latest()) is None and time.monotonic() < deadline:
@@ -42,28 +40,28 @@ def _ugv(seconds_of_sim: float = 0.0):
         return first, sim.ugv_latest()
 
 
-def test_ugv_is_driven_by_keys_set_by_parameters_and_refuses_a_restart_parameter():
+def test_ugv_is_driven_by_keys_set_by_parameters_and_refuses_a_restart_parameter(inst):
     args = ["--param", "SIM_UGV_EN=1", "--param", "SIM_UGV_X=3", "--param", "SIM_UGV_PATH=0"]
-    with Stack(instance=INST, speed="max", extra_sitl_args=args, flight_logs=False):
-        parked, _ = _ugv()
+    with Stack(instance=inst, speed="max", extra_sitl_args=args, flight_logs=False):
+        parked, _ = _ugv(inst)
         assert parked.pos_ned_m[0] == pytest.approx(3.0, abs=0.05) and abs(parked.pos_ned_m[1]) < 0.05
         assert parked.pos_ned_m[2] == pytest.approx(-0.3, abs=0.05)  # the deck's top, 0.3 m up
 
-        drive = _gcs("ugv", "drive", "--duration", "3", stdin="ww")  # half throttle ahead (north)
+        drive = _gcs(inst, "ugv", "drive", "--duration", "3", stdin="ww")  # half throttle ahead (north)
         assert drive.returncode == 0, drive.stderr
-        _, moved = _ugv()
+        _, moved = _ugv(inst)
         assert moved.pos_ned_m[0] > 4.0 and abs(moved.pos_ned_m[1]) < 0.5  # drove north, straight
 
-        out = _gcs("ugv", "set", "--path", "circle", "--speed", "1.5", "--radius", "3")
+        out = _gcs(inst, "ugv", "set", "--path", "circle", "--speed", "1.5", "--radius", "3")
         assert out.returncode == 0, out.stderr
         assert "SIM_UGV_PATH = 2" in out.stdout and "SIM_UGV_SPD = 1.5" in out.stdout
-        a, b = _ugv(seconds_of_sim=8.0)
+        a, b = _ugv(inst, seconds_of_sim=8.0)
         assert math.hypot(*b.vel_ned_m_s[:2]) == pytest.approx(1.5, abs=0.2)  # at the set speed
         assert abs(b.yaw_rad - a.yaw_rad) > 0.1  # and turning
 
-        with SimClient(ports.sim_component_port(INST)) as sim:
+        with SimClient(ports.sim_component_port(inst)) as sim:
             sim.wait_connected(30)
             with pytest.raises(SimParamError, match="restart"):
                 sim.set("SIM_UGV_EN", 0)
-        status = _gcs("ugv", "status")
+        status = _gcs(inst, "ugv", "status")
         assert status.returncode == 0 and "UGV deck" in status.stdout and "path 2" in status.stdout

@@ -4,7 +4,7 @@ The real ``sitl`` and ``autopilot`` processes (``gcs.launcher.Stack``, ``--speed
 a ground-station client on the API port, and :class:`gcs.sim_client.SimClient` on
 the simulator's own port (ground truth, and the ``SIM_*`` parameters a user sets
 from MAVProxy).  Durations are simulated seconds; wall-clock values are only
-"give up waiting" timeouts.  Instances: tests/instances.py.
+"give up waiting" timeouts.  Instances: free ones (``free_instance``, tests/conftest.py).
 """
 
 from __future__ import annotations
@@ -19,11 +19,7 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from instances import instance  # tests/instances.py: every test's instance numbers
-
 pytestmark = pytest.mark.e2e
-INSTANCE_FIREFLY = instance("test_e2e_vehicles", "firefly")
-INSTANCE_WINDY = instance("test_e2e_vehicles", "windy")
 WAIT_S = 120.0
 ALT_M = 5.0
 
@@ -60,10 +56,11 @@ def land(client: VehicleClient) -> None:
 
 
 @pytest.fixture(scope="module")
-def firefly():
+def firefly(free_instance):
+    i = free_instance()
     with (
-        Stack(instance=INSTANCE_FIREFLY, vehicle="firefly") as stack,
-        SimClient(ports.sim_component_port(INSTANCE_FIREFLY)) as truth,
+        Stack(instance=i, vehicle="firefly") as stack,
+        SimClient(ports.sim_component_port(i)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         yield client, truth
@@ -145,12 +142,13 @@ def collect(client: VehicleClient, kind: str, seconds: float) -> list:
     return out
 
 
-def test_quad_holds_position_in_the_windy_scenario():
+def test_quad_holds_position_in_the_windy_scenario(free_instance):
     """The [Q] quadcopter started with ``sitl --scenario windy`` (5 m/s from the West,
     1 m/s turbulence, 2 m/s gusts)."""
+    i = free_instance()
     with (
-        Stack(instance=INSTANCE_WINDY, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack,
-        SimClient(ports.sim_component_port(INSTANCE_WINDY)) as truth,
+        Stack(instance=i, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack,
+        SimClient(ports.sim_component_port(i)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         point = take_off(client, truth)

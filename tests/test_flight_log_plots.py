@@ -1,7 +1,7 @@
 """``gcs plot`` (control log, truth log, .tlog), and the logs a real flight leaves, plotted.
 
 Unit tests write files in pytest's tmp_path; the end-to-end test (marked ``e2e``) flies the
-real processes (``Stack``) on this file's instance (tests/instances.py) and reads the logs they
+real processes (``Stack``) on a free instance (``free_instance``, tests/conftest.py) and reads the logs they
 leave.  The simulator's UDP truth is off (``--truth-port 0``): the test reads the truth from the
 simulator's log.  Writing the logs is tested in tests/test_flight_logs.py.
 """
@@ -31,11 +31,9 @@ from mavsim_core.quaternion import from_euler  # noqa: E402
 from sitl.truth_log import truth_log_fields  # noqa: E402
 
 from flight_log_helpers import EPOCH0_US, make_mav, read_tlog  # tests/flight_log_helpers.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-E2E_INSTANCE = instance("test_flight_log_plots", "e2e")  # TCP 4560+I; the flight controller binds UDP 14640+I, 18570+I
 
 
 # --------------------------------------------------------------------------- plots
@@ -170,14 +168,14 @@ def test_gcs_plot_reports_a_bad_log(tmp_path, capsys):
 
 
 @pytest.mark.e2e
-def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
+def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path, free_instance):
     """Real sitl + autopilot (max speed): take off to 3 m, hover 3 s, land; read the logs; plot them."""
     from gcs.client import VehicleClient
     from gcs.launcher import Stack
 
     wait_s, alt_m = 90.0, 3.0
     logs = tmp_path / "logs"
-    with Stack(instance=E2E_INSTANCE, speed="max", log_dir=logs, extra_sitl_args=["--truth-port", "0"]) as stack:
+    with Stack(instance=free_instance(), speed="max", log_dir=logs, extra_sitl_args=["--truth-port", "0"]) as stack:
         with VehicleClient(stack.api_url, timeout_s=wait_s, idle=stack.check_alive) as c:
             c.wait_until(c.prearm_ok, wait_s, "ready to arm")
             home = c.wait_home(wait_s)
@@ -193,7 +191,8 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path):
 
     tlogs, fcs, truths = (sorted(logs.glob("*" + sfx)) for sfx in (".tlog", ".fc.npy", ".truth.npy"))
     assert len(tlogs) == len(fcs) == len(truths) == 1, sorted(p.name for p in logs.iterdir())
-    assert tlogs[0].name.endswith(f"_i{E2E_INSTANCE}.tlog") and fcs[0].name == tlogs[0].name.replace(".tlog", ".fc.npy")
+    assert tlogs[0].name.endswith(f"_i{stack.instance}.tlog")
+    assert fcs[0].name == tlogs[0].name.replace(".tlog", ".fc.npy")
 
     msgs = read_tlog(tlogs[0])
     types = Counter(m.get_type() for m in msgs)

@@ -25,18 +25,21 @@ from gcs.__main__ import build_parser, main, resolve_url, status_line
 from gcs.client import VehicleClient
 from gcs.errors import GcsTimeout, NoAnswer
 from gcs.launcher import Stack, demo
-from mavsim_core import param_encoding
+from mavsim_core import param_encoding, ports
 from mavsim_core import px4_modes as modes
 
 ROOT = Path(__file__).resolve().parent.parent
 
-from mavsim_core import ports
 
-from instances import instance  # tests/instances.py: every test's instance numbers
+@pytest.fixture(scope="module")
+def nobody(free_instance) -> int:
+    """A free instance no test starts: its own ground-station port stays silent."""
+    return free_instance()
 
-NOBODY = instance("test_gcs_cli", "nobody")  # an instance no test starts: its own ground-station port stays silent
-NOBODY_URL = f"udpin:0.0.0.0:{ports.own_gcs_port(NOBODY)}"
-DEMO_INSTANCE = instance("test_gcs_cli", "demo")
+
+def url_of(instance: int) -> str:
+    """The own ground-station port of ``instance`` (14840 + instance), as a ``udpin`` url."""
+    return f"udpin:0.0.0.0:{ports.own_gcs_port(instance)}"
 
 
 def free_udp_port() -> int:
@@ -199,9 +202,11 @@ def test_cli_parsing():
         assert exc.value.code == 2
 
 
-def test_unknown_mode_exits_1_without_connecting(capsys):
-    assert main(["--url", NOBODY_URL, "--timeout", "0.2", "mode", "GUIDED"]) == 1
-    assert "unknown mode 'GUIDED'" in capsys.readouterr().err
+def test_unknown_mode_is_a_usage_error_without_connecting(capsys, nobody):
+    with pytest.raises(SystemExit) as exc:  # argparse's exit 2
+        main(["--url", url_of(nobody), "--timeout", "0.2", "mode", "GUIDED"])
+    assert exc.value.code == 2
+    assert "argument NAME: unknown mode 'GUIDED'" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
@@ -217,32 +222,19 @@ def test_a_url_that_cannot_open_is_a_usage_error_in_one_line(url, why, capsys):
     assert err.startswith(why) and "Traceback" not in err
 
 
-def test_autopilot_with_an_unreadable_params_file_does_not_start(tmp_path):
-    proc = subprocess.run(
-        [sys.executable, "-m", "autopilot", "--instance", str(NOBODY), "--params", str(tmp_path / "missing.params")],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert proc.returncode == 1, proc.stdout + proc.stderr
-    assert f"autopilot: cannot read the --params file {tmp_path / 'missing.params'}" in proc.stderr
-    assert "waiting for the simulator" not in proc.stdout
-
-
 # --------------------------------------------------------------------------- nothing answering
 
 
-def test_arm_without_vehicle_is_no_answer_with_exit_3(capsys):
-    assert main(["--url", NOBODY_URL, "-i", str(NOBODY), "--timeout", "0.5", "arm"]) == 3
+def test_arm_without_vehicle_is_no_answer_with_exit_3(capsys, nobody):
+    assert main(["--url", url_of(nobody), "-i", str(nobody), "--timeout", "0.5", "arm"]) == 3
     err = capsys.readouterr().err
     assert "no answer from the vehicle: timed out after 0.5 s waiting for a heartbeat from the vehicle" in err
-    assert NOBODY_URL in err and f"sysid {NOBODY + 1}," in err
+    assert url_of(nobody) in err and f"sysid {nobody + 1}," in err
 
 
-def test_python_m_gcs_arm_without_vehicle_exits_3():
+def test_python_m_gcs_arm_without_vehicle_exits_3(nobody):
     proc = subprocess.run(
-        [sys.executable, "-m", "gcs", "--url", NOBODY_URL, "--timeout", "0.5", "arm"],
+        [sys.executable, "-m", "gcs", "--url", url_of(nobody), "--timeout", "0.5", "arm"],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -305,12 +297,12 @@ def test_stack_ports_and_commands():
 
 
 @pytest.mark.e2e
-def test_demo_reports_dead_flight_controller_with_log_tail(capsys):
+def test_demo_reports_dead_flight_controller_with_log_tail(capsys, free_instance):
     """The real simulator starts; the flight controller cannot: the demo says which and why."""
     sigterm = signal.getsignal(signal.SIGTERM)  # demo.main installs its own SIGTERM handler
     try:
         rc = demo.main(
-            ["--instance", str(DEMO_INSTANCE), "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"]
+            ["--instance", str(free_instance()), "--autopilot-module", "gcs.no_such_module", "--ready-timeout", "60"]
         )
     finally:
         signal.signal(signal.SIGTERM, sigterm)

@@ -6,8 +6,8 @@ NaN in the snapshot and a simulator restart.  Telemetry is in tests/test_gcs_lin
 parameters in tests/test_gcs_link_params.py.
 
 The link runs on simulated time: every test pumps ``link.update(t_us)`` itself and
-drains the client sockets after each call (tests/gcs_link_harness.py).  Its six instances
-(tests/instances.py) keep the ports clear of other tests.
+drains the client sockets after each call (tests/gcs_link_harness.py).  Each test leases a free
+instance (``free_instance``, tests/conftest.py), so its ports are clear of every other test's.
 """
 
 from __future__ import annotations
@@ -36,17 +36,12 @@ from gcs_link_harness import (  # tests/gcs_link_harness.py
     make_snapshot,
     of_type,
 )
-from instances import instance  # tests/instances.py: every test's instance numbers
-
-# This file's six instances: GcsLink binds UDP 14640+I and 18570+I, its clients 14540+I and 14840+I.
-LINK = [instance("test_gcs_link_commands", f"link{k}") for k in range(6)]
-
 
 # --------------------------------------------------------------------------- commands and modes
 
 
-def test_unknown_command_goes_to_vehicle_and_is_unsupported(make_harness):
-    h = make_harness(LINK[0])
+def test_unknown_command_goes_to_vehicle_and_is_unsupported(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     command_long(c, 31010, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0)
     command_long(c, 31011, target_system=2)  # another vehicle: ignored
@@ -60,8 +55,8 @@ def test_unknown_command_goes_to_vehicle_and_is_unsupported(make_harness):
     assert h.vehicle.commands == [(31010, (1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0), mavlink.MAV_FRAME_GLOBAL)]
 
 
-def test_command_int_global_frame_converted_to_degrees(make_harness):
-    h = make_harness(LINK[1])
+def test_command_int_global_frame_converted_to_degrees(make_harness, free_instance):
+    h = make_harness(free_instance())
     h.vehicle.results[mavlink.MAV_CMD_DO_REPOSITION] = mavlink.MAV_RESULT_ACCEPTED
     c = h.connect("gcs")
     c.mav.command_int_send(
@@ -76,8 +71,8 @@ def test_command_int_global_frame_converted_to_degrees(make_harness):
     assert params[6] == pytest.approx(510.5) and math.isnan(params[3])
 
 
-def test_set_mode_message_acked_with_id_11(make_harness):
-    h = make_harness(LINK[2])
+def test_set_mode_message_acked_with_id_11(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     c.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4 << 16 | 3 << 24)
     c.mav.set_mode_send(7, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 2 << 16)  # not us
@@ -86,8 +81,8 @@ def test_set_mode_message_acked_with_id_11(make_harness):
     assert [(a.command, a.result) for a in of_type(got, "COMMAND_ACK")] == [(11, mavlink.MAV_RESULT_ACCEPTED)]
 
 
-def test_timesync_and_empty_plans(make_harness):
-    h = make_harness(LINK[3])
+def test_timesync_and_empty_plans(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     c.mav.timesync_send(0, 123456789)
     c.mav.mission_request_list_send(1, 1, mavlink.MAV_MISSION_TYPE_FENCE)
@@ -107,8 +102,8 @@ def test_timesync_and_empty_plans(make_harness):
 # --------------------------------------------------------------------------- robustness and endpoints
 
 
-def test_garbage_does_not_break_the_link(make_harness):
-    h = make_harness(LINK[4])
+def test_garbage_does_not_break_the_link(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     good = (
         mavlink.MAVLink(None, GCS_SYS, GCS_COMP)
@@ -139,8 +134,8 @@ def test_garbage_does_not_break_the_link(make_harness):
     assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE)] == [mavlink.MAV_RESULT_ACCEPTED]
 
 
-def test_both_endpoints_and_peers_get_telemetry(make_harness):
-    h = make_harness(LINK[5])
+def test_both_endpoints_and_peers_get_telemetry(make_harness, free_instance):
+    h = make_harness(free_instance())
     h.client("gcs")
     h.client("api")
     got = h.pump(1.5)
@@ -167,8 +162,8 @@ def test_both_endpoints_and_peers_get_telemetry(make_harness):
     assert of_type(got["api"], "HEARTBEAT")
 
 
-def test_long_statustext_arrives_in_chunks(make_harness):
-    h = make_harness(LINK[0])
+def test_long_statustext_arrives_in_chunks(make_harness, free_instance):
+    h = make_harness(free_instance())
     h.connect("gcs")
     h.connect("api")
     text = "".join(chr(ord("a") + i % 26) for i in range(120))
@@ -185,7 +180,7 @@ def test_long_statustext_arrives_in_chunks(make_harness):
         assert [(m.text, m.id) for m in short] == [("short one", 0)]
 
 
-def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
+def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness, free_instance):
     snap = make_snapshot()
     nan3 = np.full(3, math.nan)
     estimate = VehicleEstimate(
@@ -197,7 +192,7 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
     from dataclasses import replace
 
     h = make_harness(
-        LINK[1], StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery, throttle_frac=math.nan))
+        free_instance(), StubVehicle(snapshot=replace(snap, estimate=estimate, battery=battery, throttle_frac=math.nan))
     )
     h.client("gcs")
     got = h.pump(2.0)["gcs"]
@@ -213,6 +208,6 @@ def test_nan_snapshot_and_clock_restart_do_not_break_streams(make_harness):
     assert abs(len(of_type(got, "HEARTBEAT")) - 2) <= 1
 
 
-def test_stream_rates_option_is_checked():
+def test_stream_rates_option_is_checked(free_instance):
     with pytest.raises(ValueError, match="cannot stream"):
-        GcsLink(StubVehicle(), instance=LINK[2], stream_rates_hz={mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE: 50.0})
+        GcsLink(StubVehicle(), instance=free_instance(), stream_rates_hz={mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE: 50.0})

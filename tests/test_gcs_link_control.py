@@ -34,9 +34,7 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 from autopilot.mavlink import rx_drain  # noqa: E402
 
 from gcs_link_harness import DT_US, GCS_COMP, GCS_SYS, command_long  # tests/gcs_link_harness.py
-from instances import instance  # tests/instances.py
 
-LINK = instance("test_gcs_link_control", "link")  # GcsLink binds UDP 14640+I and 18570+I
 AUTOPILOT_VERSION = mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION
 REQUEST_MESSAGE = mavlink.MAV_CMD_REQUEST_MESSAGE
 GENEROUS_BUDGET_S = 1.0  # a safety net: every queued datagram is handled on any machine
@@ -73,10 +71,10 @@ def version_acks(msgs: list) -> list:
 
 
 @pytest.fixture
-def ready(make_harness):
+def ready(make_harness, inst):
     """A harness whose gcs and api clients have heard the link (so they can send), with the sockets
     drained and nothing recorded yet."""
-    h = make_harness(LINK)
+    h = make_harness(inst)
     clients = h.connect("gcs"), h.connect("api")
     h.pump(0.1)
     for c in clients:

@@ -26,9 +26,7 @@ from autopilot.mavlink.ftp_service import MAX_SESSIONS, SESSION_IDLE_US  # noqa:
 from mavsim_core.mavftp import MAX_DATA, Err, FtpPayload, Op, decode, encode  # noqa: E402
 
 from gcs_link_harness import GCS_COMP, GCS_SYS, acks, command_long  # tests/gcs_link_harness.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
-LINK = instance("test_gcs_link_files", "link")
 DATA = os.urandom(100_000)  # a log of 100 kB: 419 packets of 239 bytes
 
 
@@ -43,7 +41,7 @@ def reference_crc32(data: bytes) -> int:
 
 
 @pytest.fixture
-def files(make_harness, tmp_path):
+def files(make_harness, tmp_path, inst):
     """(harness with FTP, connected client, the FTP service, the log directory)."""
     log_dir = tmp_path / "logs"
     (log_dir / "old").mkdir(parents=True)
@@ -51,7 +49,7 @@ def files(make_harness, tmp_path):
     (log_dir / "exact.bin").write_bytes(b"z" * (2 * MAX_DATA))
     (tmp_path / "secret.txt").write_text("outside the tree")
     (log_dir / "link.txt").symlink_to(tmp_path / "secret.txt")
-    h = make_harness(LINK)
+    h = make_harness(inst)
     svc = add_file_services(h.link, h.vehicle.params, log_dir, "test_quad")
     return h, h.connect("gcs"), svc, log_dir
 

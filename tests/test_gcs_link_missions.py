@@ -18,9 +18,7 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 from autopilot.mavlink import mission_protocol  # noqa: E402
 
 from gcs_link_harness import ORIGIN, of_type  # tests/gcs_link_harness.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
-LINK = instance("test_gcs_link_missions", "link")
 MISSION, FENCE, RALLY = mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_FENCE, mavlink.MAV_MISSION_TYPE_RALLY
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 
@@ -74,8 +72,8 @@ def ack_types(msgs) -> list[int]:
     return [a.type for a in of_type(msgs, "MISSION_ACK")]
 
 
-def test_upload_download_each_plan_type(make_harness):
-    h = make_harness(LINK)
+def test_upload_download_each_plan_type(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     got = upload(h, c, square(5))
     assert ack_types(got) == [mavlink.MAV_MISSION_ACCEPTED]
@@ -124,8 +122,8 @@ BAD = [
 
 
 @pytest.mark.parametrize("bad, error", BAD, ids=[str(e) for _, e in BAD])
-def test_a_bad_item_gets_its_error_and_the_stored_plan_stays(make_harness, bad, error):
-    h = make_harness(LINK)
+def test_a_bad_item_gets_its_error_and_the_stored_plan_stays(make_harness, bad, error, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     assert ack_types(upload(h, c, square(3))) == [mavlink.MAV_MISSION_ACCEPTED]
     plan = [square(3)[0], bad, square(3)[2]]
@@ -136,16 +134,16 @@ def test_a_bad_item_gets_its_error_and_the_stored_plan_stays(make_harness, bad, 
     assert [m.x for m in download(h, c)] == [m.x for m in square(3)]  # the earlier plan, whole
 
 
-def test_the_ceiling_is_gf_max_ver_dist(make_harness):
-    h = make_harness(LINK)
+def test_the_ceiling_is_gf_max_ver_dist(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     h.vehicle.plans.params.set("GF_MAX_VER_DIST", 50.0)
     assert ack_types(upload(h, c, [item(0, z=60.0)])) == [mavlink.MAV_MISSION_INVALID_PARAM7]
     assert ack_types(upload(h, c, [item(0, z=40.0)])) == [mavlink.MAV_MISSION_ACCEPTED]
 
 
-def test_a_broken_fence_polygon_is_refused(make_harness):
-    h = make_harness(LINK)
+def test_a_broken_fence_polygon_is_refused(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     three_of_four = [item(k, mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, (4, 0, 0, 0), k, k * k, 0.0,
                           mavlink.MAV_FRAME_GLOBAL_INT, FENCE) for k in range(3)]  # fmt: skip
@@ -153,8 +151,8 @@ def test_a_broken_fence_polygon_is_refused(make_harness):
     assert download(h, c, FENCE) == []
 
 
-def test_legacy_mission_item_upload_is_answered_with_mission_request(make_harness):
-    h = make_harness(LINK)
+def test_legacy_mission_item_upload_is_answered_with_mission_request(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
 
     def as_float(req):
@@ -169,8 +167,8 @@ def test_legacy_mission_item_upload_is_answered_with_mission_request(make_harnes
     assert [m.x for m in download(h, c)] == pytest.approx([m.x for m in square(3)], abs=50)
 
 
-def test_a_second_client_is_denied_mid_upload_and_the_first_completes(make_harness):
-    h = make_harness(LINK)
+def test_a_second_client_is_denied_mid_upload_and_the_first_completes(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     other = h.connect("api")
     c.mav.mission_count_send(1, 1, 3, MISSION)
@@ -182,8 +180,8 @@ def test_a_second_client_is_denied_mid_upload_and_the_first_completes(make_harne
     assert ack_types(upload(h, c, square(3))) == [mavlink.MAV_MISSION_ACCEPTED]
 
 
-def test_a_lost_item_is_requested_again_and_a_stalled_upload_ends(make_harness):
-    h = make_harness(LINK)
+def test_a_lost_item_is_requested_again_and_a_stalled_upload_ends(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     assert ack_types(upload(h, c, square(2))) == [mavlink.MAV_MISSION_ACCEPTED]
     now = [1000.0]
@@ -212,8 +210,8 @@ def test_a_lost_item_is_requested_again_and_a_stalled_upload_ends(make_harness):
     assert len(download(h, c)) == 3
 
 
-def test_set_current_answers_with_mission_current(make_harness):
-    h = make_harness(LINK)
+def test_set_current_answers_with_mission_current(make_harness, inst):
+    h = make_harness(inst)
     c = h.connect("gcs")
     upload(h, c, square(4))
     c.mav.mission_set_current_send(1, 1, 2)
@@ -225,10 +223,10 @@ def test_set_current_answers_with_mission_current(make_harness):
     assert h.vehicle.plans.current == 2
 
 
-def test_poll_answers_between_updates_without_streaming(make_harness):
+def test_poll_answers_between_updates_without_streaming(make_harness, inst):
     """The lockstep loop calls poll() on the steps between link updates: requests are answered there,
     one upload item per call, and nothing is streamed."""
-    h = make_harness(LINK)
+    h = make_harness(inst)
     c = h.connect("gcs")
     items = square(3)
     c.mav.mission_count_send(1, 1, len(items), MISSION)

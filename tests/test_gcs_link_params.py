@@ -5,8 +5,8 @@ a STATUSTEXT says why), changes made elsewhere broadcast to every endpoint.  Tel
 tests/test_gcs_link_telemetry.py, commands and robustness in tests/test_gcs_link_commands.py.
 
 The link runs on simulated time: every test pumps ``link.update(t_us)`` itself and
-drains the client sockets after each call (tests/gcs_link_harness.py).  Its four instances
-(tests/instances.py) keep the ports clear of other tests.
+drains the client sockets after each call (tests/gcs_link_harness.py).  Each test leases a free
+instance (``free_instance``, tests/conftest.py), so its ports are clear of every other test's.
 """
 
 from __future__ import annotations
@@ -23,11 +23,6 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 from mavsim_core.param_encoding import decode_param_bytes, encode_param_bytes  # noqa: E402
 
 from gcs_link_harness import StubVehicle, make_params, of_type  # tests/gcs_link_harness.py
-from instances import instance  # tests/instances.py: every test's instance numbers
-
-# This file's four instances: GcsLink binds UDP 14640+I and 18570+I, its clients 14540+I and 14840+I.
-LINK = [instance("test_gcs_link_params", f"link{k}") for k in range(4)]
-
 
 # --------------------------------------------------------------------------- pure functions
 
@@ -44,8 +39,8 @@ def test_param_value_encoding():
 # --------------------------------------------------------------------------- parameters
 
 
-def test_full_parameter_list(make_harness):
-    h = make_harness(LINK[0], StubVehicle(params=make_params(extra=400)))
+def test_full_parameter_list(make_harness, free_instance):
+    h = make_harness(free_instance(), StubVehicle(params=make_params(extra=400)))
     c = h.connect("gcs")
     store = h.vehicle.params
     start = time.monotonic()
@@ -80,8 +75,8 @@ class RawParamSet(mavlink.MAVLink_param_set_message):
         return self._pack(mav, self.crc_extra, self.raw4 + payload[4:], force_mavlink1=force_mavlink1)
 
 
-def test_int32_bytewise_round_trip(make_harness):
-    h = make_harness(LINK[1])
+def test_int32_bytewise_round_trip(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     c.mav.param_request_read_send(1, 1, b"SYS_AUTOSTART", -1)
     got = of_type(h.pump(0.02)["gcs"], "PARAM_VALUE")
@@ -107,8 +102,8 @@ def test_int32_bytewise_round_trip(make_harness):
     assert [m.param_id for m in got] == ["MPC_XY_P"]
 
 
-def test_param_set_refused_echoes_old_value(make_harness):
-    h = make_harness(LINK[2])
+def test_param_set_refused_echoes_old_value(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     c.mav.param_set_send(1, 1, b"MPC_XY_P", 5.0, mavlink.MAV_PARAM_TYPE_REAL32)  # out of range
     got = h.pump(0.02)["gcs"]
@@ -134,8 +129,8 @@ def test_param_set_refused_echoes_old_value(make_harness):
     assert texts == ["unknown parameter NO_SUCH_PARAM", "unknown parameter NO_SUCH_PARAM2"]
 
 
-def test_param_change_from_elsewhere_is_broadcast(make_harness):
-    h = make_harness(LINK[3])
+def test_param_change_from_elsewhere_is_broadcast(make_harness, free_instance):
+    h = make_harness(free_instance())
     h.connect("gcs")
     h.connect("api")
     h.vehicle.params.set("MPC_XY_P", 1.25)

@@ -22,21 +22,19 @@ from autopilot.signing_storage import load_signing  # noqa: E402
 from mavsim_core.mavlink_signing import key_from_text, timestamp_now  # noqa: E402
 
 from gcs_link_harness import GCS_COMP, GCS_SYS, acks, command_long, of_type  # tests/gcs_link_harness.py
-from instances import instance  # tests/instances.py: every test's instance numbers
 
-LINK = instance("test_gcs_link_signing", "link")
 KEY = key_from_text("correct horse battery staple")
 OTHER_KEY = key_from_text("not the key")
 CMD = 31010  # a command the stub vehicle accepts (any number: it records it)
 
 
 @pytest.fixture
-def signed_link(make_harness, tmp_path):
+def signed_link(make_harness, tmp_path, inst):
     """``make()``: a harness whose link has the signing service, keeping its key in ``tmp_path``."""
     made = []
 
     def make():
-        h = make_harness(LINK)
+        h = make_harness(inst)
         h.vehicle.results[CMD] = mavlink.MAV_RESULT_ACCEPTED
         texts: list[str] = []
         svc = SigningService(h.link.endpoints, h.link.sysid, h.link.compid, lambda sev, text: texts.append(text),

@@ -6,8 +6,8 @@ endpoint), REQUEST_MESSAGE and the capabilities; and the pure conversions the st
 tests/test_gcs_link_commands.py, parameters in tests/test_gcs_link_params.py.
 
 The link runs on simulated time: every test pumps ``link.update(t_us)`` itself and
-drains the client sockets after each call (tests/gcs_link_harness.py).  Its six instances
-(tests/instances.py) keep the ports clear of other tests.
+drains the client sockets after each call (tests/gcs_link_harness.py).  Each test leases a free
+instance (``free_instance``, tests/conftest.py), so its ports are clear of every other test's.
 """
 
 from __future__ import annotations
@@ -35,11 +35,6 @@ from gcs_link_harness import (  # tests/gcs_link_harness.py
     make_snapshot,
     of_type,
 )
-from instances import instance  # tests/instances.py: every test's instance numbers
-
-# This file's six instances: GcsLink binds UDP 14640+I and 18570+I, its clients 14540+I and 14840+I.
-LINK = [instance("test_gcs_link_telemetry", f"link{k}") for k in range(6)]
-
 
 # --------------------------------------------------------------------------- pure functions
 
@@ -86,8 +81,8 @@ def test_split_statustext():
 # --------------------------------------------------------------------------- telemetry
 
 
-def test_heartbeat_identifies_as_px4(make_harness):
-    h = make_harness(LINK[0])
+def test_heartbeat_identifies_as_px4(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.client("gcs")
     got = h.pump(0.1)["gcs"]
     hb = of_type(got, "HEARTBEAT")
@@ -104,8 +99,8 @@ def test_heartbeat_identifies_as_px4(make_harness):
     assert c is not None
 
 
-def test_streams_rates_in_simulated_time_and_content(make_harness):
-    h = make_harness(LINK[1])
+def test_streams_rates_in_simulated_time_and_content(make_harness, free_instance):
+    h = make_harness(free_instance())
     h.client("gcs")
     got = h.pump(10.0)["gcs"]
     expected_hz = {
@@ -152,8 +147,8 @@ def test_streams_rates_in_simulated_time_and_content(make_harness):
     assert list(home.q) == pytest.approx([1.0, 0.0, 0.0, 0.0])
 
 
-def test_no_estimate_no_attitude_or_position(make_harness):
-    h = make_harness(LINK[2], StubVehicle(snapshot=make_snapshot(with_estimate=False)))
+def test_no_estimate_no_attitude_or_position(make_harness, free_instance):
+    h = make_harness(free_instance(), StubVehicle(snapshot=make_snapshot(with_estimate=False)))
     c = h.connect("gcs")
     got = h.pump(3.0)["gcs"]
     types = {m.get_type() for m in got}
@@ -164,8 +159,8 @@ def test_no_estimate_no_attitude_or_position(make_harness):
     assert [a.result for a in acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE)] == [mavlink.MAV_RESULT_TEMPORARILY_REJECTED]
 
 
-def test_set_message_interval(make_harness):
-    h = make_harness(LINK[3])
+def test_set_message_interval(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 20_000)  # 50 Hz
     command_long(c, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, -1)
@@ -187,8 +182,8 @@ def test_set_message_interval(make_harness):
     assert h.vehicle.commands == []  # handled by the link itself
 
 
-def test_interval_applies_to_its_endpoint_only(make_harness):
-    h = make_harness(LINK[4])
+def test_interval_applies_to_its_endpoint_only(make_harness, free_instance):
+    h = make_harness(free_instance())
     gcs = h.connect("gcs")
     h.connect("api")
     command_long(gcs, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, -1)
@@ -198,8 +193,8 @@ def test_interval_applies_to_its_endpoint_only(make_harness):
     assert abs(len(of_type(got["api"], "ATTITUDE")) - 40) <= 1
 
 
-def test_request_message_and_capabilities(make_harness):
-    h = make_harness(LINK[5])
+def test_request_message_and_capabilities(make_harness, free_instance):
+    h = make_harness(free_instance())
     c = h.connect("gcs")
     command_long(c, mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
     got = h.pump(0.1)["gcs"]

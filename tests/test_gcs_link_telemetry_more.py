@@ -40,9 +40,7 @@ from mavsim_core.geodesy import ned_to_geodetic  # noqa: E402
 from mavsim_core.px4_modes import Mode  # noqa: E402
 
 from gcs_link_harness import ORIGIN, StubVehicle, acks, command_long, make_snapshot, of_type
-from instances import instance  # tests/instances.py: every test's instance numbers
 
-LINK = instance("test_gcs_link_telemetry_more", "link")  # one instance, its tests in turn (one worker)
 protocol_version.register(mavlink)  # so the client decodes PROTOCOL_VERSION (pymavlink leaves it out)
 UTC0_US = 1_700_000_000_000_000  # the snapshot's wall clock at simulated time 0
 ARMED_US, TAKEOFF_US, FLIGHT = 10_000_000, 12_500_000, 3
@@ -107,8 +105,8 @@ def set_interval(h, msg_id: int, interval_us: float, endpoint: str = "gcs") -> i
 
 
 @pytest.fixture
-def link(make_harness):
-    h = make_harness(LINK, StubVehicle(snapshot=full_snapshot()))
+def link(make_harness, inst):
+    h = make_harness(inst, StubVehicle(snapshot=full_snapshot()))
     h.connect("gcs")
     return h
 
@@ -176,7 +174,7 @@ def test_flight_information_protocol_version_and_utm(link):
     assert (utm.vx, utm.vy, utm.vz, utm.h_acc, utm.v_acc) == (100, 200, -50, 800, 1200)
     assert utm.time > UTC0_US and utm.flight_state == mavlink.UTM_FLIGHT_STATE_AIRBORNE
     assert utm.update_rate == 0  # unknown: the stream's rate is the client's choice
-    assert bytes(utm.uas_id) == identity.instance_uid2(LINK, 1)
+    assert bytes(utm.uas_id) == identity.instance_uid2(link.instance, 1)
     assert utm.flags == 0x7F  # time, id, position, altitude, relative altitude, both velocities; no next waypoint
 
 
@@ -191,8 +189,8 @@ def test_request_message_for_every_message_the_link_streams(link):
     assert request(link, 9999)[0] == UNSUPPORTED
 
 
-def test_nothing_to_report_is_temporarily_rejected(make_harness):
-    h = make_harness(LINK, StubVehicle(snapshot=make_snapshot(with_estimate=False)))
+def test_nothing_to_report_is_temporarily_rejected(make_harness, inst):
+    h = make_harness(inst, StubVehicle(snapshot=make_snapshot(with_estimate=False)))
     h.connect("gcs")
     for msg_id in (
         mavlink.MAVLINK_MSG_ID_HIGHRES_IMU,
@@ -284,7 +282,7 @@ def test_default_streams_include_the_new_defaults(link):
 # --------------------------------------------------------------------------- identity
 
 
-def test_autopilot_version_tells_the_truth(link, make_harness):
+def test_autopilot_version_tells_the_truth(link, make_harness, inst):
     v = requested(link, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION")
     root = Path(__file__).resolve().parents[1]
     head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=True)
@@ -299,11 +297,11 @@ def test_autopilot_version_tells_the_truth(link, make_harness):
     assert v.uid != 0 and any(v.uid2)
     uid, uid2 = v.uid, bytes(v.uid2)
     link.close()  # a restart of the same instance: the same ids
-    again = make_harness(LINK, StubVehicle(snapshot=full_snapshot()))
+    again = make_harness(inst, StubVehicle(snapshot=full_snapshot()))
     again.connect("gcs")
     w = requested(again, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION")
     assert (w.uid, bytes(w.uid2)) == (uid, uid2)
-    assert identity.instance_uid2(LINK, 2) != uid2 and identity.instance_uid(LINK + 1, 1) != uid  # another vehicle
+    assert identity.instance_uid2(inst, 2) != uid2 and identity.instance_uid(inst + 1, 1) != uid  # another vehicle
 
 
 def _git(tmp_path: Path, head: str, **files: str) -> Path:

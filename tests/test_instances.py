@@ -1,12 +1,17 @@
-"""The port scheme (mavsim_core.ports) and the table of test instance numbers (tests/instances.py)."""
+"""The port scheme (mavsim_core.ports) and the free instances the tests lease (tests/instances.py)."""
 
 from __future__ import annotations
 
+import socket
+import subprocess
+import sys
 from pathlib import Path
+
+import pytest
 
 from mavsim_core import ports as port_scheme
 
-from instances import BENCHMARKS, INSTANCES, PEOPLE, all_instances, collisions, instance, ports
+from instances import BENCHMARKS, PEOPLE, POOL, collisions, lease, ports
 
 TESTS = Path(__file__).resolve().parent
 EVERY_INSTANCE = range(port_scheme.MAX_INSTANCE + 1)
@@ -33,22 +38,84 @@ def test_only_instance_10_sends_its_api_link_to_the_shared_ground_station_port()
     assert on_14550 == [10]
 
 
-def test_every_test_instance_is_distinct_and_in_range():
-    numbers = [i for _, _, i in all_instances()]
-    assert len(numbers) == len(set(numbers)), "an instance number is used twice"
-    assert all(0 <= i <= port_scheme.MAX_INSTANCE for i in numbers)
+def test_the_pool_keeps_clear_of_people_benchmarks_and_10():
+    assert not set(POOL) & {*PEOPLE, *BENCHMARKS, 10}
+    assert min(POOL) == 30 and max(POOL) == port_scheme.MAX_INSTANCE
 
 
-def test_test_instances_keep_clear_of_people_benchmarks_and_10():
-    numbers = {i for _, _, i in all_instances()}
-    assert not numbers & {*PEOPLE, *BENCHMARKS, 10}
+def test_two_leases_differ():
+    a, b = lease(), lease()
+    try:
+        assert a.number != b.number and {a.number, b.number} <= set(POOL)
+    finally:
+        a.release()
+        b.release()
 
 
-def test_lookup():
-    assert instance("test_e2e_flight", "shared") == INSTANCES["test_e2e_flight"]["shared"]
+def test_a_lease_skips_an_instance_whose_port_is_taken():
+    """A program (here this test) binds one port of a free instance: no lease hands that instance out."""
+    held = lease()
+    n = held.number
+    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    taken.bind(("127.0.0.1", port_scheme.own_gcs_port(n)))  # as a ground station listening there would
+    held.release()
+    other = None
+    try:
+        with pytest.raises(RuntimeError, match=f"no free test instance in {n}-{n}"):
+            lease([n])
+        other = lease()
+        assert other.number != n
+    finally:
+        taken.close()
+        if other is not None:
+            other.release()
 
 
-def test_every_file_in_the_table_exists_and_uses_it():
-    """Each file named in the table exists and reads its numbers from it."""
-    for name in INSTANCES:
-        assert "from instances import" in (TESTS / f"{name}.py").read_text(), name
+def test_a_released_lease_is_reused():
+    first = lease()
+    n = first.number
+    first.release()
+    again = lease([n])
+    try:
+        assert again.number == n
+    finally:
+        again.release()
+
+
+CHILD = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from instances import lease
+try:
+    lease([int(sys.argv[2])])
+    print("took it", flush=True)
+except RuntimeError:
+    print("held", flush=True)
+held = lease()  # kept: a lease dropped is a lease released
+print(held.number, flush=True)
+sys.stdin.read()  # hold the lease until the parent closes stdin or kills this process
+"""
+
+
+def test_the_lock_is_per_process_and_dies_with_it():
+    """Another process cannot take an instance this one holds; what it holds is free once it is killed."""
+    mine = lease()
+    child = subprocess.Popen(
+        [sys.executable, "-c", CHILD, str(TESTS), str(mine.number)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert child.stdout.readline().strip() == "held"
+        theirs = int(child.stdout.readline())
+        assert theirs != mine.number
+        with pytest.raises(RuntimeError):
+            lease([theirs])  # the child holds it
+    finally:
+        child.kill()
+        child.wait(timeout=30)
+        mine.release()
+    freed = lease([theirs])
+    freed.release()
+    assert freed.number == theirs

@@ -2,7 +2,7 @@
 
 The table's vehicle rows run on a real commander; the last test sends every command of
 the table, and one it does not know, to a real :class:`GcsLink` serving a real (idle)
-flight controller over loopback UDP (instance from tests/instances.py; the client listens on
+flight controller over loopback UDP (a free instance, ``free_instance``; the client listens on
 14840 + instance), and checks that each gets exactly one COMMAND_ACK with a MAV_RESULT.
 """
 
@@ -27,9 +27,6 @@ from autopilot.param_catalogue import default_store  # noqa: E402
 from mavsim_core import ports
 from params.vehicle import load_vehicle  # noqa: E402
 
-from instances import instance  # noqa: E402  (tests/instances.py: every test's instance numbers)
-
-INSTANCE = instance("test_mavlink_commands", "link")
 MAV_RESULTS = set(mavlink.enums["MAV_RESULT"]) - {mavlink.MAV_RESULT_ENUM_END}
 UNKNOWN_COMMAND = 31010  # MAV_CMD_USER_1: nothing here implements it
 
@@ -111,11 +108,12 @@ def test_command_int_coordinates():
     assert all(math.isnan(v) for v in commands.command_int_params(unused)[4:6])
 
 
-def test_every_command_gets_one_ack_over_udp():
+def test_every_command_gets_one_ack_over_udp(free_instance):
+    instance = free_instance()
     fc = FlightController(load_vehicle("quad_x"), default_store())
-    link = GcsLink(FlightControllerVehicle(fc), instance=INSTANCE, gcs_port=ports.own_gcs_port(INSTANCE))
+    link = GcsLink(FlightControllerVehicle(fc), instance=instance, gcs_port=ports.own_gcs_port(instance))
     client = mavutil.mavlink_connection(
-        f"udpin:127.0.0.1:{ports.own_gcs_port(INSTANCE)}", source_system=255, source_component=190, dialect="common"
+        f"udpin:127.0.0.1:{ports.own_gcs_port(instance)}", source_system=255, source_component=190, dialect="common"
     )
     t_us = 0
     got: list = []

@@ -2,7 +2,7 @@
 
 ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED and SERVO_OUTPUT_RAW: fields, default rates in
 simulated time, SET_MESSAGE_INTERVAL, none while the controllers are idle.  The link binds UDP
-on this file's instance (tests/instances.py).  The logs themselves are tested in
+on a free instance (``free_instance``, tests/conftest.py).  The logs themselves are tested in
 tests/test_flight_logs.py.
 """
 
@@ -30,11 +30,6 @@ from autopilot.topics import (  # noqa: E402
 )
 from mavsim_core import ports
 from mavsim_core.quaternion import from_euler  # noqa: E402
-
-from instances import instance  # tests/instances.py: every test's instance numbers
-
-LINK_INSTANCE = instance("test_setpoint_streams", "link")  # GcsLink binds UDP 14640+I, 18570+I; the client 14840+I
-
 
 # --------------------------------------------------------------------------- ground-station streams
 
@@ -100,9 +95,9 @@ def _run_link(link, client, t: list, seconds: float) -> list:
     return out
 
 
-def test_link_streams_attitude_and_position_targets():
+def test_link_streams_attitude_and_position_targets(free_instance):
     """ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED and SERVO_OUTPUT_RAW: fields, default rates, SET_MESSAGE_INTERVAL."""
-    instance = LINK_INSTANCE
+    instance = free_instance()  # GcsLink binds UDP 14640+I, 18570+I; the client 14840+I
     q_sp = from_euler(0.1, -0.05, 1.0)
     control = _control_setpoints(q_sp)
     vehicle = _Vehicle(_snapshot(control))

@@ -1,7 +1,7 @@
 """The ``sitl`` command line and process: SIM_* parameters from ``--scenario`` and ``--param``.
 
 ``--list-params`` and its errors run :func:`sitl.__main__.main` in this process.  One test
-(marked ``e2e``) starts the real ``sitl`` process (its instance from tests/instances.py), which
+(marked ``e2e``) starts the real ``sitl`` process (on a free instance: ``free_instance``), which
 serves its parameters while it waits for a flight controller.
 """
 
@@ -21,11 +21,9 @@ from mavsim_core import ports
 from mavsim_core.param_encoding import INT32, REAL32  # noqa: E402
 from sitl import __main__ as sitl_main  # noqa: E402
 
-from instances import instance  # tests/instances.py: every test's instance numbers
 from sim_params_helpers import GCS_COMP, GCS_SYS, value_of, write  # tests/sim_params_helpers.py
 
 ROOT = Path(__file__).resolve().parent.parent
-SITL_INSTANCE = instance("test_sitl_cli", "sitl")
 
 
 # --------------------------------------------------------------------------- the CLI
@@ -72,8 +70,8 @@ def test_cli_bad_scenario_file_exits_2(tmp_path, capsys):
 
 
 @pytest.mark.e2e
-def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(tmp_path):
-    instance = SITL_INSTANCE
+def test_sitl_process_serves_parameters_while_waiting_for_the_flight_controller(tmp_path, free_instance):
+    instance = free_instance()
     port = ports.sim_component_port(instance)
     client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYS, source_component=GCS_COMP)
     log_path = tmp_path / "sitl.log"

@@ -10,83 +10,41 @@ so the flight is the same at any ``--speed``; timeouts are wall seconds.
 ``--wait`` instead starts both processes (in real time by default) and prints
 how to connect QGroundControl, MAVProxy, MAVSDK or ``gcs``, until Ctrl-C.
 
-Exit codes: 0 success, 1 a step failed (refused, child died, check failed),
-2 a step timed out, 130 interrupted.
+Paths (``--log-dir``, ``--vehicle FILE.toml``, paths in ``--sitl-arg``/``--autopilot-arg``) are
+relative to the working directory the demo is started in.
+
+Exit codes: 0 success, 1 a step failed (refused, child died, check failed, a directory that
+cannot be created), 2 usage error, 3 a step timed out (no answer from the vehicle), 130 interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import signal
 import sys
 import threading
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mavsim_core import ports
+from mavsim_core.cli_args import EXIT_NO_ANSWER
+from mavsim_core.cli_checks import make_dir, startup_failed
 
 from ..client import VehicleClient
 from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
 from ..sim_client import SimClient
-from .landing_run import LandingSetup, fly_landing
+from .demo_args import build_parser
 from .stack import Stack, StackError
+
+if TYPE_CHECKING:
+    from .landing_run import LandingSetup
 
 ARRIVAL_RADIUS_M = 0.5
 ARRIVAL_SPEED_M_S = 0.5
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="flight-demo", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--instance", type=int, default=0, help="instance N (PX4's -i): system id 1+N (default 0)")
-    parser.add_argument(
-        "--speed", default=None, help="simulation speed: 'max' or a real-time factor (default max; 1 with --wait)"
-    )
-    parser.add_argument("--vehicle", default="quad_x", help="vehicle file (default quad_x)")
-    parser.add_argument("--home", default=None, metavar="LAT,LON,ALT", help="home position for the simulator")
-    parser.add_argument("--seed", type=int, default=None, help="simulator random seed")
-    parser.add_argument("--alt", type=float, default=5.0, help="flight altitude above home, m (default 5)")
-    parser.add_argument("--side", type=float, default=10.0, help="square side, m (default 10)")
-    parser.add_argument("--hold", type=float, default=10.0, help="hover time after takeoff, simulated s (default 10)")
-    parser.add_argument(
-        "--ready-timeout",
-        type=float,
-        default=120.0,
-        help="wall seconds to wait for the vehicle to be ready to arm (default 120)",
-    )
-    parser.add_argument(
-        "--step-timeout", type=float, default=120.0, help="wall seconds allowed for each flight step (default 120)"
-    )
-    parser.add_argument(
-        "--log-dir", default=None, help="where to write the child logs and the flight logs (default: a temp dir)"
-    )
-    parser.add_argument("--sitl-module", default="sitl", help="module run as the simulator (testing; default sitl)")
-    parser.add_argument(
-        "--autopilot-module",
-        default="autopilot",
-        help="module run as the flight controller (testing; default autopilot)",
-    )
-    parser.add_argument(
-        "--sitl-arg", action="append", default=[], metavar="ARG", help="extra argument for the simulator (repeatable)"
-    )
-    parser.add_argument(
-        "--autopilot-arg",
-        action="append",
-        default=[],
-        metavar="ARG",
-        help="extra argument for the flight controller (repeatable)",
-    )
-    parser.add_argument(
-        "--wait", action="store_true", help="only start the stack and print how to connect; run until Ctrl-C"
-    )
-    parser.add_argument(
-        "--scenario",
-        choices=("square", "ugv-landing"),
-        default="square",
-        help="square: the 10 m square (default); ugv-landing: find the UGV driving a circle with the camera "
-        "and land on its deck (prints the touchdown error from the truth)",
-    )
-    return parser
 
 
 @dataclass
@@ -242,6 +200,24 @@ def _print_tails(stack: Stack, lines: int = 20) -> None:
     print(f"(full logs in {stack.log_dir})", file=sys.stderr)
 
 
+def console_script(name: str) -> str:
+    """How to type this environment's console script ``name`` from the caller's directory: the bare name when
+    the shell finds this very one (an activated virtual environment), else its path (``.venv/bin/gcs``)."""
+    here = Path(sys.executable).parent / name
+    if shutil.which(name) == str(here):
+        return name
+    try:
+        return str(here.relative_to(Path.cwd()))
+    except ValueError:
+        return str(here)
+
+
+def logs_line(stack: Stack) -> str:
+    """Where the flight's logs went and the command that plots them, as the caller can type it."""
+    plot = f"{console_script('gcs')} plot {stack.log_dir}"
+    return f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: {plot}"
+
+
 def connection_help(stack: Stack) -> str:
     """How to connect ground stations to a running stack."""
     i, gcs, api = stack.instance, stack.gcs_port, stack.api_port
@@ -255,8 +231,10 @@ def connection_help(stack: Stack) -> str:
             f"stack running (instance {i}, speed {stack.speed}); logs in {stack.log_dir}",
             f"  {qgc}",
             f"  MAVProxy:  mavproxy.py --master udpin:0.0.0.0:{gcs}",
-            f'  MAVSDK:    await drone.connect(system_address="udpin://0.0.0.0:{api}")',
-            f"  gcs:       python -m gcs --instance {i} status" if i else "  gcs:       python -m gcs status",
+            f'  MAVSDK 4:  await sdk.add_any_connection("udpin://0.0.0.0:{api}")  (examples/mavsdk_fly.py)',
+            f"  gcs:       {console_script('gcs')} --instance {i} status"
+            if i
+            else f"  gcs:       {console_script('gcs')} status",
             "Ctrl-C to stop.",
         ]
     )
@@ -269,7 +247,16 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     speed = args.speed or ("1" if args.wait else "max")
     wall_start = time.monotonic()
-    landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1) if args.scenario == "ugv-landing" else None
+    if args.log_dir is not None:
+        try:
+            make_dir("--log-dir", args.log_dir)
+        except OSError as exc:
+            return startup_failed("flight-demo", exc)
+    landing = None
+    if args.scenario == "ugv-landing":
+        from .landing_run import LandingSetup  # MuJoCo's UGV model: imported only for this flight
+
+        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1)
     stack = Stack(
         args.instance,
         speed,
@@ -307,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
         wall_flight = time.monotonic() - wall_flight_start
         sim_flight = client.sim_time_s() - sim_flight_start
         print(demo.summary(time.monotonic() - wall_start, wall_flight, sim_flight))
-        print(f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
+        print(logs_line(stack))
         print("flight demo: OK")
         return 0
     except KeyboardInterrupt:
@@ -323,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
     except GcsTimeout as exc:
         print(f"flight demo FAILED ({_step(demo)}): {exc}", file=sys.stderr)
         _print_tails(stack)
-        return 2
+        return EXIT_NO_ANSWER
     except GcsError as exc:
         print(f"flight demo FAILED ({_step(demo)}): {exc}", file=sys.stderr)
         _print_tails(stack)
@@ -336,6 +323,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: Stack) -> int:
     """``--scenario ugv-landing``: one precision landing on the UGV; exit 0 only if it stayed on the deck."""
+    from .landing_run import fly_landing
+
     demo.step = "precision landing on the UGV"
     with SimClient(ports.sim_component_port(stack.instance)) as truth:
         result = fly_landing(client, truth, setup, say=demo.say, timeout_s=demo.args.step_timeout)
@@ -343,7 +332,7 @@ def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: 
     print(f"time to land: {result.time_to_land_s:.1f} s (simulated, from NAV_LAND to the motors cut)")
     print(f"UGV speed at touchdown: {result.ugv_speed_at_touchdown_m_s:.2f} m/s")
     print(f"real-time factor: {result.real_time_factor:.2f}")
-    print(f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: gcs plot {stack.log_dir}")
+    print(logs_line(stack))
     if not result.success:
         print(f"flight demo FAILED (step: {demo.step}): {result.reason}", file=sys.stderr)
         return 1

@@ -33,6 +33,9 @@ from pathlib import Path
 from typing import Sequence
 
 from mavsim_core import ports
+from mavsim_core.cli_checks import in_use_hint
+
+from . import stack_args
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]  # the checkout: gcs/launcher/stack.py -> ../../..
 
@@ -89,9 +92,11 @@ class Stack:
     gcs_port: where the flight controller sends its ground-station link; default
         ``ports.own_gcs_port(I)`` (14840+I), so stacks side by side (tests, benchmarks) each have their
         own; ``ports.GCS_PORT`` (14550) for QGroundControl, as ``flight-demo`` does.
-    speed: simulation speed, ``"max"`` or a real-time factor (1 = real time).
-    vehicle: vehicle file name (``quad_x``).
+    speed: simulation speed, ``"max"`` (or None) or a real-time factor (1 = real time).
+    vehicle: vehicle name (``quad_x``) or a .toml file.
     extra_sitl_args, extra_autopilot_args: appended to each command line.
+    Paths (``vehicle``, ``log_dir``, the path options in the extra arguments: :mod:`.stack_args`) are
+    relative to the working directory when the Stack is made; the children get them absolute.
     home: ``"LAT,LON,ALT"`` for the simulator, or None for its default.
     seed: simulator random seed, or None for its default.
     log_dir: where the child logs and the flight logs go; a new temp dir if None (kept after stop).
@@ -106,7 +111,7 @@ class Stack:
     def __init__(
         self,
         instance: int = 0,
-        speed: str | float = "max",
+        speed: str | float | None = "max",
         vehicle: str = "quad_x",
         extra_sitl_args: Sequence[str] = (),
         extra_autopilot_args: Sequence[str] = (),
@@ -123,10 +128,10 @@ class Stack:
     ) -> None:
         self.instance = int(instance)
         self._gcs_port = gcs_port
-        self.speed = str(speed)
-        self.vehicle = vehicle
-        self.extra_sitl_args = list(extra_sitl_args)
-        self.extra_autopilot_args = list(extra_autopilot_args)
+        self.speed = "max" if speed is None else str(speed)
+        self.vehicle = stack_args.path_value("--vehicle", vehicle)  # the caller's working directory's
+        self.extra_sitl_args = stack_args.absolute_paths(extra_sitl_args, stack_args.SITL_PATH_OPTIONS)
+        self.extra_autopilot_args = stack_args.absolute_paths(extra_autopilot_args, stack_args.AUTOPILOT_PATH_OPTIONS)
         self.home = home
         self.seed = seed
         self.start_timeout_s = start_timeout_s
@@ -179,37 +184,12 @@ class Stack:
     # ----------------------------------------------------------------- commands
 
     def sitl_command(self) -> list[str]:
-        cmd = [
-            self.python,
-            "-m",
-            *self.sitl_module,
-            "--vehicle",
-            self.vehicle,
-            "--speed",
-            self.speed,
-            "--instance",
-            str(self.instance),
-        ]
-        if self.home is not None:
-            cmd += ["--home", self.home]
-        if self.seed is not None:
-            cmd += ["--seed", str(self.seed)]
-        return cmd + self._log_dir_args("sitl") + self.extra_sitl_args
+        """The simulator's command line (:func:`.stack_args.sitl_command`)."""
+        return stack_args.sitl_command(self)
 
     def autopilot_command(self) -> list[str]:
-        gcs = ["--gcs-port", str(self.gcs_port)]
-        return (
-            [self.python, "-m", *self.autopilot_module, "--vehicle", self.vehicle, "--instance", str(self.instance)]
-            + gcs
-            + self._log_dir_args("autopilot")
-            + self.extra_autopilot_args
-        )
-
-    def _log_dir_args(self, child: str) -> list[str]:
-        """``--log-dir`` for the flight logs once the stack has its log directory (at start); ``--no-log`` if off."""
-        if not self.flight_logs:
-            return ["--no-log"] if child == "autopilot" else []
-        return ["--log-dir", str(self.log_dir)] if self.log_dir is not None else []
+        """The flight controller's command line (:func:`.stack_args.autopilot_command`)."""
+        return stack_args.autopilot_command(self)
 
     # ----------------------------------------------------------------- start / stop
 
@@ -225,12 +205,13 @@ class Stack:
         if self.procs:
             raise StackError("stack already started")
         if _tcp_listening(self.sitl_port):
-            raise StackError(
-                f"TCP port {self.sitl_port} is already in use: is another simulator running "
-                f"as instance {self.instance}? Choose another --instance."
-            )
+            raise StackError(f"TCP {self.sitl_port} is already in use: {in_use_hint(self.instance)}")
         if self._log_dir_arg is not None:
-            self._log_dir_arg.mkdir(parents=True, exist_ok=True)
+            try:
+                self._log_dir_arg.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                reason = exc.strerror or exc
+                raise StackError(f"cannot create the log directory {self._log_dir_arg}: {reason}") from None
             self.log_dir = self._log_dir_arg
         else:
             self.log_dir = Path(tempfile.mkdtemp(prefix=f"flight-stack-{self.instance}-"))

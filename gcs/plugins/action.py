@@ -223,8 +223,11 @@ class Action:
         ground_speed_m_s: float = -1.0,
         yaw_deg: float = math.nan,
         timeout_s: float | None = None,
+        frame: int = mavlink.MAV_FRAME_GLOBAL,
     ) -> CommandResult:
-        """DO_REPOSITION (as COMMAND_INT, MAV_FRAME_GLOBAL, degE7) with the change-mode flag: fly there and hold."""
+        """DO_REPOSITION (as COMMAND_INT, degE7) with the change-mode flag: fly there and hold.  ``alt_amsl_m``
+        is metres AMSL in the global frames (MAV_FRAME_GLOBAL, MAV_FRAME_GLOBAL_INT), metres above home with
+        ``frame`` MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT), as PX4 reads them."""
         return self.command_int(
             mavlink.MAV_CMD_DO_REPOSITION,
             ground_speed_m_s,
@@ -234,7 +237,7 @@ class Action:
             deg_to_e7(lat_deg),
             deg_to_e7(lon_deg),
             alt_amsl_m,
-            frame=mavlink.MAV_FRAME_GLOBAL,
+            frame=frame,
             timeout_s=timeout_s,
         )
 

@@ -226,7 +226,7 @@ class Param:
                 link._param_types[name] = msg.param_type
                 return msg
             if msg.get_type() == "STATUSTEXT" or msg.error == mavlink2.MAV_PARAM_ERROR_DOES_NOT_EXIST:
-                raise ParamUnknown(f"{unknown} (the vehicle has none of that name)")
+                raise ParamUnknown(f"{name}: no such parameter on the vehicle ('{unknown}')")
             raise ParamRefused(f"{name}: {_param_error_name(msg.error)}")
         raise NoAnswer(
             f"timed out after {timeout:g} s waiting for {what} ({attempts} request(s), no answer) [{link.describe()}]"
