@@ -11,55 +11,29 @@ import argparse
 import math
 
 from mavsim_core import px4_modes as modes
+from mavsim_core.cli_checks import finite_number, number_in, positive_int, positive_number
+
+__all__ = ["altitude", "finite", "fraction", "heading_deg", "latitude", "longitude", "mode_name", "param_name"]
+__all__ += ["positive", "positive_int"]
 
 PARAM_ID_LEN = 16  # bytes of a MAVLink parameter name
 
 
-def _number(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-
-
-def finite(text: str) -> float:
-    """A finite number (no nan, no inf)."""
-    value = _number(text)
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, not {text!r}")
-    return value
-
-
-def positive(text: str) -> float:
-    """A finite number > 0 (seconds, m/s, Hz)."""
-    value = finite(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, not {text!r}")
-    return value
-
-
-def positive_int(text: str) -> int:
-    """A whole number >= 1 (a count, a resolution)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, not {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, not {value}")
-    return value
+finite = finite_number
+positive = positive_number  # seconds, m/s, Hz
 
 
 def fraction(text: str) -> float:
     """A number 0..1 (a stick deflection)."""
-    value = finite(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be 0-1, not {text!r}")
-    return value
+    return number_in(text, 0.0, 1.0)
 
 
 def altitude(text: str) -> float:
     """Metres: a finite number, or ``nan`` for "the vehicle's default"."""
-    value = _number(text)
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of metres (or nan: the default), not {text!r}") from None
     if math.isinf(value):
         raise argparse.ArgumentTypeError(f"must be a finite number of metres (or nan: the default), not {text!r}")
     return value
@@ -67,26 +41,17 @@ def altitude(text: str) -> float:
 
 def latitude(text: str) -> float:
     """Degrees -90..90."""
-    value = finite(text)
-    if not -90.0 <= value <= 90.0:
-        raise argparse.ArgumentTypeError(f"latitude must be -90..90 degrees, not {text}")
-    return value
+    return number_in(text, -90.0, 90.0, "latitude")
 
 
 def longitude(text: str) -> float:
     """Degrees -180..180."""
-    value = finite(text)
-    if not -180.0 <= value <= 180.0:
-        raise argparse.ArgumentTypeError(f"longitude must be -180..180 degrees, not {text}")
-    return value
+    return number_in(text, -180.0, 180.0, "longitude")
 
 
 def heading_deg(text: str) -> float:
     """A heading, degrees -360..360 (0 north, 90 east)."""
-    value = finite(text)
-    if not -360.0 <= value <= 360.0:
-        raise argparse.ArgumentTypeError(f"must be -360..360 degrees, not {text}")
-    return value
+    return number_in(text, -360.0, 360.0, "heading")
 
 
 def param_name(text: str) -> str:

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli_types import positive_int
+from mavsim_core.cli_checks import positive_int
+
 from .flight_logs import FlightData, FlightLogError, load, log_stem, resolve_log
 from .plot_landing import fig_landing, has_landing
 

@@ -4,8 +4,8 @@
 codes; this module gives them the same checks of the other values, so a bad value is argparse's one
 ``error:`` line naming the option (exit 2) at parse time, before anything starts:
 
-- argparse ``type`` functions: :func:`positive_number`, :func:`non_negative_number`,
-  :func:`non_negative_int`, :func:`positive_int`, :func:`port_or_zero`, :func:`system_id`,
+- argparse ``type`` functions: :func:`finite_number`, :func:`number_in`, :func:`positive_number`,
+  :func:`non_negative_number`, :func:`non_negative_int`, :func:`positive_int`, :func:`port_or_zero`, :func:`system_id`,
   :func:`host_address`;
 - :func:`startup_failed`: what a script prints when starting fails anyway (a port already in use,
   a directory that cannot be created, a file that cannot be read): one line, exit 1, never a
@@ -26,7 +26,8 @@ from mavsim_core.cli_args import EXIT_FAILED, port_number
 EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports it
 
 
-def _number(text: str) -> float:
+def finite_number(text: str) -> float:
+    """argparse ``type``: a finite number (no nan, no inf)."""
     try:
         value = float(text)
     except ValueError:
@@ -38,15 +39,23 @@ def _number(text: str) -> float:
 
 def positive_number(text: str) -> float:
     """argparse ``type``: a finite number > 0."""
-    value = _number(text)
+    value = finite_number(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be > 0, not {text}")
     return value
 
 
+def number_in(text: str, low: float, high: float, what: str = "") -> float:
+    """A finite number ``low``..``high``; ``what`` names it in the message ("latitude")."""
+    value = finite_number(text)
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"{what + ' ' if what else ''}must be {low:g}..{high:g}, not {text}")
+    return value
+
+
 def non_negative_number(text: str) -> float:
     """argparse ``type``: a finite number >= 0."""
-    value = _number(text)
+    value = finite_number(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, not {text}")
     return value

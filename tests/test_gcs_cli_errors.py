@@ -44,9 +44,9 @@ BAD = [  # (id, arguments, exit code, the message line starts with, ... and cont
     ("param-nan", ["param", "set", "MPC_XY_P", "nan"], 2, "gcs param set: error:", "must be a finite number"),
     ("param-name-long", ["param", "get", "A_NAME_OF_17_CHAR"], 2, "gcs param get: error:", "1-16 ASCII characters"),
     ("mode-unknown", ["mode", "GUIDED"], 2, "gcs mode: error:", "unknown mode 'GUIDED'; known: MANUAL"),
-    ("goto-lat", ["goto", "91", "8.5457", "10"], 2, "gcs goto: error:", "latitude must be -90..90 degrees, not 91"),
+    ("goto-lat", ["goto", "91", "8.5457", "10"], 2, "gcs goto: error:", "latitude must be -90..90, not 91"),
     ("goto-alt-nan", ["goto", "47.3979", "8.5457", "nan"], 2, "gcs goto: error:", "argument ALT: must be a finite"),
-    ("watch-count", ["watch", "--count", "0"], 2, "gcs watch: error:", "must be a whole number >= 1, not 0"),
+    ("watch-count", ["watch", "--count", "0"], 2, "gcs watch: error:", "must be an integer >= 1, not 0"),
     ("mission-file", ["mission", "upload", "missing.plan"], 1, "gcs: mission upload:", "cannot read missing.plan"),
     ("param-file", ["param", "load", "missing.params"], 1, "gcs: param load:", "cannot read parameter file"),
 ]
