@@ -14,14 +14,30 @@ stays silent for SIM_LOSS_TIMEOUT_S of wall-clock time it is lost, the flight co
 the ground-station link goes on at 50 Hz of wall-clock time while the loop reconnects, so ground
 stations keep getting HEARTBEAT and STATUSTEXT.  A connection counts only once the simulator has
 answered within HANDSHAKE_TIMEOUT_S (:meth:`SimLink.connect`).
+
+A simulator that *holds* (``SIM_HOLD_MS``, ``sitl/hold.py``) sends a HEARTBEAT (``custom_mode``: the hold
+time, ms) instead of sensors: the flight controller is then alive and paused (:class:`HeldService`).  On
+entering a hold it runs one ground-station link iteration at its latest sensor time (what its last steps
+queued goes out: STATUSTEXTs, due streams), then sends its HEARTBEAT and SYSTEM_TIME with ``time_unix_usec``
+0 and ``time_boot_ms`` the hold time: "held here, and everything before has been sent" (on the same socket,
+so a client that has this has all the rest; ``gcs/launcher/sim_stepper.py`` waits for it).  While held it
+waits on the simulator link and the ground-station sockets together, answers whatever comes at once (a
+command is handled and acknowledged now and acts from the next step), streams nothing, and repeats that
+HEARTBEAT and SYSTEM_TIME at 1 Hz of wall time and in answer to a ground station's HEARTBEAT, so clients
+keep seeing the vehicle through a hold of any length.  All of it happens at the same simulated times in
+every run through the same holds.
 """
 
 from __future__ import annotations
 
+import select
 import time
 from typing import TYPE_CHECKING
 
+from pymavlink.dialects.v20 import common as mavlink
+
 from autopilot.mavlink.sim_link import battery_from_msg, gps_from_msg, imu_from_msg
+from autopilot.mavlink.telemetry_more import link_builders
 from autopilot.sim_link_watch import SimLinkWatch
 from mavsim_core.constants import LOCKSTEP_DT_US
 
@@ -35,6 +51,50 @@ LINK_EVERY, LINK_PHASE = 5, 2  # ground-station link at 50 Hz of simulated time,
 HANDSHAKE_TIMEOUT_S = 5.0  # wall seconds for the simulator's first message after connecting (it drops a
 # silent peer after 2 s, sitl/peer_accept.py, so one squatter ahead of us in its queue is survived)
 IDLE_PERIOD_S = 0.02  # while the simulator is away, the ground-station link runs at 50 Hz of wall time
+HELD_SLICE_S = 0.05  # while the simulator holds: the longest wait on its link and the ground stations' sockets
+HELD_HEARTBEAT_S = 1.0  # while the simulator holds: our HEARTBEAT at least this often (wall seconds)
+
+
+class HeldService:
+    """The ground-station link while the simulator holds (see the module docstring)."""
+
+    def __init__(self, link: GcsLink, fc: FlightController) -> None:
+        self.link, self.fc = link, fc
+        self._heartbeat = link_builders(link.identity)[mavlink.MAVLINK_MSG_ID_HEARTBEAT]
+        self._next_heartbeat_s = 0.0
+        self._gcs_seen: object = None  # the latest ground-station HEARTBEAT answered
+        self._held_here: tuple = ()  # our HEARTBEAT as of the hold's start, and "held at" (SYSTEM_TIME)
+
+    def enter(self, hold_ms: int, now_us: int) -> None:
+        """The simulator holds at ``hold_ms``: what the last steps queued goes out, then "held here".  The
+        HEARTBEAT is built once, here: repeating it later costs no telemetry snapshot, whose bookkeeping
+        (arming and take-off times) would then depend on how long the hold lasted."""
+        self.link.update(now_us)
+        self._held_here = (
+            self._heartbeat(self.link.vehicle.snapshot(), now_us),
+            mavlink.MAVLink_system_time_message(0, hold_ms),  # unix time 0: "held at" (the module docstring)
+        )
+        self._next_heartbeat_s = 0.0
+        self.send_heartbeat_if_due(time.monotonic())
+
+    def wait(self, sim: SimLink, now_us: int) -> bool:
+        """Wait up to HELD_SLICE_S for the simulator or a ground station, answer the ground stations (time
+        ``now_us``, the latest sensor time); True if the simulator link has something to read."""
+        socks = [sim.sock] + [ep.sock for ep in self.link.endpoints]
+        readable, _, _ = select.select(socks, [], [], HELD_SLICE_S)
+        self.link.poll(now_us)
+        self.send_heartbeat_if_due(time.monotonic())
+        return sim.sock in readable
+
+    def send_heartbeat_if_due(self, wall_s: float) -> None:
+        """The hold's HEARTBEAT and "held at", if HELD_HEARTBEAT_S has passed or a ground station's came."""
+        gcs = self.fc.commander.inputs.gcs_heartbeat  # (time, wall time) of a ground station's latest HEARTBEAT
+        if wall_s < self._next_heartbeat_s and gcs == self._gcs_seen:
+            return
+        self._gcs_seen, self._next_heartbeat_s = gcs, wall_s + HELD_HEARTBEAT_S
+        for msg in self._held_here:
+            for ep in self.link.endpoints:
+                ep.send(msg)
 
 
 def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: FlightRecorder | None) -> None:
@@ -44,6 +104,7 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
     ``link`` and ``recorder``.  While the simulator is away the ground stations are still answered.
     """
     watch = SimLinkWatch()
+    held = HeldService(link, fc)
 
     def serve_ground() -> None:
         link.update(watch.link_time_us(time.monotonic()))
@@ -52,6 +113,11 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
     print("[autopilot] connected to the simulator", flush=True)
     gps = None
     while True:
+        if watch.held and not sim.pending and not held.wait(sim, watch.sim_us):
+            if watch.check(time.monotonic(), closed=False):  # held, yet its HEARTBEATs stopped: lost
+                print("[autopilot] nothing from the held simulator: link lost", flush=True)
+                fc.on_sim_link_lost()
+            continue
         msgs = sim.receive(timeout_s=IDLE_PERIOD_S if watch.lost else 0.05)
         if msgs is None:
             print("[autopilot] simulator closed the link; reconnecting", flush=True)
@@ -97,3 +163,10 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 fc.commander.set_battery(battery_from_msg(m))
             elif t == "LANDING_TARGET":  # the simulated companion computer's (sitl/companion.py)
                 fc.on_landing_target(m, m.get_srcSystem())
+            elif t == "HEARTBEAT":  # the simulator holds (sitl/hold.py): alive, no step until its sensors come
+                entering = not watch.held
+                if watch.on_held(time.monotonic()):
+                    print("[autopilot] the simulator holds: link regained", flush=True)
+                    fc.on_sim_link_regained()
+                if entering:
+                    held.enter(m.custom_mode, watch.sim_us)

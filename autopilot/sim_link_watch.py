@@ -9,6 +9,11 @@ getting HEARTBEAT (1 Hz) and STATUSTEXT and see what happened.  The next HIL_SEN
 whether the flight controller's state is still good then is decided by the sensor time itself
 (:meth:`autopilot.flight_controller.FlightController.step`: a clock that restarted means a new world).
 
+A simulator *held* at a simulated time (``SIM_HOLD_MS``, ``sitl/hold.py``) sends no sensors but a HEARTBEAT
+on the link every 0.2 s of wall time: :meth:`SimLinkWatch.on_held` takes it for "alive, held", so a hold of
+any length is never a loss, and the ground-station link's time stays at the latest sensor time (nothing
+streams while held: the streams stay where the simulated time puts them).
+
 Pure: wall-clock (s, time.monotonic) and simulated (µs) times are inputs.
 """
 
@@ -24,21 +29,33 @@ class SimLinkWatch:
         self.loss_timeout_s = loss_timeout_s
         self.sim_us = 0  # time of the latest HIL_SENSOR, simulated µs
         self.sensor_wall_s: float | None = None  # wall time it arrived (None: none yet)
+        self.alive_wall_s: float | None = None  # wall time of the latest HIL_SENSOR or held HEARTBEAT
         self.lost = False
+        self.held = False  # the simulator holds (its HEARTBEATs come, its sensors do not)
 
     def on_sensor(self, sim_us: int, wall_s: float) -> bool:
         """A HIL_SENSOR stamped ``sim_us`` arrived at ``wall_s``; True if it ends a loss (the link is regained)."""
         regained = self.lost
-        self.sim_us, self.sensor_wall_s, self.lost = sim_us, wall_s, False
+        self.sim_us, self.sensor_wall_s, self.lost, self.held = sim_us, wall_s, False, False
+        self.alive_wall_s = wall_s
+        return regained
+
+    def on_held(self, wall_s: float) -> bool:
+        """A HEARTBEAT from the simulator (it holds) at ``wall_s``; True if it ends a loss."""
+        regained = self.lost
+        self.alive_wall_s, self.lost, self.held = wall_s, False, True
         return regained
 
     def check(self, wall_s: float, closed: bool) -> bool:
-        """True when the link is lost from now on: it ``closed``, or no sensor data came for the timeout.
+        """True when the link is lost from now on: it ``closed``, or nothing (sensor data, a held HEARTBEAT)
+        came for the timeout.
         Nothing is lost before the first HIL_SENSOR (the simulator was never there)."""
+        if closed:
+            self.held = False  # a new connection says for itself whether it holds
         if self.lost or self.sensor_wall_s is None:
             return False
-        if closed or wall_s - self.sensor_wall_s >= self.loss_timeout_s:
-            self.lost = True
+        if closed or wall_s - self.alive_wall_s >= self.loss_timeout_s:
+            self.lost, self.held = True, False
             return True
         return False
 

@@ -6,6 +6,9 @@ parameter requests on the same link (component 51).  :class:`SimClient` binds
 that port, keeps the truth in a background thread, and reads and sets ``SIM_*``
 parameters with the MAVLink parameter protocol (C-cast encoding: the simulator
 is not PX4, so an INT32 of 3 travels as 3.0), as MAVProxy would.  Truth is NED metres from the simulator's start point.
+
+A simulator held at a simulated time (``SIM_HOLD_MS``, sitl/hold.py) says so with SYSTEM_TIME
+(``time_boot_ms`` the hold time, ``time_unix_usec`` 0) after the truth at that time: :meth:`SimClient.wait_held`.
 """
 
 from __future__ import annotations
@@ -71,6 +74,8 @@ class SimClient:
         self.ugv: dict[int, UgvSample] = {}  # the ground vehicle's truth by simulated time, ms
         self._ugv_yaw = 0.0
         self._types: dict[str, int] = {}
+        self.held_ms: int | None = None  # the latest "held at" report (SYSTEM_TIME), simulated ms
+        self._held = threading.Condition(self.lock)
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, name="sim-client", daemon=True)
         self.thread.start()
@@ -104,6 +109,10 @@ class SimClient:
                         self.states[msg.time_usec // 1000] = msg
                 elif kind == "PARAM_VALUE":
                     self.param_values.put(msg)
+                elif kind == "SYSTEM_TIME" and msg.time_unix_usec == 0:  # held at this time (sitl/hold.py)
+                    with self._held:
+                        self.held_ms = msg.time_boot_ms
+                        self._held.notify_all()
                 elif kind == "STATUSTEXT":
                     self.statustexts.append(msg.text)
 
@@ -145,6 +154,18 @@ class SimClient:
         """Truth samples from this simulated time on, in time order."""
         with self.lock:
             return [self.positions[t] for t in sorted(self.positions) if t >= time_ms]
+
+    def wait_held(self, at_least_ms: int, timeout_s: float) -> int:
+        """Wait until the simulator reports it holds at ``at_least_ms`` (simulated ms) or later; that time.
+        Its truth at that time has arrived by then (sent before the report).  SimParamError on timeout."""
+        deadline = time.monotonic() + timeout_s
+        with self._held:
+            while self.held_ms is None or self.held_ms < at_least_ms:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise SimParamError(f"the simulator did not hold at t = {at_least_ms / 1000:g} s")
+                self._held.wait(remaining)
+            return self.held_ms
 
     # -- parameters ----------------------------------------------------------------------
     def _send(self, msg) -> None:

@@ -6,6 +6,7 @@ import argparse
 import math
 import signal
 import sys
+from copy import deepcopy
 from pathlib import Path
 
 from mavsim_core import ports
@@ -15,6 +16,7 @@ from mavsim_core.cli_checks import (
     make_dir,
     non_negative_int,
     port_or_zero,
+    positive_int,
     positive_number,
     startup_failed,
 )
@@ -68,23 +70,14 @@ def parse_param_assignment(text: str) -> tuple[str, int | float]:
         raise argparse.ArgumentTypeError(f"{name}: value must be a number, not {value!r}") from None
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="sitl",
-        description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)",
-        epilog=EXIT_CODES_EPILOG,
-    )
-    add_version_option(p)
+def _add_port_options(p: argparse.ArgumentParser) -> None:
+    """``--count`` and the options of the ports: TCP of the lockstep link, UDP of the simulator's component."""
     p.add_argument(
-        "--vehicle", default="quad_x", type=vehicle_argument,
-        help="vehicle name in params/vehicles or a .toml path (relative to the working directory)",
+        "--count", type=positive_int, default=1, metavar="K",
+        help="simulate K multicopters in one world, 3 m apart along East: vehicle k is instance N+k (system id "
+        "1+N+k, TCP 4560+N+k, UDP 14740+N+k), its own flight controller; the world steps when all have answered. "
+        "Explicit --port/--truth-port/--truth-local-port/--ugv-radio-port are vehicle 0's, vehicle k's are +k",
     )  # fmt: skip
-    p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
-    add_instance_option(
-        p,
-        help=f"vehicle instance 0-{ports.MAX_INSTANCE}, as PX4's -i: system id 1+N, TCP port 4560+N, "
-        "ground truth and SIM_* parameters to UDP 14740+N",
-    )
     p.add_argument("--port", type=port_number, help="TCP port the flight controller connects to (default 4560+N)")
     p.add_argument(
         "--bind", default="127.0.0.1", metavar="ADDR", type=host_address,
@@ -109,6 +102,26 @@ def build_parser() -> argparse.ArgumentParser:
         help="UDP port the ground vehicle's FOLLOW_TARGET goes to (SIM_UGV_FLW=1), on --truth-host: the flight "
         "controller's API-side socket (default 14640+N)",
     )  # fmt: skip
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="sitl",
+        description="MuJoCo multirotor simulator (PX4 simulator MAVLink API, lockstep)",
+        epilog=EXIT_CODES_EPILOG,
+    )
+    add_version_option(p)
+    p.add_argument(
+        "--vehicle", default="quad_x", type=vehicle_argument,
+        help="vehicle name in params/vehicles or a .toml path (relative to the working directory)",
+    )  # fmt: skip
+    p.add_argument("--speed", type=parse_speed, default=1.0, help="1 = real time, N = N x real time, 'max' = unpaced")
+    add_instance_option(
+        p,
+        help=f"vehicle instance 0-{ports.MAX_INSTANCE}, as PX4's -i: system id 1+N, TCP port 4560+N, "
+        "ground truth and SIM_* parameters to UDP 14740+N",
+    )
+    _add_port_options(p)
     p.add_argument("--home", type=parse_home, default=DEFAULT_HOME, help="LAT,LON,ALT of the start point")
     p.add_argument("--seed", type=non_negative_int, default=0, help="random seed of the sensor noise")
     p.add_argument("--duration", type=positive_number, default=None, help="stop after this many simulated seconds")
@@ -176,11 +189,12 @@ def _companion(sim, camera: CameraSettings, args: argparse.Namespace):
     )
 
 
-def _print_started(spec, args: argparse.Namespace, scenario: Scenario | None, server, truth) -> None:
-    """What was started, on stderr: vehicle, speed, home, scenario, the simulator's MAVLink component."""
+def _print_started(spec, args: argparse.Namespace, scenario: Scenario | None, servers) -> None:
+    """What was started, on stderr: vehicle, speed, home, scenario, each vehicle's MAVLink component."""
     speed = "max" if args.speed is None else f"{args.speed:g}x"
+    count = f"{args.count} x " if args.count > 1 else ""
     print(
-        f"[sitl] vehicle {spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
+        f"[sitl] vehicle {count}{spec.name} ({len(spec.rotors)} rotors, {spec.mass_kg:.3g} kg), speed {speed}, "
         f"home {args.home[0]:.6f},{args.home[1]:.6f},{args.home[2]:.1f}",
         file=sys.stderr,
         flush=True,
@@ -193,14 +207,17 @@ def _print_started(spec, args: argparse.Namespace, scenario: Scenario | None, se
             file=sys.stderr,
             flush=True,
         )
-    if server.param_server is not None:
-        host, port = server.param_server.local_address[:2]
-        print(
-            f"[sitl] SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP {host}:{port}, "
-            f"sending to {truth[0]}:{truth[1]}",
-            file=sys.stderr,
-            flush=True,
-        )
+    for server in servers:
+        tcp = f"TCP {server.port}; " if len(servers) > 1 else ""
+        if server.param_server is not None:
+            host, port = server.param_server.local_address[:2]
+            dest = server.truth_addr
+            print(
+                f"[sitl] {tcp}SIM_* parameters and ground truth: MAVLink sysid {server.sysid} compid 51 on UDP "
+                f"{host}:{port}, sending to {dest[0]}:{dest[1]}",
+                file=sys.stderr,
+                flush=True,
+            )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -217,16 +234,21 @@ def main(argv: list[str] | None = None) -> int:
         pass
     finally:
         server.close()
-        if server.truth_log is not None:
-            server.truth_log.close()
+        for vehicle in getattr(server, "servers", [server]):  # a WorldLockstep: each vehicle's server
+            if vehicle.truth_log is not None:
+                vehicle.truth_log.close()
     return 0
 
 
 def _start(args: argparse.Namespace):
-    """Everything before the loop: the LockstepServer, listening; or the exit code (0 ``--list-params``, 2).
+    """Everything before the loop: the LockstepServer (``--count`` > 1: the WorldLockstep of every vehicle's),
+    listening; or the exit code (0 ``--list-params``, 2).
 
     Raises OSError or ValueError when starting fails (a port in use, a directory that cannot be created).
     """
+    if (last := args.instance + args.count - 1) > ports.MAX_INSTANCE:
+        print(f"sitl: --count {args.count} from -i {args.instance} needs instance {last} (max 99)", file=sys.stderr)
+        return EXIT_USAGE
     if args.port is None:
         args.port = ports.sim_tcp_port(args.instance)
     if args.truth_port is None:
@@ -248,43 +270,78 @@ def _start(args: argparse.Namespace):
     for option, path in (("--log-dir", args.log_dir), ("--save-frames", args.save_frames)):
         if path:
             make_dir(option, path)
-    from sitl.lockstep import LockstepServer
-    from sitl.simulation import Simulation
+    from sitl.simulation import Simulation, VehicleView, World, spread
 
-    sim = Simulation(spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera)
-    truth = (args.truth_host, args.truth_port) if args.truth_port else None
+    if args.count == 1:
+        sim = Simulation(
+            spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera
+        )
+        views = [sim]
+    else:  # every vehicle its own copy of the per-vehicle settings; the air and the UGV are the world's
+        own = [(sensors, motors, camera)] + [deepcopy((sensors, motors, camera)) for _ in range(1, args.count)]
+        sensors_k, motors_k, cameras_k = zip(*own)
+        world = World(
+            spread(spec, args.count), args.home, args.seed, wind, ugv,
+            sensors=sensors_k, motors=motors_k, cameras=cameras_k,
+        )  # fmt: skip
+        views = [VehicleView(world, k) for k in range(args.count)]
+    servers = []
+    try:
+        for k, view in enumerate(views):
+            servers.append(_vehicle_server(args, k, view, scenario))
+    except BaseException:
+        for server in servers:
+            server.close()
+        raise
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
+    _print_started(spec, args, scenario, servers)
+    if args.count == 1:
+        return servers[0]
+    from sitl.world_lockstep import WorldLockstep
+
+    return WorldLockstep(world, servers, args.speed)
+
+
+def _vehicle_server(args: argparse.Namespace, k: int, sim, scenario: Scenario | None):
+    """Vehicle ``k``'s LockstepServer (instance ``--instance`` + k) with its optional parts, listening."""
+    from sitl.lockstep import LockstepServer
+
+    instance = args.instance + k
+    truth = (args.truth_host, args.truth_port + k) if args.truth_port else None
+    local_port = args.truth_local_port + k if args.truth_local_port else 0
     server = LockstepServer(
         sim,
-        args.port,
+        args.port + k,
         truth,
         args.speed,
-        truth_bind=(args.bind, args.truth_local_port),
+        truth_bind=(args.bind, local_port),
         bind_host=args.bind,
         events=scenario.events if scenario else (),
-        sysid=ports.system_id(args.instance),
+        sysid=ports.system_id(instance),
     )
     try:
-        _attach(server, sim, spec, camera, ugv, args)
+        _attach(server, sim, k, args)
     except BaseException:
         server.close()
         raise
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
-    _print_started(spec, args, scenario, server, truth)
     return server
 
 
-def _attach(server, sim, spec, camera: CameraSettings, ugv: UgvSettings, args: argparse.Namespace) -> None:
-    """The server's optional parts: the vision companion, the UGV's radio, the ground-truth log."""
-    server.companion = _companion(sim, camera, args)
+def _attach(server, sim, k: int, args: argparse.Namespace) -> None:
+    """Vehicle ``k``'s optional parts: the vision companion, the UGV's radio, the ground-truth log."""
+    instance = args.instance + k
+    if args.count == 1:  # the camera's names are vehicle 0's (sitl.camera): one vehicle only
+        server.companion = _companion(sim, sim.camera_settings, args)
     if sim.ugv is not None:  # its telemetry radio: FOLLOW_TARGET while SIM_UGV_FLW = 1 (sitl/ugv_broadcast.py)
         from sitl.ugv_broadcast import UgvRadio
 
-        port = args.ugv_radio_port or ports.api_local_port(args.instance)
-        server.ugv_radio = UgvRadio(ugv, (args.truth_host, port), ports.system_id(args.instance), args.home)
+        port = args.ugv_radio_port + k if args.ugv_radio_port else ports.api_local_port(instance)
+        dest, sysid = (args.truth_host, port), ports.system_id(instance)
+        server.ugv_radio = UgvRadio(sim.ugv_settings, dest, sysid, sim.sensors.home)  # its truth: this vehicle's frame
     if args.log_dir:  # ground-truth log, one per arming (sitl/truth_log.py)
         from sitl.truth_log import TruthRecorder
 
-        server.truth_log = TruthRecorder(args.log_dir, len(spec.rotors), args.instance, ugv=sim.ugv is not None)
+        server.truth_log = TruthRecorder(args.log_dir, len(sim.spec.rotors), instance, ugv=sim.ugv is not None)
 
 
 if __name__ == "__main__":

@@ -37,6 +37,7 @@ from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
 from sitl.battery import cell_ocv_v
 from sitl.gps import GpsReading, course_over_ground_deg
+from sitl.hold import HOLD_PARAM, SimHold
 from sitl.link_params import LinkParams
 from sitl.param_server import SIM_COMPID, SIM_SYSID, UGV_COMPID, SimParamServer
 from sitl.peer_accept import accept_peer, listen
@@ -61,6 +62,8 @@ def _log(text: str) -> None:
 
 
 def _log_param_set(name: str, value: int | float, addr: tuple[str, int]) -> None:
+    if name == HOLD_PARAM:  # moved every slice of a stepped run (sitl/hold.py): not worth a line each
+        return
     _log(f"{name} = {value:g} (PARAM_SET from {addr[0]}:{addr[1]})")
 
 
@@ -123,6 +126,7 @@ class LockstepServer:
             self.close()  # reads ugv_radio: set before
             raise
         self.motor_commands = np.zeros(sim.rotors.n)
+        self.hold = SimHold()  # SIM_HOLD_MS: the world's hold (sitl/hold.py)
         self.steps = 0
         self.armed = False  # the flight controller's HIL_ACTUATOR_CONTROLS mode flag
 
@@ -139,18 +143,19 @@ class LockstepServer:
             self.param_server.close()
 
     # -- connection ---------------------------------------------------------------
-    def _accept(self) -> None:
+    def _accept(self, others: Sequence[LockstepServer] = ()) -> None:
         """Wait for the flight controller (a peer that passes the handshake of :mod:`sitl.peer_accept`),
-        serving SIM_* parameters meanwhile."""
+        serving SIM_* parameters meanwhile (``others``: the other vehicles' of a world too)."""
         _log(f"waiting for the flight controller on TCP port {self.port}")
-        server = self.param_server
+        servers = [s.param_server for s in (self, *others) if s.param_server is not None]
         assert self.listener is not None
 
         def serve() -> None:
-            if server is not None:
-                server.poll(time.monotonic())
+            now = time.monotonic()
+            for server in servers:
+                server.poll(now)
 
-        watched = [server.sock] if server is not None else []
+        watched = [server.sock for server in servers]
         conn, addr = accept_peer(self.listener, serve, watched, _log)
         conn.settimeout(None)
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -350,6 +355,10 @@ class LockstepServer:
         wall0 = time.monotonic()
         sim0 = self.sim.time_us
         while duration_s is None or self.sim.time_us < duration_s * 1e6:
+            # The hold (SIM_HOLD_MS), before a period's sensors.  A world of several vehicles calls it the same way
+            # before its period, with every vehicle's server: hold.wait(servers, world time); pacing shifts by it.
+            if self.hold.reached(self.sim.time_us):
+                wall0 += self.hold.wait([self], self.sim.time_us)
             try:
                 self._send_sensors()
                 alive = self._wait_actuators()

@@ -1,4 +1,4 @@
-"""Build the MuJoCo model (MJCF) of a vehicle from its vehicle file.
+"""Build the MuJoCo model (MJCF) of a world from vehicle files: one multicopter, or several side by side.
 
 The vehicle file gives positions in body FRD; MuJoCo's body frame is FLU, so
 every position is converted with :func:`sitl.frames.frd_to_flu`.  Each rotor is a
@@ -11,6 +11,9 @@ turns counter-clockwise seen from above, whose reaction turns the body clockwise
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from functools import partial
+from typing import Sequence
 
 import mujoco
 
@@ -29,32 +32,44 @@ def _v(x) -> str:
     return " ".join(f"{float(a):.6g}" for a in x)
 
 
-def build_mjcf(spec: VehicleSpec, ugv: UgvMjcf | None = None) -> str:
-    """Return the MJCF XML text of the world: ground plane and the vehicle.
+def part_name(k: int, name: str) -> str:
+    """The MJCF name of vehicle ``k``'s part ``name`` ("vehicle", "root", "imu", "rotor1", "accel", "downward",
+    ...): vehicle 0 keeps the bare names (a one-vehicle world is the single-vehicle model, name for name),
+    vehicle k >= 1 has them prefixed ``v<k>_``."""
+    return name if k == 0 else f"v{k}_{name}"
 
-    The vehicle starts on its legs facing North (body x along world +y, ENU).  ``ugv``
-    (off by default) adds the ground vehicle's parts (:func:`sitl.ugv.ugv_mjcf`) after the
-    vehicle's, so the vehicle's joint, actuator and sensor indices stay the same.
-    """
+
+@dataclass(frozen=True)
+class Placement:
+    """One multicopter of a world: its vehicle file and where it starts, ENU metres (East, North) from the
+    world's origin (vehicle 0's spot), on its legs facing North."""
+
+    spec: VehicleSpec
+    offset_en_m: tuple[float, float] = (0.0, 0.0)
+
+
+def _vehicle_parts(k: int, place: Placement) -> tuple[str, list[str], list[str]]:
+    """Vehicle ``k``'s body (MJCF text), its rotor actuators and its IMU sensors."""
+    spec, n = place.spec, partial(part_name, k)
     j = spec.inertia_kg_m2
     foot_depth_m = max(p[2] for p in spec.leg_positions_frd_m) + spec.leg_size_m[2] / 2
     geoms = [
-        f'<geom name="frame" type="box" size="{_v(s / 2 for s in spec.body_size_m)}" '
+        f'<geom name="{n("frame")}" type="box" size="{_v(s / 2 for s in spec.body_size_m)}" '
         f'contype="1" conaffinity="1" mass="0" rgba="0.3 0.3 0.35 1"/>'
     ]
     for i, leg in enumerate(spec.leg_positions_frd_m):
         geoms.append(
-            f'<geom name="leg{i + 1}" type="box" pos="{_v(frd_to_flu(leg))}" '
+            f'<geom name="{n(f"leg{i + 1}")}" type="box" pos="{_v(frd_to_flu(leg))}" '
             f'size="{_v(s / 2 for s in spec.leg_size_m)}" mass="0" friction="0.8 0.01 0.001" rgba="0.2 0.2 0.2 1"/>'
         )
-    sites = ['<site name="imu" pos="0 0 0" size="0.01"/>']
+    sites = [f'<site name="{n("imu")}" pos="0 0 0" size="0.01"/>']
     cam = spec.camera
     if cam.rate_hz > 0:
         # MuJoCo's camera looks along its -z with image x right and y up: y = body forward (FLU +x),
         # z = body up, so it looks down with the top of the image towards the nose.
         fovy = math.degrees(2 * math.atan(math.tan(math.radians(cam.hfov_deg) / 2) * cam.height_px / cam.width_px))
         sites.append(
-            f'<camera name="downward" pos="{_v(frd_to_flu(cam.position_frd_m))}" xyaxes="0 -1 0 1 0 0" '
+            f'<camera name="{n("downward")}" pos="{_v(frd_to_flu(cam.position_frd_m))}" xyaxes="0 -1 0 1 0 0" '
             f'fovy="{fovy:.6g}"/>'
         )
     actuators = []
@@ -62,47 +77,79 @@ def build_mjcf(spec: VehicleSpec, ugv: UgvMjcf | None = None) -> str:
         p = frd_to_flu(r.position_frd_m)
         colour = "0.1 0.6 0.1 0.6" if r.spin_ccw > 0 else "0.1 0.1 0.7 0.6"
         geoms.append(
-            f'<geom name="prop{i + 1}" type="cylinder" pos="{_v(p)}" size="{spec.rotor_radius_m:.4g} 0.005" '
+            f'<geom name="{n(f"prop{i + 1}")}" type="cylinder" pos="{_v(p)}" size="{spec.rotor_radius_m:.4g} 0.005" '
             f'contype="0" conaffinity="0" mass="0" rgba="{colour}"/>'
         )
-        sites.append(f'<site name="rotor{i + 1}" pos="{_v(p)}" size="0.01"/>')
+        sites.append(f'<site name="{n(f"rotor{i + 1}")}" pos="{_v(p)}" size="0.01"/>')
         actuators.append(
-            f'<general name="rotor{i + 1}" site="rotor{i + 1}" ctrllimited="false" '
+            f'<general name="{n(f"rotor{i + 1}")}" site="{n(f"rotor{i + 1}")}" ctrllimited="false" '
             f'gear="0 0 1 0 0 {-r.spin_ccw * spec.k_moment:.6g}"/>'
         )
+    e, north = place.offset_en_m
+    body = f"""<body name="{n("vehicle")}" pos="{e:.6g} {north:.6g} {foot_depth_m + 0.001:.4f}" \
+quat="0.70710678 0 0 0.70710678">
+      <freejoint name="{n("root")}"/>
+      <inertial pos="0 0 0" mass="{spec.mass_kg:.6g}" diaginertia="{_v(j)}"/>
+      {chr(10).join("      " + g for g in geoms)}
+      {chr(10).join("      " + s for s in sites)}
+    </body>"""
+    imu = n("imu")
+    sensors = [f'<accelerometer name="{n("accel")}" site="{imu}"/>', f'<gyro name="{n("gyro")}" site="{imu}"/>']
+    return body, actuators, sensors
+
+
+def build_world_mjcf(vehicles: Sequence[Placement], ugv: UgvMjcf | None = None) -> str:
+    """Return the MJCF XML text of a world: ground plane, the multicopters, the ground vehicle.
+
+    Each vehicle starts on its legs facing North (body x along world +y, ENU) at its placement.
+    Vehicle k's joint, actuators and sensors come after vehicle k-1's, so vehicle 0's indices are
+    those of a one-vehicle world; ``ugv`` (off by default) adds the ground vehicle's parts
+    (:func:`sitl.ugv.ugv_mjcf`) after all of them.
+    """
+    parts = [_vehicle_parts(k, place) for k, place in enumerate(vehicles)]
+    bodies = "\n    ".join(b for b, _, _ in parts)
+    actuators = [a for _, acts, _ in parts for a in acts]
+    sensors = [s for _, _, sens in parts for s in sens]
+    first = vehicles[0].spec
+    width = max(640, *(v.spec.camera.width_px for v in vehicles))
+    height = max(480, *(v.spec.camera.height_px for v in vehicles))
     ugv_asset = f"\n  <asset>{ugv.asset}</asset>" if ugv else ""
     ugv_body = f"\n    {ugv.worldbody}" if ugv else ""
     ugv_actuators = f"\n{ugv.actuator}" if ugv else ""
-    return f"""<mujoco model="{spec.name}">
+    return f"""<mujoco model="{first.name}">
   <option timestep="{PHYSICS_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
-  <visual><global offwidth="{max(640, spec.camera.width_px)}" offheight="{max(480, spec.camera.height_px)}"/>
+  <visual><global offwidth="{width}" offheight="{height}"/>
     <quality shadowsize="0" offsamples="0"/><map znear="0.0005"/></visual>{ugv_asset}
   <worldbody>
     <light pos="0 0 20" dir="0 0 -1" directional="true"/>
     <geom name="ground" type="plane" size="500 500 0.1" friction="1 0.01 0.001" rgba="0.5 0.6 0.5 1"/>
-    <body name="vehicle" pos="0 0 {foot_depth_m + 0.001:.4f}" quat="0.70710678 0 0 0.70710678">
-      <freejoint name="root"/>
-      <inertial pos="0 0 0" mass="{spec.mass_kg:.6g}" diaginertia="{_v(j)}"/>
-      {chr(10).join("      " + g for g in geoms)}
-      {chr(10).join("      " + s for s in sites)}
-    </body>{ugv_body}
+    {bodies}{ugv_body}
   </worldbody>
   <actuator>
 {chr(10).join("    " + a for a in actuators)}{ugv_actuators}
   </actuator>
   <sensor>
-    <accelerometer name="accel" site="imu"/>
-    <gyro name="gyro" site="imu"/>
+{chr(10).join("    " + s for s in sensors)}
   </sensor>
 </mujoco>
 """
 
 
-def build_model(spec: VehicleSpec, ugv_start: Pose2 | None = None) -> mujoco.MjModel:
-    """Compile the MJCF and set the vehicle's inertia to the file's exactly.
+def build_mjcf(spec: VehicleSpec, ugv: UgvMjcf | None = None) -> str:
+    """The MJCF XML text of a one-vehicle world (:func:`build_world_mjcf`): ground plane and the vehicle."""
+    return build_world_mjcf([Placement(spec)], ugv)
 
-    ``ugv_start`` (NED m, yaw rad; None, the default, leaves it out) adds the ground vehicle
-    (:mod:`sitl.ugv`) there.
+
+def build_model(spec: VehicleSpec, ugv_start: Pose2 | None = None) -> mujoco.MjModel:
+    """The one-vehicle world of ``spec`` (:func:`build_world_model`); ``ugv_start`` as there."""
+    return build_world_model([Placement(spec)], ugv_start)
+
+
+def build_world_model(vehicles: Sequence[Placement], ugv_start: Pose2 | None = None) -> mujoco.MjModel:
+    """Compile the MJCF and set each vehicle's inertia to its file's exactly.
+
+    ``ugv_start`` (NED m from vehicle 0's spot, yaw rad; None, the default, leaves it out) adds the ground
+    vehicle (:mod:`sitl.ugv`) there.
 
     [F]'s Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
     inequality I_xx + I_yy >= I_zz that every real mass distribution satisfies, and MuJoCo's
@@ -111,11 +158,16 @@ def build_model(spec: VehicleSpec, ugv_start: Pose2 | None = None) -> mujoco.MjM
     equations ([F eq. 4.5]) use J as given, which is what [F] specifies.
     """
     ugv = ugv_mjcf(ugv_start) if ugv_start is not None else None
-    xml = build_mjcf(spec, ugv)
-    j = spec.inertia_kg_m2
-    if j[0] + j[1] < j[2] or j[0] + j[2] < j[1] or j[1] + j[2] < j[0]:
+    xml = build_world_mjcf(vehicles, ugv)
+    if any(_unbalanced(v.spec.inertia_kg_m2) for v in vehicles):
         xml = xml.replace("<option ", '<compiler balanceinertia="true"/>\n  <option ', 1)
     model = mujoco.MjModel.from_xml_string(xml, ugv.assets if ugv else None)
-    model.body_inertia[model.body("vehicle").id] = j
+    for k, v in enumerate(vehicles):
+        model.body_inertia[model.body(part_name(k, "vehicle")).id] = v.spec.inertia_kg_m2
     mujoco.mj_setConst(model, mujoco.MjData(model))  # recompute what the compiler derived from the inertia
     return model
+
+
+def _unbalanced(j) -> bool:
+    """True if a diagonal inertia breaks the triangle inequality (MuJoCo's compiler would refuse it)."""
+    return j[0] + j[1] < j[2] or j[0] + j[2] < j[1] or j[1] + j[2] < j[0]

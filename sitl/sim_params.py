@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Iterator, NamedTuple
 
 from mavsim_core.param_types import ParamType
+from sitl.hold import WORLD_HOLD, HoldSettings
 from sitl.sim_settings import MotorSettings, SensorSettings, WindSettings, param_fields
 
 # INT32 limits stay within +-(2**23 - 1): the byte-wise encoding of such an integer read as
@@ -83,14 +84,22 @@ def format_value(value: int | float, ptype: str) -> str:
 
 
 class SimParameters:
-    """The ``SIM_*`` parameters of one simulation, in a fixed order (wind, sensors, motors)."""
+    """The ``SIM_*`` parameters of one simulation, in a fixed order (wind, sensors, motors, ..., the hold)."""
 
-    def __init__(self, wind: WindSettings, sensors: SensorSettings, motors: MotorSettings, *more: object) -> None:
-        """``more``: further settings objects (the UGV's, the camera's), listed after the motors'."""
+    def __init__(
+        self,
+        wind: WindSettings,
+        sensors: SensorSettings,
+        motors: MotorSettings,
+        *more: object,
+        hold: HoldSettings = WORLD_HOLD,
+    ) -> None:
+        """``more``: further settings objects (the UGV's, the camera's), listed after the motors'; ``hold``: the
+        world's ``SIM_HOLD_MS`` (:mod:`sitl.hold`; the process's one by default), listed last."""
         self._params: list[SimParam] = []
         self._by_name: dict[str, SimParam] = {}
         self.started = False  # set by the simulator once it runs: start-only parameters are then refused
-        for owner in (wind, sensors, motors, *more):
+        for owner in (wind, sensors, motors, *more, hold):
             for f in param_fields(owner):
                 md = f.metadata
                 name = md["param"]

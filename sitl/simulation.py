@@ -1,60 +1,180 @@
-"""The physics core of the simulator: MuJoCo rigid body, rotors, aerodynamics, wind, battery, sensors.
+"""The physics core of the simulator: one MuJoCo world with its multicopters, wind and ground vehicle.
 
-No sockets and no clocks: :meth:`Simulation.step` advances simulated time by one
-lockstep period for given motor commands; the process loop (``sitl.lockstep``)
-does the I/O.  Truth is returned in MAVLink frames (NED, FRD) through
-:mod:`sitl.frames`, the only place that converts.
+No sockets and no clocks: :meth:`World.step` advances simulated time by one lockstep period for
+given motor commands (one array per vehicle); the process loop (``sitl.lockstep``) does the I/O.
+Each vehicle is a :class:`sitl.multicopter.Multicopter` (rotors, aerodynamics, battery, the wind
+at its position, sensors); truth is returned in MAVLink frames (NED, FRD), each vehicle's from its
+own start point.  :class:`Simulation` is the one-vehicle world with the single-vehicle interface
+(``sim.truth()``, ``sim.step(commands)``, ``sim.rotors`` ...); :class:`VehicleView` gives vehicle k
+of a larger world the same interface, which is what a lockstep link reads.
+
+Several vehicles: vehicle k starts ``spacing`` metres East of vehicle k-1 (:func:`spread`), its
+sensors' home is the geodetic position of its own start point, its seed is
+:func:`sitl.multicopter.vehicle_seed` (the world's seed for vehicle 0).  The air and the ground
+vehicle are the world's: one ``WindSettings`` (each vehicle meets its own turbulence draws, at its
+height and airspeed) and one ``UgvSettings``; sensor, motor and camera settings are each vehicle's.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-from typing import NamedTuple
+from dataclasses import replace
+from typing import Sequence
 
 import mujoco
 import numpy as np
 
-from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
-from mavsim_core.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
+from mavsim_core.constants import LOCKSTEP_DT_S
+from mavsim_core.geodesy import ned_to_geodetic
 from params.vehicle import VehicleSpec
-from sitl.aerodynamics import Aerodynamics
-from sitl.battery import Battery
-from sitl.model import PHYSICS_DT_S, build_model
-from sitl.rotors import RotorModel
-from sitl.sensors import SensorSuite
+from sitl.model import PHYSICS_DT_S, Placement, build_world_model
+from sitl.multicopter import Multicopter, SensorTruth, Truth, vehicle_seed
 from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, WindSettings
 from sitl.ugv_world import UgvDriver, UgvSettings, UgvTruth
-from sitl.wind import WindModel
+
+__all__ = ["LOCKSTEP_DT_S", "SensorTruth", "Simulation", "Truth", "VehicleView", "World", "spread"]
+
+SPACING_M = 3.0  # between two vehicles' start points, East, as PX4's multi-vehicle launch scripts spread them
 
 
-@dataclass(frozen=True)
-class Truth:
-    """Ground truth in MAVLink frames; position is NED (m) from the start point on the ground."""
-
-    time_us: int
-    pos_ned_m: np.ndarray
-    vel_ned_m_s: np.ndarray
-    accel_ned_m_s2: np.ndarray
-    q_ned_frd: np.ndarray  # (w, x, y, z)
-    r_ned_frd: np.ndarray  # the same attitude as a 3x3 matrix taking FRD vectors to NED
-    rate_frd_rad_s: np.ndarray
-    specific_force_frd_m_s2: np.ndarray
-    wind_ned_m_s: np.ndarray
+def spread(spec: VehicleSpec, count: int, spacing_m: float = SPACING_M) -> list[Placement]:
+    """``count`` vehicles of ``spec`` in a row along East, ``spacing_m`` apart, vehicle 0 at the origin."""
+    return [Placement(spec, (spacing_m * k, 0.0)) for k in range(count)]
 
 
-class SensorTruth(NamedTuple):
-    """The subset of :class:`Truth` the sensor models read, as float tuples (NED/FRD, SI)."""
-
-    specific_force_frd_m_s2: tuple[float, float, float]
-    rate_frd_rad_s: tuple[float, float, float]
-    r_ned_frd: tuple[tuple[float, float, float], ...]  # rows; takes FRD vectors to NED
-    pos_ned_m: tuple[float, float, float]
-    vel_ned_m_s: tuple[float, float, float]
+def _nth(items: Sequence | None, k: int):
+    return items[k] if items is not None and k < len(items) else None
 
 
-class Simulation:
-    """One vehicle in its world.
+class World:
+    """One MuJoCo world: the multicopters of ``placements``, the ground, the ground vehicle (``ugv.enabled``).
+
+    ``home``: LAT, LON, ALT of the world's origin (vehicle 0's start point).  ``sensors``, ``motors``,
+    ``cameras``: each vehicle's settings (missing or None: defaults).  The settings objects are read on
+    every step, so a ``SIM_*`` parameter changed between steps acts on the next.
+    """
+
+    def __init__(
+        self,
+        placements: Sequence[Placement],
+        home: tuple[float, float, float],
+        seed: int = 0,
+        wind: WindSettings | None = None,
+        ugv: UgvSettings | None = None,
+        *,
+        sensors: Sequence[SensorSettings | None] | None = None,
+        motors: Sequence[MotorSettings | None] | None = None,
+        cameras: Sequence[CameraSettings | None] | None = None,
+    ) -> None:
+        self.ugv_settings = ugv if ugv is not None else UgvSettings()
+        self.wind_settings = wind if wind is not None else WindSettings()
+        ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
+        self.model = build_world_model(placements, ugv_start=ugv_start)
+        self.data = mujoco.MjData(self.model)
+        self.vehicles = [
+            Multicopter(
+                self.model,
+                k,
+                p.spec,
+                _home_of(home, p),
+                vehicle_seed(seed, k),
+                self.wind_settings,
+                _nth(sensors, k),
+                _nth(motors, k),
+                _nth(cameras, k),
+            )  # fmt: skip
+            for k, p in enumerate(placements)
+        ]
+        self._settle()
+        origin = self.vehicles[0].start_xy_enu  # the UGV's settings are NED from vehicle 0's start
+        self.ugv = UgvDriver(self.model, self.data, self.ugv_settings, origin, seed) if ugv_start else None
+        self.time_us = 0
+        self.substeps = round(LOCKSTEP_DT_S / PHYSICS_DT_S)
+
+    def _settle(self, seconds: float = 1.0) -> None:
+        """Let the vehicles come to rest on their legs before simulated time starts."""
+        for _ in range(round(seconds / PHYSICS_DT_S)):
+            mujoco.mj_step(self.model, self.data)
+        self.data.time = 0.0
+        for v in self.vehicles:
+            v.settled(self.data)
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, motor_commands: Sequence[np.ndarray]) -> None:
+        """Advance one lockstep period with each vehicle's motor commands 0..1 (one per rotor), in vehicle order."""
+        vehicles, d = self.vehicles, self.data
+        cmds = [np.asarray(c, dtype=float)[: v.rotors.n].tolist() for v, c in zip(vehicles, motor_commands)]
+        for v in vehicles:
+            v.apply_motor_failure()
+        if self.ugv is not None:
+            self.ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
+        for _ in range(self.substeps):
+            for v, c in zip(vehicles, cmds):
+                d.ctrl[v.ctrl0 : v.ctrl1] = v.rotors.step(c, PHYSICS_DT_S)  # a list of thrusts, N
+                v.apply_aerodynamics(d, PHYSICS_DT_S)
+            mujoco.mj_step(self.model, d)
+        for v in vehicles:
+            m = v.motor_settings
+            v.battery.step(v.rotors.shaft_power_w(), LOCKSTEP_DT_S, m.battery_drain_s, m.battery_min_pct / 100.0)
+        self.time_us += int(LOCKSTEP_DT_S * 1e6)
+
+    def ugv_truth(self, k: int = 0) -> UgvTruth | None:
+        """The ground vehicle's truth (deck centre, NED from vehicle ``k``'s start point), None without one."""
+        if self.ugv is None:
+            return None
+        t = self.ugv.truth(self.time_us)
+        if k == 0:
+            return t
+        (e0, n0), (ek, nk) = self.vehicles[0].start_xy_enu, self.vehicles[k].start_xy_enu
+        return replace(t, deck_pos_ned_m=t.deck_pos_ned_m - np.array([nk - n0, ek - e0, 0.0]))
+
+
+def _home_of(home: tuple[float, float, float], p: Placement) -> tuple[float, float, float]:
+    """The geodetic position of a placement's start point (the world's ``home`` for vehicle 0's)."""
+    e, n = p.offset_en_m
+    return home if (e, n) == (0.0, 0.0) else ned_to_geodetic(np.array([n, e, 0.0]), *home)
+
+
+class VehicleView:
+    """Vehicle ``k`` of a :class:`World` with the single-vehicle interface (what a lockstep link reads).
+
+    Its models (``rotors``, ``battery``, ``sensors`` ...) are the vehicle's own objects; ``model``,
+    ``data``, ``ugv``, ``wind_settings`` and ``ugv_settings`` are the world's.
+    """
+
+    def __init__(self, world: World, k: int) -> None:
+        v = world.vehicles[k]
+        self.world, self.index, self.vehicle = world, k, v
+        self.spec, self.model, self.data, self.ugv = v.spec, world.model, world.data, world.ugv
+        self.rotors, self.aero, self.battery, self.sensors, self.wind = v.rotors, v.aero, v.battery, v.sensors, v.wind
+        self.wind_settings, self.ugv_settings = world.wind_settings, world.ugv_settings
+        self.motor_settings, self.camera_settings = v.motor_settings, v.camera_settings
+
+    @property
+    def time_us(self) -> int:
+        return self.world.time_us
+
+    @property
+    def _start_xy_enu(self) -> tuple[float, float]:
+        return self.vehicle.start_xy_enu
+
+    @property
+    def wind_enu(self) -> tuple[float, float, float]:
+        return self.vehicle.wind_enu
+
+    def sensor_truth(self) -> SensorTruth:
+        """The true state the sensors need, as plain floats (:meth:`sitl.multicopter.Multicopter.sensor_truth`)."""
+        return self.vehicle.sensor_truth(self.data)
+
+    def truth(self) -> Truth:
+        return self.vehicle.truth(self.data, self.world.time_us)
+
+    def ugv_truth(self) -> UgvTruth | None:
+        """The ground vehicle's truth (deck centre, NED from this vehicle's start point), None without one."""
+        return self.world.ugv_truth(self.index)
+
+
+class Simulation(VehicleView):
+    """One vehicle in its world (a one-vehicle :class:`World`, seen through :class:`VehicleView`).
 
     The settings objects (``wind_settings``, ``sensors.settings``, ``motor_settings``)
     are read on every step, so a ``SIM_*`` parameter changed between steps acts on the next.
@@ -71,128 +191,9 @@ class Simulation:
         ugv: UgvSettings | None = None,
         camera: CameraSettings | None = None,
     ) -> None:
-        self.spec = spec
-        self.ugv_settings = ugv if ugv is not None else UgvSettings()
-        self.camera_settings = camera if camera is not None else CameraSettings()
-        ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
-        self.model = build_model(spec, ugv_start=ugv_start)
-        self.data = mujoco.MjData(self.model)
-        self._body = self.model.body("vehicle").id
-        self._settle()
-        # The ground vehicle (SIM_UGV_EN=1), driven from its SIM_UGV_* settings every period.
-        self.ugv = UgvDriver(self.model, self.data, self.ugv_settings, self._start_xy_enu, seed) if ugv_start else None
-        self.rotors = RotorModel(spec)
-        self.aero = Aerodynamics(spec)
-        self.battery = Battery(spec.battery_cells, spec.battery_capacity_mah, spec.battery_resistance_ohm)
-        self.wind_settings = wind if wind is not None else WindSettings()
-        self.motor_settings = motors if motors is not None else MotorSettings()
-        # Independent random streams: changing one model's draws never changes another's.
-        self.wind = WindModel(self.wind_settings, seed=seed * 7919 + 1)
-        self.sensors = SensorSuite(*home, seed=seed, settings=sensors)
-        self.wind_enu = (0.0, 0.0, 0.0)
-        self.time_us = 0
-        self.substeps = round(LOCKSTEP_DT_S / PHYSICS_DT_S)
-        self._accel_adr = self.model.sensor("accel").adr[0]
-        self._gyro_adr = self.model.sensor("gyro").adr[0]
-
-    def _settle(self, seconds: float = 1.0) -> None:
-        """Let the vehicle come to rest on its legs before simulated time starts."""
-        for _ in range(round(seconds / PHYSICS_DT_S)):
-            mujoco.mj_step(self.model, self.data)
-        self.data.time = 0.0
-        self._start_xy_enu = tuple(self.data.qpos[0:2].tolist())
-        mujoco.mj_forward(self.model, self.data)
-
-    def _apply_motor_failure(self) -> None:
-        m, eff = self.motor_settings, self.rotors.efficiency
-        for i in range(self.rotors.n):
-            eff[i] = m.fail_efficiency if i + 1 == m.fail_motor else 1.0
-
-    def _apply_aerodynamics(self, dt_s: float) -> None:
-        """Wind for this step, then rotor drag, rolling moment and body drag as an external wrench."""
-        d = self.data
-        vx, vy, vz = d.qvel[0:3].tolist()  # world ENU
-        wn, we, wd = self.wind.step(dt_s, float(d.qpos[2]), math.sqrt(vx * vx + vy * vy + vz * vz))
-        self.wind_enu = (we, wn, -wd)
-        ax, ay, az = we - vx, wn - vy, -wd - vz  # V_a = V_wind - V_n ([F eq. 4.11], ENU
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = d.xmat[self._body].tolist()  # body FLU -> world ENU, row-major
-        bx = r0 * ax + r3 * ay + r6 * az  # R^T V_a
-        by = r1 * ax + r4 * ay + r7 * az
-        bz = r2 * ax + r5 * ay + r8 * az
-        fx, fy, fz, mx, my, mz = self.aero.wrench_flu(self.rotors.speeds, (bx, by, bz))
-        d.xfrc_applied[self._body] = (
-            r0 * fx + r1 * fy + r2 * fz,
-            r3 * fx + r4 * fy + r5 * fz,
-            r6 * fx + r7 * fy + r8 * fz,
-            r0 * mx + r1 * my + r2 * mz,
-            r3 * mx + r4 * my + r5 * mz,
-            r6 * mx + r7 * my + r8 * mz,
-        )
+        world = World([Placement(spec)], home, seed, wind, ugv, sensors=[sensors], motors=[motors], cameras=[camera])
+        super().__init__(world, 0)
 
     def step(self, motor_commands: np.ndarray) -> None:
         """Advance one lockstep period with motor commands 0..1 (one per rotor)."""
-        cmds = np.asarray(motor_commands, dtype=float)[: self.rotors.n].tolist()
-        self._apply_motor_failure()
-        if self.ugv is not None:
-            self.ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
-        n = self.rotors.n
-        for _ in range(self.substeps):
-            self.data.ctrl[:n] = self.rotors.step(cmds, PHYSICS_DT_S)  # a list of thrusts, N
-            self._apply_aerodynamics(PHYSICS_DT_S)
-            mujoco.mj_step(self.model, self.data)
-        m = self.motor_settings
-        self.battery.step(self.rotors.shaft_power_w(), LOCKSTEP_DT_S, m.battery_drain_s, m.battery_min_pct / 100.0)
-        self.time_us += int(LOCKSTEP_DT_S * 1e6)
-
-    def ugv_truth(self) -> UgvTruth | None:
-        """The ground vehicle's truth (deck centre, NED from the start point), None without one."""
-        return self.ugv.truth(self.time_us) if self.ugv is not None else None
-
-    def sensor_truth(self) -> SensorTruth:
-        """The true state the sensors need, as plain floats (cheap: called every lockstep period).
-
-        The same frames and values as :meth:`truth`; the attitude matrix is built from the
-        FLU->ENU quaternion in ``qpos`` (after the step, like :meth:`truth`; MuJoCo's ``xmat``
-        still holds the attitude before it) as R_ned_frd = P R_enu_flu F with P the ENU->NED
-        swap and F = diag(1, -1, -1) the FRD->FLU flip (the conversions of :mod:`sitl.frames`).
-        """
-        d = self.data
-        a = self._accel_adr
-        fx, fy, fz = d.sensordata[a : a + 3].tolist()
-        w, x, y, z = d.qpos[3:7].tolist()
-        r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
-        r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
-        r20, r21, r22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-        e, n, u = d.qpos[0:3].tolist()
-        ve, vn, vu = d.qvel[0:3].tolist()
-        p, q, r = d.qvel[3:6].tolist()
-        return SensorTruth(
-            specific_force_frd_m_s2=(fx, -fy, -fz),
-            rate_frd_rad_s=(p, -q, -r),
-            r_ned_frd=((r10, -r11, -r12), (r00, -r01, -r02), (-r20, r21, r22)),
-            pos_ned_m=(n - self._start_xy_enu[1], e - self._start_xy_enu[0], -u),
-            vel_ned_m_s=(vn, ve, -vu),
-        )
-
-    def truth(self) -> Truth:
-        d = self.data
-        sd = d.sensordata
-        q = quat_enu_flu_to_ned_frd(d.qpos[3:7])
-        f_frd = flu_to_frd(sd[self._accel_adr : self._accel_adr + 3])
-        r = np.empty(9)
-        mujoco.mju_quat2Mat(r, q)
-        r = r.reshape(3, 3)
-        accel_ned = r @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
-        return Truth(
-            time_us=self.time_us,
-            pos_ned_m=enu_to_ned(
-                np.array([d.qpos[0] - self._start_xy_enu[0], d.qpos[1] - self._start_xy_enu[1], d.qpos[2]])
-            ),
-            vel_ned_m_s=enu_to_ned(d.qvel[0:3]),
-            accel_ned_m_s2=accel_ned,
-            q_ned_frd=q,
-            r_ned_frd=r,
-            rate_frd_rad_s=flu_to_frd(d.qvel[3:6]),  # free-joint angular velocity is in the body frame
-            specific_force_frd_m_s2=f_frd,
-            wind_ned_m_s=enu_to_ned(self.wind_enu),
-        )
+        self.world.step((motor_commands,))

@@ -58,7 +58,9 @@ def test_target_lost_then_search_then_ordinary_landing(free_instance):
     """The camera fails while tracking: PLD_BTOUT later a search, PLD_MAX_SRCH searches of PLD_SRCH_TOUT,
     then (opportunistic, NAV_LAND param 2 = 1) an ordinary landing; every phase is a STATUSTEXT."""
     inst = free_instance()
-    setup = LandingSetup(path="static", speed_m_s=0.0, ugv_start=Pose2(3.0, 0.0, 0.0), meet_offset_m=(0.0, 0.0))
+    setup = LandingSetup(
+        path="static", speed_m_s=0.0, ugv_start=Pose2(3.0, 0.0, 0.0), meet_offset_m=(0.0, 0.0), deterministic=False
+    )  # flown by hand below: the simulator must not start held
     with (
         Stack(instance=inst, speed="max", seed=5, extra_sitl_args=setup.sim_args()) as stack,
         SimClient(ports.sim_component_port(inst)) as truth,

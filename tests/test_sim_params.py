@@ -28,7 +28,8 @@ def float32(x: float) -> float:
 
 def test_list_order_indices_and_defaults():
     params, wind, sensors, motors = make_params()
-    fields = [f for s in (wind, sensors, motors) for f in param_fields(s)]
+    hold = params.param("SIM_HOLD_MS").owner  # the world's hold (sitl/hold.py), always last
+    fields = [f for s in (wind, sensors, motors, hold) for f in param_fields(s)]
     assert len(params) == len(fields) and len(params) > 30
     assert params.names() == [f.metadata["param"] for f in fields]
     assert len(set(params.names())) == len(params)

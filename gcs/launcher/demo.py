@@ -27,17 +27,20 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mavsim_core import ports
-from mavsim_core.cli_args import EXIT_NO_ANSWER
+from mavsim_core.cli_args import EXIT_NO_ANSWER, EXIT_USAGE
 from mavsim_core.cli_checks import make_dir, startup_failed
 
 from ..client import VehicleClient
 from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
 from ..sim_client import SimClient
 from .demo_args import build_parser
+from .multi_demo import MultiDemo
+from .multi_stack import MultiStack
 from .stack import Stack, StackError
 
 if TYPE_CHECKING:
@@ -231,13 +234,22 @@ def connection_help(stack: Stack) -> str:
             f"stack running (instance {i}, speed {stack.speed}); logs in {stack.log_dir}",
             f"  {qgc}",
             f"  MAVProxy:  mavproxy.py --master udpin:0.0.0.0:{gcs}",
-            f'  MAVSDK 4:  await sdk.add_any_connection("udpin://0.0.0.0:{api}")  (examples/mavsdk_fly.py)',
+            f'  MAVSDK 4:  await sdk.add_any_connection("udpin://0.0.0.0:{api}")  (examples/mavsdk_fly.py)'
+            + _more_vehicles(stack),
             f"  gcs:       {console_script('gcs')} --instance {i} status"
             if i
             else f"  gcs:       {console_script('gcs')} status",
             "Ctrl-C to stop.",
         ]
     )
+
+
+def _more_vehicles(stack: Stack) -> str:
+    """The other vehicles of a MultiStack: their system ids and API ports (all on the one ground-station port)."""
+    if not isinstance(stack, MultiStack):
+        return ""
+    each = ", ".join(f"sysid {stack.sysid_of(k)} on UDP {ports.api_port(i)}" for k, i in enumerate(stack.instances))
+    return f"\n  {stack.count} vehicles, one per API port: {each}; all on the ground-station port {stack.gcs_port}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -252,24 +264,16 @@ def main(argv: list[str] | None = None) -> int:
             make_dir("--log-dir", args.log_dir)
         except OSError as exc:
             return startup_failed("flight-demo", exc)
+    if args.count > 1 and (args.scenario != "square" or args.instance + args.count - 1 > ports.MAX_INSTANCE):
+        why = "--scenario ugv-landing flies one vehicle" if args.scenario != "square" else "instances past 99"
+        print(f"flight-demo: --count {args.count}: {why}", file=sys.stderr)
+        return EXIT_USAGE
     landing = None
     if args.scenario == "ugv-landing":
         from .landing_run import LandingSetup  # MuJoCo's UGV model: imported only for this flight
 
-        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1)
-    stack = Stack(
-        args.instance,
-        speed,
-        args.vehicle,
-        (landing.sim_args() if landing else []) + args.sitl_arg,
-        args.autopilot_arg,
-        home=args.home,
-        seed=args.seed,
-        log_dir=args.log_dir,
-        sitl_module=args.sitl_module,
-        autopilot_module=args.autopilot_module,
-        gcs_port=ports.GCS_PORT,  # where QGroundControl listens, as PX4 SITL
-    )
+        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1, deterministic=False)  # flown as people do
+    stack = _make_stack(args, speed, landing)
     demo = None
     client = None
     try:
@@ -278,9 +282,13 @@ def main(argv: list[str] | None = None) -> int:
             print(connection_help(stack), flush=True)
             stack.wait()
             return 0
-        print(
-            f"started sitl (speed {speed}) and autopilot, instance {args.instance}; logs in {stack.log_dir}", flush=True
-        )
+        print(f"started sitl (speed {speed}) and autopilot, {_instances(stack)}; logs in {stack.log_dir}", flush=True)
+        if isinstance(stack, MultiStack):
+            demo = MultiDemo(stack, args, show_statustext)
+            demo.fly(wall_start)
+            print(logs_line(stack))
+            print("flight demo: OK")
+            return 0
         client = VehicleClient(
             stack.api_url, timeout_s=args.ready_timeout, idle=stack.check_alive, on_statustext=show_statustext
         )
@@ -318,7 +326,33 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if client is not None:
             client.close()
+        if isinstance(demo, MultiDemo):
+            demo.close()
         stack.stop()
+
+
+def _make_stack(args: argparse.Namespace, speed: str, landing: LandingSetup | None) -> Stack:
+    """The stack of the demo: one vehicle (:class:`Stack`) or ``--count`` of them in one world (:class:`MultiStack`)."""
+    return (Stack if args.count == 1 else partial(MultiStack, count=args.count))(
+        args.instance,
+        speed,
+        args.vehicle,
+        (landing.sim_args() if landing else []) + args.sitl_arg,
+        args.autopilot_arg,
+        home=args.home,
+        seed=args.seed,
+        log_dir=args.log_dir,
+        sitl_module=args.sitl_module,
+        autopilot_module=args.autopilot_module,
+        gcs_port=ports.GCS_PORT,  # where QGroundControl listens, as PX4 SITL
+    )
+
+
+def _instances(stack: Stack) -> str:
+    """ "instance N", or "instances N..M" of a MultiStack."""
+    if isinstance(stack, MultiStack):
+        return f"{stack.count} vehicles in one world, instances {stack.instance}..{stack.instances[-1]}"
+    return f"instance {stack.instance}"
 
 
 def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: Stack) -> int:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from mavsim_core.cli_args import EXIT_CODES_EPILOG, add_instance_option, add_version_option
-from mavsim_core.cli_checks import non_negative_int, positive_number
+from mavsim_core.cli_checks import non_negative_int, positive_int, positive_number
 from params.vehicle_arg import vehicle_argument
 from sitl.__main__ import parse_home, parse_speed
 
@@ -33,6 +33,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_version_option(parser)
     add_instance_option(parser, help="instance N 0-99 (PX4's -i): system id 1+N, simulator TCP 4560+N (default 0)")
+    parser.add_argument(
+        "--count", type=positive_int, default=1, metavar="K",
+        help="K vehicles in one simulated world (sitl --count K; instances N..N+K-1, 3 m apart along East): "
+        "each takes off to its own height (--alt - 1 m, then 1 m higher each), they hold --hold s, then land one "
+        "after another on their own start spots (default 1: the square)",
+    )  # fmt: skip
     parser.add_argument(
         "--speed", default=None, type=checked(parse_speed),
         help="simulation speed: 'max' or a real-time factor (default max; 1 with --wait)",

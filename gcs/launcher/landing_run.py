@@ -14,6 +14,15 @@ Scoring (simulator truth on UDP 14740+I, NED metres from the multicopter's start
 touchdown error is the horizontal distance from the multicopter's centre to the marker's centre
 at the disarm; success means disarmed on the deck and still on it ``STAY_ON_DECK_S`` later (its
 centre within the deck's square, above the ground).
+
+Reproducible (``LandingSetup.deterministic``, the default): the simulator starts held
+(``SIM_HOLD_MS`` = :data:`START_HOLD_MS`) and the flight is driven through holds
+(:mod:`gcs.launcher.sim_stepper`): every command is sent while the simulation holds, every condition is
+read at a hold every 0.1 s of simulated time (its ``CHECK_EVERY_S``; 0.5 s while waiting to be ready to
+arm), the score is the truth at a hold, and the phases' limits are simulated seconds (``*_SIM_S``).
+The same setup and seeds then give the same result to the last digit, whatever the machine's load or the
+executor; ``timeout_s`` stays a wall-clock safety net.  Without it the script acts when the telemetry
+arrives (what a person does with a ground station).
 """
 
 from __future__ import annotations
@@ -32,11 +41,15 @@ from sitl.ugv_paths import Pose2, UgvPath, circle, figure8, straight_line
 from ..client import VehicleClient
 from ..errors import GcsTimeout
 from ..sim_client import SimClient
+from .sim_stepper import SimStepper, SimTimeout
 
 PATH_CODES = {"static": 0, "line": 1, "circle": 2, "figure8": 3, "random": 4}
 PREP_ALT_M = 2.8  # PLD_PREP_ALT's default, [F 3]
 STAY_ON_DECK_S = 5.0
 ARRIVAL_RADIUS_M = 0.3
+START_HOLD_MS = 100  # a reproducible run: the simulator holds from t = 0.1 s until the script moves the hold
+READY_CHECK_EVERY_S = 0.5  # the same while waiting for it to be ready to arm (seconds: the estimator converging)
+READY_SIM_S, TAKEOFF_SIM_S, MEET_SIM_S, LAND_SIM_S = 60.0, 60.0, 120.0, 180.0  # its phases' limits
 WINDY = {  # params/scenarios/windy.toml's wind: 5 m/s from the West, turbulence and gusts
     "SIM_WIND_SPD": 5.0,
     "SIM_WIND_DIR": 270.0,
@@ -65,6 +78,13 @@ class LandingSetup:
     meet_offset_m: tuple[float, float] = (0.0, 0.0)
     mode: int = 2  # NAV_LAND param 2: 1 opportunistic, 2 required
     extra_sim_params: dict[str, float] = field(default_factory=dict)
+    deterministic: bool = True  # start held and fly through holds: reproducible (see the module docstring)
+
+    @property
+    def stepped(self) -> bool:
+        """Flown through holds: deterministic and the simulator starts held (``SIM_HOLD_MS`` 0 in
+        ``extra_sim_params``, e.g. a campaign's ``[sim_params]``, turns both off)."""
+        return self.sim_params().get("SIM_HOLD_MS", 0) > 0
 
     def sim_params(self) -> dict[str, float]:
         """The simulator's ``SIM_*`` parameters at start: the UGV parked at its start pose."""
@@ -77,6 +97,8 @@ class LandingSetup:
             "SIM_UGV_RAD": self.radius_m,
             "SIM_UGV_SPD": 0.0,
         }
+        if self.deterministic:
+            p["SIM_HOLD_MS"] = START_HOLD_MS
         if self.windy:
             p.update(WINDY)
         p.update(self.extra_sim_params)
@@ -153,6 +175,8 @@ def fly_landing(
     result = LandingResult()
     geom = geom or UgvGeometry()
     client.add_listener(lambda m: _phase_listener(m, result))
+    if setup.stepped:
+        return _fly_stepped(SimStepper(client, truth, timeout_s=min(timeout_s, 60.0)), setup, say, geom, result)
     wall0 = time.monotonic()
     client.wait_until(client.prearm_ok, timeout_s, "the vehicle to be ready to arm")
     home = client.wait_home(timeout_s)
@@ -194,15 +218,71 @@ def fly_landing(
     return _finish(result, client, sim0, wall0)
 
 
+def _fly_stepped(
+    step: SimStepper, setup: LandingSetup, say: Callable[[str], None], geom: UgvGeometry, result: LandingResult
+) -> LandingResult:
+    """:func:`fly_landing` driven through holds (reproducible; see the module docstring)."""
+    client, truth = step.client, step.truth
+    wall0 = time.monotonic()
+    step.start()
+    sim0_ms = step.time_ms
+    try:
+        ready = lambda: client.prearm_ok() and client.home() is not None  # noqa: E731
+        step.run_until(ready, READY_SIM_S, "ready to arm", check_every_s=READY_CHECK_EVERY_S)
+        home = client.home()
+        sim0_ms = step.time_ms
+        client.arm(timeout_s=10).check()
+        client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
+        step.run_until(lambda: client.takeoff_done(PREP_ALT_M), TAKEOFF_SIM_S, f"takeoff to {PREP_ALT_M} m")
+        meet_n, meet_e = setup.meeting_point()
+        client.goto_ned(meet_n, meet_e, -PREP_ALT_M, timeout_s=10).check()
+        say(f"flying to the meeting point N {meet_n:.2f} E {meet_e:.2f} at {PREP_ALT_M} m")
+        step.run_until(lambda: client.arrived(meet_n, meet_e, ARRIVAL_RADIUS_M, 0.3), MEET_SIM_S, "the meeting point")
+        if setup.speed_m_s > 0.0:
+            truth.set("SIM_UGV_SPD", setup.speed_m_s)
+            say(f"UGV driving: {setup.path} at {setup.speed_m_s:g} m/s")
+        t_land_ms = step.time_ms
+        client.command_long(mavlink.MAV_CMD_NAV_LAND, 0, setup.mode, 0, math.nan, math.nan, math.nan, math.nan).check()
+        say("precision landing")
+        gave_up = lambda: any("Precision landing failed" in p for p in result.phases)  # noqa: E731
+        try:
+            step.run_until(lambda: not client.armed() or gave_up(), LAND_SIM_S, "the motors cut on the deck")
+        except SimTimeout:
+            result.reason = "no touchdown in time"
+            return result
+        if gave_up():
+            result.reason = "target lost: " + " | ".join(result.phases[-2:])
+            return result
+        result.time_to_land_s = (step.time_ms - t_land_ms) / 1000.0
+        score = _score(truth, geom, step.time_ms)
+        if score is None:
+            result.reason = "no truth at touchdown"
+            return result
+        result.touchdown_error_m, result.ugv_speed_at_touchdown_m_s, landed_on_deck = score
+        step.advance(STAY_ON_DECK_S)
+        later = _score(truth, geom, step.time_ms)
+        result.success = bool(landed_on_deck and later is not None and later[2])
+        if not result.success:
+            result.reason = "touched down off the deck" if not landed_on_deck else "fell off the deck"
+        return result
+    finally:
+        result.sim_s, result.wall_s = (step.time_ms - sim0_ms) / 1000.0, time.monotonic() - wall0
+        step.release()
+
+
 def _finish(result: LandingResult, client: VehicleClient, sim0: float, wall0: float) -> LandingResult:
     result.sim_s = (client.sim_time_s() or sim0) - sim0
     result.wall_s = time.monotonic() - wall0
     return result
 
 
-def _score(truth: SimClient, geom: UgvGeometry) -> tuple[float, float, bool] | None:
-    """Touchdown error (m), UGV speed (m/s) and on-deck from the latest vehicle and UGV truth."""
-    veh, ugv = truth.latest(), truth.ugv_latest()
+def _score(truth: SimClient, geom: UgvGeometry, at_ms: int | None = None) -> tuple[float, float, bool] | None:
+    """Touchdown error (m), UGV speed (m/s) and on-deck from the vehicle and UGV truth at ``at_ms`` (simulated
+    ms; None: the latest)."""
+    if at_ms is None:
+        veh, ugv = truth.latest(), truth.ugv_latest()
+    else:
+        veh, ugv = truth.at(at_ms, within_ms=0), truth.ugv_at(at_ms, within_ms=0)
     if veh is None or ugv is None:
         return None
     v = np.asarray(veh.pos_ned_m)

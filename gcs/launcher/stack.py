@@ -204,8 +204,9 @@ class Stack:
         """Start the simulator, wait for its TCP port, start the flight controller."""
         if self.procs:
             raise StackError("stack already started")
-        if _tcp_listening(self.sitl_port):
-            raise StackError(f"TCP {self.sitl_port} is already in use: {in_use_hint(self.instance)}")
+        for port, instance in self._sitl_ports():
+            if _tcp_listening(port):
+                raise StackError(f"TCP {port} is already in use: {in_use_hint(instance)}")
         if self._log_dir_arg is not None:
             try:
                 self._log_dir_arg.mkdir(parents=True, exist_ok=True)
@@ -220,11 +221,18 @@ class Stack:
         try:
             self._spawn("sitl", self.sitl_command())
             self._wait_sitl_listening()
-            self._spawn("autopilot", self.autopilot_command())
+            self._spawn_flight_controllers()
         except BaseException:
             self.stop()
             raise
         return self
+
+    def _sitl_ports(self) -> list[tuple[int, int]]:
+        """The simulator's TCP ports, each with its instance (a :class:`~.multi_stack.MultiStack` has several)."""
+        return [(self.sitl_port, self.instance)]
+
+    def _spawn_flight_controllers(self) -> None:
+        self._spawn("autopilot", self.autopilot_command())
 
     def _spawn(self, name: str, cmd: list[str], log_mode: str = "w") -> None:
         env = dict(os.environ)
@@ -250,11 +258,11 @@ class Stack:
         deadline = time.monotonic() + self.start_timeout_s
         while True:
             self.check_alive()
-            listening = _tcp_listening(self.sitl_port)
-            if listening is None:  # no /proc: give the simulator a moment and hope the FC retries
+            states = [_tcp_listening(port) for port, _ in self._sitl_ports()]
+            if None in states:  # no /proc: give the simulator a moment and hope the FC retries
                 time.sleep(1.0)
                 return
-            if listening:
+            if all(states):
                 return
             if time.monotonic() > deadline:
                 raise StackError(
@@ -268,8 +276,14 @@ class Stack:
 
     def _terminate(self, proc: subprocess.Popen, timeout_s: float) -> None:
         """SIGTERM a running child, SIGKILL it if it has not ended within timeout_s."""
-        if proc.poll() is None:
+        self._terminate_all([proc], timeout_s)
+
+    def _terminate_all(self, procs: list[subprocess.Popen], timeout_s: float) -> None:
+        """SIGTERM every running child of ``procs`` at once, then SIGKILL each that has not ended within timeout_s."""
+        running = [p for p in procs if p.poll() is None]
+        for proc in running:
             self._signal(proc, signal.SIGTERM)
+        for proc in running:
             try:
                 proc.wait(timeout=timeout_s)
             except subprocess.TimeoutExpired:
@@ -277,14 +291,12 @@ class Stack:
                 proc.wait(timeout=timeout_s)
 
     def stop(self, timeout_s: float = 5.0) -> dict[str, int | None]:
-        """End both children (flight controller first); return their exit codes. Idempotent."""
-        codes: dict[str, int | None] = {}
-        for name in ("autopilot", "sitl"):
-            proc = self.procs.get(name)
-            if proc is None:
-                continue
-            self._terminate(proc, timeout_s)
-            codes[name] = proc.returncode
+        """End the children (the flight controllers first, together); return their exit codes. Idempotent."""
+        fcs = {name: p for name, p in self.procs.items() if name != "sitl"}
+        self._terminate_all(list(fcs.values()), timeout_s)
+        if "sitl" in self.procs:
+            self._terminate(self.procs["sitl"], timeout_s)
+        codes: dict[str, int | None] = {name: p.returncode for name, p in {**fcs, **self.procs}.items()}
         for log in self._log_files.values():
             log.close()
         self._log_files.clear()

@@ -1,0 +1,99 @@
+"""What a campaign can fly: each *kind* declares its grid axes, its randomised ranges and its figures.
+
+A kind is one module with a :class:`Kind` (``landing``: :mod:`.landing`).  The campaign file names it
+(``kind = "landing"``); :mod:`.spec` checks the file against its axes and ranges, :mod:`.plan` expands
+the grid into cells with :meth:`Kind.cells`, and :mod:`.runs` calls :meth:`Kind.fly` once per run, in
+the worker process, on a stack of its own.  The hover/step and mission benchmarks
+(benchmarks/vehicle_benchmark.py, benchmarks/mission_benchmark.py) plug in as kinds ``hover_step`` and
+``mission`` the same way: a module with its axes (vehicle, wind, fault / mission file), ranges and a
+``fly`` that returns its figures; add it to :data:`KINDS`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any, Callable, Protocol
+
+Check = Callable[[Any], "str | None"]  # an axis value -> None if valid, else what is wrong with it
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One grid axis: its key under ``[grid]``, its default values and the check of one value."""
+
+    name: str
+    default: tuple
+    check: Check
+    help: str
+
+
+@dataclass(frozen=True)
+class Range:
+    """One randomised quantity: its key under ``[random]`` and its default ``[low, high]`` (inclusive).
+
+    Integers are drawn with ``rng.integers(low, high + 1)``, floats with ``rng.uniform(low, high)``;
+    ``limits`` bound what a campaign file may ask for.
+    """
+
+    name: str
+    default: tuple[float, float]
+    integer: bool
+    limits: tuple[float, float]
+    help: str
+
+
+class Kind(Protocol):
+    """A kind of run (see the module docstring)."""
+
+    name: str
+    axes: tuple[Axis, ...]
+    ranges: tuple[Range, ...]
+    figures: tuple[str, ...]  # what a run can record (``record = [...]`` picks among these)
+    error_figure: str  # the report's error column (metres)
+    time_figure: str  # the report's time column (simulated seconds)
+
+    def cells(self, grid: dict[str, tuple]) -> list[dict[str, Any]]:
+        """The grid's cells, in a fixed order (the cell index is the position here)."""
+        ...
+
+    def label(self, cell: dict[str, Any]) -> str:
+        """A cell as a person reads it in the report."""
+        ...
+
+    def fly(self, run: Any, ctx: Any) -> dict[str, Any]:
+        """Fly ``run`` (:class:`.plan.Run`) on a stack of its own (``ctx``: :class:`.runs.RunContext`)."""
+        ...
+
+
+# name -> module holding its KIND (imported when asked: a kind's module may import MuJoCo's models)
+KINDS = {"landing": "gcs.campaign.landing"}
+PLANNED = {"hover_step": "benchmarks/vehicle_benchmark.py", "mission": "benchmarks/mission_benchmark.py"}
+
+
+def get_kind(name: str) -> Kind:
+    """The kind called ``name``; KeyError with the known names if there is none."""
+    if name not in KINDS:
+        raise KeyError(name)
+    return importlib.import_module(KINDS[name]).KIND
+
+
+def one_of(*allowed: Any) -> Check:
+    """An axis check: the value is one of ``allowed``."""
+    return lambda v: None if v in allowed else f"{v!r} is not one of {', '.join(map(repr, allowed))}"
+
+
+def number_in(low: float, high: float) -> Check:
+    """An axis check: a number in [low, high]."""
+
+    def check(v: Any) -> str | None:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            return f"{v!r} is not a number"
+        return None if low <= v <= high else f"{v!r} is not in [{low:g}, {high:g}]"
+
+    return check
+
+
+def text(v: Any) -> str | None:
+    """An axis check: a non-empty string."""
+    return None if isinstance(v, str) and v else f"{v!r} is not a non-empty string"

@@ -1,0 +1,153 @@
+"""Campaign kind ``landing``: a precision landing on the UGV (gcs/launcher/landing_run.py), scored from truth.
+
+Grid axes: ``vehicle`` (a vehicle file name), ``ugv_speed_m_s`` (0: the static pad: one cell whatever
+the path), ``ugv_path`` (line, circle, figure8, random), ``wind`` (calm, or windy: 5 m/s from the
+West, 1 m/s turbulence, 2 m/s gusts).  Cells in the order vehicle, wind, speed, path.
+
+Randomised per run (:mod:`.plan` draws them): the UGV's start pose (NED metres from the
+multicopter's start point, heading in degrees), the meeting point's offset from the UGV's path
+(distance up to ``meet_offset_m``, bearing ``meet_bearing_deg``) and the simulator's seed
+(``sim_seed``: ``sitl --seed``, which seeds the sensor noise, the wind's turbulence and gusts, the
+camera noise and a random UGV path; the simulator has one seed for all of them).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+from params.vehicle import VehicleFileError, vehicle_path
+
+from ..launcher.landing_run import LandingSetup, Pose2, fly_landing  # Pose2: the launcher's, from sitl
+from ..sim_client import SimClient
+from .kinds import Axis, Range, number_in, one_of
+from .plan import Run
+
+PATHS = ("line", "circle", "figure8", "random")
+FLIGHT_TIMEOUT_S = 240.0  # wall seconds of one wait inside the landing (arming, take-off, touchdown ...)
+CAMERA_LINE = re.compile(
+    r"camera: (\d+) frames, (\d+) with the marker .*farthest ([\d.]+) m\).*error against the truth "
+    r"([\d.]+) cm mean, ([\d.]+) cm max"
+)
+CAMERA_HZ = 20.0
+
+
+def _vehicle(v: Any) -> str | None:
+    if not isinstance(v, str) or not v:
+        return f"{v!r} is not a vehicle name"
+    try:
+        vehicle_path(v)
+    except VehicleFileError as exc:
+        return str(exc)
+    return None
+
+
+def camera_figures(sitl_log: str) -> dict[str, float]:
+    """The simulator's camera line (sitl/companion.py): detections per second of flight, the farthest
+    detection (m), and the detections' position error against the truth (cm); NaN when absent."""
+    m = CAMERA_LINE.search(sitl_log)
+    if m is None:
+        return dict.fromkeys(("detections_per_s", "farthest_m", "pose_err_mean_cm", "pose_err_max_cm"), math.nan)
+    frames, found = int(m.group(1)), int(m.group(2))
+    return {
+        "detections_per_s": found / (frames / CAMERA_HZ) if frames else math.nan,
+        "farthest_m": float(m.group(3)),
+        "pose_err_mean_cm": float(m.group(4)),
+        "pose_err_max_cm": float(m.group(5)),
+    }
+
+
+def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: dict[str, float] | None = None):
+    """The :class:`LandingSetup` of one run: its cell's vehicle, UGV and wind, and its random draws."""
+    r, bearing = draws["meet_offset_m"], math.radians(draws["meet_bearing_deg"])
+    return LandingSetup(
+        vehicle=cell["vehicle"],
+        path=cell["ugv_path"],
+        speed_m_s=float(cell["ugv_speed_m_s"]),
+        windy=cell["wind"] == "windy",
+        seed=int(draws["sim_seed"]),
+        ugv_start=Pose2(draws["ugv_start_north_m"], draws["ugv_start_east_m"], math.radians(draws["ugv_heading_deg"])),
+        meet_offset_m=(r * math.cos(bearing), r * math.sin(bearing)),
+        extra_sim_params=dict(extra_sim_params or {}),
+    )
+
+
+class LandingKind:
+    """See the module docstring."""
+
+    name = "landing"
+    axes = (
+        Axis("vehicle", ("quad_x", "firefly"), _vehicle, "vehicle file names"),
+        Axis("wind", ("calm", "windy"), one_of("calm", "windy"), "wind case"),
+        Axis("ugv_speed_m_s", (0, 0.5, 1, 2, 3), number_in(0.0, 5.0), "UGV speed, m/s (0: static pad)"),
+        Axis("ugv_path", PATHS, one_of(*PATHS), "UGV path (for speeds above 0)"),
+    )
+    ranges = (
+        Range("ugv_start_north_m", (3.5, 4.5), False, (-20.0, 20.0), "UGV start, m North of the multicopter"),
+        Range("ugv_start_east_m", (-0.5, 0.5), False, (-20.0, 20.0), "UGV start, m East of the multicopter"),
+        Range("ugv_heading_deg", (-180.0, 180.0), False, (-360.0, 360.0), "UGV start heading, degrees from North"),
+        Range("meet_offset_m", (0.0, 0.5), False, (0.0, 5.0), "meeting point's distance from the UGV's path, m"),
+        Range("meet_bearing_deg", (-180.0, 180.0), False, (-360.0, 360.0), "meeting point's offset bearing, degrees"),
+        Range("sim_seed", (0, 999_999), True, (0, 2**31 - 1), "simulator seed (sitl --seed)"),
+    )
+    figures = (
+        "success",
+        "touchdown_error_m",
+        "time_to_land_s",
+        "ugv_speed_at_touchdown_m_s",
+        "sim_s",
+        "wall_s",
+        "real_time_factor",
+        "detections_per_s",
+        "farthest_m",
+        "pose_err_mean_cm",
+        "pose_err_max_cm",
+        "phases",
+    )
+    error_figure = "touchdown_error_m"
+    time_figure = "time_to_land_s"
+
+    def cells(self, grid: dict[str, tuple]) -> list[dict[str, Any]]:
+        out = []
+        for vehicle in grid["vehicle"]:
+            for wind in grid["wind"]:
+                for speed in grid["ugv_speed_m_s"]:
+                    for path in ("static",) if speed == 0 else grid["ugv_path"]:
+                        out.append({"vehicle": vehicle, "wind": wind, "ugv_speed_m_s": speed, "ugv_path": path})
+        return out
+
+    def label(self, cell: dict[str, Any]) -> str:
+        speed = cell["ugv_speed_m_s"]
+        where = "static pad" if speed == 0 else f"{cell['ugv_path']} {speed:g} m/s"
+        return f"{cell['vehicle']} {where} {cell['wind']}"
+
+    def fly(self, run: Run, ctx) -> dict[str, Any]:
+        """One landing on the run's own stack (``ctx``: :class:`gcs.campaign.runs.RunContext`)."""
+        from mavsim_core import ports
+
+        setup = setup_for(run.axes, run.draws, ctx.settings.sim_params)
+        stack = ctx.stack(setup.vehicle, setup.seed, setup.sim_args())
+        stack.start()
+        with SimClient(ports.sim_component_port(ctx.instance)) as truth:
+            client = ctx.client()
+            timeout_s = min(FLIGHT_TIMEOUT_S, ctx.settings.time_limit_s)
+            res = fly_landing(client, truth, setup, timeout_s=timeout_s)
+        stack.stop()
+        figures: dict[str, Any] = {
+            "success": res.success,
+            "touchdown_error_m": res.touchdown_error_m,
+            "time_to_land_s": res.time_to_land_s,
+            "ugv_speed_at_touchdown_m_s": res.ugv_speed_at_touchdown_m_s,
+            "sim_s": res.sim_s,
+            "wall_s": res.wall_s,
+            "real_time_factor": res.real_time_factor,
+            "phases": " | ".join(res.phases),
+            "status": "ok" if res.success else "flight_failed",
+            "reason": res.reason,
+        }
+        figures.update(camera_figures(stack.log_path("sitl").read_text(errors="replace")))
+        return figures
+
+
+KIND = LandingKind()

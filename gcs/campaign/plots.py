@@ -1,0 +1,89 @@
+"""The report's plots (PNG): the error distribution of every cell, success against UGV speed and
+against wind, each success rate with its 95 % Wilson interval as an error bar."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from .report import CellStats, wilson
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _rate_bar(ax, x: float, rows: list[dict[str, Any]], **style) -> None:
+    flown = [r for r in rows if r["status"] != "infra_failed"]
+    if not flown:
+        return
+    ok = sum(r["status"] == "ok" for r in flown)
+    lo, hi = wilson(ok, len(flown))
+    p = ok / len(flown)
+    ax.errorbar([x], [100 * p], yerr=[[100 * (p - lo)], [100 * (hi - p)]], capsize=3, fmt="o", **style)
+
+
+def errors_plot(stats: list[CellStats], error_key: str, path: Path) -> None:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(10, 0.45 * len(stats) + 1.8))
+    for i, s in enumerate(stats):
+        for r in s.rows:
+            e = r.get(error_key)
+            if isinstance(e, (int, float)) and math.isfinite(e):
+                ax.scatter(100 * e, i, s=14, color="C2" if r["status"] == "ok" else "C3")
+    ax.set_yticks(range(len(stats)), [s.label for s in stats], fontsize=8)
+    ax.invert_yaxis()
+    ax.grid(alpha=0.3)
+    ax.set_xlabel(f"{error_key} (cm; green: ok, red: flight failed)")
+    ax.set_title("Error distribution per cell")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def against_plot(rows: list[dict[str, Any]], axis: str, groups: tuple[str, ...], path: Path, xlabel: str) -> None:
+    """Success rate against ``axis`` (numeric: a line per group; else: categories), one series per group."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    keys = sorted({tuple(str(r[g]) for g in groups) for r in rows})
+    xs = list(dict.fromkeys(r[axis] for r in sorted(rows, key=lambda r: r["cell"])))
+    numeric = all(isinstance(x, (int, float)) for x in xs)
+    for k, key in enumerate(keys):
+        mine = [r for r in rows if tuple(str(r[g]) for g in groups) == key]
+        for j, x in enumerate(xs):
+            at = [r for r in mine if r[axis] == x]
+            pos = float(x) if numeric else j + 0.08 * (k - (len(keys) - 1) / 2)
+            _rate_bar(ax, pos, at, color=f"C{k % 10}", label=" ".join(key) if j == 0 else None)
+    if not numeric:
+        ax.set_xticks(range(len(xs)), [str(x) for x in xs])
+    ax.set_ylim(-5, 105)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("success (%, 95 % Wilson interval)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def write_plots(stats: list[CellStats], error_key: str | None, out: Path) -> list[Path]:
+    """Every plot the results allow, into ``out``; their paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [r for s in stats for r in s.rows]
+    written = []
+    if error_key is not None:
+        written.append(out / "errors.png")
+        errors_plot(stats, error_key, written[-1])
+    if rows and "ugv_speed_m_s" in rows[0]:
+        written.append(out / "success_vs_speed.png")
+        against_plot(rows, "ugv_speed_m_s", ("vehicle", "ugv_path", "wind"), written[-1], "UGV speed (m/s)")
+    if rows and "wind" in rows[0]:
+        written.append(out / "success_vs_wind.png")
+        against_plot(rows, "wind", ("vehicle",), written[-1], "wind")
+    return written

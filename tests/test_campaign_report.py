@@ -1,0 +1,58 @@
+"""``campaign report`` (gcs/campaign/report.py): Wilson intervals, the table per cell, the plots."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from test_campaign_results import CAMPAIGN, fake_rows, write
+
+from gcs.campaign import report, spec
+from gcs.campaign.__main__ import main
+
+
+@pytest.mark.parametrize(
+    "k,n,low,high",
+    [(0, 10, 0.0, 0.2775), (10, 10, 0.7225, 1.0), (5, 10, 0.2366, 0.7634), (18, 20, 0.6990, 0.9721)],
+)
+def test_wilson_interval_matches_the_textbook_values(k, n, low, high):
+    lo, hi = report.wilson(k, n)
+    assert (lo, hi) == (pytest.approx(low, abs=1e-4), pytest.approx(high, abs=1e-4))
+
+
+def test_wilson_of_no_runs_is_undefined():
+    assert all(math.isnan(x) for x in report.wilson(0, 0))
+
+
+def test_the_table_per_cell(tmp_path):
+    c = spec.from_dict({**CAMPAIGN, "runs": 4})
+    rows = fake_rows(c, ["ok", "ok", "flight_failed", "infra_failed", "ok", "ok", "ok", "ok"])
+    write(tmp_path / "r.csv", c, rows)
+    stats = report.cells(report.load(tmp_path / "r.csv"))
+    pad, line = stats
+    assert (pad.label, pad.runs, pad.successes, pad.infra_failed) == ("quad_x static pad calm", 3, 2, 1)
+    assert pad.ci95 == report.wilson(2, 3)
+    assert pad.err_mean_m == pytest.approx(0.01)  # 0, 0.01, 0.02: the infra failure is no flight
+    assert pad.err_max_m == pytest.approx(0.02)
+    assert (line.runs, line.successes) == (4, 4)
+    text = report.table(stats)
+    assert text.splitlines()[1].split()[:8] == ["quad_x", "static", "pad", "calm", "3", "2/3", "67%", "21-94%"]
+    assert "quad_x line 1 m/s calm" in text.splitlines()[2]
+
+
+def test_report_command_prints_the_table_and_writes_the_plots(tmp_path, capsys):
+    c = spec.from_dict(CAMPAIGN)
+    write(tmp_path / "r.csv", c, fake_rows(c, ["ok", "flight_failed", "ok", "ok"]))
+    assert main(["report", str(tmp_path / "r.csv"), "--plots", str(tmp_path / "plots")]) == 0
+    out = capsys.readouterr().out
+    assert "quad_x static pad calm" in out and "95% CI" in out
+    names = sorted(p.name for p in (tmp_path / "plots").iterdir())
+    assert names == ["errors.png", "success_vs_speed.png", "success_vs_wind.png"]
+    assert all((tmp_path / "plots" / n).stat().st_size > 5000 for n in names)
+
+
+def test_report_of_a_file_that_is_not_results_fails_with_one_line(tmp_path, capsys):
+    (tmp_path / "x.csv").write_text("a,b\n1,2\n")
+    assert main(["report", str(tmp_path / "x.csv")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"campaign: {tmp_path / 'x.csv'}: ") and err.count("\n") == 1

@@ -1,0 +1,106 @@
+"""The campaign file (gcs/campaign/spec.py) and its expansion into runs (gcs/campaign/plan.py)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from gcs.campaign import plan, spec
+from gcs.campaign.__main__ import main
+from gcs.campaign.landing import setup_for
+
+GOOD = """
+kind = "landing"
+runs = 3
+base_seed = 7
+[grid]
+vehicle = ["quad_x"]
+wind = ["calm", "windy"]
+ugv_speed_m_s = [0, 1]
+ugv_path = ["line", "circle"]
+[random]
+ugv_heading_deg = [10, 20]
+"""
+
+
+def campaign(text: str = GOOD, **top) -> spec.Campaign:
+    import tomllib
+
+    data = tomllib.loads(text)
+    data.update(top)
+    return spec.from_dict(data)
+
+
+def test_cells_follow_the_grid_and_the_static_pad_is_one_cell():
+    labels = list(dict.fromkeys(r.label for r in plan.expand(campaign())))
+    assert labels == [
+        "quad_x static pad calm",
+        "quad_x line 1 m/s calm",
+        "quad_x circle 1 m/s calm",
+        "quad_x static pad windy",
+        "quad_x line 1 m/s windy",
+        "quad_x circle 1 m/s windy",
+    ]
+
+
+def test_expansion_is_deterministic_and_independent_of_the_other_runs():
+    """Run i of cell c draws from default_rng((base_seed, c, i)): the same whatever else the campaign holds."""
+    a, b = plan.expand(campaign()), plan.expand(campaign())
+    assert a == b
+    more = {r.run_id: r for r in plan.expand(campaign(runs=5))}
+    assert all(more[r.run_id].draws == r.draws for r in a)
+    assert len({r.draws["sim_seed"] for r in a}) == len(a)  # every run its own simulator seed
+    other_seed = plan.expand(campaign(base_seed=8))
+    assert [r.draws for r in other_seed] != [r.draws for r in a]
+    for r in a:
+        assert 10 <= r.draws["ugv_heading_deg"] <= 20  # the file's range
+        assert 3.5 <= r.draws["ugv_start_north_m"] <= 4.5  # the kind's default range
+        assert isinstance(r.draws["sim_seed"], int)
+
+
+def test_a_run_becomes_its_landing_setup():
+    run = plan.expand(campaign())[4]  # quad_x line 1 m/s calm, run 1
+    s = setup_for(run.axes, run.draws)
+    assert (s.vehicle, s.path, s.speed_m_s, s.windy, s.seed) == ("quad_x", "line", 1.0, False, run.draws["sim_seed"])
+    assert math.degrees(s.ugv_start.yaw_rad) == pytest.approx(run.draws["ugv_heading_deg"])
+    assert math.hypot(*s.meet_offset_m) == pytest.approx(run.draws["meet_offset_m"])
+
+
+BROKEN = [
+    ('runs = 3\n[grid]\nwind = ["calm"]\n', "key kind: missing"),
+    ('kind = "landing"\nruns = 0\n', "key runs: must be 1 to"),
+    ('kind = "landing"\nruns = "ten"\n', "key runs: must be an integer"),
+    ('kind = "hover_step"\n', "key kind: 'hover_step' is not a campaign kind yet"),
+    ('kind = "landing"\n[grid]\nwind = ["gale"]\n', "key grid.wind: 'gale' is not one of"),
+    ('kind = "landing"\n[grid]\nfault = ["motor"]\n', "key grid.fault: not an axis of kind 'landing'"),
+    ('kind = "landing"\n[grid]\nvehicle = ["octo"]\n', "key grid.vehicle: unknown vehicle 'octo'"),
+    ('kind = "landing"\n[random]\nsim_seed = [5, 1]\n', "key random.sim_seed: must have 0 <= low <= high"),
+    ('kind = "landing"\nrecord = ["speed"]\n', "key record: 'speed' is not a figure"),
+    ('kind = "landing"\n[fc_params]\npld_x = 1\n', "key fc_params.pld_x: not a parameter name"),
+    ('kind = "landing"\nwhat = 1\n', "key what: unknown"),
+    ('kind = "landing"\nruns = \n', "key (file): not valid TOML"),
+]
+
+
+@pytest.mark.parametrize("text,message", BROKEN, ids=[m.split(":")[0] + str(i) for i, (_, m) in enumerate(BROKEN)])
+def test_a_broken_file_is_one_line_naming_the_key(text, message, tmp_path, capsys):
+    path = tmp_path / "broken.toml"
+    path.write_text(text)
+    assert main(["run", str(path), "--out", str(tmp_path / "out.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"campaign: {path}: {message}"), err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_missing_file_is_a_usage_error(tmp_path, capsys):
+    assert main(["run", str(tmp_path / "none.toml")]) == 2
+    assert "No such file" in capsys.readouterr().err
+
+
+def test_the_benchmark_campaign_files_are_valid():
+    for path in sorted((Path(__file__).resolve().parents[1] / "benchmarks" / "campaigns").glob("*.toml")):
+        assert plan.expand(spec.load(path)), path
+    assert len(plan.expand(spec.load(path.parent / "landing.toml"))) == 680

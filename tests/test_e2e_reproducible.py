@@ -1,0 +1,66 @@
+"""A landing flown through holds (``LandingSetup.deterministic``, gcs/launcher/sim_stepper.py) is reproducible.
+
+The same precision landing on the UGV driving a line at 1 m/s, same seeds, flown on two stacks at the same
+time (each its own simulator and flight controller, competing for this machine's two cores, so their wall
+timings differ): every field of the result but the wall time is identical to the last bit, and so is every
+ground-truth sample of the multicopter and of the UGV both received, touchdown included.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import pytest
+
+from gcs.client import VehicleClient
+from gcs.launcher import Stack
+from gcs.launcher.landing_run import LandingSetup, fly_landing
+from gcs.sim_client import SimClient
+from mavsim_core import ports
+from sitl.ugv_paths import Pose2
+
+pytestmark = pytest.mark.e2e
+
+WAIT_S = 240.0  # wall-clock safety net
+SETUP = LandingSetup(path="line", speed_m_s=1.0, ugv_start=Pose2(4.0, -1.0, math.pi / 2), seed=3)
+
+
+def _fly(inst: int, out: dict) -> None:
+    """One landing on its own stack (run in a thread, which owns the stack for its whole life)."""
+    try:
+        with (
+            Stack(
+                instance=inst, speed="max", seed=SETUP.seed, extra_sitl_args=SETUP.sim_args(), flight_logs=False
+            ) as stack,
+            SimClient(ports.sim_component_port(inst)) as truth,
+            VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+        ):
+            result = fly_landing(client, truth, SETUP, timeout_s=WAIT_S)
+            with truth.lock:
+                out[inst] = (result, dict(truth.positions), dict(truth.ugv))
+    except BaseException as exc:  # noqa: BLE001 - reported by the test
+        out[inst] = exc
+
+
+def test_the_same_landing_on_two_stacks_gives_identical_results(free_instance):
+    a, b = free_instance(), free_instance()
+    out: dict = {}
+    threads = [threading.Thread(target=_fly, args=(inst, out)) for inst in (a, b)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(WAIT_S + 60)
+    for inst in (a, b):
+        assert not isinstance(out.get(inst), BaseException), out.get(inst)
+    (ra, pos_a, ugv_a), (rb, pos_b, ugv_b) = out[a], out[b]
+    assert ra.success, ra.reason
+    assert ra.touchdown_error_m < 0.10 and ra.ugv_speed_at_touchdown_m_s > 0.8  # on the moving deck
+    for name in ("success", "touchdown_error_m", "time_to_land_s", "ugv_speed_at_touchdown_m_s", "reason", "sim_s"):
+        assert getattr(ra, name) == getattr(rb, name), name
+    assert ra.phases == rb.phases
+    end_ms = round(ra.sim_s * 1000)  # the truth up to the last hold (touchdown + 5 s) must have come, most of it
+    for mine, theirs in ((pos_a, pos_b), (ugv_a, ugv_b)):
+        common = set(mine) & set(theirs)
+        assert len([t for t in common if t <= end_ms]) > 0.5 * end_ms / 20  # 50 Hz, UDP may drop a few
+        assert all(mine[t] == theirs[t] for t in common)
