@@ -72,7 +72,7 @@ BROKEN = [
     ('runs = 3\n[grid]\nwind = ["calm"]\n', "key kind: missing"),
     ('kind = "landing"\nruns = 0\n', "key runs: must be 1 to"),
     ('kind = "landing"\nruns = "ten"\n', "key runs: must be an integer"),
-    ('kind = "hover_step"\n', "key kind: 'hover_step' is not a campaign kind yet"),
+    ('kind = "hover"\n', "key kind: 'hover' is not one of: landing, hover_step, mission"),
     ('kind = "landing"\n[grid]\nwind = ["gale"]\n', "key grid.wind: 'gale' is not one of"),
     ('kind = "landing"\n[grid]\nfault = ["motor"]\n', "key grid.fault: not an axis of kind 'landing'"),
     ('kind = "landing"\n[grid]\nvehicle = ["octo"]\n', "key grid.vehicle: unknown vehicle 'octo'"),

@@ -1,12 +1,13 @@
 """What a campaign can fly: each *kind* declares its grid axes, its randomised ranges and its figures.
 
-A kind is one module with a :class:`Kind` (``landing``: :mod:`.landing`).  The campaign file names it
+A kind is one module with a :class:`Kind` (``landing``: :mod:`.landing`; ``hover_step``: :mod:`.hover_step`,
+the hover / step flight of benchmarks/vehicle_benchmark.py; ``mission``: :mod:`.mission_kind`, the
+square mission of benchmarks/mission_benchmark.py).  The campaign file names it
 (``kind = "landing"``); :mod:`.spec` checks the file against its axes and ranges, :mod:`.plan` expands
 the grid into cells with :meth:`Kind.cells`, and :mod:`.runs` calls :meth:`Kind.fly` once per run, in
-the worker process, on a stack of its own.  The hover/step and mission benchmarks
-(benchmarks/vehicle_benchmark.py, benchmarks/mission_benchmark.py) plug in as kinds ``hover_step`` and
-``mission`` the same way: a module with its axes (vehicle, wind, fault / mission file), ranges and a
-``fly`` that returns its figures; add it to :data:`KINDS`.
+the worker process, on a stack of its own.  A new kind is a module with its axes, ranges and a ``fly``
+that returns its figures, added to :data:`KINDS`; :mod:`.report` finds a results file's kind by its
+axis columns (:func:`kind_of_columns`).
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ class Kind(Protocol):
     ranges: tuple[Range, ...]
     figures: tuple[str, ...]  # what a run can record (``record = [...]`` picks among these)
     error_figure: str  # the report's error column (metres)
-    time_figure: str  # the report's time column (simulated seconds)
+    time_figure: str  # the report's time column (simulated seconds); its header: ``time_header`` if any
 
     def cells(self, grid: dict[str, tuple]) -> list[dict[str, Any]]:
         """The grid's cells, in a fixed order (the cell index is the position here)."""
@@ -67,8 +68,12 @@ class Kind(Protocol):
 
 
 # name -> module holding its KIND (imported when asked: a kind's module may import MuJoCo's models)
-KINDS = {"landing": "gcs.campaign.landing"}
-PLANNED = {"hover_step": "benchmarks/vehicle_benchmark.py", "mission": "benchmarks/mission_benchmark.py"}
+KINDS = {
+    "landing": "gcs.campaign.landing",
+    "hover_step": "gcs.campaign.hover_step",
+    "mission": "gcs.campaign.mission_kind",
+}
+PLANNED: dict[str, str] = {}  # kind name -> the benchmark it will come from (none left)
 
 
 def get_kind(name: str) -> Kind:
@@ -76,6 +81,16 @@ def get_kind(name: str) -> Kind:
     if name not in KINDS:
         raise KeyError(name)
     return importlib.import_module(KINDS[name]).KIND
+
+
+def kind_of_columns(columns: list[str] | tuple[str, ...]) -> Kind | None:
+    """The kind whose grid axes and random draws are all among ``columns`` (a results file's), or None."""
+    have = set(columns)
+    for name in KINDS:
+        kind = get_kind(name)
+        if {a.name for a in kind.axes} | {r.name for r in kind.ranges} <= have:
+            return kind
+    return None
 
 
 def one_of(*allowed: Any) -> Check:
@@ -92,6 +107,19 @@ def number_in(low: float, high: float) -> Check:
         return None if low <= v <= high else f"{v!r} is not in [{low:g}, {high:g}]"
 
     return check
+
+
+def vehicle_name(v: Any) -> str | None:
+    """An axis check: a vehicle file name (params/vehicles/) or path."""
+    from params.vehicle import VehicleFileError, vehicle_path
+
+    if not isinstance(v, str) or not v:
+        return f"{v!r} is not a vehicle name"
+    try:
+        vehicle_path(v)
+    except VehicleFileError as exc:
+        return str(exc)
+    return None
 
 
 def text(v: Any) -> str | None:

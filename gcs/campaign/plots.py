@@ -1,5 +1,6 @@
 """The report's plots (PNG): the error distribution of every cell, success against UGV speed and
-against wind, each success rate with its 95 % Wilson interval as an error bar."""
+against wind, each success rate with its 95 % Wilson interval as an error bar.  A plot whose axis the
+results do not have (no UGV speed in a hover/step campaign) is left out, and the report says so."""
 
 from __future__ import annotations
 
@@ -72,18 +73,26 @@ def against_plot(rows: list[dict[str, Any]], axis: str, groups: tuple[str, ...],
     plt.close(fig)
 
 
-def write_plots(stats: list[CellStats], error_key: str | None, out: Path) -> list[Path]:
-    """Every plot the results allow, into ``out``; their paths."""
+def write_plots(stats: list[CellStats], error_key: str | None, out: Path) -> tuple[list[Path], list[tuple[str, str]]]:
+    """Every plot the results allow, into ``out``: their paths, and (name, why) of each plot left out."""
     out.mkdir(parents=True, exist_ok=True)
     rows = [r for s in stats for r in s.rows]
-    written = []
+    written: list[Path] = []
+    skipped: list[tuple[str, str]] = []
     if error_key is not None:
         written.append(out / "errors.png")
         errors_plot(stats, error_key, written[-1])
+    else:
+        skipped.append(("errors.png", "the results record no error figure of their kind"))
     if rows and "ugv_speed_m_s" in rows[0]:
         written.append(out / "success_vs_speed.png")
         against_plot(rows, "ugv_speed_m_s", ("vehicle", "ugv_path", "wind"), written[-1], "UGV speed (m/s)")
-    if rows and "wind" in rows[0]:
+    else:
+        skipped.append(("success_vs_speed.png", "the results have no UGV speed axis (ugv_speed_m_s)"))
+    wind = next((k for k in ("wind", "wind_m_s") if rows and k in rows[0]), None)
+    if wind is not None:
         written.append(out / "success_vs_wind.png")
-        against_plot(rows, "wind", ("vehicle",), written[-1], "wind")
-    return written
+        against_plot(rows, wind, ("vehicle",), written[-1], "wind" if wind == "wind" else "wind (m/s)")
+    else:
+        skipped.append(("success_vs_wind.png", "the results have no wind axis"))
+    return written, skipped

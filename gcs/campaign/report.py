@@ -4,7 +4,8 @@ Per cell: runs (infra_failed runs are not flights: they are counted apart and le
 rate), successes, the success rate with its 95 % Wilson score interval, the error (metres: the
 kind's error figure, e.g. the touchdown error) mean / p95 / max over the runs that have one, the
 mean time (simulated seconds: e.g. NAV_LAND to the disarm) of the successful runs and the mean
-real-time factor (simulated / wall seconds).
+real-time factor (simulated / wall seconds).  The error and time figures are the kind's
+(:attr:`~gcs.campaign.kinds.Kind.error_figure`, ``time_figure``), the kind found by the file's axis columns.
 """
 
 from __future__ import annotations
@@ -16,11 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from .kinds import kind_of_columns
 from .results import read, value
 
 Z95 = 1.959963984540054  # the standard normal's 97.5 % quantile
-ERROR_FIGURES = ("touchdown_error_m",)  # the error column of each kind, the first one present
-TIME_FIGURES = ("time_to_land_s",)
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -60,8 +60,14 @@ def load(path: Path) -> list[dict[str, Any]]:
     return [{k: value(v) for k, v in r.items()} for r in read(path)]
 
 
-def _column(rows: list[dict[str, Any]], names: tuple[str, ...]) -> str | None:
-    return next((n for n in names if rows and n in rows[0]), None)
+def figure_columns(rows: list[dict[str, Any]]) -> tuple[str | None, str | None, str]:
+    """The results' error and time columns (None: not recorded, or no known kind) and the time's header."""
+    kind = kind_of_columns(tuple(rows[0])) if rows else None
+    if kind is None:
+        return None, None, "time"
+    err = kind.error_figure if kind.error_figure in rows[0] else None
+    t = kind.time_figure if kind.time_figure in rows[0] else None
+    return err, t, getattr(kind, "time_header", "t land")
 
 
 def _finite(rows: list[dict[str, Any]], key: str | None) -> np.ndarray:
@@ -73,7 +79,7 @@ def _finite(rows: list[dict[str, Any]], key: str | None) -> np.ndarray:
 
 def cells(rows: list[dict[str, Any]]) -> list[CellStats]:
     """The statistics of every cell, in cell order."""
-    err_key, time_key = _column(rows, ERROR_FIGURES), _column(rows, TIME_FIGURES)
+    err_key, time_key, _ = figure_columns(rows)
     out = []
     for c in sorted({r["cell"] for r in rows}):
         rs = [r for r in rows if r["cell"] == c]
@@ -100,12 +106,12 @@ def cells(rows: list[dict[str, Any]]) -> list[CellStats]:
     return out
 
 
-def table(stats: list[CellStats]) -> str:
-    """The report's table, one line per cell."""
+def table(stats: list[CellStats], time_header: str = "t land") -> str:
+    """The report's table, one line per cell (``time_header``: the time column's, 7 characters at most)."""
     width = max([len(s.label) for s in stats] + [4])
     lines = [
         f"{'cell':<{width}} {'runs':>4} {'success':>7} {'rate':>5} {'95% CI':>11} {'err mean':>8} "
-        f"{'err p95':>8} {'err max':>8} {'t land':>7} {'RTF':>5} {'infra':>5}"
+        f"{'err p95':>8} {'err max':>8} {time_header:>7} {'RTF':>5} {'infra':>5}"
     ]
     for s in stats:
         lo, hi = s.ci95
@@ -133,9 +139,12 @@ def report(path: Path, plots_dir: Path | None = None) -> tuple[str, list[Path]]:
     if not rows:
         raise ValueError(f"{path}: no results in it")
     stats = cells(rows)
+    err_key, _, time_header = figure_columns(rows)
+    text = table(stats, time_header)
     written: list[Path] = []
     if plots_dir is not None:
         from .plots import write_plots  # matplotlib: only when plots are asked for
 
-        written = write_plots(stats, _column(rows, ERROR_FIGURES), plots_dir)
-    return table(stats), written
+        written, skipped = write_plots(stats, err_key, plots_dir)
+        text += "".join(f"\nno {name}: {why}" for name, why in skipped)
+    return text, written
