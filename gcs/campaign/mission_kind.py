@@ -8,7 +8,8 @@ One run is one stack (``--speed`` of its cell, lockstep) that:
 2. (when a flight figure is recorded) uploads a 4-leg mission: take-off to ``ALT_M`` (8 m), a square
    of ``side_m`` metres (North, then East, South, West back to the start) at MPC_XY_CRUISE, land; flies
    it in MISSION mode and compares the truth (the simulator's LOCAL_POSITION_NED, NED metres from the
-   start point) with the legs, from reaching the first corner to the disarm after the landing: the
+   start point) with the legs, from reaching the first corner to the touchdown after the last one (the
+   truth back within ``TOUCHDOWN_M`` of the start point's height; ``legs_s``, simulated s): the
    horizontal distance to the nearest leg (cross-track; RMS and maximum), the mean ground speed, and
    each corner's closest approach (``corner1_m`` ... ``corner4_m``, the last is the start point).
 
@@ -43,6 +44,7 @@ ALT_M = 8.0
 TRANSFER_ITEMS = (100, 500)
 TRANSFER_FIGURES = tuple(f"{d}_{n}_s" for n in TRANSFER_ITEMS for d in ("upload", "download"))
 FLIGHT_FIGURES = ("xtrack_rms_m", "xtrack_max_m", "mean_speed_m_s", "legs_s", *(f"corner{k}_m" for k in range(1, 5)))
+TOUCHDOWN_M = 0.1  # the touchdown: the truth back within this height (m) of the start point's
 READY_S, MISSION_S = 90.0, 300.0  # wall seconds of the waits (safety nets, longer at real-time speed)
 
 
@@ -106,6 +108,7 @@ def fly_square(client: VehicleClient, truth: SimClient, side: float) -> dict[str
     client.wait_until(lambda: client.prearm_ok() and not client.armed(), READY_S, "ready to arm")
     client.set_mode("MISSION")
     wall0, sim0 = time.monotonic(), client.sim_time_s()
+    ground_z = truth.latest().pos_ned_m[2]  # the start point's height (NED z, m), on the ground
     client.arm().check()
     current: dict[int, int] = {}  # item -> truth time (ms) it became current
 
@@ -121,8 +124,10 @@ def fly_square(client: VehicleClient, truth: SimClient, side: float) -> dict[str
     missing = [k for k in range(1, len(items)) if k not in current]
     if missing:
         return out | {"success": False, "status": "flight_failed", "reason": f"items never current: {missing}"}
-    # the legs: from arriving at the first corner (item 2 current) to the disarm after the landing
-    start, end = current[2], truth.latest().time_ms
+    # the legs: from arriving at the first corner (item 2 current) to the touchdown after the last one
+    start = current[2]
+    down = [s.time_ms for s in truth.since(current[len(items) - 1]) if s.pos_ned_m[2] > ground_z - TOUCHDOWN_M]
+    end = down[0] if down else truth.latest().time_ms
     samples = [s for s in truth.since(start) if s.time_ms <= end]
     pts = np.array([s.pos_ned_m[:2] for s in samples])
     speeds = np.array([math.hypot(*s.vel_ned_m_s[:2]) for s in samples])
