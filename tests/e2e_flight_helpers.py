@@ -52,6 +52,14 @@ def text_time(client: VehicleClient, index: int, fragment: str) -> float:
     return next(st.sim_time_s for st in client.statustexts[index:] if fragment in st.text)
 
 
+def truth_after(client: VehicleClient, truth, sim_time_s: float):
+    """The first truth sample at or after this vehicle time (waiting for it: on a loaded machine the truth's
+    UDP stream lags behind the vehicle's telemetry, so ``truth.latest()`` may still be from before)."""
+    t_ms = sim_time_s * 1000.0
+    client.wait_until(lambda: bool(truth.since(t_ms)), WAIT_S, f"a truth sample at or after {sim_time_s:.2f} s")
+    return truth.since(t_ms)[0]
+
+
 def wait_text(client: VehicleClient, index: int, fragment: str) -> None:
     client.wait_until(
         lambda: any(fragment in t for t in texts_since(client, index)), WAIT_S, f"a STATUSTEXT containing {fragment!r}"

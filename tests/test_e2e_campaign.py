@@ -12,9 +12,11 @@ issue asks for 40 runs; the suite flies ``RUNS`` (each run is ~5-10 wall seconds
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 import pytest
@@ -95,11 +97,22 @@ def test_pool_interrupted_and_resumed_gives_the_results_of_ray(tmp_path):
 
     import ray
 
-    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="warning")
+    # Ray's session directory holds Unix sockets (at most 107 bytes of path): under /tmp, not under pytest's
+    # long temporary directory, where tests/conftest.py points TMPDIR.
+    ray_temp = tempfile.mkdtemp(prefix="ray-", dir="/tmp")
+    ray.init(
+        address="local",
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        logging_level="warning",
+        _temp_dir=ray_temp,
+    )
     try:
         ray_csv = tmp_path / "ray.csv"
         outcome = runner.run(spec.load(path), runner.Options(out=ray_csv, ray="auto"))
     finally:
         ray.shutdown()
+        shutil.rmtree(ray_temp, ignore_errors=True)
     assert outcome.statuses["ok"] == RUNS
     assert differences(pool, read(ray_csv)) == []

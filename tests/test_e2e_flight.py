@@ -48,6 +48,7 @@ from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     horizontal,
     text_time,
     texts_since,
+    truth_after,
     wait_hovering,
     wait_text,
 )
@@ -244,7 +245,7 @@ def test_takeoff_hover_land_and_automatic_disarm(client, truth):
         assert not any("Disarmed (command)" in t for t in texts)
         delay = text_time(client, n_texts, "Disarmed (landed)") - text_time(client, n_texts, "Landing detected")
         assert delay == pytest.approx(disarm_delay_s, abs=0.25)  # COM_DISARM_LAND, in simulated seconds
-        landed = truth.latest()
+        landed = truth_after(client, truth, text_time(client, n_texts, "Disarmed (landed)"))
         assert landed.pos_ned_m[2] == pytest.approx(ground.pos_ned_m[2], abs=0.05)  # really on its legs
         assert horizontal(landed.pos_ned_m, ground.pos_ned_m) < 1.0
     finally:
@@ -275,10 +276,10 @@ def test_mavproxy_takeoff_goto_and_return_to_launch(client, truth):
     assert max(m.relative_alt / 1000.0 for m in rec.of("GLOBAL_POSITION_INT")) == pytest.approx(return_alt, abs=0.5)
     n, e, _ = client.position_ned()
     assert math.hypot(n, e) < 1.0
-    back = truth.latest()
-    assert horizontal(back.pos_ned_m, ground.pos_ned_m) < 1.0
-    assert back.pos_ned_m[2] == pytest.approx(ground.pos_ned_m[2], abs=0.05)
     assert "Disarmed (landed)" in texts_since(client, n_texts)
+    back = truth_after(client, truth, text_time(client, n_texts, "Disarmed (landed)"))
+    assert horizontal(back.pos_ned_m, ground.pos_ned_m) < 1.0
+    assert back.pos_ned_m[2] == pytest.approx(ground.pos_ned_m[2], abs=0.05)  # on its legs when it disarmed
 
 
 def run_gcs(stack: Stack, client: VehicleClient, *args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
