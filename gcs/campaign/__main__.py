@@ -18,6 +18,7 @@ directory), a row appended as each run ends.  Paths are relative to the working 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -65,8 +66,15 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    """SIGTERM (``kill PID``, a batch system's time limit) stops a campaign as Ctrl-C does: no new run starts,
+    the results file keeps what ended; the pool's workers then end with it (:mod:`.executors`)."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         return cmd_run(args) if args.command == "run" else cmd_report(args)
     except KeyboardInterrupt:

@@ -14,7 +14,9 @@ Ctrl-C: no new run starts; the runs going on are stopped and not recorded (a res
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
+import signal
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, Callable
 
@@ -26,7 +28,8 @@ OnRow = Callable[[dict[str, Any]], None]
 
 def local_pool(runs: list[Run], settings: Settings, jobs: int, on_row: OnRow) -> None:
     """Execute ``runs`` on ``jobs`` local worker processes."""
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_die_with_campaign) as pool:
         pending: dict[Future, Run] = {pool.submit(execute, run, settings): run for run in runs}
         try:
             while pending:
@@ -38,6 +41,15 @@ def local_pool(runs: list[Run], settings: Settings, jobs: int, on_row: OnRow) ->
         except KeyboardInterrupt:
             pool.shutdown(wait=True, cancel_futures=True)
             raise
+
+
+def _die_with_campaign() -> None:
+    """Pool worker start (Linux): SIGTERM when the campaign process dies, even by SIGKILL, so no worker goes on
+    starting runs for nobody; a worker's own stacks get theirs in turn (gcs/launcher/stack.py)."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
 
 
 def ray_cluster(runs: list[Run], settings: Settings, address: str, cpus: float, on_row: OnRow) -> None:
