@@ -20,14 +20,15 @@ def _plt():
     return plt
 
 
-def _rate_bar(ax, x: float, rows: list[dict[str, Any]], **style) -> None:
+def _rate(rows: list[dict[str, Any]]) -> tuple[float, float, float] | None:
+    """(success %, % below, % above: the 95 % Wilson interval) of the runs that flew; None if none flew."""
     flown = [r for r in rows if r["status"] != "infra_failed"]
     if not flown:
-        return
+        return None
     ok = sum(r["status"] == "ok" for r in flown)
     lo, hi = wilson(ok, len(flown))
     p = ok / len(flown)
-    ax.errorbar([x], [100 * p], yerr=[[100 * (p - lo)], [100 * (hi - p)]], capsize=3, fmt="o", **style)
+    return 100 * p, 100 * (p - lo), 100 * (hi - p)
 
 
 def errors_plot(stats: list[CellStats], error_key: str, path: Path) -> None:
@@ -49,18 +50,32 @@ def errors_plot(stats: list[CellStats], error_key: str, path: Path) -> None:
 
 
 def against_plot(rows: list[dict[str, Any]], axis: str, groups: tuple[str, ...], path: Path, xlabel: str) -> None:
-    """Success rate against ``axis`` (numeric: a line per group; else: categories), one series per group."""
+    """Success rate against ``axis``, one series per group (numeric axis: joined by a line), each point with its
+    95 % Wilson interval; the series are spread a little along x so that their intervals do not hide each other."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     keys = sorted({tuple(str(r[g]) for g in groups) for r in rows})
     xs = list(dict.fromkeys(r[axis] for r in sorted(rows, key=lambda r: r["cell"])))
     numeric = all(isinstance(x, (int, float)) for x in xs)
+    spread = (0.02 * (max(xs) - min(xs) or 1.0)) if numeric else 0.08
     for k, key in enumerate(keys):
         mine = [r for r in rows if tuple(str(r[g]) for g in groups) == key]
+        points = []
         for j, x in enumerate(xs):
-            at = [r for r in mine if r[axis] == x]
-            pos = float(x) if numeric else j + 0.08 * (k - (len(keys) - 1) / 2)
-            _rate_bar(ax, pos, at, color=f"C{k % 10}", label=" ".join(key) if j == 0 else None)
+            rate = _rate([r for r in mine if r[axis] == x])
+            if rate is not None:
+                points.append(((float(x) if numeric else j) + spread * (k - (len(keys) - 1) / 2), *rate))
+        if points:
+            px, p, below, above = zip(*points)
+            ax.errorbar(
+                px,
+                p,
+                yerr=[below, above],
+                capsize=3,
+                fmt="o-" if numeric else "o",
+                color=f"C{k % 10}",
+                label=" ".join(key),
+            )
     if not numeric:
         ax.set_xticks(range(len(xs)), [str(x) for x in xs])
     ax.set_ylim(-5, 105)

@@ -267,7 +267,7 @@ def _fly_stepped(
         return result
     finally:
         result.sim_s, result.wall_s = (step.time_ms - sim0_ms) / 1000.0, time.monotonic() - wall0
-        step.release()
+        step.release(run_free=False)  # held until the stack stops: the camera's summary counts the same frames
 
 
 def _finish(result: LandingResult, client: VehicleClient, sim0: float, wall0: float) -> LandingResult:

@@ -104,11 +104,15 @@ class SimStepper:
                 raise SimTimeout(f"{what}: not within {max_sim_s:g} s of simulated time [{self.client.describe()}]")
             self.advance(min(check_every_s, (end_ms - self.time_ms) / 1000.0))
 
-    def release(self) -> None:
-        """Let the simulation run free (``SIM_HOLD_MS`` 0; best effort) and stop listening to the vehicle."""
+    def release(self, run_free: bool = True) -> None:
+        """Stop listening to the vehicle and, with ``run_free``, let the simulation run free (``SIM_HOLD_MS`` 0;
+        best effort).  Without, it stays held where it is until the stack stops, so what the simulator counts
+        to the end (its camera's frames and detections) is the same in every run."""
         if self._listening:
             self._listening = False
             self.client.remove_listener(self._on_message)
+        if not run_free:
+            return
         try:
             self.truth.set(HOLD_PARAM, 0, timeout_s=self.timeout_s)
         except Exception:  # noqa: BLE001 - the stack may be gone already
