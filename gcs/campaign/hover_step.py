@@ -40,7 +40,7 @@ import params as params_package
 
 from ..client import VehicleClient
 from ..sim_client import SimClient
-from .kinds import Axis, Range, number_in, vehicle_name
+from .kinds import Axis, Range, grid_cells, number_in, vehicle_name
 from .plan import Run
 
 ALT_M = 5.0
@@ -221,13 +221,7 @@ class HoverStepKind:
     time_header = "settle"
 
     def cells(self, grid: dict[str, tuple]) -> list[dict[str, Any]]:
-        return [
-            {"vehicle": v, "wind_m_s": w, "fault": f, "hover_s": h}
-            for v in grid["vehicle"]
-            for w in grid["wind_m_s"]
-            for f in grid["fault"]
-            for h in grid["hover_s"]
-        ]
+        return grid_cells(grid, ("vehicle", "wind_m_s", "fault", "hover_s"))
 
     def label(self, cell: dict[str, Any]) -> str:
         fault = "" if cell["fault"] == "none" else f" {cell['fault']}"

@@ -13,6 +13,7 @@ axis columns (:func:`kind_of_columns`).
 from __future__ import annotations
 
 import importlib
+import itertools
 from dataclasses import dataclass
 from typing import Any, Callable, Protocol
 
@@ -107,6 +108,11 @@ def number_in(low: float, high: float) -> Check:
         return None if low <= v <= high else f"{v!r} is not in [{low:g}, {high:g}]"
 
     return check
+
+
+def grid_cells(grid: dict[str, tuple], names: tuple[str, ...]) -> list[dict[str, Any]]:
+    """Every combination of the ``names`` axes of ``grid``, the first axis varying slowest."""
+    return [dict(zip(names, values)) for values in itertools.product(*(grid[n] for n in names))]
 
 
 def vehicle_name(v: Any) -> str | None:

@@ -17,11 +17,9 @@ import math
 import re
 from typing import Any
 
-from params.vehicle import VehicleFileError, vehicle_path
-
 from ..launcher.landing_run import LandingSetup, Pose2, fly_landing  # Pose2: the launcher's, from sitl
 from ..sim_client import SimClient
-from .kinds import Axis, Range, number_in, one_of
+from .kinds import Axis, Range, number_in, one_of, vehicle_name
 from .plan import Run
 
 PATHS = ("line", "circle", "figure8", "random")
@@ -31,16 +29,6 @@ CAMERA_LINE = re.compile(
     r"([\d.]+) cm mean, ([\d.]+) cm max"
 )
 CAMERA_HZ = 20.0
-
-
-def _vehicle(v: Any) -> str | None:
-    if not isinstance(v, str) or not v:
-        return f"{v!r} is not a vehicle name"
-    try:
-        vehicle_path(v)
-    except VehicleFileError as exc:
-        return str(exc)
-    return None
 
 
 def camera_figures(sitl_log: str) -> dict[str, float]:
@@ -78,7 +66,7 @@ class LandingKind:
 
     name = "landing"
     axes = (
-        Axis("vehicle", ("quad_x", "firefly"), _vehicle, "vehicle file names"),
+        Axis("vehicle", ("quad_x", "firefly"), vehicle_name, "vehicle file names"),
         Axis("wind", ("calm", "windy"), one_of("calm", "windy"), "wind case"),
         Axis("ugv_speed_m_s", (0, 0.5, 1, 2, 3), number_in(0.0, 5.0), "UGV speed, m/s (0: static pad)"),
         Axis("ugv_path", PATHS, one_of(*PATHS), "UGV path (for speeds above 0)"),

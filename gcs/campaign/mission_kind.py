@@ -36,7 +36,7 @@ from ..client import VehicleClient
 from ..mission_transfer import download, upload
 from ..sim_client import SimClient
 from .hover_step import sim_args, windy_parameters
-from .kinds import Axis, Range, number_in, one_of, vehicle_name
+from .kinds import Axis, Range, grid_cells, number_in, one_of, vehicle_name
 from .plan import Run
 
 HOME = (47.397742, 8.545594)  # the simulator's default home (deg)
@@ -158,13 +158,7 @@ class MissionKind:
     time_header = "legs"
 
     def cells(self, grid: dict[str, tuple]) -> list[dict[str, Any]]:
-        return [
-            {"vehicle": v, "side_m": s, "wind": w, "speed": sp}
-            for v in grid["vehicle"]
-            for s in grid["side_m"]
-            for w in grid["wind"]
-            for sp in grid["speed"]
-        ]
+        return grid_cells(grid, ("vehicle", "side_m", "wind", "speed"))
 
     def label(self, cell: dict[str, Any]) -> str:
         speed = "" if cell["speed"] == "max" else f" at {cell['speed']:g}x"
