@@ -57,29 +57,6 @@ def test_axis_values_and_their_labels():
     assert [r.label for r in plan.expand(m)] == ["quad_x 30 m square calm", "quad_x 30 m square calm at 2x"]
 
 
-BROKEN = [
-    ('kind = "hover_step"\n[grid]\nfault = ["motor1_150"]\n', "key grid.fault: 'motor1_150' is not 'none' nor"),
-    ('kind = "hover_step"\n[grid]\nwind_m_s = [20]\n', "key grid.wind_m_s: 20 is not in [0, 15]"),
-    ('kind = "hover_step"\n[grid]\nhover_s = ["long"]\n', "key grid.hover_s: 'long' is not a number"),
-    ('kind = "hover_step"\n[grid]\nugv_path = ["line"]\n', "key grid.ugv_path: not an axis of kind 'hover_step'"),
-    ('kind = "mission"\n[grid]\nspeed = ["fast"]\n', "key grid.speed: 'fast' is not 'max' nor a real-time"),
-    ('kind = "mission"\n[grid]\nside_m = [1]\n', "key grid.side_m: 1 is not in [5, 200]"),
-    ('kind = "mission"\n[grid]\nwind = ["gale"]\n', "key grid.wind: 'gale' is not one of"),
-    ('kind = "mission"\n[grid]\nvehicle = ["octo"]\n', "key grid.vehicle: unknown vehicle 'octo'"),
-    ('kind = "mission"\nrecord = ["touchdown_error_m"]\n', "key record: 'touchdown_error_m' is not a figure"),
-]
-
-
-@pytest.mark.parametrize("text,message", BROKEN, ids=[m.split(":")[0] + str(i) for i, (_, m) in enumerate(BROKEN)])
-def test_a_bad_axis_value_is_one_line_naming_the_key(text, message, tmp_path, capsys):
-    path = tmp_path / "broken.toml"
-    path.write_text(text)
-    assert main(["run", str(path), "--out", str(tmp_path / "out.csv")]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith(f"campaign: {path}: {message}"), err
-    assert err.count("\n") == 1
-
-
 def test_the_wind_axis_scales_the_windy_scenario():
     scenario = tomllib.loads((Path(__file__).resolve().parents[1] / "params/scenarios/windy.toml").read_text())
     assert windy_parameters() == scenario["parameters"]

@@ -81,6 +81,16 @@ BROKEN = [
     ('kind = "landing"\n[fc_params]\npld_x = 1\n', "key fc_params.pld_x: not a parameter name"),
     ('kind = "landing"\nwhat = 1\n', "key what: unknown"),
     ('kind = "landing"\nruns = \n', "key (file): not valid TOML"),
+    # the other kinds' axes (gcs/campaign/hover_step.py, mission_kind.py)
+    ('kind = "hover_step"\n[grid]\nfault = ["motor1_150"]\n', "key grid.fault: 'motor1_150' is not 'none' nor"),
+    ('kind = "hover_step"\n[grid]\nwind_m_s = [20]\n', "key grid.wind_m_s: 20 is not in [0, 15]"),
+    ('kind = "hover_step"\n[grid]\nhover_s = ["long"]\n', "key grid.hover_s: 'long' is not a number"),
+    ('kind = "hover_step"\n[grid]\nugv_path = ["line"]\n', "key grid.ugv_path: not an axis of kind 'hover_step'"),
+    ('kind = "mission"\n[grid]\nspeed = ["fast"]\n', "key grid.speed: 'fast' is not 'max' nor a real-time"),
+    ('kind = "mission"\n[grid]\nside_m = [1]\n', "key grid.side_m: 1 is not in [5, 200]"),
+    ('kind = "mission"\n[grid]\nwind = ["gale"]\n', "key grid.wind: 'gale' is not one of"),
+    ('kind = "mission"\n[grid]\nvehicle = ["octo"]\n', "key grid.vehicle: unknown vehicle 'octo'"),
+    ('kind = "mission"\nrecord = ["touchdown_error_m"]\n', "key record: 'touchdown_error_m' is not a figure"),
 ]
 
 
