@@ -30,6 +30,7 @@ from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import Commander
 from autopilot.commander.external_inputs import ExternalInputs
+from autopilot.control.disturbance_observer import DisturbanceFeedForward
 from autopilot.control.gains_from_params import GainsFromParams
 from autopilot.control.mixer import Mixer
 from autopilot.control.position_control import attitude_from_thrust
@@ -38,6 +39,8 @@ from autopilot.estimation.rest_detector import RestDetector
 from autopilot.landing_target_input import LandingTargetInput
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import NO_ACTUATORS, ActuatorStatus, AttitudeSetpoint, ControlSetpoints, GpsSample, ImuSample
+from autopilot.tuning.authority import hover_authority
+from autopilot.tuning.autotune import Autotune
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 from params.vehicle import VehicleSpec
@@ -50,6 +53,9 @@ OUTER_OFFSET_US = 4_000
 # or more than this later, means the sensor data restarted (a new simulator): the state is not kept.
 MAX_SENSOR_GAP_US = 500_000
 
+
+# The autotune's message severities (autopilot/tuning says them by name: it imports no MAVLink)
+_SEVERITY = {"INFO": S.MAV_SEVERITY_INFO, "WARNING": S.MAV_SEVERITY_WARNING, "CRITICAL": S.MAV_SEVERITY_CRITICAL}
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (
@@ -76,6 +82,7 @@ class FlightController:
         # hands each controller new ones when its parameters change (live tuning).
         self.gains = GainsFromParams(params)
         self.position_control = self.gains.position_control(spec.mass_kg, self.max_thrust_n)
+        self.disturbance = DisturbanceFeedForward(params.get, spec.mass_kg, spec.time_constant_up_s)  # wind fed fwd
         self.attitude_control = self.gains.attitude_control()
         self.rate_control = self.gains.rate_control()
         self.gyro_filter = self.gains.gyro_filter()
@@ -101,8 +108,15 @@ class FlightController:
         self._pos_us = 0
         self._height_m = float("nan")
         self.rest = RestDetector()  # raw IMU and GPS: home is set only at rest
+        self._to_record: tuple | None = None  # the latest step's inputs for the rest detector and target history
         self._said_moving = False
         self.sim_link_lost = False  # the simulator link is down (the process loop sets it): MAV_STATE_CRITICAL
+        # Autotune (MAV_CMD_DO_AUTOTUNE_ENABLE, autopilot/tuning): the commander routes the command, step() feeds it.
+        authority = hover_authority(self.mixer, self.inertia, self.weight_n)  # the excitation stays inside it
+        self.autotune = Autotune(
+            params, LOCKSTEP_DT_S, lambda sev, txt: self.commander.say(_SEVERITY[sev], txt), authority
+        )
+        self.commander.autotune = self.autotune
 
     def _reset_controllers(self) -> None:
         self.position_control.reset()
@@ -167,20 +181,16 @@ class FlightController:
         dt = LOCKSTEP_DT_S if self.last_us is None else (now - self.last_us) * 1e-6
         self.last_us, self.last_imu = now, imu
         self.estimator.update_imu(imu)
-        self.rest.update_imu(now, imu.accel_frd_m_s2, imu.gyro_frd_rad_s)
         if gps is not None:
             self.estimator.update_gps(gps)
-            self.rest.update_gps(now, gps.vel_ned_m_s)
-        # The outer loop's position, carried on at its velocity to this step (the target's history needs
-        # where the vehicle was at each capture: 20 ms of staleness is 2 cm at 1 m/s).
-        since_s = (now - self._pos_us) * 1e-6
-        pos = self._pos_ned_m + self._vel_ned_m_s * since_s if 0.0 < since_s < 0.1 else self._pos_ned_m
-        self.landing_target.record_state(now, self.estimator.q, pos, self._height_m)
+        self._to_record = (imu, gps, self.estimator.q)  # for _record_step, after the motor commands are out
         rate = self.gyro_filter.apply(self.estimator.rate_frd)  # every sample, so its state stays current
         self._gps_pending = gps or self._gps_pending
         if self.last_outer_us is None:
             self.after_step()
         status = self.commander.status
+        tune = self.autotune  # (its excitation, or None: nothing to add; it aborts on a mode change or disarm)
+        excite = tune.update(now, status.mode, status.armed, status.in_air) if tune.busy else None
         n = len(self.spec.rotors)
         if not status.armed:
             self._reset_controllers()
@@ -199,9 +209,13 @@ class FlightController:
             self.rate_sp = self.attitude_control.update(q, self.q_sp)
         else:
             self.rate_sp = self.rate_override
+        if excite is not None:
+            self.rate_sp = self.rate_sp + excite
         alpha = self.rate_control.update(
             rate, self.rate_sp, dt, self.sat_pos, self.sat_neg, integrate=not status.ground_contact
         )
+        if excite is not None:
+            tune.record(alpha, self.estimator.rate_frd, now)
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
         if self.rate_override is None:
             body_up = -self.estimator.r_ned_frd[:, 2]
@@ -209,6 +223,7 @@ class FlightController:
         else:
             thrust_n = self.collective_n
         out = self.mixer.mix(self.inertia * alpha, thrust_n)
+        self.disturbance.motors(float(out.thrusts_n.sum()), dt)
         self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
         self._publish(out.commands, float(out.thrusts_n.sum()))
         return out.commands
@@ -218,12 +233,28 @@ class FlightController:
         now = self.last_us
         if now is None:
             return
+        if self._to_record is not None:
+            self._record_step(*self._to_record)
         self.estimator.run_deferred()
         slot = (now - OUTER_OFFSET_US) // OUTER_PERIOD_US
         if slot != self._outer_slot:
             self._outer_slot = slot
             gps, self._gps_pending = self._gps_pending, None
             self._outer_loop(now, gps)
+
+    def _record_step(self, imu: ImuSample, gps: GpsSample | None, q: np.ndarray) -> None:
+        """The step's inputs to the rest detector and the landing target's history (``q``: the attitude the
+        step flew).  Run first in :meth:`after_step`: off the lockstep's critical path, before anything reads them."""
+        self._to_record = None
+        now = imu.timestamp_us
+        self.rest.update_imu(now, imu.accel_frd_m_s2, imu.gyro_frd_rad_s)
+        if gps is not None:
+            self.rest.update_gps(now, gps.vel_ned_m_s)
+        # The outer loop's position, carried on at its velocity to this step (the target's history needs
+        # where the vehicle was at each capture: 20 ms of staleness is 2 cm at 1 m/s).
+        since_s = (now - self._pos_us) * 1e-6
+        pos = self._pos_ned_m + self._vel_ned_m_s * since_s if 0.0 < since_s < 0.1 else self._pos_ned_m
+        self.landing_target.record_state(now, q, pos, self._height_m)
 
     def _outer_loop(self, now: int, gps: GpsSample | None) -> None:
         """Commander, navigator and position control (50 Hz and on each GPS fix)."""
@@ -253,7 +284,9 @@ class FlightController:
             self.setpoint = None
             return
         self.setpoint = sp
-        self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt).thrust_ned_n
+        flying = self.commander.status.in_air and not self.commander.status.ground_contact
+        dist = self.disturbance.update(est.accel_ned_m_s2, estimator.r_ned_frd, flying, dt)
+        self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt, dist).thrust_ned_n
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 
     def _check_rest(self) -> None:

@@ -125,6 +125,7 @@ class FlightLogWriter:
         self._count = 0
         self.writer = NpyLogWriter(path, flight_log_fields(self.n_motors), chunk_rows)
         self._idle_motors = (0.0,) * self.n_motors
+        self._status, self._mode = None, (0, 0)  # the latest commander status seen and its (main, sub) mode
 
     @property
     def path(self) -> Path:
@@ -140,7 +141,9 @@ class FlightLogWriter:
         status = fc.commander.status
         actuators = fc.actuators
         est = fc.estimator
-        main_mode, sub_mode = status.mode.value
+        if status is not self._status:  # a new (frozen) record on every change: its mode's numbers once each
+            self._status, self._mode = status, status.mode.value
+        main_mode, sub_mode = self._mode
         row = [fc.last_us or 0, status.armed, main_mode, sub_mode]  # .tolist(): far cheaper than numpy scalars
         sp = fc.setpoint
         if sp is not None and status.armed:

@@ -13,8 +13,8 @@ import sys
 
 from autopilot import flight_controller, flight_recorder, landing_target_input
 from autopilot.commander import commander, failsafes, failure_detector, health
-from autopilot.control import gains_from_params
-from autopilot.estimation import ekf, estimator, mahony, position_kf
+from autopilot.control import disturbance_observer, gains_from_params
+from autopilot.estimation import ekf, estimator, mag_fusion, mahony, position_kf
 from autopilot.mavlink import failure_injection
 from autopilot.navigation import (
     follow_target,
@@ -33,12 +33,15 @@ from autopilot.navigation import (
     takeoff,
 )
 from autopilot.parameters import FLIGHT_FLOORS, RULES, ParamDef, ParameterStore, definitions
+from autopilot.tuning import autotune
 
 # Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
 _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     gains_from_params.PARAMS,
+    disturbance_observer.PARAMS,
     flight_controller.PARAMS,
     ekf.PARAMS,
+    mag_fusion.PARAMS,
     position_kf.PARAMS,
     mahony.PARAMS,
     estimator.PARAMS,
@@ -63,6 +66,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     landing_target_input.PARAMS,
     flight_recorder.PARAMS,
     failure_injection.PARAMS,
+    autotune.PARAMS,
 )
 
 

@@ -279,6 +279,8 @@ class ParameterStore:
             if v != int(v):
                 raise ParamError(f"{name} is an integer, {value} is not")
             v = float(int(v))
+        elif _same(v, d.min) or _same(v, d.max):
+            v = d.min if _same(v, d.min) else d.max  # a bound as the wire's float32 carries it (0.01 -> 0.0099999998)
         if not d.min <= v <= d.max:
             raise ParamError(f"{name}: {v:g} outside range [{d.min:g}, {d.max:g}] {d.unit}".rstrip())
         return v

@@ -42,8 +42,9 @@ def export_revision(rev: str, dest: Path) -> str:
     return short.stdout.strip()
 
 
-def run_one(label: str, tree: Path, script: str, args: list[str]) -> float:
-    """Run ``tree/benchmarks/script`` with ``tree`` first on PYTHONPATH; print its stdout; its wall seconds."""
+def run_one(label: str, tree: Path, script: str, args: list[str], cwd: Path) -> float:
+    """Run ``tree/benchmarks/script`` with ``tree`` first on PYTHONPATH, in ``cwd`` (relative output paths such
+    as ``--out`` land there); print its stdout; its wall seconds."""
     path = tree / "benchmarks" / script
     if not path.is_file():
         raise SystemExit(f"before_after: {label} has no benchmarks/{script}")
@@ -51,7 +52,7 @@ def run_one(label: str, tree: Path, script: str, args: list[str]) -> float:
     env["PYTHONPATH"] = os.pathsep.join([str(tree), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     print(f"\n===== {label}: {script} {' '.join(args)}", flush=True)
     t0 = time.monotonic()
-    r = subprocess.run([sys.executable, str(path), *args], cwd=tree, env=env, check=False)
+    r = subprocess.run([sys.executable, str(path), *args], cwd=cwd, env=env, check=False)
     wall = time.monotonic() - t0
     if r.returncode != 0:
         print(f"===== {label}: exit {r.returncode}", flush=True)
@@ -69,11 +70,13 @@ def main() -> int:
         ap.error("--rounds: must be at least 1")
     walls: dict[str, list[float]] = {"before": [], "after": []}
     with tempfile.TemporaryDirectory(prefix="before_after_") as tmp:
-        base = Path(tmp)
+        base = Path(tmp) / "tree"
         short = export_revision(a.before, base)
-        for _ in range(a.rounds):
-            walls["before"].append(run_one(f"before ({short})", base, a.script, a.args))
-            walls["after"].append(run_one("after (this checkout)", ROOT, a.script, a.args))
+        for k in range(a.rounds):
+            for side, label, tree in (("before", f"before ({short})", base), ("after", "after (this checkout)", ROOT)):
+                cwd = Path(tmp) / f"{side}_run{k}"
+                cwd.mkdir()
+                walls[side].append(run_one(label, tree, a.script, a.args, cwd))
     print("\nwall seconds per run: " + "; ".join(f"{k} {', '.join(f'{w:.1f}' for w in v)}" for k, v in walls.items()))
     return 0
 

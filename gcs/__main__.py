@@ -11,6 +11,7 @@ Examples::
     gcs status                 # a status line once a second (Ctrl-C to stop)
     gcs ugv drive              # drive the simulated ground vehicle from the keyboard (MANUAL_CONTROL)
     gcs fly                    # pilot the vehicle from the keyboard (MANUAL_CONTROL; keys: gcs fly -h)
+    gcs autotune               # in Hold: identify the rate loop, propose gains, apply them if accepted
     gcs -i 2 rtl               # the vehicle of instance 2 (system id 3, on the shared UDP 14550)
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
@@ -35,7 +36,7 @@ import sys
 
 from mavsim_core import ports
 
-from . import fly_cli, mission_cli, param_cli, signing_cli, ugv_cli, watch_cli
+from . import autotune_cli, fly_cli, mission_cli, param_cli, signing_cli, ugv_cli, watch_cli
 from .cli_parser import ANSWER_TIMEOUT_S, CONNECT_TIMEOUT_S, DEFAULT_GCS_PORT, build_parser
 from .client import VehicleClient
 from .errors import EXIT_REFUSED, EXIT_USAGE, GcsError, report_error
@@ -77,6 +78,7 @@ def _handler(client: VehicleClient, args: argparse.Namespace):
         "mission": lambda: mission_cli.run_mission_command(client, args),
         "fly": lambda: fly_cli.run_fly_command(client, args),
         "signing": lambda: signing_cli.run_signing_command(client, args),
+        "autotune": lambda: autotune_cli.run_autotune(client, args),
     }[args.command]
 
 

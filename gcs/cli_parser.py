@@ -15,7 +15,7 @@ import math
 from mavsim_core import cli_args
 from mavsim_core import px4_modes as modes
 
-from . import cli_types, fly_cli, mission_cli, param_cli, signing_cli, ugv_cli
+from . import autotune_cli, cli_types, fly_cli, mission_cli, param_cli, signing_cli, ugv_cli
 
 DEFAULT_GCS_PORT = 14550
 CONNECT_TIMEOUT_S = 10.0
@@ -83,6 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     ugv_cli.add_ugv_parser(sub)
     fly_cli.add_fly_parser(sub)
     mission_cli.add_mission_parser(sub)
+    autotune_cli.add_autotune_parser(sub)
     from . import plot  # gcs plot (gcs/plot.py): figures from a flight log, no vehicle needed
 
     plot.add_arguments(

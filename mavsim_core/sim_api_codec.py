@@ -18,6 +18,7 @@ advances the sequence number as ``mav.send`` does.
 
 from __future__ import annotations
 
+import operator
 import struct
 from typing import Iterable, Sequence
 
@@ -26,8 +27,16 @@ from pymavlink.dialects.v20 import common as mavlink
 STX_V2 = 0xFD
 HEADER_LEN = 10  # STX, len, incompat, compat, seq, sysid, compid, msgid (3 bytes)
 CRC_LEN = 2
-_HEADER = struct.Struct("<BBBBBBBHB")
+_HEADER = struct.Struct("<BBBBBBHB")  # the header after STX: what the CRC covers, with the payload
 _CRC = struct.Struct("<H")
+_MCRF4XX = getattr(mavlink, "mcrf4xx", None)  # fastcrc's CRC-16/MCRF4XX, which pymavlink's x25crc wraps
+
+
+def x25_crc(data: bytes) -> int:
+    """MAVLink's CRC (CRC-16/MCRF4XX) of ``data``: ``mavlink.x25crc(data).crc``, without its wrapper object."""
+    if _MCRF4XX is not None:
+        return _MCRF4XX(data, 0xFFFF)
+    return mavlink.x25crc(data).crc
 
 
 class MessageLayout:
@@ -39,6 +48,7 @@ class MessageLayout:
         self.crc_extra = bytes([cls.crc_extra])
         self.struct = cls.unpacker
         self.size = cls.unpacker.size
+        self._padding = bytes(self.size)
         starts, at = [], 0
         for length in cls.lengths:  # wire order
             starts.append(at)
@@ -46,39 +56,67 @@ class MessageLayout:
         # For each field in definition order: (index in the unpacked tuple, array length or 0).
         self.fields = [(starts[w], cls.array_lengths[w]) for w in cls.orders]
         self.wire = [(i, cls.array_lengths[w]) for w, i in sorted((w, i) for i, w in enumerate(cls.orders))]
+        plain = len(self.fields) > 1 and not any(n for _, n in self.fields)
+        # No arrays: the unpacked tuple in definition order, and the values in wire order, by one itemgetter each.
+        self._to_fields = operator.itemgetter(*[i for i, _ in self.fields]) if plain else None
+        in_order = [i for i, _ in self.wire] == list(range(len(self.wire)))  # wire order = definition order
+        self._to_wire = operator.itemgetter(*[i for i, _ in self.wire]) if plain and not in_order else None
+        self._pack_as_given = plain and in_order
 
-    def decode(self, packet: bytes | bytearray, plen: int) -> mavlink.MAVLink_message:
-        """The message of a whole packet whose CRC has been checked."""
-        payload = bytes(packet[HEADER_LEN : HEADER_LEN + plen])
-        if plen < self.size:
-            payload += bytes(self.size - plen)  # MAVLink 2 trims trailing zero bytes
-        t = self.struct.unpack(payload[: self.size])
-        values = [t[i] if n == 0 else list(t[i : i + n]) for i, n in self.fields]
-        msg = self.cls(*values)
+    def decode(self, packet: bytearray, plen: int) -> mavlink.MAVLink_message:
+        """The message of a whole packet whose CRC has been checked (``packet`` is kept as its ``_msgbuf``)."""
+        if plen < self.size:  # MAVLink 2 trims trailing zero bytes
+            t = self.struct.unpack(bytes(packet[HEADER_LEN : HEADER_LEN + plen]) + self._padding[plen:])
+        else:
+            t = self.struct.unpack_from(packet, HEADER_LEN)
+        if self._to_fields is not None:
+            values = self._to_fields(t)
+        else:
+            values = [t[i] if n == 0 else list(t[i : i + n]) for i, n in self.fields]
+        msg = self.cls(*values)  # (its __init__ beats filling a bare instance's __dict__: shared-key dicts)
         msg._header = mavlink.MAVLink_header(self.msgid, 0, packet[3], plen, packet[4], packet[5], packet[6])
-        msg._msgbuf = bytearray(packet)
+        msg._msgbuf = packet if type(packet) is bytearray else bytearray(packet)
         return msg
 
     def encode(self, mav: mavlink.MAVLink, values: Sequence) -> bytes:
         """A packet of this message from field values in definition order (arrays as sequences)."""
-        flat: list = []
-        for i, n in self.wire:
-            if n == 0:
-                flat.append(values[i])
-            else:
-                flat.extend(values[i])
-        payload = self.struct.pack(*flat)
-        plen = len(payload)
-        while plen > 1 and payload[plen - 1] == 0:
-            plen -= 1
-        head = _HEADER.pack(
-            STX_V2, plen, 0, 0, mav.seq, mav.srcSystem, mav.srcComponent, self.msgid & 0xFFFF, self.msgid >> 16
-        )
-        body = head[1:] + payload[:plen]
-        crc = mavlink.x25crc(body + self.crc_extra).crc
+        if self._pack_as_given:
+            payload = self.struct.pack(*values)
+        elif self._to_wire is not None:
+            payload = self.struct.pack(*self._to_wire(values))
+        else:
+            flat: list = []
+            for i, n in self.wire:
+                if n == 0:
+                    flat.append(values[i])
+                else:
+                    flat.extend(values[i])
+            payload = self.struct.pack(*flat)
+        payload = payload.rstrip(b"\0") or payload[:1]  # MAVLink 2 trims trailing zeros, keeping one byte
+        msgid = self.msgid
+        body = _HEADER.pack(len(payload), 0, 0, mav.seq, mav.srcSystem, mav.srcComponent, msgid & 0xFFFF, msgid >> 16)
+        body += payload
+        crc = x25_crc(body + self.crc_extra)
         mav.seq = (mav.seq + 1) % 256
         mav.total_packets_sent += 1
         return b"\xfd" + body + _CRC.pack(crc)
+
+
+_NUMERIC: dict[type, MessageLayout | None] = {}
+
+
+def numeric_layout(cls: type) -> MessageLayout | None:
+    """The layout of a message class pymavlink generated whose fields are all numbers (no ``char`` arrays,
+    which pymavlink's ``pack`` encodes from ``str``); None for any other class (one that packs itself, a
+    subclass).  Its :meth:`MessageLayout.encode` writes what pymavlink's ``msg.pack(mav)`` writes."""
+    try:
+        return _NUMERIC[cls]
+    except KeyError:
+        generated = mavlink.mavlink_map.get(getattr(cls, "id", None)) is cls
+        unpacker = getattr(cls, "unpacker", None)  # pymavlink's struct.Struct of the wire layout
+        layout = MessageLayout(cls) if generated and unpacker is not None and "s" not in unpacker.format else None
+        _NUMERIC[cls] = layout
+        return layout
 
 
 class StreamParser:
@@ -118,7 +156,7 @@ class StreamParser:
                 i = end
                 continue
             crc = _CRC.unpack_from(buf, end - CRC_LEN)[0]
-            if mavlink.x25crc(bytes(buf[i + 1 : end - CRC_LEN]) + layout.crc_extra).crc != crc:
+            if x25_crc(bytes(buf[i + 1 : end - CRC_LEN]) + layout.crc_extra) != crc:
                 slow_from = i  # damaged: pymavlink resynchronises and reports it
                 break
             out.append(layout.decode(buf[i:end], plen))

@@ -15,6 +15,8 @@ a 500 us budget against 9.8-10.6x with 100 us or none (three alternating runs ea
 
 from __future__ import annotations
 
+import math
+import select
 import socket
 import time
 
@@ -22,13 +24,24 @@ SPIN_BUDGET_S = 0.0001  # s
 
 
 class SpinReceiver:
+    """Receives on a blocking socket: spins on non-blocking reads for the budget, then waits in ``poll``.
+
+    The socket stays blocking (its timeout None) so that ``sendall`` on it blocks as usual; the waits
+    with a timeout are ``poll`` calls, never ``settimeout`` (a socket with a timeout makes even a
+    MSG_DONTWAIT read wait up to the timeout first, which turned the spin into a sleep).
+    """
+
     def __init__(self, sock: socket.socket, spin_budget_s: float = SPIN_BUDGET_S) -> None:
         self.sock = sock
         self.budget = spin_budget_s
         self._spin = True
+        self._poll = select.poll()
+        self._poll.register(sock, select.POLLIN)
 
     def recv(self, bufsize: int = 65536, timeout_s: float | None = None) -> bytes:
         """Like ``sock.recv``; raises ``socket.timeout`` after ``timeout_s`` (None: wait forever)."""
+        if self.sock.gettimeout() is not None:
+            self.sock.settimeout(None)  # blocking (someone set a timeout on it since)
         start = time.perf_counter()
         if self._spin:
             deadline = start + self.budget
@@ -38,7 +51,9 @@ class SpinReceiver:
                 except BlockingIOError:
                     if time.perf_counter() > deadline:
                         break
-        self.sock.settimeout(timeout_s)
-        data = self.sock.recv(bufsize)
+        wait_ms = None if timeout_s is None else max(0, math.ceil(timeout_s * 1000.0))
+        if not self._poll.poll(wait_ms):
+            raise TimeoutError("timed out")  # socket.timeout is TimeoutError
+        data = self.sock.recv(bufsize)  # readable (or closed: b"", or an error raised)
         self._spin = time.perf_counter() - start < self.budget * 2
         return data

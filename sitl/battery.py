@@ -59,7 +59,7 @@ class Battery:
         rotors).  ``min_frac``: the charge never falls below this fraction, and rises to it when it is
         raised above the charge (SIM_BAT_MIN_PCT).
         """
-        ocv = self.open_circuit_v()
+        ocv = self.cells * cell_ocv_v(max(0.0, 1.0 - self.used_as / self.capacity_as))  # open_circuit_v()
         self.current_a = self.idle_current_a + shaft_power_w / self.efficiency / max(ocv, 1.0)
         self.voltage_v = ocv - self.current_a * self.r_ohm
         self.used_as += self.capacity_as * dt_s / drain_s if drain_s > 0.0 else self.current_a * dt_s

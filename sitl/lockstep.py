@@ -50,6 +50,8 @@ from sitl.ugv_world import ugv_truth_messages
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
 _HIL_SENSOR = MessageLayout(mavlink.MAVLink_hil_sensor_message)
+_HIL_STATE_QUATERNION = MessageLayout(mavlink.MAVLink_hil_state_quaternion_message)
+_LOCAL_POSITION_NED = MessageLayout(mavlink.MAVLink_local_position_ned_message)
 
 
 def _int16(x: float) -> int:
@@ -293,27 +295,16 @@ class LockstepServer:
         lat, lon, alt = ned_to_geodetic(t.pos_ned_m, *self.sim.sensors.home)
         vn, ve, vd = t.vel_ned_m_s.tolist()
         ax, ay, az = (t.accel_ned_m_s2 * (1000.0 / GRAVITY_M_S2)).tolist()  # mG
-        msgs = [
-            mavlink.MAVLink_hil_state_quaternion_message(
-                t.time_us,
-                t.q_ned_frd.tolist(),
-                *t.rate_frd_rad_s.tolist(),
-                round(lat * 1e7),
-                round(lon * 1e7),
-                round(alt * 1000),
-                _int16(vn * 100),
-                _int16(ve * 100),
-                _int16(vd * 100),
-                0,
-                0,
-                _int16(ax),
-                _int16(ay),
-                _int16(az),
-            ),
-            mavlink.MAVLink_local_position_ned_message(t.time_us // 1000, *t.pos_ned_m.tolist(), vn, ve, vd),
-        ]
+        p, q, r = t.rate_frd_rad_s.tolist()
+        x, y, z = t.pos_ned_m.tolist()
         server = self.param_server
-        server.send(server.encode(msgs))
+        mav = server.mav  # the component's own encoder: its sequence numbers go on
+        state = (t.time_us, t.q_ned_frd.tolist(), p, q, r, round(lat * 1e7), round(lon * 1e7), round(alt * 1000))
+        state += (_int16(vn * 100), _int16(ve * 100), _int16(vd * 100), 0, 0, _int16(ax), _int16(ay), _int16(az))
+        server.send(
+            _HIL_STATE_QUATERNION.encode(mav, state)
+            + _LOCAL_POSITION_NED.encode(mav, (t.time_us // 1000, x, y, z, vn, ve, vd))
+        )
         ugv = self.sim.ugv_truth()
         if ugv is not None:  # the ground vehicle, as its own component (UGV_COMPID)
             server.send(server.encode(ugv_truth_messages(ugv), compid=UGV_COMPID))

@@ -98,6 +98,8 @@ class Multicopter:
         self.wind = WindModel(wind, seed=seed * 7919 + 1)  # the turbulence this vehicle meets
         self.sensors = SensorSuite(*home, seed=seed, settings=sensors)
         self.wind_enu = (0.0, 0.0, 0.0)
+        self._failure: tuple | None = None  # (motor, efficiency) last applied to the rotors' efficiency list
+        self._failure_list: list[float] | None = None
         self.start_xy_enu = (0.0, 0.0)  # set by the world once the vehicle has settled on its legs
 
     def settled(self, data: mujoco.MjData) -> None:
@@ -106,9 +108,14 @@ class Multicopter:
         self.start_xy_enu = tuple(data.qpos[a : a + 2].tolist())
 
     def apply_motor_failure(self) -> None:
+        """The rotors' efficiencies from SIM_MOT_FAIL/SIM_MOT_EFF (set again only when those change)."""
         m, eff = self.motor_settings, self.rotors.efficiency
+        key = (m.fail_motor, m.fail_efficiency)
+        if key == self._failure and eff is self._failure_list:
+            return
         for i in range(self.rotors.n):
             eff[i] = m.fail_efficiency if i + 1 == m.fail_motor else 1.0
+        self._failure, self._failure_list = key, eff
 
     def apply_aerodynamics(self, d: mujoco.MjData, dt_s: float) -> None:
         """Wind for this step, then rotor drag, rolling moment and body drag as an external wrench."""

@@ -161,10 +161,9 @@ class SimParamServer:
         self.endpoint.send_datagram(data)
 
     def encode(self, msgs: Iterable[mavlink.MAVLink_message], compid: int | None = None) -> bytes:
-        """Messages packed as this component, or as ``compid`` of the same system (the UGV's truth)."""
-        if compid is None or compid == self.mav.srcComponent:
-            return b"".join(m.pack(self.mav) for m in msgs)
-        mav = self._others.get(compid)
+        """Messages packed as this component, or as ``compid`` of the same system (the UGV's truth), each with
+        the next sequence number of its encoder (as ``mav.send`` numbers them)."""
+        mav = self.mav if compid is None or compid == self.mav.srcComponent else self._others.get(compid)
         if mav is None:
             mav = self._others[compid] = mavlink.MAVLink(None, self.mav.srcSystem, compid)
         out = b""
@@ -174,7 +173,7 @@ class SimParamServer:
         return out
 
     def send_message(self, msg: mavlink.MAVLink_message) -> None:
-        self.send(msg.pack(self.mav))
+        self.send(self.encode((msg,)))
 
     def send_statustext(self, severity: int, text: str) -> None:
         """STATUSTEXT (MAV_SEVERITY), cut into 50-byte chunks with a common id when longer."""

@@ -102,7 +102,7 @@ class World:
     def step(self, motor_commands: Sequence[np.ndarray]) -> None:
         """Advance one lockstep period with each vehicle's motor commands 0..1 (one per rotor), in vehicle order."""
         vehicles, d = self.vehicles, self.data
-        cmds = [np.asarray(c, dtype=float)[: v.rotors.n].tolist() for v, c in zip(vehicles, motor_commands)]
+        cmds = [[float(x) for x in c[: v.rotors.n]] for v, c in zip(vehicles, motor_commands)]  # as numpy's float()
         for v in vehicles:
             v.apply_motor_failure()
         if self.ugv is not None:

@@ -32,11 +32,11 @@ async def mavsdk_params(port: int) -> dict:
         seen["int_before"] = await param.get_param_int("SYS_AUTOSTART")
         await param.set_param_int("SYS_AUTOSTART", 4005)
         seen["int_after"] = await param.get_param_int("SYS_AUTOSTART")
-        seen["float_before"] = await param.get_param_float("MPC_XY_P")
+        seen["float_before"] = before = await param.get_param_float("MPC_XY_P")
         await param.set_param_float("MPC_XY_P", 1.15)
         seen["float_after"] = await param.get_param_float("MPC_XY_P")
         await param.set_param_int("SYS_AUTOSTART", 4001)
-        await param.set_param_float("MPC_XY_P", 0.95)
+        await param.set_param_float("MPC_XY_P", before)
     return seen
 
 

@@ -34,7 +34,7 @@ def undocumented_options(help_text: str) -> list[str]:
 
 def test_the_benchmarks_are_found():
     names = {p.stem for p in SCRIPTS}
-    assert {"flight_benchmark", "landing_benchmark", "vehicle_benchmark", "estimator_cost"} <= names
+    assert {"flight_benchmark", "landing_benchmark", "vehicle_benchmark", "estimator_cost", "profile_lockstep"} <= names
 
 
 def test_undocumented_options_finds_an_option_without_help():

@@ -66,7 +66,7 @@ class Bench:
         on_ground = self.pos[2] >= 0.0
         climbing = sp is not None and math.isfinite(sp[2]) and sp[2] < -0.01
         frac = 1.0 if self.cmd.status.armed and (not on_ground or climbing) else 0.3
-        return ActuatorStatus(self.t_us, (frac,) * 4, 0.0, frac * 0.5, frac)
+        return ActuatorStatus(self.t_us, (frac * 0.5,) * 4, 0.0, frac * 0.5, frac)  # hover at half the range
 
     def _follow(self, sp) -> None:
         old = self.pos.copy()

@@ -132,7 +132,7 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
     )
     assert math.hypot(out["goto_pos"][0] - 15.0, out["goto_pos"][1]) < 0.5
     assert abs(out["goto_yaw"] - 90.0) < 5.0, f"faces {out['goto_yaw']:.1f} deg, not east"
-    assert out["cruise_speed"] == pytest.approx(3.0, abs=0.3)  # MPC_XY_CRUISE
+    assert out["cruise_speed"] == pytest.approx(5.0, abs=0.3)  # MPC_XY_CRUISE (default)
     assert out["changed_speed"] == pytest.approx(4.5, abs=0.3)
     assert out["orbit_mode"] == "POSCTL"  # PX4's orbit: main mode POSCTL (sub-mode ORBIT), as MAVSDK shows it
     assert min(radii) > 7.0 and max(radii) < 9.0, (min(radii), max(radii))

@@ -12,9 +12,12 @@ after another in this order (a quadcopter that lost a motor ends upside down, so
    GPS height (EKF2_BARO_GATE), says so, clears the SYS_STATUS barometer bit and flies on the GPS
    height, so the true altitude stays near the one held; the barometer is healthy again once it
    agrees again;
-4. a motor stops (``SIM_ENGINE_FAIL``) in a hover: the failure detector (FD_FAIL_R/FD_FAIL_P,
-   FD_FAIL_R_TTRI/FD_FAIL_P_TTRI) reports the loss of control within two seconds, HEARTBEAT says
-   EMERGENCY, and the vehicle is disarmed once it lies on the ground (FS_CRASH_CHECK).
+4. a motor stops (``SIM_ENGINE_FAIL``) in a hover: the failure detector reports it within two seconds,
+   HEARTBEAT says EMERGENCY, and the vehicle is disarmed once it lies on the ground (FS_CRASH_CHECK).
+   With the designed gains quad_x comes down upright (the mixer gives up thrust to stay level), so
+   the thrust-loss check finds it (descending at full throttle, level, for 1 s) and names motor 1;
+   a vehicle that flips is found by the attitude checks (FD_FAIL_R/FD_FAIL_P, unit-tested in
+   tests/test_failure_detector.py) and disarmed by the same crash check.
 
 Durations are simulated seconds; wall-clock timeouts are safety nets only.
 """
@@ -139,8 +142,8 @@ def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(vehicle):
 
 def test_a_motor_lost_in_a_hover_is_reported_at_once_and_the_wreck_disarmed(vehicle):
     """PX4's defaults: CBRK_FLIGHTTERM 121212 (no flight termination), so the detector reports (CRITICAL
-    STATUSTEXT, HEARTBEAT EMERGENCY) and the motors run on while the vehicle falls; lying on the ground
-    it is disarmed (FS_CRASH_CHECK)."""
+    STATUSTEXT, HEARTBEAT EMERGENCY) and the motors run on while the vehicle falls; on the ground, where
+    the position controller would keep its motors at full thrust, it is disarmed (FS_CRASH_CHECK)."""
     client, truth = vehicle
     assert client.param_get("CBRK_FLIGHTTERM") == 121212
     hold = take_off(client, truth)
@@ -163,6 +166,8 @@ def test_a_motor_lost_in_a_hover_is_reported_at_once_and_the_wreck_disarmed(vehi
         f"{t_ground - t0:.2f} s later, disarmed {disarmed and disarmed.sim_time_s - t0:.2f} s later: {texts}"
     )
     assert found[0].severity == mavlink.MAV_SEVERITY_CRITICAL
+    if "thrust loss" in found[0].text:  # (upright: the mixer's outputs name the motor; flipped: roll or pitch)
+        assert "likely motor 1" in found[0].text, found[0].text
     assert found[0].sim_time_s - t0 < 2.0, f"found {found[0].sim_time_s - t0:.1f} s after the motor stopped"
     assert disarmed is not None and not client.armed(), f"still armed on the ground ({texts})"
     states = [m.system_status for m in rec.of("HEARTBEAT") if m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED]

@@ -159,7 +159,7 @@ def test_a_stranger_cannot_stop_the_heartbeat_and_its_rates_stay_on_its_endpoint
 def test_a_rate_gain_cannot_be_zeroed_in_flight(stack, truth, pilot):
     hovering(stack, truth, pilot)
     default = pilot.param_get("MC_ROLLRATE_P")
-    assert default == pytest.approx(12.0)
+    assert default > 0.0  # the vehicle file's (design-gains)
     texts = len(pilot.texts)
     t0 = sim_ms(truth)
     assert pilot.param_set("MC_ROLLRATE_P", 0.0) == pytest.approx(default)  # refused: the old value echoed

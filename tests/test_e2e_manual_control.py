@@ -6,6 +6,13 @@ steer.  In POSCTL full forward stick flies at MPC_VEL_MANUAL and centred sticks 
 ALTCTL forward stick tilts the vehicle and accelerates it forward and centred sticks hold the altitude;
 ``gcs fly`` with a key script holding ``w`` moves the vehicle forward.  Where the vehicle went is the
 simulator's ground truth; durations are simulated seconds (truth time), wall clock only as a safety net.
+
+The sticks stream at 25 Hz of wall time while the vehicle flies at up to ~20x real time: one message per
+~0.8 simulated seconds on a quiet machine, many more on a loaded one.  The flight controller holds the latest
+sticks (their loss is judged on both clocks, ``autopilot.topics.input_age_s``), so a sparse stream flies the
+same; what the stream's density changes is WHEN (in simulated time) a stick move reaches the vehicle, and
+when this test notices a mode change.  So a move is sent at once (:meth:`Sticks.move`), and what is measured
+starts at a moment found in the truth (the response's onset), never at a wall-clock moment.
 """
 
 from __future__ import annotations
@@ -59,6 +66,11 @@ class Sticks:
         await self.mc.set_manual_control_input(*self.value)  # MAVSDK switches modes only once it has input
         self._task = asyncio.ensure_future(self._run())
 
+    async def move(self, value: tuple[float, float, float, float]) -> None:
+        """Move the sticks to ``value``: sent now (not at the stream's next wall-clock tick), then streamed."""
+        self.value = value
+        await self.mc.set_manual_control_input(*value)
+
     async def stop(self) -> None:
         if self._task is not None:
             self._task.cancel()
@@ -84,12 +96,12 @@ async def _session(stack, body):
         await sticks.start()
         try:
             result = await body(system, tel, action, sticks)
-            await action.return_to_launch()
+            await action.land()  # where it is: the next test takes off from there
 
             async def disarmed():
                 return not await tel.armed()
 
-            await until(disarmed, WAIT_S, "disarmed after the return")  # sticks keep coming: no RC loss
+            await until(disarmed, WAIT_S, "disarmed after the landing")  # sticks keep coming: no RC loss
             return result
         finally:
             await sticks.stop()
@@ -114,16 +126,16 @@ def test_posctl_throttle_takes_off_full_stick_flies_mpc_vel_manual_centred_holds
         out = {}
         await sticks.mc.start_position_control()  # disarmed: accepted, acts once armed
         await _mode(tel, FlightMode.POSCTL)
-        sticks.value = (0.0, 0.0, 0.8, 0.0)  # throttle up: climb from the ground
+        await sticks.move((0.0, 0.0, 0.8, 0.0))  # throttle up: climb from the ground
         await action.arm()
         await _altitude_above(tel, 4.0)
-        sticks.value = (0.0, 0.0, 0.5, 0.0)
+        await sticks.move((0.0, 0.0, 0.5, 0.0))
         await sim_sleep(truth, 3.0)
-        sticks.value = (1.0, 0.0, 0.5, 0.0)  # full forward
+        await sticks.move((1.0, 0.0, 0.5, 0.0))  # full forward
         t_settled = await sim_sleep(truth, 5.0)
         t_end = await sim_sleep(truth, 5.0)
         out["speeds"] = [math.hypot(*s.vel_ned_m_s[:2]) for s in truth.since(t_settled) if s.time_ms <= t_end]
-        sticks.value = (0.0, 0.0, 0.5, 0.0)  # centred: brake and hold
+        await sticks.move((0.0, 0.0, 0.5, 0.0))  # centred: brake and hold
         t_hold = await sim_sleep(truth, 3.0)
         await sim_sleep(truth, 10.0)
         out["hold"] = [s.pos_ned_m for s in truth.since(t_hold)]
@@ -144,7 +156,27 @@ def test_posctl_throttle_takes_off_full_stick_flies_mpc_vel_manual_centred_holds
     assert drift <= 0.3 and climb <= 0.3
 
 
+def _at(truth, t_ms: int):
+    """The first truth sample at or after ``t_ms`` (the caller has waited past it)."""
+    return truth.since(t_ms)[0]
+
+
+def _fwd_side(vel_ned_m_s, yaw: float) -> tuple[float, float]:
+    """A horizontal NED vector in the heading frame: (forward, right)."""
+    n, e = vel_ned_m_s[0], vel_ned_m_s[1]
+    return n * math.cos(yaw) + e * math.sin(yaw), -n * math.sin(yaw) + e * math.cos(yaw)
+
+
+ONSET_M_S = 0.3  # a stick move has reached the vehicle once the speed it asks for has changed this much
+
+
 def test_altctl_forward_stick_tilts_and_accelerates_centred_holds_altitude(stack, truth):
+    """ALTCTL does not hold the horizontal velocity (as in PX4): with centred sticks the vehicle levels on its
+    attitude estimate and drifts with what that estimate gets wrong (the accelerometer's bias: about
+    0.1 m/s^2 here), so the speed a fixed time after the switch depends on how long that time truly was.
+    Measured instead: the horizontal acceleration with centred sticks (small) and with the forward stick (the
+    commanded tilt), each over a window of simulated time that begins at a moment found in the truth."""
+
     async def body(system, tel, action, sticks):
         out = {}
         await action.set_takeoff_altitude(5.0)
@@ -154,30 +186,50 @@ def test_altctl_forward_stick_tilts_and_accelerates_centred_holds_altitude(stack
         await _mode(tel, FlightMode.HOLD)
         await sticks.mc.start_altitude_control()
         await _mode(tel, FlightMode.ALTCTL)
-        t0 = await sim_sleep(truth, 2.0)
-        out["yaw"] = truth_yaw(truth)
-        out["before"] = truth.latest()
-        sticks.value = (0.4, 0.0, 0.5, 0.0)  # forward: (0.4 - 0.1) / 0.9 of MPC_MAN_TILT_MAX
-        await sim_sleep(truth, 2.0)
-        out["after"] = truth.latest()
-        sticks.value = (-0.4, 0.0, 0.5, 0.0)  # back as long: about stopped
-        await sim_sleep(truth, 2.0)
-        sticks.value = (0.0, 0.0, 0.5, 0.0)
+        out["t_alt"] = t_alt = sim_ms(truth)  # in ALTCTL since this moment at least (noticed by polling)
+        out["t_fwd"] = await sim_sleep(truth, 2.0)  # centred sticks
+        out["yaw"] = yaw = truth_yaw(truth)
+        v0 = _fwd_side(_at(truth, out["t_fwd"]).vel_ned_m_s, yaw)[0]
+        await sticks.move((0.4, 0.0, 0.5, 0.0))  # forward: (0.4 - 0.1) / 0.9 of MPC_MAN_TILT_MAX
+
+        async def moving():
+            return _fwd_side(truth.latest().vel_ned_m_s, yaw)[0] > v0 + ONSET_M_S
+
+        await until(moving, WAIT_S, "the forward stick's acceleration", period_s=0.005)
+        out["t_on"] = truth.latest().time_ms
+        await sim_sleep(truth, 1.0)
+        await sticks.move((-0.4, 0.0, 0.5, 0.0))  # back: until about stopped
+
+        async def stopped():
+            return _fwd_side(truth.latest().vel_ned_m_s, yaw)[0] < ONSET_M_S
+
+        await until(stopped, WAIT_S, "stopped by the back stick", period_s=0.005)
+        await sticks.move((0.0, 0.0, 0.5, 0.0))
         t_hold = await sim_sleep(truth, 2.0)
         await sim_sleep(truth, 10.0)
-        out["alt_all"] = [-s.pos_ned_m[2] for s in truth.since(t0)]
+        out["alt_all"] = [-s.pos_ned_m[2] for s in truth.since(t_alt)]
         out["alt_hold"] = [-s.pos_ned_m[2] for s in truth.since(t_hold)]
+        out["samples"] = truth.since(t_alt)
         return out
 
     out = asyncio.run(_session(stack, body))
     stack.check_alive()
-    yaw, before, after = out["yaw"], out["before"], out["after"]
-    fwd = (math.cos(yaw), math.sin(yaw))
-    v_fwd = after.vel_ned_m_s[0] * fwd[0] + after.vel_ned_m_s[1] * fwd[1]
-    v_side = -after.vel_ned_m_s[0] * fwd[1] + after.vel_ned_m_s[1] * fwd[0]
-    print(f"ALTCTL after 2 s forward stick: forward {v_fwd:.2f} m/s, sideways {v_side:.2f} m/s")
-    assert v_fwd > 1.0 and abs(v_side) < 0.3 * v_fwd  # accelerated forward (tilt g tan(11.7 deg) = 2 m/s^2)
-    assert math.hypot(*before.vel_ned_m_s[:2]) < 0.3
+
+    def acc(t_a: int, t_b: int) -> tuple[float, float]:
+        """Mean (forward, right) acceleration between two truth times, m/s^2."""
+        a, b = (next(s for s in out["samples"] if s.time_ms >= t) for t in (t_a, t_b))
+        dt = (b.time_ms - a.time_ms) / 1000.0
+        fwd_a, right_a = _fwd_side(a.vel_ned_m_s, out["yaw"])
+        fwd_b, right_b = _fwd_side(b.vel_ned_m_s, out["yaw"])
+        return (fwd_b - fwd_a) / dt, (right_b - right_a) / dt
+
+    drift = math.hypot(*acc(out["t_alt"], out["t_fwd"]))
+    a_fwd, a_side = acc(out["t_on"], out["t_on"] + 1000)
+    print(f"ALTCTL centred sticks: {drift:.3f} m/s^2 over {(out['t_fwd'] - out['t_alt']) / 1000:.1f} s; "
+          f"forward stick: forward {a_fwd:.2f} m/s^2, sideways {a_side:.2f} m/s^2")  # fmt: skip
+    assert drift < 0.3  # levelled: a tenth of the 2 m/s^2 the forward stick asks for
+    # tilt g tan(11.7 deg) = 2.0 m/s^2, less the drag: accelerated forward, not sideways
+    assert 1.2 < a_fwd < 2.4 and abs(a_side) < 0.3 * a_fwd
     hold = out["alt_hold"]
     print(f"ALTCTL altitude: held within {max(hold) - min(hold):.3f} m, whole flight within "
           f"{max(out['alt_all']) - min(out['alt_all']):.3f} m")  # fmt: skip
@@ -227,7 +279,7 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(stack, truth, tmp_path):
         )
         out["samples"] = truth.since(out["t0"])
         out["mode"] = await tel.flight_mode()
-        await sticks.start()  # sticks again while returning (no manual-control loss)
+        await sticks.start()  # sticks again while landing (no manual-control loss)
         await ParamAsync(system).set_param_int("NAV_RCL_ACT", 2)
         return out
 

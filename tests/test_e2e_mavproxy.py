@@ -41,9 +41,12 @@ NOTES = os.urandom(50_000)  # a file put in the log directory, read back by the 
 
 @pytest.fixture(scope="module")
 def stack(inst):
+    """The stack at real time (``--speed 1``), as a person runs it beside MAVProxy: nothing here flies, and at
+    ``max`` it would step as fast as it can, taking the CPU from the clients under test (MAVProxy takes seconds
+    to start; their FTP and parameter timeouts are wall-clock ones)."""
     from gcs.client import VehicleClient
 
-    with Stack(instance=inst, speed="max") as s:
+    with Stack(instance=inst, speed=1) as s:
         (s.log_dir / "notes.bin").write_bytes(NOTES)
         with VehicleClient(s.api_url, timeout_s=WAIT_S, idle=s.check_alive):
             pass  # running: clients connect to a vehicle that is up, as a user's do
@@ -221,11 +224,33 @@ async def _mavsdk_files(stack, into) -> dict:
         out["names"] = {p.name for p in every.int_params + every.float_params}
         meta = ComponentMetadataAsync(system)
         await meta.request_autopilot_component()
-        async for update in meta.subscribe_metadata_available():
-            if update.type == MetadataType.PARAMETER:
-                out["parameters"] = json.loads(update.json_metadata)
-                break
+        out["parameters"] = await _parameter_metadata(meta, MetadataType)
     return out
+
+
+async def _parameter_metadata(meta, types) -> dict | str:
+    """The parameter metadata MAVSDK fetched (COMPONENT_METADATA, then the files over FTP), or why not.
+
+    MAVSDK reports each metadata type it got, then ALL_COMPLETED; a file it could not download (its FTP
+    timeouts are wall-clock ones) is simply missing before ALL_COMPLETED.  If its COMPONENT_METADATA request
+    gets no answer at all (the vehicle silent for all its retries: a stall of some 6-12 s of wall time, found
+    by SIGSTOPping the flight controller), MAVSDK 4.1 reports nothing ever ("Unexpected component ID 0"): the
+    wait below is bounded so that the failure names that, not a bare TimeoutError."""
+    found: dict | str = "no PARAMETER metadata before ALL_COMPLETED"
+
+    async def collect() -> None:
+        nonlocal found
+        async for update in meta.subscribe_metadata_available():
+            if update.type == types.PARAMETER:
+                found = json.loads(update.json_metadata)
+            elif update.type == types.ALL_COMPLETED:
+                return
+
+    try:
+        await asyncio.wait_for(collect(), WAIT_S / 2)
+    except asyncio.TimeoutError:
+        found = f"MAVSDK never completed the autopilot's component metadata in {WAIT_S / 2:g} s (wall)"
+    return found
 
 
 async def _get(ftp, path, into) -> None:
@@ -233,9 +258,15 @@ async def _get(ftp, path, into) -> None:
         pass
 
 
-def test_mavsdk_ftp_and_component_metadata(stack, tmp_path):
+def test_mavsdk_ftp_and_component_metadata(stack, tmp_path, monkeypatch):
     pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
+    # MAVSDK caches metadata files under $HOME/.cache/mavsdk by their CRC: a home of its own, so that the
+    # files are fetched over FTP here, not read from what an earlier run left.
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home").mkdir()
     got = asyncio.run(asyncio.wait_for(_mavsdk_files(stack, tmp_path), WAIT_S))
+    assert isinstance(got["parameters"], dict), got["parameters"]
+    assert any((tmp_path / "home" / ".cache" / "mavsdk").rglob("*.cache")), "no metadata file fetched"
     assert got["root"] == {("log", "DIRECTORY"), ("component_metadata", "DIRECTORY")}
     assert got["log"]["notes.bin"] == len(NOTES) and "autopilot.log" in got["log"]
     assert (tmp_path / "notes.bin").read_bytes() == NOTES  # MAVSDK's burst download

@@ -35,6 +35,11 @@ from params.param_file import QGC, read_param_file
 from e2e_flight_helpers import WAIT_S, texts_since  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
+
+# quad_x's MPC_XY_P as its vehicle file sets it (the design-gains block), the value a lost state file falls back to.
+XY_P = float(
+    read_param_file(Path(__file__).resolve().parents[1] / "params" / "vehicles" / "quad_x.params").values()["MPC_XY_P"]
+)
 BURST = 100  # PARAM_SETs sent at once
 ROUNDS = 4  # each chosen parameter is set this many times, to a new value each time
 
@@ -113,6 +118,7 @@ def test_every_acknowledged_value_survives_a_kill(stack, client, state_dir):
     names = burst_parameters()
     store = default_store()
     client.param_get("MPC_XY_P")  # the vehicle answers: its link runs
+    vehicle_defaults = {name: client.param_get(name) for name in names}  # the vehicle file's, put back at the end
     sets = [
         (name, f32(store.default(name) * (1.0 + 0.04 * (r + 1) + 0.001 * i)))
         for r in range(ROUNDS)
@@ -158,8 +164,8 @@ def test_every_acknowledged_value_survives_a_kill(stack, client, state_dir):
     lost = {name: (value, after[name]) for name, value in echoed.items() if after[name] != value}
     assert not lost, f"acknowledged values lost by the kill (echoed, after restart): {lost}"
     assert after == final  # every last value was echoed, so every one must be there
-    for name in names:  # leave the defaults
-        client.param_set(name, store.default(name))
+    for name in names:  # leave the vehicle's defaults
+        client.param_set(name, vehicle_defaults[name])
 
 
 def test_a_corrupt_state_file_is_kept_reported_and_replaced_by_defaults(stack, client, state_dir):
@@ -179,7 +185,7 @@ def test_a_corrupt_state_file_is_kept_reported_and_replaced_by_defaults(stack, c
     restart_after_kill(stack, client, damage)
     corrupt = path.with_name(path.name + ".corrupt")
     assert corrupt.exists() and corrupt.read_bytes() == garbage, sorted(p.name for p in state_dir.iterdir())
-    assert client.param_get("MPC_XY_P") == pytest.approx(0.95)  # the default
+    assert client.param_get("MPC_XY_P") == pytest.approx(XY_P)  # the vehicle's default
     assert not stale.exists() and not stale_plan.exists() and others.exists()
     client.wait_until(
         lambda: any("corrupt" in t for t in texts_since(client, texts_before)), WAIT_S, "a STATUSTEXT about it"
@@ -209,4 +215,4 @@ def test_a_failed_save_is_reported_and_the_value_still_used(stack, client, state
         shutil.rmtree(path)
     assert client.param_set("MPC_XY_P", 1.25) == pytest.approx(1.25)
     assert read_param_file(path, QGC).values()["MPC_XY_P"] == pytest.approx(1.25)  # saved before the echo
-    client.param_set("MPC_XY_P", 0.95)
+    client.param_set("MPC_XY_P", XY_P)

@@ -53,6 +53,10 @@ from e2e_params_clients import WAIT_S, MavproxySession, mavsdk_params  # tests/e
 
 pytestmark = pytest.mark.e2e
 
+# The vehicle's own default of MPC_XY_P (quad_x's design-gains block), which the tests change and put back.
+XY_P = float(read_param_file(ROOT / "params" / "vehicles" / "quad_x.params").values()["MPC_XY_P"])
+ROLLRATE_P = float(read_param_file(ROOT / "params" / "vehicles" / "quad_x.params").values()["MC_ROLLRATE_P"])
+
 STARTUP_PARAMS = (
     "# start-up file of the end-to-end test (QGroundControl format)\n"
     "1\t1\tMC_ROLL_P\t7\t9\n"
@@ -130,7 +134,7 @@ def wait_for(predicate, timeout_s: float = WAIT_S, what: str = "a condition"):
 
 def test_startup_param_file_applied_and_bad_lines_reported(stack, client):
     assert client.param_get("MC_ROLL_P") == pytest.approx(7.0)
-    assert client.param_get("MPC_XY_P") == pytest.approx(0.95)  # 50 was refused
+    assert client.param_get("MPC_XY_P") == pytest.approx(XY_P)  # 50 was refused
     log = stack.tail("autopilot", 200)
     assert "line 3: unknown parameter NO_SUCH_PARAM" in log
     assert "line 4: MPC_XY_P: 50 outside range [0, 2] 1/s" in log
@@ -199,13 +203,13 @@ def test_set_and_read_back_int32_and_real32(client):
     finally:
         client.remove_listener(note)
         client.param_set("SYS_AUTOSTART", 4001)
-        client.param_set("MPC_XY_P", 0.95)
+        client.param_set("MPC_XY_P", XY_P)
 
 
 def test_refused_sets_are_answered_and_change_nothing(client):
     before = {p.name: p.value for p in client.param_list()}
     n_texts = len(client.statustexts)
-    with pytest.raises(ParamRefused, match=r"MPC_XY_P not set to 5.0: vehicle kept 0.95.*outside range \[0, 2\]"):
+    with pytest.raises(ParamRefused, match=rf"MPC_XY_P not set to 5.0: vehicle kept {XY_P:g}.*outside range \[0, 2\]"):
         client.param_set("MPC_XY_P", 5.0)
     with pytest.raises(ParamRefused, match="vehicle kept 4001 .*SYS_AUTOSTART is INT32, not REAL32"):
         client.param_set("SYS_AUTOSTART", 4010.0, param_type=mavlink.MAV_PARAM_TYPE_REAL32)
@@ -232,7 +236,7 @@ def test_values_persist_across_a_restart(stack, client, state_dir):
     assert saved["SYS_AUTOSTART"] == 4003 and saved["MC_ROLLRATE_P"] == pytest.approx(14.5)
     assert "saved parameters:" in stack.tail("autopilot", 40)
 
-    client.param_set("MC_ROLLRATE_P", 12.0)
+    client.param_set("MC_ROLLRATE_P", ROLLRATE_P)
     client.param_set("SYS_AUTOSTART", 4001)
     wait_for(lambda: set(state_values(state_dir, stack)) == {"MC_ROLL_P"}, what="defaults dropped from the state file")
 
@@ -245,7 +249,7 @@ def test_gcs_param_list_get_set(stack, client):
     assert p.returncode == 0, p.stderr
     lines = p.stdout.splitlines()
     assert lines[0].startswith("MPC_XY_CRUISE") and all(line.startswith("MPC_XY_") for line in lines)
-    assert "MPC_XY_P         0.95" in lines
+    assert f"MPC_XY_P         {XY_P:g}" in lines
     assert re.search(r"downloaded \d+ parameters in \d+\.\d\d s", p.stderr)
     p = run_gcs(stack, "param", "set", "MPC_XY_P", "1.1")
     assert p.returncode == 0 and p.stdout.strip() == "MPC_XY_P = 1.1", p.stderr
@@ -253,7 +257,7 @@ def test_gcs_param_list_get_set(stack, client):
     assert p.returncode == 0 and p.stdout.strip() == "MPC_XY_P = 1.1"
     p = run_gcs(stack, "param", "set", "MPC_XY_P", "7")
     assert p.returncode == 1 and "outside range" in p.stderr
-    client.param_set("MPC_XY_P", 0.95)
+    client.param_set("MPC_XY_P", XY_P)
 
 
 def test_qgc_file_round_trips_through_gcs_param_save_and_load(stack, client, tmp_path):
@@ -271,13 +275,13 @@ def test_qgc_file_round_trips_through_gcs_param_save_and_load(stack, client, tmp
     p = run_gcs(stack, "param", "diff", str(saved))
     assert p.returncode == 0, p.stderr
     diff = {line.split()[0]: line.split()[1:] for line in p.stdout.splitlines()[1:]}
-    assert diff == {"MPC_XY_P": ["0.95", "1.1"], "SYS_AUTOSTART": ["4001", "4004"]}
+    assert diff == {"MPC_XY_P": [f"{XY_P:g}", "1.1"], "SYS_AUTOSTART": ["4001", "4004"]}
 
     p = run_gcs(stack, "param", "load", str(saved))
     assert p.returncode == 0, p.stderr
-    assert "MPC_XY_P: 1.1 -> 0.95" in p.stdout and "SYS_AUTOSTART: 4004 -> 4001" in p.stdout
+    assert f"MPC_XY_P: 1.1 -> {XY_P:g}" in p.stdout and "SYS_AUTOSTART: 4004 -> 4001" in p.stdout
     assert f"loaded {saved}: 2 set, {len(vehicle) - 2} unchanged, 0 refused" in p.stdout
-    assert client.param_get("MPC_XY_P") == pytest.approx(0.95) and client.param_get("SYS_AUTOSTART") == 4001
+    assert client.param_get("MPC_XY_P") == pytest.approx(XY_P) and client.param_get("SYS_AUTOSTART") == 4001
 
     mavproxy_copy = tmp_path / "copy.parm"
     assert run_gcs(stack, "param", "save", str(mavproxy_copy), "--format", "mavproxy").returncode == 0
@@ -315,10 +319,10 @@ def test_mavsdk_param_plugin_sets_and_gets_int_and_float(stack, client):
     assert seen == {
         "int_before": 4001,
         "int_after": 4005,
-        "float_before": pytest.approx(0.95),
+        "float_before": pytest.approx(XY_P),
         "float_after": pytest.approx(1.15),
     }
-    assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(0.95)
+    assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(XY_P)
 
 
 def test_mavproxy_param_set_and_show(stack, client):
@@ -339,5 +343,5 @@ def test_mavproxy_param_set_and_show(stack, client):
         assert client.param_get("MPC_XY_P") == pytest.approx(1.3)
     finally:
         session.close()
-        client.param_set("MPC_XY_P", 0.95)
+        client.param_set("MPC_XY_P", XY_P)
         client.param_set("SYS_AUTOSTART", 4001)

@@ -2,12 +2,13 @@
 
 A small generator turns a true trajectory (attitude, position, velocity) into the
 samples the flight controller receives: IMU with bias and noise, magnetometer from
-the World Magnetic Model's field at the origin, barometric pressure, 5 Hz GPS.
+the World Magnetic Model's field at the origin, barometric pressure, 5 Hz GPS with 120 ms latency.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ LAT0, LON0, ALT0 = 47.397742, 8.545594, 488.0
 EARTH_R = 6_378_137.0
 _field = GeoMag().calculate(glat=LAT0, glon=LON0, alt=ALT0 / 1000.0, time=2026.9)
 MAG_NED_GAUSS = np.array([_field.x, _field.y, _field.z]) / 1e5
+GPS_LAG_US = 120_000  # the fixes describe the truth this long before their time stamp (EKF2_GPS_DELAY's default)
 
 
 def pressure_hpa(alt_m: float) -> float:
@@ -59,6 +61,7 @@ class Synthetic:
         self.gps_offset = np.zeros(3)  # a glitch
         self.gps_on = True
         self.mag_override: np.ndarray | None = None
+        self._truth: deque = deque(maxlen=GPS_LAG_US // 4000 + 1)  # (position, velocity) of the last samples
 
     def run(self, seconds: float) -> None:
         for _ in range(int(round(seconds / 0.004))):
@@ -76,11 +79,13 @@ class Synthetic:
         w = self.rate + self.gyro_bias + n(0, self.gyro_noise, 3)
         mag = self.mag_override if self.mag_override is not None else r.T @ MAG_NED_GAUSS + n(0, self.mag_noise, 3)
         imu = ImuSample(self.t_us, f, w, mag, pressure_hpa(ALT0 - self.pos[2] + n(0, 0.05)), 20.0, 0)
+        self._truth.append((self.pos.copy(), self.vel.copy()))
         if self.gps_on and self.t_us % 200_000 == 0:
-            p = self.pos + self.gps_offset + np.array([n(0, self.gps_noise), n(0, self.gps_noise), n(0, 0.2)])
+            pos, vel = self._truth[0]  # the truth GPS_LAG_US ago: a receiver's latency, as the simulator's
+            p = pos + self.gps_offset + np.array([n(0, self.gps_noise), n(0, self.gps_noise), n(0, 0.2)])
             lat = LAT0 + math.degrees(p[0] / EARTH_R)
             lon = LON0 + math.degrees(p[1] / (EARTH_R * math.cos(math.radians(LAT0))))
-            self.est.update_gps(GpsSample(self.t_us, 3, lat, lon, ALT0 - p[2], self.vel + n(0, 0.05, 3), 0.11, 0.2, 12))
+            self.est.update_gps(GpsSample(self.t_us, 3, lat, lon, ALT0 - p[2], vel + n(0, 0.05, 3), 0.11, 0.2, 12))
         self.est.update_imu(imu)
 
     def euler_errors_deg(self) -> tuple[float, float, float]:

@@ -6,10 +6,11 @@ No sockets, no processes, no clocks.  (From tests/test_units.py, split by subjec
 from __future__ import annotations
 
 import math
+import struct
 
 import pytest
 
-from autopilot.parameters import ParamDef, ParamError, ParameterStore, ParamType
+from autopilot.parameters import ParamDef, ParamError, ParameterStore, ParamType, param
 
 
 def test_parameter_store_refuses_bad_sets_and_changes_nothing():
@@ -48,3 +49,14 @@ def test_declared_parameters_use_px4_names_and_valid_defaults(params):
     for name in params.names():
         d = params.definition(name)
         assert d.min <= params.get(name) <= d.max and len(name) <= 16
+
+
+def test_a_bound_sent_as_float32_is_the_bound():
+    """A REAL32 parameter whose minimum (or maximum) is not exact in float32 (0.01) must accept that bound as a
+    ground station sends it (0.0099999998): QGroundControl's "reset to default" of a default at the bound."""
+    store = ParameterStore([param("X_RISE", 0.01, 0.01, 0.5, "s", "a bound not exact in float32")])
+    f32 = struct.unpack("<f", struct.pack("<f", 0.01))[0]
+    assert f32 < 0.01
+    assert store.set("X_RISE", f32) == 0.01
+    with pytest.raises(ParamError, match="outside range"):
+        store.set("X_RISE", 0.0099)

@@ -230,3 +230,34 @@ def test_docking_returns_to_approaching_when_the_target_jumps_beyond_pld_hacc_ra
     assert sim.task.phase is PrecLandPhase.APPROACHING and "above 0.20 m" in sim.task.events[-1][1]
     assert sim.run_until(lambda s: s.task.done, 15.0)
     assert sim.horizontal_error() < 0.05
+
+
+@pytest.mark.parametrize("acc_down_max", [3.0, 6.0])
+def test_docking_descends_within_mpc_acc_down_max_with_the_spline_acceleration_fed_forward(acc_down_max):
+    sim = Sim(target0=(0.5, 0.0, 0.0), start=(0.0, 0.0, -1.5))
+    sim.task.params.set("MPC_ACC_DOWN_MAX", acc_down_max)
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 10.0)
+    h = -sim.pos[2] - 0.03  # from about 1 m above the deck down to the docking point
+    spline = sim.task._spline
+    # [F 3]'s td would be h / 1 m/s; the cubic's peak acceleration 6 h / td^2 stays within the limit
+    assert spline.td_s == pytest.approx(max(h, math.sqrt(6.0 * h / acc_down_max)), rel=0.05)
+    peak = max(abs(float(spline.at(t).acc[0])) for t in np.linspace(0.0, spline.td_s, 101))
+    assert peak == pytest.approx(min(acc_down_max, 6.0 * h / h**2), rel=0.05)
+    # the setpoint carries the spline's downward acceleration (the limit at the start of the descent)
+    sim.step()
+    sp = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us)
+    in_phase_s = (sim.t_us - sim.task._phase_us) * 1e-6
+    assert float(sp.acc_ned_m_s2[2]) == pytest.approx(float(spline.at(in_phase_s).acc[0]), abs=1e-9)
+    assert float(sp.acc_ned_m_s2[2]) > 0.8 * peak
+    assert sim.run_until(lambda s: s.task.done, 5.0)
+    assert sim.horizontal_error() < 0.05
+
+
+@pytest.mark.parametrize(("deck_speed", "share"), [(0.0, 0.0), (0.05, 0.0), (0.2, 0.5), (1.0, 1.0)])
+def test_the_targets_acceleration_is_fed_forward_over_a_moving_deck_only(deck_speed, share):
+    sim = Sim(target0=(0.0, 0.0, 0.0), target_vel=(deck_speed, 0.0, 0.0), start=(0.0, 0.0, -1.0))
+    acc = np.array([0.4, -0.3, 0.0])  # over a still deck: the differenced velocity's noise
+    target = LandingTargetInput(sim.t_us, sim.target - sim.pos, sim.target_vel.copy(), True, acc)
+    sp = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, target)
+    assert sim.task.phase is PrecLandPhase.TRACKING
+    np.testing.assert_allclose(sp.acc_ned_m_s2 - sim.task._spline.at(0.0).acc, share * acc, atol=1e-9)

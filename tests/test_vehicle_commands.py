@@ -99,7 +99,7 @@ def test_change_speed_applies_to_the_current_goto_and_to_later_ones():
 
 
 def test_change_speed_in_a_mission():
-    b = flying()
+    (b := flying()).params.set("MPC_XY_CRUISE", 3.0)  # below the 4.5 m/s set later: a change up
     items = [MissionItem(0, mi.FRAME_GLOBAL_RELATIVE_ALT, mi.NAV_WAYPOINT, x=int(ORIGIN[0] * 1e7 + 9000),
                          y=int(ORIGIN[1] * 1e7), z=5.0)]  # fmt: skip
     b.cmd.plans.replace(mi.MISSION, items, mission_active=False)
@@ -394,7 +394,7 @@ def test_orbit_circles_the_centre_facing_it():
     assert b.command(C.MAV_CMD_DO_ORBIT, 0.5, 1, 0, 0, *NAN7[:3]) == DENIED
     assert b.texts()[-1] == "Orbit denied: radius 0.5 m outside 1..1000 m"
     assert b.command(C.MAV_CMD_DO_ORBIT, 5, 50, 0, 0, *NAN7[:3]) == ACCEPTED
-    assert b.texts()[-2] == "Orbit speed limited to 3.2 m/s (radius 5 m)"
+    assert b.texts()[-2] == f"Orbit speed limited to {math.sqrt(b.params.get('MPC_ACC_HOR') * 5):.1f} m/s (radius 5 m)"
     # a reposition leaves the orbit
     assert b.command(C.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, *NAN7[:3]) == ACCEPTED
     assert b.cmd.status.mode is Mode.AUTO_LOITER

@@ -175,7 +175,8 @@ class Commander(FlightCommands, VehicleCommands):
         """Advance the state machines and publish the status; return the setpoint (position, or attitude for
         the stick, offboard-attitude and descend modes), or None for motors idle/off.
 
-        ``actuators``: the flight controller's latest outputs (the land detector reads the thrust);
+        ``actuators``: the flight controller's latest outputs (the land detector reads the thrust, the failure
+        detector the motor outputs);
         ``estimator_checks``: the estimator's own pre-arm failures (empty when it has none to report);
         ``wall_s``: the wall clock (time.monotonic) for the input-loss timers (None: simulated time only).
         """
@@ -223,7 +224,7 @@ class Commander(FlightCommands, VehicleCommands):
             if reason:
                 self._disarm(reason)
         failsafes.check(self, now_us)
-        check_failures(self, now_us)
+        check_failures(self, now_us, actuators)
         if (
             self.armed
             and self.mode is Mode.AUTO_TAKEOFF

@@ -1,11 +1,18 @@
-"""Failure detector: a loss of attitude control (PX4's FailureDetector), its reaction, and the crash check.
+"""Failure detector: a loss of attitude control (PX4's FailureDetector) or of thrust, its reaction, the crash check.
 
 Detection, as PX4's ``FailureDetector::updateAttitudeStatus``: while armed in a mode that controls
 the attitude (every mode but ACRO), the estimated roll beyond ``FD_FAIL_R`` degrees for
 ``FD_FAIL_R_TTRI`` seconds, or the pitch beyond ``FD_FAIL_P`` for ``FD_FAIL_P_TTRI``, is a critical
 failure (0 degrees disables an axis; Euler angles 3-2-1, so a vehicle on its back reads roll ~180).
-A vehicle that lost a motor, a propeller or its attitude controller flips within a few tenths of a
-second; no controlled flight comes near 60 degrees (MPC_TILTMAX_AIR limits the position modes).
+A vehicle whose attitude controller fails, or that loses a motor or propeller with soft rate loops,
+flips within a few tenths of a second; no controlled flight comes near 60 degrees (MPC_TILTMAX_AIR
+limits the position modes).  With stiff rate loops a vehicle that lost a motor need not flip: the
+mixer keeps it level by giving up thrust and it comes down upright.  That is found by the thrust-loss
+check (:mod:`.thrust_loss`, ArduPilot's: descending, level, at full throttle with a motor at its limit
+for 1 s), reported once per arming by a CRITICAL STATUSTEXT "Critical failure detected (thrust loss,
+likely motor N): descending at full throttle" (the motor named from the mixer's outputs) with
+HEARTBEAT EMERGENCY until the vehicle is disarmed; it changes nothing else (a hexacopter may still
+hold its height and land, and neither PX4 nor ArduPilot terminates on it).
 
 Reaction, as PX4's commander (``failsafe.cpp``, critical failure), reported once per arming by a
 CRITICAL STATUSTEXT "Critical failure detected (roll): <action>":
@@ -21,10 +28,13 @@ CRITICAL STATUSTEXT "Critical failure detected (roll): <action>":
 Crash check, as ArduPilot's (``FS_CRASH_CHECK`` 1, Copter's ``crash_check``: attitude off by more than
 30 degrees with an acceleration below 3 m/s^2 for 2 s -> "Crash: Disarming"): after a loss of control
 in this arming, a vehicle tilted more than ``CRASH_TILT_DEG`` whose acceleration (NED, gravity
-removed) stays below ``CRASH_ACCEL_M_S2`` for ``CRASH_TIME_S`` lies on the ground: "Crash detected:
-disarming" (CRITICAL), and it is disarmed, so motors do not run on a wreck (HEARTBEAT EMERGENCY until
-the next arming).  Requiring the loss of control first keeps a hover in a strong wind (a
-steady tilt, at rest) from ever being taken for a crash.  Angles are radians inside, degrees in the
+removed) stays below ``CRASH_ACCEL_M_S2`` for ``CRASH_TIME_S`` lies on the ground; after a thrust
+loss in this arming, one still within a metre of the height it was armed at for 2 s sits on the
+ground upright (:meth:`.thrust_loss.ThrustLossCheck.grounded`: the land detector never lands it, as
+the position controller keeps asking for full thrust).  Either way: "Crash detected: disarming"
+(CRITICAL), and it is disarmed, so motors do not run on a wreck (HEARTBEAT EMERGENCY until the next
+arming).  Requiring the loss of control or of thrust first keeps a hover in a strong wind (a steady
+tilt, at rest) from ever being taken for a crash.  Angles are radians inside, degrees in the
 parameters; times are simulated µs.
 """
 
@@ -36,7 +46,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
+from autopilot.commander.thrust_loss import ThrustLossCheck
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
+from autopilot.topics import NO_ACTUATORS, ActuatorStatus
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
@@ -65,13 +77,15 @@ PARAMS: tuple[ParamDef, ...] = (
     ),
     param(
         "FS_CRASH_CHECK", 1, 0, 1, "",
-        "Crash check after a loss of control: 0 disabled, 1 disarm a vehicle lying tilted and still", ParamType.INT32,
+        "Crash check after a loss of control or of thrust: 0 disabled, 1 disarm a vehicle lying tilted and still "
+        "(or, after a thrust loss, still on the ground)", ParamType.INT32,
     ),
 )  # fmt: skip
 
 
 class FailureDetector:
-    """The attitude checks (FD_FAIL_*) and the crash check's timer; :func:`check_failures` acts on them."""
+    """The attitude checks (FD_FAIL_*), the thrust-loss check and the crash check's timer; :func:`check_failures`
+    acts on them."""
 
     def __init__(self, params: ParameterStore) -> None:
         self.params = params
@@ -81,12 +95,14 @@ class FailureDetector:
         self._roll_since_us: int | None = None  # beyond FD_FAIL_R since
         self._pitch_since_us: int | None = None
         self._still_since_us: int | None = None  # tilted and still since (the crash check)
+        self.thrust = ThrustLossCheck()  # descending at full throttle (a motor lost without a flip)
 
     def reset(self) -> None:
         """Disarmed: everything cleared."""
         self.clear()
         self.lost_control = False
         self._still_since_us = None
+        self.thrust.reset()
 
     def clear(self) -> None:
         """The attitude checks cleared (ACRO, or no attitude estimate)."""
@@ -128,23 +144,36 @@ def _beyond(now_us: int, angle_rad: float, limit_deg: float, ttri_s: float, sinc
     return now_us - since_us >= ttri_s * 1e6, since_us
 
 
-def check_failures(c: Commander, now_us: int) -> None:
-    """The commander's update: detect, react once per arming, then the crash check."""
+def check_failures(c: Commander, now_us: int, actuators: ActuatorStatus = NO_ACTUATORS) -> None:
+    """The commander's update: detect, react once per arming, then the crash check.  ``actuators``: the
+    flight controller's latest outputs (the thrust-loss check reads them)."""
     fd, est = c.failure_detector, c.est
     if not c.armed or est is None:
         fd.reset()
         c.failsafe.critical_failure = False
         return
-    if c.mode is Mode.ACRO or not est.attitude_valid:
-        fd.clear()  # PX4: only while the attitude is controlled (and here: known)
+    controlled = c.mode is not Mode.ACRO and est.attitude_valid  # PX4: only while the attitude is controlled
+    if not controlled:
+        fd.clear()
     elif fd.update(now_us, est.roll_rad, est.pitch_rad) and not fd.lost_control:
         fd.lost_control = True
         _react(c, now_us)
-    c.failsafe.critical_failure = c.armed and (fd.roll_failed or fd.pitch_failed)
+    tilt = math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
+    checking = controlled and c.in_air
+    thrust = fd.thrust
+    vel_down = float(est.vel_ned_m_s[2])
+    if thrust.update(now_us, checking, tilt, vel_down, actuators.motor_outputs, actuators.throttle_frac):
+        which = f", likely motor {thrust.motor}" if thrust.motor else ""
+        c.say(S.MAV_SEVERITY_CRITICAL, f"Critical failure detected (thrust loss{which}): descending at full throttle")
+    c.failsafe.critical_failure = c.armed and (fd.roll_failed or fd.pitch_failed or thrust.lost)
     if not c.armed or int(c.params.get("FS_CRASH_CHECK")) != 1:
         return
-    tilt = math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
-    if fd.crashed(now_us, tilt, est.accel_ned_m_s2):
+    above_m = c.land_detector.ground_down_m - float(est.pos_ned_m[2])
+    get = c.params.get
+    grounded = thrust.grounded(
+        now_us, above_m, est.vel_ned_m_s, est.accel_ned_m_s2, get("LNDMC_Z_VEL_MAX"), get("LNDMC_XY_VEL_MAX")
+    )
+    if fd.crashed(now_us, tilt, est.accel_ned_m_s2) or grounded:
         c.say(S.MAV_SEVERITY_CRITICAL, "Crash detected: disarming")
         c._disarm("crash detected")
         c.failsafe.terminated = True  # the motors were stopped by a failsafe: EMERGENCY until the next arming

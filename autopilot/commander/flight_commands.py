@@ -207,15 +207,16 @@ class FlightCommands:
         if speed > (limit := self.params.get("MPC_XY_VEL_MAX")):
             self.say(S.MAV_SEVERITY_INFO, f"Speed {speed:g} m/s limited to MPC_XY_VEL_MAX")
             speed = limit
-        start = (
-            self.setpoint.pos_ned_m
-            if self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))
-            else e.pos_ned_m
-        )
+        moving = self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))
+        start = self.setpoint.pos_ned_m if moving else e.pos_ned_m
+        v0 = self.setpoint.vel_ned_m_s if moving else None  # a new goal mid-move: on from the move's state
+        a0 = self.setpoint.acc_ned_m_s2 if moving else None
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
         self.mode = Mode.AUTO_LOITER
         self.task = started(
-            GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start_ned_m=start), e, self.now_us
+            GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start, self.params.get("MPC_JERK_AUTO"), v0, a0),
+            e,
+            self.now_us,
         )
         return S.MAV_RESULT_ACCEPTED

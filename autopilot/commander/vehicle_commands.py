@@ -136,18 +136,13 @@ class VehicleCommands:
         return S.MAV_RESULT_ACCEPTED
 
     def _goto_at_new_speed(self, old: GotoTask, speed: float, e: VehicleEstimate) -> GotoTask:
-        """The rest of ``old`` at ``speed``, starting from the setpoint at its present speed (or ``speed`` if
-        slower): the profile is started earlier, from a point behind, so it passes here at that speed."""
+        """The rest of ``old`` at ``speed``, on from the setpoint's position, velocity and acceleration."""
         pos, _ = self._setpoint_or(e)
-        v_now = float(np.linalg.norm(self.setpoint.vel_ned_m_s)) if self.setpoint is not None else 0.0
-        v0 = min(v_now if math.isfinite(v_now) else 0.0, speed)
-        accel = self.params.get("MPC_ACC_HOR")
-        to_goal = old.goal - pos
-        dist = float(np.linalg.norm(to_goal))
-        back = to_goal / dist * (v0 * v0 / (2 * accel)) if dist > 1e-6 else np.zeros(3)
-        task = GotoTask(old.goal, old.yaw_rad, speed, accel, start_ned_m=pos - back)
-        task.activate(e, self.now_us - int(v0 / accel * 1e6))
-        return task
+        sp = self.setpoint
+        vel = sp.vel_ned_m_s if sp is not None else None
+        acc = sp.acc_ned_m_s2 if sp is not None else None
+        accel, jerk = self.params.get("MPC_ACC_HOR"), self.params.get("MPC_JERK_AUTO")
+        return started(GotoTask(old.goal, old.yaw_rad, speed, accel, pos, jerk, vel, acc), e, self.now_us)
 
     def _mission_leg_at_new_speed(self, task: MissionTask, speed: float) -> None:
         """The rest of the mission leg being flown (not a take-off's climb) at ``speed``, from its setpoint at

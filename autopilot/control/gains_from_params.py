@@ -26,13 +26,13 @@ Getter = Callable[[str], float]  # a parameter's current value by name
 
 RATE_PARAMS: tuple[ParamDef, ...] = (
     param("MC_ROLLRATE_P", 12.0, 0.0, 150.0, "1/s", "Roll rate P: angular acceleration (rad/s^2) per rad/s of error"),
-    param("MC_ROLLRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Roll rate integral gain"),
+    param("MC_ROLLRATE_I", 6.0, 0.0, 1000.0, "1/s^2", "Roll rate integral gain"),
     param("MC_ROLLRATE_D", 0.15, 0.0, 2.0, "-", "Roll rate derivative gain"),
     param("MC_PITCHRATE_P", 12.0, 0.0, 150.0, "1/s", "Pitch rate P: angular acceleration (rad/s^2) per rad/s of error"),
-    param("MC_PITCHRATE_I", 6.0, 0.0, 60.0, "1/s^2", "Pitch rate integral gain"),
+    param("MC_PITCHRATE_I", 6.0, 0.0, 1000.0, "1/s^2", "Pitch rate integral gain"),
     param("MC_PITCHRATE_D", 0.15, 0.0, 2.0, "-", "Pitch rate derivative gain"),
     param("MC_YAWRATE_P", 6.0, 0.0, 60.0, "1/s", "Yaw rate P: angular acceleration (rad/s^2) per rad/s of error"),
-    param("MC_YAWRATE_I", 2.0, 0.0, 60.0, "1/s^2", "Yaw rate integral gain"),
+    param("MC_YAWRATE_I", 2.0, 0.0, 1000.0, "1/s^2", "Yaw rate integral gain"),
     param("MC_YAWRATE_D", 0.0, 0.0, 2.0, "-", "Yaw rate derivative gain"),
     param("MC_RR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Roll rate integrator clamp"),
     param("MC_PR_INT_LIM", 5.0, 0.0, 50.0, "rad/s^2", "Pitch rate integrator clamp"),
@@ -43,7 +43,7 @@ RATE_PARAMS: tuple[ParamDef, ...] = (
 ATTITUDE_PARAMS: tuple[ParamDef, ...] = (
     param("MC_ROLL_P", 6.5, 0.0, 12.0, "1/s", "Roll angle proportional gain"),
     param("MC_PITCH_P", 6.5, 0.0, 12.0, "1/s", "Pitch angle proportional gain"),
-    param("MC_YAW_P", 2.8, 0.0, 5.0, "1/s", "Yaw angle proportional gain"),
+    param("MC_YAW_P", 2.8, 0.0, 12.0, "1/s", "Yaw angle proportional gain"),
     param("MC_ROLLRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum roll rate"),
     param("MC_PITCHRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum pitch rate"),
     param("MC_YAWRATE_MAX", 200.0, 0.0, 1800.0, "deg/s", "Maximum yaw rate"),
@@ -86,7 +86,7 @@ POSITION_PARAMS: tuple[ParamDef, ...] = (
     param("MPC_Z_INT_LIM", 4.0, 0.0, 10.0, "m/s^2", "Vertical velocity integrator clamp ([Q 3.4])"),
     param(
         "MPC_JERK_AUTO",
-        4.0,
+        10.0,
         1.0,
         80.0,
         "m/s^3",

@@ -1,8 +1,8 @@
 """Position and velocity control (PX4's PositionControl structure, [Q 2.10]).
 
-Position P -> velocity setpoint (limited) -> velocity PID -> acceleration
-setpoint -> thrust vector.  [Q 3.4] clamps the integrators, the
-derivative and the outputs; here those are :class:`PositionGains` fields (PX4's
+Position P -> velocity setpoint (limited) -> velocity PID -> acceleration setpoint (plus the
+trajectory's acceleration, minus an estimated disturbance) -> thrust vector.  [Q 3.4] clamps the
+integrators, the derivative and the outputs; here those are :class:`PositionGains` fields (PX4's
 MPC_*_INT_LIM, MPC_ACC_*_MAX and MPC_TILTMAX_AIR parameters, mapped by
 :mod:`autopilot.control.gains_from_params`).  The thrust vector is in newtons, NED,
 and carries the hover feed-forward m g from the vehicle file.  Integration stops on
@@ -114,8 +114,18 @@ class PositionControl:
         """The thrust vector (N, NED) for this step; :meth:`control` gives the whole record."""
         return self.control(pos, vel, sp, dt).thrust_ned_n
 
-    def control(self, pos: np.ndarray, vel: np.ndarray, sp: PositionSetpoint, dt: float) -> PositionControlOutput:
-        """One step from the position and velocity estimates (m, m/s, NED) and the setpoint."""
+    def control(
+        self,
+        pos: np.ndarray,
+        vel: np.ndarray,
+        sp: PositionSetpoint,
+        dt: float,
+        disturbance_ned_m_s2: np.ndarray | None = None,
+    ) -> PositionControlOutput:
+        """One step from the position and velocity estimates (m, m/s, NED) and the setpoint.
+
+        ``disturbance_ned_m_s2``: an estimated external acceleration (m/s^2, NED; a disturbance
+        observer's), cancelled by feeding it forward with the opposite sign (non-finite: ignored)."""
         g = self.gains
         acc_want = sp.acc_ned_m_s2 if sp.acc_ned_m_s2 is not None else np.zeros(3)
         acc_given = np.isfinite(acc_want) if sp.acc_ned_m_s2 is not None else np.zeros(3, dtype=bool)
@@ -153,6 +163,8 @@ class PositionControl:
         step = g.jerk_max_m_s3 * dt if _dt_ok(dt) else 0.0  # (a negative step would swap the clip's bounds)
         self.acc_ff += np.clip(np.where(acc_given, acc_want, 0.0) - self.acc_ff, -step, step)
         acc_sp = acc_sp + self.acc_ff
+        if disturbance_ned_m_s2 is not None and _finite(disturbance_ned_m_s2):
+            acc_sp = acc_sp - disturbance_ned_m_s2
 
         thrust, sat = self._thrust(acc_sp, vel_err)
         self._integrate(vel_err, acc_sp, sat, dt)

@@ -22,29 +22,45 @@ error-state Jacobian over the interval T::
 with dv_b and dtheta_b the bias-corrected body-frame velocity and angle increments
 of the interval.  Process noise follows PX4's EKF2 parameters: (EKF2_ACC_NOISE T)^2
 on each velocity axis, (EKF2_GYR_NOISE T)^2 on each angle, (EKF2_*_B_NOISE T)^2 on
-the biases.
+the biases.  The defaults come from the simulator's IMU (sitl/sensors.py): a noise density
+n (unit/sqrt(Hz)) is a rate noise of n/sqrt(T) over T = 20 ms, a bias random walk w
+(unit/s/sqrt(Hz)) a bias noise of w/sqrt(T): the gyro's 1.87e-4 and 3.9e-5 give 0.0013 rad/s
+and 2.7e-4 rad/s^2 (EKF2_GYR_NOISE 0.004 leaves room for the 50 Hz downsampling), the
+accelerometer's walk 6e-3 gives EKF2_ACC_B_NOISE 0.04 m/s^3.  EKF2_ACC_NOISE (0.15 m/s^2)
+is above the accelerometer's own 0.013: it also covers the tilt errors that turn gravity
+into a false acceleration.
+
+The state after a filter run at sample time t describes t + one IMU period: a sample
+holds over the period that starts at its time stamp (the simulator steps on from it), and
+the history of states kept for delayed fusion is stamped so.
 
 Measurements, each fused as a scalar with an innovation gate (test ratio =
 innovation^2 / (gate^2 S); > 1 is rejected, as in PX4's EKF2):
 
 * GPS horizontal position and NED velocity, against the state at the time the fix
-  describes (EKF2_GPS_DELAY): the innovation is taken against the stored estimate
-  of that time and the correction applied now;
+  describes (EKF2_GPS_DELAY, default the simulator's SIM_GPS_LAG_MS): the innovation is
+  taken against the stored estimate of that time, interpolated between filter runs
+  (:mod:`autopilot.estimation.state_history`), and the correction applied now; for position
+  the Jacobian carries the lag (error then = dp - lag dv);
 * barometer height (the height reference, as EKF2_HGT_REF = baro);
-* magnetometer heading (tilt-compensated, with the World Magnetic Model's
-  declination) -- heading only, so a disturbed magnetometer can only affect yaw;
-* a constant-position pseudo-measurement when nothing else aids the filter (on the
+* the magnetometer: all three axes against the World Magnetic Model's field once the origin
+  is known (:mod:`autopilot.estimation.mag_fusion`, EKF2_MAG_TYPE 0), which also observes
+  roll and pitch and so separates a tilt from a horizontal accelerometer bias; or the
+  tilt-compensated heading alone (EKF2_MAG_TYPE 1, and before the origin is known);
+* a constant-position pseudo-measurement when nothing aids the filter (on the
   ground before the first fix, or after GPS is lost): PX4's "fake position" fusion,
   which keeps velocity and tilt bounded.
 
 What is left out, and why: PX4's EKF2 and ArduPilot's EKF3 also estimate the
-earth magnetic field and body magnetic bias (3-axis magnetometer fusion) and the
-wind (from airspeed or a drag model).  Here the magnetometer is fused as a heading,
-which needs no field states and keeps a magnetic disturbance out of roll and pitch;
-a multirotor without an airspeed sensor gains little from wind states, and the
-position controller's integrator already holds against wind.  A barometer bias
-state (EKF2 keeps one against GPS height) is not estimated: the baro is the only
-height reference.
+earth magnetic field and body magnetic bias and the wind (from airspeed or a drag
+model).  Here the field is the model's and the magnetometer is taken as calibrated (the
+simulator's offsets default to zero; one far off is caught by the field-strength check of
+:mod:`autopilot.estimation.mag_health`); a multirotor without an airspeed sensor gains
+little from wind states, and the position controller's integrator already holds against
+wind.  A barometer bias state (EKF2 keeps one against GPS height) is not estimated: the
+baro is the only height reference.  No GPS position-bias state: the receiver's slow wander
+(a 60 s Gauss-Markov error, SIM_GPS_DRIFT) cannot be told from a position error without
+another absolute reference, so it stays in the estimate whatever the filter does.
 
 Why hand-written and not filterpy's ExtendedKalmanFilter: the attitude is a
 quaternion kept outside the covariance (the error-state form), each correction is
@@ -61,6 +77,7 @@ from collections import deque
 
 import numpy as np
 
+from autopilot.estimation.state_history import state_at
 from autopilot.parameters import ParamDef, param
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
@@ -70,15 +87,15 @@ P, V, TH, BG, BA = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12
 N = 15
 _EYE3 = np.eye(3)
 
-P_GYR_NOISE = param("EKF2_GYR_NOISE", 0.015, 0.0001, 0.1, "rad/s", "Rate gyro noise for covariance prediction")
-P_ACC_NOISE = param("EKF2_ACC_NOISE", 0.35, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
-P_GYR_B_NOISE = param("EKF2_GYR_B_NOISE", 0.001, 0.0, 0.01, "rad/s^2", "Process noise of the gyro bias")
-P_ACC_B_NOISE = param("EKF2_ACC_B_NOISE", 0.003, 0.0, 0.01, "m/s^3", "Process noise of the accelerometer bias")
+P_GYR_NOISE = param("EKF2_GYR_NOISE", 0.004, 0.0001, 0.1, "rad/s", "Rate gyro noise for covariance prediction")
+P_ACC_NOISE = param("EKF2_ACC_NOISE", 0.15, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
+P_GYR_B_NOISE = param("EKF2_GYR_B_NOISE", 0.0003, 0.0, 0.01, "rad/s^2", "Process noise of the gyro bias")
+P_ACC_B_NOISE = param("EKF2_ACC_B_NOISE", 0.04, 0.0, 0.1, "m/s^3", "Process noise of the accelerometer bias")
 P_GPS_P_NOISE = param(
-    "EKF2_GPS_P_NOISE", 0.3, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)"
+    "EKF2_GPS_P_NOISE", 0.15, 0.01, 10.0, "m", "GPS position measurement noise (minimum; eph if larger)"
 )
 P_GPS_V_NOISE = param("EKF2_GPS_V_NOISE", 0.1, 0.01, 5.0, "m/s", "GPS velocity measurement noise")
-P_BARO_NOISE = param("EKF2_BARO_NOISE", 0.15, 0.01, 15.0, "m", "Barometer height measurement noise")
+P_BARO_NOISE = param("EKF2_BARO_NOISE", 0.08, 0.01, 15.0, "m", "Barometer height measurement noise")
 P_HEAD_NOISE = param("EKF2_HEAD_NOISE", 0.1, 0.01, 1.0, "rad", "Magnetometer heading measurement noise")
 P_GPS_P_GATE = param("EKF2_GPS_P_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS position (standard deviations)")
 P_GPS_V_GATE = param("EKF2_GPS_V_GATE", 5.0, 1.0, 20.0, "SD", "Innovation gate of GPS velocity (standard deviations)")
@@ -117,20 +134,6 @@ _MIN_VAR = np.array([1e-6] * 6 + [1e-9] * 3 + [1e-12] * 6)
 _MAX_VAR = np.array([1e6] * 6 + [1.0] * 3 + [0.01] * 3 + [1.0] * 3)
 
 
-def nearest_state(history, time_us: int, tolerance_us: int = 60_000):
-    """(position, velocity) of the (time_us, position, velocity) entry nearest ``time_us`` in a
-    time-ordered history, or (None, None) if none lies within ``tolerance_us``."""
-    best = None
-    for t, pos, vel in reversed(history):
-        if best is None or abs(t - time_us) < abs(best[0] - time_us):
-            best = (t, pos, vel)
-        if t < time_us:
-            break
-    if best is None or abs(best[0] - time_us) > tolerance_us:
-        return None, None
-    return best[1], best[2]
-
-
 def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
@@ -163,6 +166,7 @@ class ErrorStateEkf:
         self._q_key: tuple | None = None
         self._q_diag = np.zeros(N)
         self._predictions = 0
+        self.time_us: int | None = None  # what the state describes (the latest prediction's time stamp), µs
 
     # -- set-up ---------------------------------------------------------------------------
     def initialise(self, q: np.ndarray, time_s: float = 0.0) -> None:
@@ -190,11 +194,18 @@ class ErrorStateEkf:
             pos[axes] += (self.p - old)[axes]
         return self.p - old
 
-    def reset_velocity(self, vel_ned_m_s: np.ndarray, var: float) -> None:
+    def reset_velocity(self, vel_ned_m_s: np.ndarray, var: float, tilt_std_rad: float = 0.0) -> None:
+        """Set the velocity (decorrelated, variance ``var``); ``tilt_std_rad`` > 0 also widens the roll and
+        pitch uncertainty to at least that (an inertial solution gone wrong: the tilt is the likely cause)."""
+        delta = vel_ned_m_s - self.v
         self.v[:] = vel_ned_m_s
         self.cov[V, :] = 0.0
         self.cov[:, V] = 0.0
         self.cov[3, 3] = self.cov[4, 4] = self.cov[5, 5] = var
+        for i in (6, 7):
+            self.cov[i, i] = max(self.cov[i, i], tilt_std_rad * tilt_std_rad)
+        for _, _, vel in self.history:
+            vel += delta
 
     def rotate_yaw(self, angle_rad: float) -> None:
         """Turn the attitude about NED down by ``angle_rad`` (e.g. when the declination becomes known)."""
@@ -235,6 +246,7 @@ class ErrorStateEkf:
             self._condition()
         else:
             self.cov = c
+        self.time_us = time_us
         self.history.append((time_us, self.p.copy(), self.v.copy()))
 
     def _process_noise(self, t: float) -> np.ndarray:
@@ -256,10 +268,10 @@ class ErrorStateEkf:
 
     def state_at(self, time_us: int) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
         """Position and velocity estimate stored nearest to an earlier time (None if not reached)."""
-        return nearest_state(self.history, time_us)
+        return state_at(self.history, time_us)
 
     # -- corrections ----------------------------------------------------------------------------
-    def _inject(self, dx: np.ndarray) -> None:
+    def inject(self, dx: np.ndarray) -> None:
         """Add an error-state correction to the nominal state (attitude multiplicatively)."""
         self.p += dx[P]
         self.v += dx[V]
@@ -277,10 +289,21 @@ class ErrorStateEkf:
         self.bg += dx[BG]
         self.ba += dx[BA]
 
-    def fuse_state(self, i: int, innovation: float, r: float, gate: float, kind: str | None = None) -> bool:
-        """Fuse a direct measurement of error-state element ``i``; False if the gate rejects it."""
+    def fuse_state(
+        self, i: int, innovation: float, r: float, gate: float, kind: str | None = None, lag_s: float = 0.0
+    ) -> bool:
+        """Fuse a direct measurement of error-state element ``i``; False if the gate rejects it.
+
+        ``lag_s`` > 0 (position elements only): the measurement describes the position ``lag_s`` ago, whose
+        error is dp - lag_s dv in terms of the current errors (the Jacobian then has -lag_s on velocity)."""
         c = self.cov
-        s = c[i, i] + r
+        if lag_s > 0.0:
+            j = i + 3
+            ph = c[:, i] - lag_s * c[:, j]
+            s = ph[i] - lag_s * ph[j] + r
+        else:
+            ph = c[:, i]
+            s = ph[i] + r
         ratio = innovation * innovation / (gate * gate * s)
         if kind is not None:
             self.ratio[kind] = max(self.ratio[kind], ratio) if kind == self._batch_kind else ratio
@@ -288,9 +311,9 @@ class ErrorStateEkf:
             if kind is not None:
                 self.rejected[kind] += 1
             return False
-        k = c[:, i] / s
-        self.cov = c - np.outer(k, c[i, :])
-        self._inject(k * innovation)
+        k = ph / s
+        self.cov = c - np.outer(k, ph)
+        self.inject(k * innovation)
         return True
 
     def fuse(self, h: np.ndarray, innovation: float, r: float, gate: float, kind: str | None = None) -> bool:
@@ -306,12 +329,15 @@ class ErrorStateEkf:
             return False
         k = ph / s
         self.cov = self.cov - np.outer(k, ph)
-        self._inject(k * innovation)
+        self.inject(k * innovation)
         return True
 
-    def fuse_vector(self, first: int, values: np.ndarray, then: np.ndarray, r: float, gate: float, kind: str) -> int:
+    def fuse_vector(
+        self, first: int, values: np.ndarray, then: np.ndarray, r: float, gate: float, kind: str, lag_s: float = 0.0
+    ) -> int:
         """Fuse consecutive direct measurements (e.g. velocity N, E, D) of error-state elements
-        ``first``...; ``then`` is the state they are compared with.  Returns how many were rejected."""
+        ``first``...; ``then`` is the state they are compared with, of ``lag_s`` ago (see :meth:`fuse_state`).
+        Returns how many were rejected."""
         self._batch_kind = kind
         self.ratio[kind] = 0.0
         rejected = 0
@@ -321,7 +347,7 @@ class ErrorStateEkf:
         then = np.array(then[:n], dtype=float)
         for j in range(n):
             before = current[offset : offset + n].copy()
-            if not self.fuse_state(first + j, float(values[j] - then[j]), r, gate, kind):
+            if not self.fuse_state(first + j, float(values[j] - then[j]), r, gate, kind, lag_s):
                 rejected += 1
             # Later components are compared with the delayed estimate moved by this correction.
             then += current[offset : offset + n] - before

@@ -17,7 +17,7 @@ The selected filter runs at 50 Hz on the IMU increments summed since its last ru
 other at 10 Hz; in between, the output predictor carries the selected filter's attitude
 forward on the bias-corrected gyro at 250 Hz.  In deferred mode (the flight controller's)
 the 50 Hz run and GPS fusion wait for :meth:`Estimator.run_deferred`.  Also here: the
-barometer's height (relative to its reading at the origin), the EKF's heading fusion and
+barometer's height (relative to its reading at the origin), the EKF's magnetometer fusion (10 Hz) and
 its constant-position fusion when nothing aids it.  Beside this module:
 :mod:`autopilot.estimation.gps_fusion` (origin, delayed fusion, glitch rejection, reset),
 :mod:`autopilot.estimation.mag_health` (stuck, field strength, inconsistent heading),
@@ -40,7 +40,8 @@ from autopilot.estimation.ekf import P_BARO_GATE, P_BARO_NOISE, P_HDG_GATE, P_HE
 from autopilot.estimation.estimator_outputs import ekf_prearm_failures, estimator_status, vehicle_estimate
 from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GpsFusion, finite3
 from autopilot.estimation.height_sources import GpsHeight, HeightSources
-from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field
+from autopilot.estimation.mag_fusion import MAG_TYPE_AUTO, P_MAG_GATE, P_MAG_NOISE, fuse_mag_vector
+from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field, magnetic_field_ned
 from autopilot.estimation.mahony import MahonyFilter
 from autopilot.estimation.position_kf import PositionVelocityFilter
 from autopilot.estimation.sensor_checks import BARO, SensorChecks
@@ -53,6 +54,7 @@ from mavsim_core.geodesy import geodetic_to_ned
 _GRAVITY = np.array([0.0, 0.0, GRAVITY_M_S2])
 BARO_PERIOD_US = 20_000  # barometer fused (and the EKF predicted) at 50 Hz
 HEADING_PERIOD_US = 100_000  # magnetometer heading fused into the EKF at 10 Hz
+MAG_PERIOD_US = 100_000  # three-axis magnetometer fusion (EKF2_MAG_TYPE 0), as the heading's
 STANDBY_EVERY = 5  # the estimator the controllers do not use runs every 5th 50 Hz step (10 Hz)
 FAKE_POS_PERIOD_US = 200_000  # constant-position fusion when nothing aids the filter
 GROUND_FAKE_POS_NOISE_M = 0.5
@@ -85,6 +87,7 @@ class Estimator:
         self.position = PositionVelocityFilter()
         self.ekf = ErrorStateEkf()
         self.use_ekf = True
+        self._mag_type = MAG_TYPE_AUTO
         self.events: list[tuple[str, str]] = []  # (severity name, text), drained by the flight controller
         self.gps = GpsFusion(self.ekf, self.position, self.events, self._p)
         self.mag = MagHealth(self.events)
@@ -93,6 +96,9 @@ class Estimator:
         self.rate_frd = np.zeros(3)
         self.accel_ned = np.zeros(3)
         self.last_imu_us: int | None = None
+        # A sample stamped t holds over [t, t + dt] (the simulator steps on from it), so the filter's state
+        # after summing it describes t + dt: its history is stamped so, for fusion at the GPS's true delay.
+        self._sample_dt_us = int(LOCKSTEP_DT_S * 1e6)
         self.last_baro_alt_m: float | None = None
         self.r_ned_frd = np.eye(3)  # attitude of the selected estimator (FRD -> NED), refreshed each sample
         self.q = np.array([1.0, 0.0, 0.0, 0.0])
@@ -107,7 +113,7 @@ class Estimator:
         self._am_lp = np.zeros(3)  # low-passed accelerometer NED acceleration (Mahony attitude), m/s^2
         self._am_history: deque[tuple[int, np.ndarray]] = deque(maxlen=50)
         self._slow_count = 0
-        self._last_heading_us = -HEADING_PERIOD_US
+        self._last_mag_us = -HEADING_PERIOD_US
         self.declination_rad = 0.0
         self._fake_pos: np.ndarray | None = None
         self._last_fake_us = 0
@@ -138,6 +144,7 @@ class Estimator:
         assert self.params is not None
         g = self.params.get
         self.use_ekf = int(g("SYS_MC_EST_GROUP")) == 2
+        self._mag_type = int(g("EKF2_MAG_TYPE"))
         self.gps.delay_us = int(g("EKF2_GPS_DELAY") * 1000)
         e = self.ekf
         e.gyr_noise, e.acc_noise = g("EKF2_GYR_NOISE"), g("EKF2_ACC_NOISE")
@@ -182,6 +189,7 @@ class Estimator:
             self.sensor_checks.update(s)  # at 50 Hz: data stopped or stale
         dt = LOCKSTEP_DT_S if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
         self.last_imu_us = s.timestamp_us
+        self._sample_dt_us = int(dt * 1e6) if 0.0 < dt < 0.1 else self._sample_dt_us
         if not 0.0 < dt < 0.1 or not finite3(s.accel_frd_m_s2) or not finite3(s.gyro_frd_rad_s):
             return  # NaN never reaches the filters
         self._dth += s.gyro_frd_rad_s * dt
@@ -296,7 +304,7 @@ class Estimator:
             if self.attitude.initialised:
                 ekf.initialise(self.attitude.q)  # levelled from gravity and the magnetometer, as Mahony was
             return
-        ekf.predict(dth, dvel, t, now_us)
+        ekf.predict(dth, dvel, t, now_us + self._sample_dt_us)
         self._ekf_corrections(now_us, baro_down_m, mag)
 
     def _ekf_corrections(self, now_us: int, baro_down_m: float | None, mag: np.ndarray | None) -> None:
@@ -304,15 +312,8 @@ class Estimator:
         ekf = self.ekf
         if baro_down_m is not None:
             ekf.fuse_state(2, baro_down_m - float(ekf.p[2]), self._p(P_BARO_NOISE) ** 2, self._p(P_BARO_GATE), "hgt")
-        if mag is not None and not self.mag.fault and now_us - self._last_heading_us >= HEADING_PERIOD_US:
-            self._last_heading_us = now_us
-            r = ekf.r_ned_frd
-            roll = math.atan2(r[2, 1], r[2, 2])
-            pitch = -math.asin(max(-1.0, min(1.0, r[2, 0])))
-            yaw = math.atan2(r[1, 0], r[0, 0])
-            innov = quat.wrap_pi(heading_from_mag(roll, pitch, mag, self.declination_rad) - yaw)
-            ok = ekf.fuse(ekf.heading_jacobian(), innov, self._p(P_HEAD_NOISE) ** 2, self._p(P_HDG_GATE), "mag")
-            self.mag.gate_result(now_us, ok)
+        if mag is not None and not self.mag.fault:
+            self._fuse_mag(now_us, mag)
         aided = self.gps.origin is not None and self.gps.ok(now_us)
         if aided:
             self._fake_pos = None
@@ -326,6 +327,29 @@ class Estimator:
             for i in range(axes):
                 ekf.fuse_state(i, float(self._fake_pos[i] - ekf.p[i]), noise * noise, 5.0)
 
+    def _fuse_mag(self, now_us: int, mag: np.ndarray) -> None:
+        """The magnetometer: all three axes against the model's field (EKF2_MAG_TYPE 0, once the origin and
+        so the field are known), else the heading alone; each at 10 Hz (MAG_PERIOD_US, HEADING_PERIOD_US)."""
+        ekf, field = self.ekf, self.mag.field_ned_gauss
+        if field is not None and self._mag_type == MAG_TYPE_AUTO:
+            if now_us - self._last_mag_us < MAG_PERIOD_US:
+                return
+            self._last_mag_us = now_us
+            since = self.rate_frd * (self._sample_dt_us * 1e-6)
+            ok = fuse_mag_vector(ekf, mag, field, self._p(P_MAG_NOISE), self._p(P_MAG_GATE), since)
+            self.mag.gate_result(now_us, ok)
+            return
+        if now_us - self._last_mag_us < HEADING_PERIOD_US:
+            return
+        self._last_mag_us = now_us
+        r = ekf.r_ned_frd
+        roll = math.atan2(r[2, 1], r[2, 2])
+        pitch = -math.asin(max(-1.0, min(1.0, r[2, 0])))
+        yaw = math.atan2(r[1, 0], r[0, 0])
+        innov = quat.wrap_pi(heading_from_mag(roll, pitch, mag, self.declination_rad) - yaw)
+        ok = ekf.fuse(ekf.heading_jacobian(), innov, self._p(P_HEAD_NOISE) ** 2, self._p(P_HDG_GATE), "mag")
+        self.mag.gate_result(now_us, ok)
+
     def _fuse_gps(self, g: GpsSample) -> None:
         if not self.gps.fuse(g, self.last_baro_alt_m, self.ekf.initialised and self.attitude.initialised):
             if self.gps.origin is not None and self.gps.last_us == g.timestamp_us:  # a good fix: the heights
@@ -337,6 +361,7 @@ class Estimator:
         # This fix set the origin: magnetic declination and field strength there (World Magnetic
         # Model), and the heading re-aligned now that declination is known.
         d, self.mag.strength_gauss = magnetic_field(g.lat_deg, g.lon_deg, g.alt_amsl_m)
+        self.mag.field_ned_gauss = magnetic_field_ned(g.lat_deg, g.lon_deg, g.alt_amsl_m)
         self.declination_rad = self.attitude.declination_rad = d
         roll, pitch, yaw = quat.to_euler(self.attitude.q)
         self.attitude.q = quat.from_euler(roll, pitch, yaw + d)

@@ -8,10 +8,13 @@ stamp: against the EKF's and the linear filter's states of that time.
 A GPS position that fails the EKF's gate is rejected (a glitch).  If GPS velocity keeps
 passing while position is rejected for ``GPS_RESET_S``, the position is reset to GPS
 (PX4's behaviour); the jump is published as a reset delta so the position setpoint moves
-with it and the vehicle does not.  Fixes that repeat exactly (``GPS_STALE_FIXES`` in a row: a
-frozen receiver, PX4's DataValidator STALE rule) are not fused: the GPS times out, as if silent,
-until a fix differs.  Also kept here: the low-passed derivative of GPS
-velocity that the Mahony filter's gravity reference uses.  NED metres, m/s; times are
+with it and the vehicle does not.  If GPS velocity itself keeps failing its gate for
+``VEL_RESET_S``, the inertial solution has gone wrong: velocity and position are reset to
+GPS and the tilt uncertainty widened (PX4 resets on a fusion timeout).  Fixes that repeat
+exactly (``GPS_STALE_FIXES`` in a row: a frozen receiver, PX4's DataValidator STALE rule) are
+not fused: the GPS times out, as if silent, until a fix differs; nor are fixes with a NaN or
+describing a time older than the EKF's history.  Also kept here: the low-passed derivative of
+GPS velocity that the Mahony filter's gravity reference uses.  NED metres, m/s; times are
 time stamps in microseconds (no clock).
 """
 
@@ -29,9 +32,9 @@ from autopilot.estimation.ekf import (
     P_GPS_V_GATE,
     P_GPS_V_NOISE,
     ErrorStateEkf,
-    nearest_state,
 )
 from autopilot.estimation.position_kf import P_GPS_DELAY, PositionVelocityFilter
+from autopilot.estimation.state_history import state_at
 from autopilot.parameters import ParamDef
 from autopilot.topics import GpsSample
 from mavsim_core.geodesy import geodetic_to_ned
@@ -39,6 +42,8 @@ from mavsim_core.geodesy import geodetic_to_ned
 GPS_MIN_SATS = 6
 GPS_TIMEOUT_US = 500_000
 GPS_RESET_S = 7.0  # GPS position rejected this long (velocity passing): reset to GPS (PX4: 7 s)
+VEL_RESET_S = 1.0  # GPS velocity rejected this long (and it is not stale): reset velocity and position to GPS
+TILT_RESET_STD_DEG = 3.0  # roll/pitch uncertainty (1 sigma) after such a reset
 GPS_ACCEL_TAU_S = 0.5  # low-pass of the GPS velocity derivative given to the Mahony filter
 GPS_STALE_FIXES = 5  # fixes in a row exactly the same (position and velocity): the receiver is stuck
 
@@ -46,6 +51,11 @@ GPS_STALE_FIXES = 5  # fixes in a row exactly the same (position and velocity): 
 def finite3(v: np.ndarray) -> bool:
     """All three components finite (cheaper than np.all(np.isfinite(v)) on a 3-vector)."""
     return math.isfinite(float(v[0]) + float(v[1]) + float(v[2]))
+
+
+def _finite_fix(g: GpsSample) -> bool:
+    """Latitude, longitude, altitude and the velocity all finite (a NaN must never reach the filters)."""
+    return math.isfinite(g.lat_deg + g.lon_deg + g.alt_amsl_m) and finite3(np.asarray(g.vel_ned_m_s, dtype=float))
 
 
 class GpsFusion:
@@ -73,6 +83,8 @@ class GpsFusion:
         self.history: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=32)
         self.last_pos_fused_us: int | None = None
         self.pos_rejected_since_us: int | None = None
+        self.vel_rejected_since_us: int | None = None
+        self.old_fixes = 0  # fixes describing a time older than the EKF's history: not fused
         self.glitch = False
         self.reset_count = 0
         self.reset_delta_ned_m = np.zeros(3)  # the latest position reset's jump
@@ -90,7 +102,7 @@ class GpsFusion:
 
     def fuse(self, g: GpsSample, baro_alt_m: float | None, filters_ready: bool) -> bool:
         """One fix; True when it set the origin (the caller then looks up the magnetic field there)."""
-        if g.fix_type < 3 or g.satellites < GPS_MIN_SATS or self._stale(g):
+        if g.fix_type < 3 or g.satellites < GPS_MIN_SATS or not _finite_fix(g) or self._stale(g):
             return False
         self.last_us = g.timestamp_us
         vel = np.asarray(g.vel_ned_m_s, dtype=float)
@@ -108,7 +120,7 @@ class GpsFusion:
             return True
         pos = geodetic_to_ned(g.lat_deg, g.lon_deg, g.alt_amsl_m, *self.origin)
         then_us = g.timestamp_us - self.delay_us
-        pos_then, vel_then = nearest_state(self.history, then_us)
+        pos_then, vel_then = state_at(self.history, then_us)
         self.lkf.fuse_gps(pos, vel, pos_then, vel_then)
         self._fuse_ekf(g, pos, vel, then_us)
         return False
@@ -130,12 +142,22 @@ class GpsFusion:
         ekf = self.ekf
         pos_then, vel_then = ekf.state_at(then_us)
         if pos_then is None or vel_then is None:  # (both or neither)
-            pos_then, vel_then = ekf.p, ekf.v
+            if ekf.history and then_us < ekf.history[0][0]:
+                self.old_fixes += 1  # older than the filter remembers: not comparable with anything, not fused
+                return
+            pos_then, vel_then = ekf.p, ekf.v  # (no history yet)
         vn = max(self._p(P_GPS_V_NOISE), 0.0)
-        ekf.fuse_vector(3, vel, vel_then, vn * vn, self._p(P_GPS_V_GATE), "vel")
         pn = max(self._p(P_GPS_P_NOISE), g.eph_m if math.isfinite(g.eph_m) else 0.0)
-        rejected = ekf.fuse_vector(0, pos[:2], pos_then[:2], pn * pn, self._p(P_GPS_P_GATE), "pos")
         now = g.timestamp_us
+        if ekf.fuse_vector(3, vel, vel_then, vn * vn, self._p(P_GPS_V_GATE), "vel") == 0:
+            self.vel_rejected_since_us = None
+        elif self.vel_rejected_since_us is None:
+            self.vel_rejected_since_us = now
+        elif now - self.vel_rejected_since_us >= VEL_RESET_S * 1e6:
+            self._reset_inertial(now, pos, vel, pos_then, vel_then, vn, pn)
+            return
+        lag_s = max(0.0, (ekf.time_us - then_us) * 1e-6) if ekf.time_us is not None else 0.0
+        rejected = ekf.fuse_vector(0, pos[:2], pos_then[:2], pn * pn, self._p(P_GPS_P_GATE), "pos", lag_s)
         if rejected == 0:
             self.last_pos_fused_us = now
             self.pos_rejected_since_us = None
@@ -151,6 +173,16 @@ class GpsFusion:
             self.events.append(("WARNING", f"EKF: GPS position rejected ({jump:.1f} m from the estimate)"))
         if now - self.pos_rejected_since_us >= GPS_RESET_S * 1e6 and ekf.ratio["vel"] <= 1.0:
             self._reset_to_gps(now, pos, pos_then, pn)
+
+    def _reset_inertial(self, now: int, pos, vel, pos_then, vel_then, vn: float, pn: float) -> None:
+        """GPS velocity has disagreed for VEL_RESET_S: the inertial solution is wrong (PX4 resets velocity and
+        position when their fusion times out).  Velocity and position are reset to GPS (carried to now by
+        the inertial change since the fix's time) and the tilt uncertainty widened: a tilt error is the
+        likely cause, and the next fixes then correct it."""
+        self.ekf.reset_velocity(vel + (self.ekf.v - vel_then), vn * vn, math.radians(TILT_RESET_STD_DEG))
+        self.vel_rejected_since_us = None
+        self.events.append(("WARNING", "EKF: GPS velocity rejected, velocity reset to GPS"))
+        self._reset_to_gps(now, pos, pos_then, pn)
 
     def _reset_to_gps(self, now: int, pos: np.ndarray, pos_then: np.ndarray, pn: float) -> None:
         """GPS has disagreed for long while its velocity agrees: believe it (a persistent glitch)."""

@@ -11,6 +11,9 @@ height, both metres down from the origin::
     ratio      = innovation^2 / (EKF2_BARO_GATE^2 (EKF2_BARO_NOISE^2 + epv^2))
 
 The bias takes up a slow, honest disagreement (weather, the GPS's own slow wander) and nothing fast.
+It starts as the running mean of the comparisons so far (a low-pass started from one fix would carry
+that fix's GPS noise, 0.2-0.3 m, for minutes, and a failed barometer would then not be found
+consistent again), and becomes the BIAS_TAU_S low-pass once that is the slower of the two.
 ``FAIL_FIXES`` ratios above 1 in a row mean one of the two is wrong.  The GPS vertical velocity,
 summed from fix to fix, is a third height that cannot jump: whichever of the barometer and the GPS
 height moved further from it since they last agreed (both low-passed over ``SMOOTH_TAU_S`` while
@@ -45,9 +48,9 @@ from autopilot.estimation.ekf import (
     P_GPS_P_GATE,
     P_GPS_P_NOISE,
     ErrorStateEkf,
-    nearest_state,
 )
 from autopilot.estimation.position_kf import PositionVelocityFilter
+from autopilot.estimation.state_history import state_at
 from autopilot.parameters import ParamDef
 
 # The linear filter and its (time, position, velocity) history, for fusion at the time a fix describes.
@@ -80,6 +83,7 @@ class HeightSources:
         self._p = p
         self._baro: deque[tuple[int, float]] = deque()
         self.bias_m: float | None = None  # barometer minus GPS height, slowly tracked
+        self._bias_n = 0  # consistent comparisons in the bias so far (its running mean at first)
         self.innovation_m = 0.0
         self.ratio = 0.0
         self.failed = ""  # why the barometer is inconsistent ("": it is not)
@@ -116,7 +120,7 @@ class HeightSources:
         noise = max(self._p(P_GPS_P_NOISE), fix.epv_m if math.isfinite(fix.epv_m) else 0.0)
         pos_then, _ = ekf.state_at(fix.then_us)
         ekf_then = float(ekf.p[2] if pos_then is None else pos_then[2])
-        lkf_pos_then, _ = nearest_state(lkf[1], fix.then_us)
+        lkf_pos_then, _ = state_at(lkf[1], fix.then_us)
         lkf_then = float(lkf[0].x[2, 0] if lkf_pos_then is None else lkf_pos_then[2])
         if self.on_gps_height:
             ekf.fuse_state(2, fix.down_m - ekf_then, noise * noise, self._p(P_GPS_P_GATE), "hgt")
@@ -169,7 +173,8 @@ class HeightSources:
     def _consistent(self, innov: float, moved: tuple[float, float]) -> None:
         """A fix within the gate: the bias and the references follow slowly."""
         self._fails = 0
-        self.bias_m = (self.bias_m or 0.0) + FIX_S / (FIX_S + BIAS_TAU_S) * innov
+        self._bias_n += 1
+        self.bias_m = (self.bias_m or 0.0) + max(1.0 / self._bias_n, FIX_S / (FIX_S + BIAS_TAU_S)) * innov
         if self._ref is None:
             self._ref = moved
         k = FIX_S / (FIX_S + SMOOTH_TAU_S)

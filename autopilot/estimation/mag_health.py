@@ -43,12 +43,21 @@ def magnetic_field(lat_deg: float, lon_deg: float, alt_amsl_m: float) -> tuple[f
     return math.radians(res.d), res.f / 1e5  # nT -> gauss
 
 
+def magnetic_field_ned(lat_deg: float, lon_deg: float, alt_amsl_m: float) -> np.ndarray:
+    """The World Magnetic Model's field vector at a place: gauss, NED."""
+    from pygeomag import GeoMag
+
+    res = GeoMag().calculate(glat=lat_deg, glon=lon_deg, alt=alt_amsl_m / 1000.0, time=MAGNETIC_MODEL_EPOCH_YEAR)
+    return np.array([res.x, res.y, res.z]) / 1e5  # nT -> gauss
+
+
 class MagHealth:
     """Fault detection of one magnetometer; ``fault`` says whether its heading may be fused."""
 
     def __init__(self, events: list[tuple[str, str]]) -> None:
         self.events = events  # (severity name, text), shared with the estimator
         self.strength_gauss: float | None = None  # World Magnetic Model total intensity at the origin
+        self.field_ned_gauss: np.ndarray | None = None  # ... its field vector (gauss, NED)
         self.fault = False
         self.fault_reason = ""
         self.last: np.ndarray | None = None  # the latest reading, gauss FRD

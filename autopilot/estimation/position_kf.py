@@ -29,11 +29,12 @@ from autopilot.parameters import ParamDef, param
 
 P_GPS_DELAY = param(
     "EKF2_GPS_DELAY",
-    110.0,
+    120.0,
     0.0,
     300.0,
     "ms",
-    "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago",
+    "GPS measurement delay relative to the IMU: fixes are compared with the estimate this long ago "
+    "(default: the simulator's SIM_GPS_LAG_MS)",
 )
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).

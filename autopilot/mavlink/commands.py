@@ -29,6 +29,7 @@ from typing import Any, Callable, Protocol
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink import command_fields as f
+from autopilot.mavlink.autotune_command import handle_autotune
 from autopilot.mavlink.command_fields import FieldError, Params, command_int_params, command_long_params
 from autopilot.topics import CommanderStatus
 from mavsim_core.px4_modes import Mode
@@ -355,6 +356,7 @@ COMMANDS: dict[int, Command] = {
     mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: Command(By.VEHICLE, _reboot_shutdown, "Reboot/shutdown"),
     mavlink.MAV_CMD_DO_MOTOR_TEST: Command(By.VEHICLE, _motor_test, "Motor test"),
     mavlink.MAV_CMD_DO_ORBIT: Command(By.VEHICLE, _orbit, "Orbit"),
+    mavlink.MAV_CMD_DO_AUTOTUNE_ENABLE: Command(By.VEHICLE, handle_autotune, "Autotune"),  # autotune_command.py
 }
 
 

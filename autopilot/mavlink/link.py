@@ -34,6 +34,7 @@ from typing import Callable
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink import commands
+from autopilot.mavlink.autotune_command import autotune_progress
 from autopilot.mavlink.command_retries import RetransmittedCommands
 from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, EndpointCommands, LinkEndpoint
 from autopilot.mavlink.identity import Identity, autopilot_version, instance_identity
@@ -327,10 +328,12 @@ class GcsLink:
             result = mavlink.MAV_RESULT_FAILED
         if long:
             self._retransmitted.carried_out(sender, command, params, result)
-        self._ack(ep, msg, command, result)
+        autotune = command == mavlink.MAV_CMD_DO_AUTOTUNE_ENABLE  # its ACK carries the run's progress (per cent)
+        self._ack(ep, msg, command, result, autotune_progress(self.vehicle) if autotune else 0)
 
-    def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int) -> None:
-        ep.send(mavlink.MAVLink_command_ack_message(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+    def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int, progress: int = 0):
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        ep.send(mavlink.MAVLink_command_ack_message(command, result, progress, 0, *src))
 
     def _on_set_mode(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         if msg.target_system not in (0, self.sysid):

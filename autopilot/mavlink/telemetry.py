@@ -139,7 +139,7 @@ def attitude(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | Non
         return None
     roll, pitch, yaw = to_euler(e.q_wxyz)
     p, q, r = (float(v) for v in e.rate_frd_rad_s)
-    return mavlink.MAVLink_attitude_message(time_boot_ms(now_us), roll, pitch, yaw, p, q, r)
+    return mavlink.MAVLink_attitude_message(time_boot_ms(e.timestamp_us), roll, pitch, yaw, p, q, r)  # (PX4: its time)
 
 
 def attitude_quaternion(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
@@ -149,7 +149,7 @@ def attitude_quaternion(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_me
         return None
     w, x, y, z = (float(v) for v in e.q_wxyz)
     p, q, r = (float(v) for v in e.rate_frd_rad_s)
-    return mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(now_us), w, x, y, z, p, q, r, [0.0] * 4)
+    return mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(e.timestamp_us), w, x, y, z, p, q, r, [0.0] * 4)
 
 
 def attitude_target(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
@@ -221,7 +221,7 @@ def global_position_int(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_me
     vn, ve, vd = (clamp_int(v * 100.0, -INT16_MAX - 1, INT16_MAX, 0) for v in e.vel_ned_m_s)
     yaw = to_euler(e.q_wxyz)[2]
     return mavlink.MAVLink_global_position_int_message(
-        time_boot_ms(now_us), deg_e7(lat), deg_e7(lon), clamp_int(alt * 1000.0, *_INT32),
+        time_boot_ms(e.timestamp_us), deg_e7(lat), deg_e7(lon), clamp_int(alt * 1000.0, *_INT32),
         clamp_int(rel_alt_m * 1000.0, *_INT32), vn, ve, vd, cdeg_0_36000(yaw),
     )  # fmt: skip
 
@@ -233,7 +233,7 @@ def local_position_ned(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_mes
         return None
     x, y, z = (float(v) for v in e.pos_ned_m)
     vx, vy, vz = (float(v) for v in e.vel_ned_m_s)
-    return mavlink.MAVLink_local_position_ned_message(time_boot_ms(now_us), x, y, z, vx, vy, vz)
+    return mavlink.MAVLink_local_position_ned_message(time_boot_ms(e.timestamp_us), x, y, z, vx, vy, vz)
 
 
 def gps_raw_int(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:

@@ -3,13 +3,14 @@
 Phases (:class:`PrecLandPhase`): PREPARATION hovers PLD_PREP_ALT (2.8 m, [F 3]) above the
 ground until the target is seen; TRACKING flies the cubic spline of [F eq. 3.1] to the point
 PLD_TRK_ALT (1 m) above the target in td = horizontal error / PLD_TRK_SPD (1 m/s), re-planned
-each step on the target's latest position, plus the target's velocity as feed-forward;
+each step on the target's latest position, plus the target's velocity (and, over a moving deck,
+its acceleration) as feed-forward;
 APPROACHING holds the point above the target until the horizontal error stays below
 PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S (and DOCKING returns to it when the error exceeds
-PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck
-while tracking the target horizontally and reports ``done`` (``motors_cut``) at the docking
-point.  A target unseen for PLD_BTOUT starts a SEARCH (PLD_SRCH_ALT above the ground, up to
-PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
+PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck (its acceleration within
+MPC_ACC_DOWN_MAX, fed forward) while tracking the target horizontally and reports ``done``
+(``motors_cut``) at the docking point.  A target unseen for PLD_BTOUT starts a SEARCH
+(PLD_SRCH_ALT above the ground, up to PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
 (opportunistic) or holds and reports ``failed`` (required).  Every phase change is appended to
 ``events`` as (time_us, text).
 
@@ -241,7 +242,11 @@ class PrecLandTask:
 
     def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
         h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - DOCK_HOVER_M
-        td = duration_s(h, self.cfg.trk_spd_m_s)
+        # [F 3]'s td (h over the mean speed), but never shorter than the cubic's peak acceleration 6 h / td^2
+        # allows within MPC_ACC_DOWN_MAX: 0.7 m in 0.7 s starts with 8.5 m/s^2 down, a near free fall whose
+        # low collective thrust leaves the motors no room to hold the attitude just above the deck.
+        acc_max = self.params.get("MPC_ACC_DOWN_MAX")
+        td = max(duration_s(h, self.cfg.trk_spd_m_s), math.sqrt(6.0 * abs(h) / acc_max))
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
         err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
         self._enter(PrecLandPhase.DOCKING, now_us, f"{err:.2f} m off, moving with it")
@@ -322,7 +327,7 @@ class PrecLandTask:
             return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
         base = self._above_target(self.cfg.trk_alt_m)
         vel = self._tgt_vel.copy()
-        acc = self._tgt_acc.copy()
+        acc = self._tgt_acc * _moving(self._tgt_vel)
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
             return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc)
@@ -332,5 +337,15 @@ class PrecLandTask:
         if ph is PrecLandPhase.DOCKING:
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
-            return PositionSetpoint(pos, vel + np.array([0.0, 0.0, float(p.vel[0])]), self.yaw_rad, acc)
+            down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
+            return PositionSetpoint(pos, vel + float(p.vel[0]) * down, self.yaw_rad, acc + float(p.acc[0]) * down)
         return PositionSetpoint(deck, vel, self.yaw_rad)  # DONE: the deck (motors are off)
+
+
+def _moving(target_vel_ned_m_s: np.ndarray) -> float:
+    """How much of the target's acceleration to feed forward (0-1), by its speed over the ground: none over a
+    still deck (below STILL_TARGET_M_S / 2), all over one driving faster than 1.5 STILL_TARGET_M_S, linear
+    between.  The acceleration is the estimated velocity differenced: over a still deck it is only the
+    marker's noise (~0.5 m/s^2 RMS at ~1 Hz), which would go straight to the attitude setpoint."""
+    speed = math.hypot(float(target_vel_ned_m_s[0]), float(target_vel_ned_m_s[1]))
+    return min(1.0, max(0.0, speed / STILL_TARGET_M_S - 0.5))

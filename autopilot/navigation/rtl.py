@@ -5,7 +5,7 @@ current height and RTL_RETURN_ALT above home), RETURN at that height to above ho
 LOITER there for RTL_LAND_DELAY seconds (-1: hold for good, the return is then ``done``),
 LAND over home.  Each phase is a go-to, a loiter or a land task; the next phase starts
 from the previous one's goal when the vehicle has arrived.  Vertical legs fly at 0.7
-MPC_Z_VEL_MAX_UP with 1 m/s^2, horizontal ones at MPC_XY_CRUISE with MPC_ACC_HOR.
+MPC_Z_VEL_MAX_UP with 1 m/s^2, horizontal ones at MPC_XY_CRUISE with MPC_ACC_HOR; all with MPC_JERK_AUTO.
 Positions are metres NED relative to the estimator origin; time is simulated microseconds.
 """
 
@@ -37,6 +37,7 @@ PARAMS: tuple[ParamDef, ...] = (
     goto.P_XY_CRUISE,
     goto.P_ACC_HOR,
     defined_in(gains_from_params.POSITION_PARAMS, "MPC_Z_VEL_MAX_UP"),
+    defined_in(gains_from_params.POSITION_PARAMS, "MPC_JERK_AUTO"),
 )
 
 VERTICAL_SPEED_FRAC = 0.7  # vertical legs fly at this fraction of MPC_Z_VEL_MAX_UP
@@ -75,7 +76,7 @@ class ReturnTask:
                 VERTICAL_ACCEL_M_S2,
                 start_ned_m=start,
             )
-        return GotoTask(goal, self.yaw_rad, p.get("MPC_XY_CRUISE"), p.get("MPC_ACC_HOR"), start_ned_m=start)
+        return GotoTask(goal, self.yaw_rad, p.get("MPC_XY_CRUISE"), p.get("MPC_ACC_HOR"), start, p.get("MPC_JERK_AUTO"))
 
     def _start_phase(self, phase: RtlPhase, now_us: int, est: VehicleEstimate, pos: np.ndarray) -> None:
         self.phase = phase

@@ -1,0 +1,125 @@
+"""Thrust loss: a vehicle that sinks although its motors give all they have (a motor or propeller lost).
+
+A vehicle that loses a motor does not always flip: with stiff rate loops the mixer keeps it level by
+giving up collective thrust (a quadrotor's opposite motor goes to idle), and it comes down upright.
+The attitude checks of :mod:`.failure_detector` (FD_FAIL_R/FD_FAIL_P) never see that, so this check
+looks where ArduPilot's Copter does (``thrust_loss_check``, "Potential Thrust Loss (N)"): while armed
+and in the air, in a mode that controls the attitude, for ``TRIGGER_S`` (1 s) without a break:
+
+* the attitude is under control: tilt below ``MAX_TILT_DEG`` (ArduPilot: attitude error under 30 deg);
+* the motors are at their limit: one output at ``SATURATED`` or more (ArduPilot: throttle at 90 % or
+  the mixer's upper throttle limit reached) and the throttle at ``MIN_THROTTLE`` or more (25 %: not a
+  limit that a low commanded throttle causes);
+* descending (the estimated NED vertical velocity positive).
+
+The likely motor is the one with the highest output low-passed over ``OUTPUT_TAU_S`` (0.5 s), as
+ArduPilot's ``AP_MotorsMatrix::check_for_failed_motor``: the controllers ask the motor that gives
+nothing for more and more, up to its limit.  Motors are numbered from 1 in the mixer's order (the
+simulator's SIM_ENGINE_FAIL numbers).
+
+On the ground after a thrust loss the position controller keeps asking for full thrust, so the land
+detector, which waits for low thrust, never lands it: :meth:`ThrustLossCheck.grounded` is the ground
+test of the crash check instead (:func:`autopilot.commander.failure_detector.check_failures`): within
+``GROUND_BAND_M`` of the height it was armed at, moving slower than the land detector's limits
+(LNDMC_Z_VEL_MAX, LNDMC_XY_VEL_MAX) and accelerating less than the crash check's 3 m/s^2, for
+``GROUND_S``.  A vehicle that lost thrust and settled elsewhere (a roof) is not disarmed by this: a
+still vehicle in the air at full thrust cannot be told from one on a roof without a range sensor.
+Times are simulated µs; NED metres and m/s; angles radians unless named ``_deg``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TRIGGER_S = 1.0  # ArduPilot's THRUST_LOSS_CHECK_TRIGGER_SEC
+MAX_TILT_DEG = 30.0  # ArduPilot's CRASH_CHECK_ANGLE_DEVIATION_DEG (attitude still controlled)
+SATURATED = 0.95  # a motor output (0..1) at its limit
+MIN_THROTTLE = 0.25  # ArduPilot's minimum throttle for the check (fraction of the maximum collective thrust)
+OUTPUT_TAU_S = 0.5  # low-pass of the outputs that names the likely motor (ArduPilot's)
+GROUND_BAND_M = 1.0  # within this of the height at arming: on the ground
+GROUND_ACCEL_M_S2 = 3.0  # still: accelerating less than this (the crash check's CRASH_CHECK_ACCEL_MAX)
+GROUND_S = 2.0  # still on the ground this long after a thrust loss: disarmed (the crash check's time)
+
+
+class ThrustLossCheck:
+    """The thrust-loss timer, the likely motor, and the on-the-ground test after a loss (module docstring)."""
+
+    def __init__(self) -> None:
+        self.lost = False  # a thrust loss was found in this arming (cleared by :meth:`reset`)
+        self.motor = 0  # the likely motor (1-based; 0 before any output was seen)
+        self._since_us: int | None = None  # the conditions have held since
+        self._still_since_us: int | None = None  # on the ground and still since (after a loss)
+        self._filtered: np.ndarray | None = None  # low-passed motor outputs
+        self._last_us: int | None = None
+
+    def reset(self) -> None:
+        """Disarmed: everything cleared."""
+        self.__init__()
+
+    def update(
+        self,
+        now_us: int,
+        checking: bool,
+        tilt_rad: float,
+        vel_down_m_s: float,
+        outputs: tuple[float, ...],
+        throttle: float,
+    ) -> bool:
+        """One step; ``checking``: armed, in the air and the attitude controlled.  True once, at the loss."""
+        self._filter(now_us, outputs)
+        losing = (
+            checking
+            and tilt_rad < math.radians(MAX_TILT_DEG)
+            and bool(outputs)
+            and max(outputs) >= SATURATED
+            and throttle >= MIN_THROTTLE
+            and vel_down_m_s > 0.0
+        )
+        if not losing:
+            self._since_us = None
+            return False
+        if self._since_us is None:
+            self._since_us = now_us
+        if self.lost or now_us - self._since_us < TRIGGER_S * 1e6:
+            return False
+        self.lost = True
+        if self._filtered is not None:
+            self.motor = int(np.argmax(self._filtered)) + 1
+        return True
+
+    def grounded(
+        self,
+        now_us: int,
+        height_above_arming_m: float,
+        vel_ned_m_s: np.ndarray,
+        accel_ned_m_s2: np.ndarray,
+        z_vel_max_m_s: float,
+        xy_vel_max_m_s: float,
+    ) -> bool:
+        """After a loss: on the ground near where it was armed, and still, for GROUND_S (module docstring)."""
+        still = (
+            self.lost
+            and height_above_arming_m < GROUND_BAND_M
+            and abs(float(vel_ned_m_s[2])) < z_vel_max_m_s
+            and math.hypot(float(vel_ned_m_s[0]), float(vel_ned_m_s[1])) < xy_vel_max_m_s
+            and float(np.linalg.norm(accel_ned_m_s2)) < GROUND_ACCEL_M_S2
+        )
+        if not still:
+            self._still_since_us = None
+            return False
+        if self._still_since_us is None:
+            self._still_since_us = now_us
+        return now_us - self._still_since_us >= GROUND_S * 1e6
+
+    def _filter(self, now_us: int, outputs: tuple[float, ...]) -> None:
+        if not outputs:
+            return
+        out = np.asarray(outputs, dtype=float)
+        if self._filtered is None or self._filtered.shape != out.shape or self._last_us is None:
+            self._filtered = out.copy()
+        else:
+            dt = max(0.0, (now_us - self._last_us) * 1e-6)
+            self._filtered += dt / (dt + OUTPUT_TAU_S) * (out - self._filtered)
+        self._last_us = now_us

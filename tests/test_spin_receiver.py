@@ -1,0 +1,40 @@
+"""The lockstep link's receive: spin on non-blocking reads, then wait in poll with the timeout asked for;
+the socket itself stays blocking (so sendall on it blocks as usual)."""
+
+from __future__ import annotations
+
+import socket
+import threading
+
+import pytest
+
+from mavsim_core.spin_receiver import SpinReceiver
+
+
+def test_recv_times_out_then_waits_until_data_and_leaves_the_socket_blocking():
+    a, b = socket.socketpair()
+    with a, b:
+        a.settimeout(2.0)  # a timeout set by someone else: the receiver makes the socket blocking again
+        rx = SpinReceiver(a)
+        with pytest.raises(socket.timeout):
+            rx.recv(64, timeout_s=0.05)
+        assert a.gettimeout() is None
+        b.sendall(b"x")
+        assert rx.recv(64, timeout_s=0.05) == b"x"  # data waiting: at once
+        timer = threading.Timer(0.3, b.sendall, (b"late",))  # arrives after the spin: the wait gets it
+        timer.start()
+        try:
+            assert rx.recv(64, timeout_s=None) == b"late"
+        finally:
+            timer.cancel()
+        with pytest.raises(socket.timeout):
+            rx.recv(64, timeout_s=0.0)  # nothing there: a zero timeout answers at once
+        assert a.gettimeout() is None
+
+
+def test_a_closed_peer_reads_as_end_of_stream():
+    a, b = socket.socketpair()
+    with a:
+        rx = SpinReceiver(a)
+        b.close()
+        assert rx.recv(64, timeout_s=1.0) == b""
