@@ -135,7 +135,7 @@ class LandingTargetInput:
             drift = prior.target_vel_ned_m_s * age_s if prior.valid and prior.target_vel_ned_m_s is not None else 0.0
             moved = target_then + drift - est.pos_ned_m
             now_meas = LandingTargetMeasurement(now_us, moved, meas.std_m, meas.source_frame, meas.valid, meas.angular)
-            if self.estimator.update(now_meas):
+            if self.estimator.update(now_meas, est.vel_ned_m_s):
                 self.accepted += 1
                 fresh = True
         self._pending.clear()

@@ -5,7 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.navigation.landing_target_estimator import PARAMS, LandingTargetEstimator, LandingTargetSettings
+from autopilot.navigation.landing_target_estimator import (
+    PARAMS,
+    RESET_AFTER_REJECTS,
+    LandingTargetEstimator,
+    LandingTargetSettings,
+)
 from autopilot.navigation.target_predictor import PolynomialTargetPredictor
 from autopilot.topics import LandingTargetMeasurement
 
@@ -127,3 +132,32 @@ def test_vehicle_acceleration_drives_the_prediction():
     t2 = ts + 1.0  # 1 s ahead: the acceleration alone moves it 0.5 m
     assert abs(e.rel_pos_ned_m[0] - (4.0 - 0.5 * a * t2 * t2)) < 0.15
     assert abs(e.rel_vel_ned_m_s[0] + a * t2) < 0.15
+
+
+def test_a_newly_seen_target_starts_still_over_the_ground():
+    """A vehicle still braking at 1.2 m/s north when it first sees a standing deck: the filter starts with the
+    target still over the ground (relative velocity -1.2 m/s, as PX4's), not moving with the vehicle."""
+    vehicle_vel = np.array([1.2, -0.5, 0.0])
+    est = LandingTargetEstimator(LandingTargetSettings(vel_unc_in=4.0))
+    assert est.update(_meas(0, (2.0, -1.0)), vehicle_vel)
+    e = est.estimate(0, vehicle_vel)
+    np.testing.assert_allclose(e.rel_vel_ned_m_s[:2], -vehicle_vel[:2])
+    np.testing.assert_allclose(e.target_vel_ned_m_s[:2], 0.0, atol=1e-12)
+    assert LandingTargetEstimator().update(_meas(0, (2.0, -1.0)))  # no velocity given: relative velocity 0
+
+
+def test_a_target_that_sets_off_unmodelled_restarts_the_filter_after_three_refusals():
+    """Held still by the filter, the deck is seen 1.5 m further on (it drove off while out of view): the first
+    RESET_AFTER_REJECTS fixes are refused as outliers, the next one restarts the filter on it (PX4's filter
+    would refuse every fix until LTEST_TIMEOUT, the marker in view all the while)."""
+    est = LandingTargetEstimator()
+    t = _run(est, (0.0, 0.0), 1.0, 0.0, None)
+    for k in range(1, RESET_AFTER_REJECTS + 1):
+        assert not est.update(_meas(t + k * DT_US, (3.5, -1.0)))
+    assert est.rejected_count == RESET_AFTER_REJECTS
+    t += (RESET_AFTER_REJECTS + 1) * DT_US
+    assert est.update(_meas(t, (3.5, -1.0)), np.array([0.5, 0.0, 0.0]))
+    e = est.estimate(t, np.array([0.5, 0.0, 0.0]))
+    np.testing.assert_allclose(e.rel_pos_ned_m[:2], [3.5, -1.0])
+    np.testing.assert_allclose(e.target_vel_ned_m_s[:2], 0.0, atol=1e-12)
+    assert est.update(_meas(t + DT_US, (7.0, -1.0))) is False  # an outlier after that is refused again

@@ -4,6 +4,7 @@ refused (once per reason), and the attitude at capture."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -88,3 +89,31 @@ def test_a_measurement_is_moved_on_to_now_from_where_the_vehicle_was_at_capture(
     lt.on_message(_body_msg(0.5, 0.0, 2.7, 400_000), 1, 500_000)
     target = lt.update(500_000, _estimate(500_000))
     assert target is not None and target.rel_pos_ned_m[0] == pytest.approx(0.4, abs=0.02)
+
+
+def test_a_swinging_vehicle_over_a_still_target_leaks_no_tilt_into_the_estimate():
+    """Issue 21: the vehicle swings north and back (0.3 m, 2 rad/s, up to 7 deg of pitch) 0.9 m above a still
+    target; exact body-FRD fixes captured at 20 Hz from the attitude of their capture arrive 50 ms later.  Each
+    is rotated with the attitude at its capture and moved on to now, so the relative estimate follows the truth
+    to millimetres; rotated with the attitude at receipt it would be off by ~0.9 m x the tilt change (~2 cm)."""
+    store = default_store()
+    for name, value in (("LTEST_MEAS_UNC", 0.0005), ("LTEST_VEL_UNC_IN", 4.0), ("LTEST_ACC_UNC", 5.0)):
+        store.set(name, value)
+    lt, height, pending, errors = LandingTargetInput(store), 0.9, [], []
+    for t_us in range(0, 6_000_000, 4000):
+        t = t_us * 1e-6
+        pos = np.array([0.3 * math.sin(2.0 * t), 0.0, -height])
+        vel, acc = np.array([0.6 * math.cos(2.0 * t), 0.0, 0.0]), np.array([-1.2 * math.sin(2.0 * t), 0.0, 0.0])
+        q = quaternion.from_euler(0.0, -math.atan2(acc[0], 9.81), 0.0)  # accelerating north: nose down
+        lt.record_state(t_us, q, pos, height)
+        if t_us % 50_000 == 0:
+            frd = quaternion.to_matrix(q).T @ -pos
+            pending.append((t_us + 50_000, _body_msg(*frd.tolist(), t_us)))
+        while pending and pending[0][0] <= t_us:
+            lt.on_message(pending.pop(0)[1], 1, t_us)
+        if t_us % 20_000 == 4000:
+            est = replace(_estimate(t_us, tuple(pos)), q_wxyz=q, vel_ned_m_s=vel, accel_ned_m_s2=acc)
+            lt.update(t_us, est)
+            if t > 2.0:
+                errors.append(lt.estimate.rel_pos_ned_m[:2] + pos[:2])
+    assert len(errors) > 150 and float(np.abs(errors).max()) < 0.005

@@ -6,7 +6,8 @@ relative = target minus vehicle, NED.  Prediction takes the vehicle's accelerati
 (NED, m/s^2) as input (the target is assumed unaccelerated; its acceleration and the
 accelerometer noise are the process noise ``LTEST_ACC_UNC``).  Measurements are
 :class:`LandingTargetMeasurement` records; each axis's innovation is gated with a
-chi-square test (1 degree of freedom) and rejected outliers leave the state unchanged.
+chi-square test (1 degree of freedom) and rejected outliers leave the state unchanged; after
+``RESET_AFTER_REJECTS`` refusals in a row the next measurement restarts the filter.
 Without an accepted measurement for ``LTEST_TIMEOUT`` seconds the estimate is invalid
 and the next measurement re-initialises the filter.  Time is an input (microseconds).
 """
@@ -24,6 +25,10 @@ from autopilot.parameters import ParamDef, ParamType, param
 from autopilot.topics import LandingTargetEstimate, LandingTargetMeasurement
 
 CHI2_GATE_1DOF = 6.63  # 99 % of a chi-square with 1 degree of freedom
+# (ours) The filter restarts on the measurement after this many consecutive gate refusals: a model gone wrong
+# (a deck that set off while the filter held it still, a few noisy first fixes) would otherwise refuse every
+# later fix until LTEST_TIMEOUT, while the marker is in view.
+RESET_AFTER_REJECTS = 3
 
 PARAMS: tuple[ParamDef, ...] = (
     param("LTEST_MODE", 0, 0, 1, "-", "Landing target mode: 0 moving, 1 stationary (PX4)", ParamType.INT32),
@@ -64,9 +69,9 @@ class LandingTargetSettings:
         )
 
 
-def _axis_filter(pos: float, s: LandingTargetSettings) -> KalmanFilter:
+def _axis_filter(pos: float, vel: float, s: LandingTargetSettings) -> KalmanFilter:
     kf = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
-    kf.x = np.array([[pos], [0.0]])
+    kf.x = np.array([[pos], [vel]])
     kf.P = np.diag([s.pos_unc_in, s.vel_unc_in])
     kf.H = np.array([[1.0, 0.0]])
     return kf
@@ -83,6 +88,7 @@ class LandingTargetEstimator:
         self._accel_ne = np.zeros(2)
         self._rel_down_m = 0.0
         self.rejected_count = 0
+        self._rejected_in_row = 0  # consecutive measurements refused by the gate
 
     def set_settings(self, settings: LandingTargetSettings) -> None:
         self.settings = settings
@@ -107,23 +113,33 @@ class LandingTargetEstimator:
             kf.predict(u=np.array([[a]]), B=b, F=f, Q=q)
         self._t_us = t_us
 
-    def update(self, meas: LandingTargetMeasurement) -> bool:
-        """Fuse one measurement; False if it was refused (invalid, stale, or an outlier)."""
+    def update(self, meas: LandingTargetMeasurement, vehicle_vel_ned_m_s: np.ndarray | None = None) -> bool:
+        """Fuse one measurement; False if it was refused (invalid, stale, or an outlier).
+
+        ``vehicle_vel_ned_m_s`` (NED, m/s): the vehicle's velocity, used when the measurement (re)starts the
+        filter: the target is then taken as still over the ground (relative velocity = minus the vehicle's, as
+        PX4's estimator starts), not as moving with the vehicle; a vehicle still braking when it first sees a
+        standing deck would otherwise fly after a deck "moving" at its own speed.  None: relative velocity 0.
+        """
         rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
         if not meas.valid or not np.all(np.isfinite(rel)) or meas.timestamp_us < self._last_meas_us:
             return False
         scaled = rel[:2] * np.array([self.settings.scale_x, self.settings.scale_y])
         r_var = meas.std_m**2 if math.isfinite(meas.std_m) else self.settings.meas_unc * max(float(rel[2]) ** 2, 1.0)
-        if self._timed_out(meas.timestamp_us):
-            self._axes = [_axis_filter(float(p), self.settings) for p in scaled]
-            self._t_us = meas.timestamp_us
-        else:
+        if not self._timed_out(meas.timestamp_us):
             self._advance(meas.timestamp_us)
-            if not self._gate(scaled, r_var):
-                self.rejected_count += 1
-                return False
+        if self._timed_out(meas.timestamp_us) or self._rejected_in_row >= RESET_AFTER_REJECTS:
+            v0 = np.zeros(2) if vehicle_vel_ned_m_s is None else -np.asarray(vehicle_vel_ned_m_s, dtype=float)[:2]
+            self._axes = [_axis_filter(float(p), float(v), self.settings) for p, v in zip(scaled, v0)]
+            self._t_us = meas.timestamp_us
+        elif not self._gate(scaled, r_var):
+            self.rejected_count += 1
+            self._rejected_in_row += 1
+            return False
+        else:
             for kf, z in zip(self._axes, scaled):
                 kf.update(np.array([[z]]), R=np.array([[r_var]]))
+        self._rejected_in_row = 0
         self._last_meas_us = meas.timestamp_us
         self._rel_down_m = float(rel[2])
         return True
