@@ -104,13 +104,12 @@ def _target_columns(fc) -> list:
     """The landing target estimate, the measurement count and the precision-landing phase code."""
     lt = fc.landing_target
     e = lt.estimate
-    row = list(_NO_TARGET)
-    if e is not None and e.valid:
-        row[:3] = e.rel_pos_ned_m.tolist()
-        if e.target_vel_ned_m_s is not None:
-            row[3:] = e.target_vel_ned_m_s[:2].tolist()
     phase = getattr(fc.commander.task, "phase", None)
     code = PRECLAND_PHASES.index(phase.value) + 1 if phase is not None and phase.value in PRECLAND_PHASES else 0
+    if e is None or not e.valid:  # the usual case: no target (one list, no copies)
+        return [*_NO_TARGET, lt.accepted, code]
+    row = e.rel_pos_ned_m.tolist()
+    row += e.target_vel_ned_m_s[:2].tolist() if e.target_vel_ned_m_s is not None else _NO_TARGET[3:]
     return row + [lt.accepted, code]
 
 
@@ -144,37 +143,28 @@ class FlightLogWriter:
         if status is not self._status:  # a new (frozen) record on every change: its mode's numbers once each
             self._status, self._mode = status, status.mode.value
         main_mode, sub_mode = self._mode
-        row = [fc.last_us or 0, status.armed, main_mode, sub_mode]  # .tolist(): far cheaper than numpy scalars
+        armed = status.armed
         sp = fc.setpoint
-        if sp is not None and status.armed:
+        if sp is not None and armed:  # .tolist(): far cheaper than numpy scalars
             pc = fc.position_control
-            row += sp.pos_ned_m.tolist()
-            row += pc.vel_sp.tolist()
-            row += pc.acc_sp.tolist()
-            row.append(sp.yaw_rad)
-            row += fc.q_sp.tolist()
-            row += fc.rate_sp.tolist()
             tv = getattr(fc, "thrust_vec", None)
             if tv is not None:
                 x, y, z = tv.tolist()
-                row.append(math.sqrt(x * x + y * y + z * z) / self.max_thrust_n)
+                thrust_sp = math.sqrt(x * x + y * y + z * z) / self.max_thrust_n
             else:
-                row.append(math.nan)
+                thrust_sp = math.nan
+            setpoints = [*sp.pos_ned_m.tolist(), *pc.vel_sp.tolist(), *pc.acc_sp.tolist(), sp.yaw_rad,
+                         *fc.q_sp.tolist(), *fc.rate_sp.tolist(), thrust_sp]  # fmt: skip
         else:
-            row += _NO_SETPOINT
-        row.append(actuators.throttle_frac)
+            setpoints = _NO_SETPOINT
         e = status.estimate  # the estimate the outer loops used (position, velocity: 50 Hz)
-        if e is not None:
-            row += e.pos_ned_m.tolist()
-            row += e.vel_ned_m_s.tolist()
-        else:
-            row += _NO_POS_VEL
+        pos_vel = _NO_POS_VEL if e is None else [*e.pos_ned_m.tolist(), *e.vel_ned_m_s.tolist()]
         q = getattr(est, "q", None)  # the selected filter's attitude, updated every step
-        row += (q if q is not None else est.attitude.q).tolist()
-        row += est.rate_frd.tolist()
-        row += (actuators.motor_outputs or self._idle_motors)[: self.n_motors]
-        row += _target_columns(fc)
-        self.writer.append(*row)
+        self.writer.append(
+            fc.last_us or 0, armed, main_mode, sub_mode, *setpoints, actuators.throttle_frac, *pos_vel,
+            *(q if q is not None else est.attitude.q).tolist(), *est.rate_frd.tolist(),
+            *(actuators.motor_outputs or self._idle_motors)[: self.n_motors], *_target_columns(fc),
+        )  # fmt: skip
 
     def flush(self) -> None:
         self.writer.flush()

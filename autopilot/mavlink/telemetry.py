@@ -84,7 +84,8 @@ def clamp_int(x: float, lo: int, hi: int, invalid: int) -> int:
     """Round and clamp a value for an integer field; ``invalid`` for NaN/inf."""
     if not math.isfinite(x):
         return invalid
-    return min(hi, max(lo, int(round(x))))
+    v = int(round(x))
+    return lo if v < lo else hi if v > hi else v
 
 
 def cdeg_0_36000(angle_rad: float) -> int:
