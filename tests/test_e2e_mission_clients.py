@@ -123,7 +123,8 @@ def test_gcs_mission_plan_with_fence_and_rally_then_return_goes_to_the_rally_poi
     vehicle.return_to_launch().check()
     vehicle.wait_until(lambda: not vehicle.armed(), 120, "landed after the return")
     end = truth.latest().pos_ned_m
-    assert math.hypot(end[0] - rally[0], end[1] - rally[1]) < 1.5, end  # the rally point, not home
+    texts = [st.text for st in vehicle.statustexts[-15:]]
+    assert math.hypot(end[0] - rally[0], end[1] - rally[1]) < 1.5, (end, texts)  # the rally point, not home
     assert closest_approach(truth, start_ms, 0, 0) > 10.0
     upload(vehicle, [], mi.FENCE)
     upload(vehicle, [], mi.RALLY)
