@@ -30,7 +30,6 @@ from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import Commander
 from autopilot.commander.external_inputs import ExternalInputs
-from autopilot.control.disturbance_observer import DisturbanceFeedForward
 from autopilot.control.gains_from_params import GainsFromParams
 from autopilot.control.mixer import Mixer
 from autopilot.control.position_control import attitude_from_thrust
@@ -82,7 +81,7 @@ class FlightController:
         # hands each controller new ones when its parameters change (live tuning).
         self.gains = GainsFromParams(params)
         self.position_control = self.gains.position_control(spec.mass_kg, self.max_thrust_n)
-        self.disturbance = DisturbanceFeedForward(params.get, spec.mass_kg, spec.time_constant_up_s)  # wind fed fwd
+        self.disturbance = self.gains.disturbance_feed_forward(spec.mass_kg, spec.time_constant_up_s)  # wind fed fwd
         self.attitude_control = self.gains.attitude_control()
         self.rate_control = self.gains.rate_control()
         self.gyro_filter = self.gains.gyro_filter()
@@ -223,9 +222,10 @@ class FlightController:
         else:
             thrust_n = self.collective_n
         out = self.mixer.mix(self.inertia * alpha, thrust_n)
-        self.disturbance.motors(float(out.thrusts_n.sum()), dt)
+        collective_n = float(out.thrusts_n.sum())
+        self.disturbance.motors(collective_n, dt)
         self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
-        self._publish(out.commands, float(out.thrusts_n.sum()))
+        self._publish(out.commands, collective_n)
         return out.commands
 
     def after_step(self) -> None:

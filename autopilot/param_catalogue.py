@@ -13,7 +13,7 @@ import sys
 
 from autopilot import flight_controller, flight_recorder, landing_target_input
 from autopilot.commander import commander, failsafes, failure_detector, health
-from autopilot.control import disturbance_observer, gains_from_params
+from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mag_fusion, mahony, position_kf
 from autopilot.mavlink import failure_injection
 from autopilot.navigation import (
@@ -38,7 +38,6 @@ from autopilot.tuning import autotune
 # Grouped as PX4 groups its parameters: controllers, estimation, navigation, commander.
 _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     gains_from_params.PARAMS,
-    disturbance_observer.PARAMS,
     flight_controller.PARAMS,
     ekf.PARAMS,
     mag_fusion.PARAMS,

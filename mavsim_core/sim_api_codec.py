@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import operator
 import struct
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Sequence
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -37,6 +37,14 @@ def x25_crc(data: bytes) -> int:
     if _MCRF4XX is not None:
         return _MCRF4XX(data, 0xFFFF)
     return mavlink.x25crc(data).crc
+
+
+def _field_getter(names: list[str]) -> Callable[[object], tuple]:
+    """One call reading these attributes of an object as a tuple (``attrgetter`` of one name gives no tuple)."""
+    if len(names) == 1:
+        one = operator.attrgetter(names[0])
+        return lambda obj: (one(obj),)
+    return operator.attrgetter(*names) if names else (lambda obj: ())
 
 
 class MessageLayout:
@@ -56,6 +64,8 @@ class MessageLayout:
         # For each field in definition order: (index in the unpacked tuple, array length or 0).
         self.fields = [(starts[w], cls.array_lengths[w]) for w in cls.orders]
         self.wire = [(i, cls.array_lengths[w]) for w, i in sorted((w, i) for i, w in enumerate(cls.orders))]
+        # A message's field values in definition order, read from the message (what encode() takes).
+        self.values_of = _field_getter(list(getattr(cls, "fieldnames", ())))
         plain = len(self.fields) > 1 and not any(n for _, n in self.fields)
         # No arrays: the unpacked tuple in definition order, and the values in wire order, by one itemgetter each.
         self._to_fields = operator.itemgetter(*[i for i, _ in self.fields]) if plain else None

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.control.disturbance_observer import DisturbanceFeedForward, DisturbanceObserver, MotorLag
-from autopilot.control.gains_from_params import position_gains
+from autopilot.control.disturbance_observer import DisturbanceObserver, MotorLag
+from autopilot.control.gains_from_params import GainsFromParams, position_gains
 from autopilot.control.position_control import PositionControl, PositionSetpoint
 from autopilot.param_catalogue import default_store
 from mavsim_core.constants import GRAVITY_M_S2
@@ -93,7 +93,7 @@ def test_motor_lag_follows_the_command_with_its_time_constant():
 
 def test_feed_forward_only_in_the_air_and_only_when_enabled_and_horizontal_only():
     params = default_store()
-    ff = DisturbanceFeedForward(params.get, MASS, 0.02)
+    ff = GainsFromParams(params).disturbance_feed_forward(MASS, 0.02)
     hover = MASS * GRAVITY_M_S2
     for _ in range(200):
         ff.motors(hover, 0.004)

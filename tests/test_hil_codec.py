@@ -171,3 +171,4 @@ def test_numeric_layouts_encode_every_numeric_message_as_pymavlink_packs_it():
             expected = msg.pack(theirs)
             theirs.seq = (theirs.seq + 1) % 256
             assert layout.encode(ours, values) == expected, cls.msgname
+            assert layout.values_of(msg) == tuple(values), cls.msgname  # what the ground link's send() encodes

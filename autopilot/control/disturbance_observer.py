@@ -24,17 +24,7 @@ import math
 
 import numpy as np
 
-from autopilot.parameters import ParamDef, ParamType, param
 from mavsim_core.constants import GRAVITY_M_S2
-
-P_DOB_EN = param(
-    "MPC_DOB_EN", 1, 0, 1, "-", "Disturbance observer: feed the estimated external push forward", ParamType.INT32
-)
-P_DOB_LP = param("MPC_DOB_LP", 2.0, 0.1, 20.0, "Hz", "Low-pass cut-off of the disturbance observer")
-
-# The parameters of the disturbance observer (listed in autopilot/param_catalogue.py); the flight
-# controller reads them.
-PARAMS: tuple[ParamDef, ...] = (P_DOB_EN, P_DOB_LP)
 
 MAX_DT_S = 0.1  # a longer step (a gap) filters nothing
 LIMIT_M_S2 = 5.0  # the largest disturbance fed forward (horizontal norm), m/s^2
@@ -96,14 +86,20 @@ class MotorLag:
 
 class DisturbanceFeedForward:
     """The flight controller's use of the observer: the motor lag at the control rate (:meth:`motors`), the
-    observer at the outer loop (:meth:`update`), in the air only, per MPC_DOB_EN and MPC_DOB_LP (``get``: a
-    parameter's value by name).  Horizontal only: the wind pushes sideways, and near the ground the ground
+    observer at the outer loop (:meth:`update`), in the air only.  ``enabled`` and ``cutoff_hz`` are
+    MPC_DOB_EN and MPC_DOB_LP, kept current by :class:`autopilot.control.gains_from_params.GainsFromParams`
+    (:meth:`set_settings`).  Horizontal only: the wind pushes sideways, and near the ground the ground
     effect and the landing's touch would read as vertical disturbances (the vertical integrator has those)."""
 
-    def __init__(self, get, mass_kg: float, motor_tau_s: float) -> None:
-        self.get = get
-        self.observer = DisturbanceObserver(mass_kg, get("MPC_DOB_LP"))
+    def __init__(self, mass_kg: float, motor_tau_s: float, enabled: bool, cutoff_hz: float) -> None:
+        self.observer = DisturbanceObserver(mass_kg, cutoff_hz)
         self.lag = MotorLag(motor_tau_s)
+        self.enabled = enabled
+
+    def set_settings(self, enabled: bool, cutoff_hz: float) -> None:
+        """New settings from the next update on."""
+        self.enabled = enabled
+        self.observer.cutoff_hz = cutoff_hz
 
     def motors(self, collective_n: float, dt: float) -> None:
         """The mixer's collective thrust (N) of this control step."""
@@ -113,9 +109,8 @@ class DisturbanceFeedForward:
         """The disturbance to feed forward (m/s^2, NED; None: none), from the estimator's acceleration and
         attitude (FRD -> NED) at the outer loop; ``flying``: in the air, off the ground."""
         obs = self.observer
-        if not flying or not self.get("MPC_DOB_EN"):
+        if not flying or not self.enabled:
             obs.reset()
             return None
-        obs.cutoff_hz = self.get("MPC_DOB_LP")
         est = obs.update(accel_ned_m_s2, -self.lag.thrust_n * r_ned_frd[:, 2], dt)
         return np.array([est[0], est[1], 0.0])

@@ -17,10 +17,11 @@ import math
 from collections.abc import Callable
 
 from autopilot.control.attitude_control import AttitudeControl, AttitudeGains
+from autopilot.control.disturbance_observer import DisturbanceFeedForward
 from autopilot.control.gyro_filter import GyroFilter, GyroFilterSettings
 from autopilot.control.position_control import PositionControl, PositionGains
 from autopilot.control.rate_control import RateControl, RateGains
-from autopilot.parameters import ParamDef, ParameterStore, param
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 
 Getter = Callable[[str], float]  # a parameter's current value by name
 
@@ -103,8 +104,15 @@ POSITION_PARAMS: tuple[ParamDef, ...] = (
     ),
 )
 
+DISTURBANCE_PARAMS: tuple[ParamDef, ...] = (
+    param(
+        "MPC_DOB_EN", 1, 0, 1, "-", "Disturbance observer: feed the estimated external push forward", ParamType.INT32
+    ),
+    param("MPC_DOB_LP", 2.0, 0.1, 20.0, "Hz", "Low-pass cut-off of the disturbance observer"),
+)
+
 # The parameters of the controllers (listed in autopilot/param_catalogue.py).
-PARAMS: tuple[ParamDef, ...] = RATE_PARAMS + ATTITUDE_PARAMS + GYRO_FILTER_PARAMS + POSITION_PARAMS
+PARAMS: tuple[ParamDef, ...] = RATE_PARAMS + ATTITUDE_PARAMS + GYRO_FILTER_PARAMS + POSITION_PARAMS + DISTURBANCE_PARAMS
 
 _AXES = ("ROLL", "PITCH", "YAW")
 
@@ -203,6 +211,14 @@ class GainsFromParams:
         pc = PositionControl(position_gains(get), mass_kg, max_total_thrust_n)
         self._bind(POSITION_PARAMS, lambda: pc.set_gains(position_gains(get)))
         return pc
+
+    def disturbance_feed_forward(self, mass_kg: float, motor_tau_s: float) -> DisturbanceFeedForward:
+        """The disturbance observer fed forward (MPC_DOB_EN, MPC_DOB_LP) for a vehicle of this mass (kg) and
+        motor time constant (s)."""
+        get = self.params.get
+        ff = DisturbanceFeedForward(mass_kg, motor_tau_s, bool(get("MPC_DOB_EN")), get("MPC_DOB_LP"))
+        self._bind(DISTURBANCE_PARAMS, lambda: ff.set_settings(bool(get("MPC_DOB_EN")), get("MPC_DOB_LP")))
+        return ff
 
 
 # One controller, tuned live from a store (tests and tools that need a single controller).

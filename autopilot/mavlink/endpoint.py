@@ -16,7 +16,6 @@ ground station on an endpoint relies on it to see the vehicle.
 from __future__ import annotations
 
 import math
-import operator
 import socket
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
@@ -25,7 +24,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core.mavlink_signing import SigningParser, SigningState
 from mavsim_core.mavlink_udp import UdpEndpoint
-from mavsim_core.sim_api_codec import MessageLayout, numeric_layout
+from mavsim_core.sim_api_codec import numeric_layout
 
 if TYPE_CHECKING:
     from autopilot.mavlink.link import GcsLink
@@ -35,27 +34,6 @@ RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net
 # A stream goes out at most once per link update (50 Hz of simulated time): a shorter interval is accepted and
 # capped, as PX4 accepts any interval and sends a stream at most once per iteration of its MAVLink loop.
 MIN_STREAM_INTERVAL_US = 20_000
-
-# message class -> (its numeric layout, a getter of its field values in definition order), or None
-_FAST_SEND: dict[type, tuple[MessageLayout, Callable] | None] = {}
-
-
-def _fast_send(cls: type) -> tuple[MessageLayout, Callable] | None:
-    """The numeric layout of ``cls`` (:func:`numeric_layout`) and one ``attrgetter`` of all its fields."""
-    try:
-        return _FAST_SEND[cls]
-    except KeyError:
-        layout = numeric_layout(cls)
-        names = getattr(cls, "fieldnames", ()) if layout is not None else ()
-        if layout is None or not names:
-            entry = None
-        elif len(names) == 1:
-            one = operator.attrgetter(names[0])
-            entry = (layout, lambda msg: (one(msg),))
-        else:
-            entry = (layout, operator.attrgetter(*names))
-        _FAST_SEND[cls] = entry
-        return entry
 
 
 @dataclass(slots=True)
@@ -141,11 +119,11 @@ class LinkEndpoint(UdpEndpoint):
     def send(self, msg: mavlink.MAVLink_message) -> None:
         """``mav.send(msg)``; a message of numbers only, unsigned, is packed by its precomputed layout (the
         same bytes: :func:`mavsim_core.sim_api_codec.numeric_layout`), a third of pymavlink's work."""
-        mav, fast = self.mav, _fast_send(type(msg))
-        if fast is None or mav.signing.sign_outgoing or "pack" in msg.__dict__:
+        mav, layout = self.mav, numeric_layout(type(msg))
+        if layout is None or mav.signing.sign_outgoing or "pack" in msg.__dict__:
             mav.send(msg)
             return
-        data = fast[0].encode(mav, fast[1](msg))
+        data = layout.encode(mav, layout.values_of(msg))
         mav.total_bytes_sent += len(data)
         self.write(data)
 
