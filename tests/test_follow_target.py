@@ -18,7 +18,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.mavlink import commands
 from autopilot.mavlink.follow_target_input import FollowTargetInput, decode_follow_target
-from autopilot.navigation.follow_target import approach, follow_point, step_angle
+from autopilot.navigation.follow_target import approach, follow_point, orbit_limits, step_angle
 from autopilot.navigation.follow_target_estimator import (
     TARGET_TIMEOUT_S,
     FollowTargetFix,
@@ -153,8 +153,16 @@ def test_a_repeated_message_is_fused_only_after_half_a_second():
 def test_follow_point_angle_step_and_approach():
     assert follow_point(np.array([10.0, 5.0, 0.0]), math.pi, 6.0).tolist() == pytest.approx([4.0, 5.0])
     assert follow_point(np.zeros(3), math.pi / 2, 6.0).tolist() == pytest.approx([0.0, 6.0])
-    assert step_angle(3.0, -3.0, 1.0, 0.1) == pytest.approx(3.1)  # the short way, across +-pi
-    assert step_angle(0.0, 0.05, 1.0, 0.1) == pytest.approx(0.05)
+    alpha, rate = step_angle(3.0, 1.0, -3.0, (1.0, 2.0), 0.1)  # the short way, across +-pi, at the rate limit
+    assert (alpha, rate) == pytest.approx((3.1, 1.0))
+    alpha, rate, t = 0.0, 0.0, 0.0
+    while alpha != 1.0 and t < 20:  # from rest to rest: speeds up, cruises, brakes
+        alpha, rate = step_angle(alpha, rate, 1.0, (0.5, 0.25), 0.02)
+        assert abs(rate) <= 0.5 + 1e-9
+        t += 0.02
+    assert alpha == pytest.approx(1.0) and rate == 0.0 and t == pytest.approx(1.0 / 0.5 + 0.5 / 0.25, abs=0.4)
+    assert orbit_limits(6.0, 5.0, 4.0) == pytest.approx((math.sqrt(2.0 / 6.0), 2.0 / 6.0))  # centripetal 2 m/s^2
+    assert orbit_limits(6.0, 1.0, 4.0)[0] == pytest.approx(1.0 / 6.0)  # FLW_TGT_MAX_VEL
     pos, vel, t = 0.0, 0.0, 0.0
     while pos != -5.0 and t < 20:
         pos, vel = approach(pos, vel, -5.0, 2.0, 1.0, 0.02)
@@ -215,7 +223,7 @@ def test_follow_target_refused_on_the_ground_and_flies_the_geometry():
     assert "Following target 245/190" in b.texts()
 
 
-def test_a_turn_of_the_target_swings_the_vehicle_round_at_the_orbit_speed_limit():
+def test_a_turn_of_the_target_swings_the_vehicle_round_within_the_orbit_limits():
     b = follow_bench(fa=90.0)  # on the target's right
     main, sub = Mode.AUTO_FOLLOW_TARGET.value
     b.command(mavlink.MAV_CMD_DO_SET_MODE, 129, main, sub)
@@ -225,7 +233,8 @@ def test_a_turn_of_the_target_swings_the_vehicle_round_at_the_orbit_speed_limit(
     offsets = b.fly(12.0)
     distances = [float(np.hypot(*o)) for o in offsets]
     assert min(distances) > 5.0 and max(distances) < 7.0  # round the target, never over it
-    quarter_s = (math.pi / 2) / (b.params.get("FLW_TGT_MAX_VEL") / 6.0)
+    rate, acc = orbit_limits(6.0, b.params.get("FLW_TGT_MAX_VEL"), b.params.get("MPC_ACC_HOR"))
+    quarter_s = (math.pi / 2) / rate + rate / acc  # speeds up, orbits at the limit, brakes
     swung = next(i for i, o in enumerate(offsets) if o[0] < -5.9) * 0.02
     assert swung == pytest.approx(quarter_s, abs=0.6)
     assert offsets[-1].tolist() == pytest.approx([-6.0, 0.0], abs=0.1)

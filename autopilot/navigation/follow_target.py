@@ -11,14 +11,17 @@ The target is what FOLLOW_TARGET messages say (a ground station's GPS, MAVSDK's
   90 on its right, 180 behind, -90 on its left; the target's heading while it moves slower than
   :data:`COURSE_MIN_SPEED_M_S`, if it sends an attitude, else alpha stays) at no more than
   ``FLW_TGT_MAX_VEL`` / ``FLW_TGT_DST`` rad/s, so the vehicle flies round the target, not over it;
+  the orbit's centripetal acceleration and its speeding up and braking stay within MPC_ACC_HOR
+  (:func:`orbit_limits`);
 - the height is ``FLW_TGT_HT`` above home (``FLW_TGT_ALT_M`` 0; 1, above the terrain, is the same
   here: the ground is flat at home's altitude) or above the target (2), approached at 70 % of
   MPC_Z_VEL_MAX_UP / _DN; as PX4, the vehicle moves horizontally only within
   :data:`ALT_ACCEPTANCE_M` of that height;
-- the position setpoint moves with the follow point's velocity (the target's, plus the orbit's)
-  and closes any gap at up to MPC_XY_CRUISE, accelerating at MPC_ACC_HOR, so taking up the
-  position from afar is a smooth move and following is exact once caught up; the velocity fed
-  forward is the same;
+- the position setpoint's velocity goes towards the follow point's velocity (the target's, plus the
+  orbit's) plus a closing speed on any gap (up to MPC_XY_CRUISE, braking at MPC_ACC_HOR), changing by
+  no more than MPC_ACC_HOR: taking up the position from afar and swinging round a turning target are
+  moves the vehicle can fly, not velocity steps it lags behind; following is exact once caught up;
+  the setpoint's velocity and acceleration are fed forward;
 - the nose points at the target (when more than :data:`YAW_MIN_DISTANCE_M` away).
 
 Before the first message, and when the target is lost (no message for
@@ -95,11 +98,23 @@ def follow_point(target_ned_m: np.ndarray, alpha_rad: float, distance_m: float) 
     return target_ned_m[:2] + distance_m * np.array([math.cos(alpha_rad), math.sin(alpha_rad)])
 
 
-def step_angle(alpha_rad: float, goal_rad: float, rate_max_rad_s: float, dt_s: float) -> float:
-    """``alpha_rad`` turned towards ``goal_rad`` the short way, by at most ``rate_max_rad_s * dt_s``."""
-    err = wrap_pi(goal_rad - alpha_rad)
-    step = max(rate_max_rad_s, 0.0) * dt_s
-    return wrap_pi(alpha_rad + max(-step, min(step, err)))
+def orbit_limits(distance_m: float, speed_max_m_s: float, acc_m_s2: float) -> tuple[float, float]:
+    """(rate rad/s, angular acceleration rad/s^2) of the orbit angle at ``distance_m`` from the target.
+
+    The speed round the target is at most ``speed_max_m_s`` (FLW_TGT_MAX_VEL) and its centripetal
+    acceleration at most half of ``acc_m_s2`` (MPC_ACC_HOR); speeding up and slowing down the orbit
+    takes at most the other half, so the vehicle can fly the swing as it is set."""
+    half = 0.5 * max(acc_m_s2, 0.0)
+    return min(max(speed_max_m_s, 0.0) / distance_m, math.sqrt(half / distance_m)), half / distance_m
+
+
+def step_angle(
+    alpha_rad: float, rate_rad_s: float, goal_rad: float, limits: tuple[float, float], dt_s: float
+) -> tuple[float, float]:
+    """``alpha_rad`` turned towards ``goal_rad`` the short way; its rate at most ``limits[0]``, changing by
+    at most ``limits[1] * dt_s``, braking to arrive at rest.  (new angle, new rate)."""
+    moved, rate = approach(0.0, rate_rad_s, wrap_pi(goal_rad - alpha_rad), limits[0], limits[1], dt_s)
+    return wrap_pi(alpha_rad + moved), rate
 
 
 def approach(pos: float, vel: float, goal: float, v_max: float, a_max: float, dt: float) -> tuple[float, float]:
@@ -132,10 +147,10 @@ class FollowTargetTask:
         """Hold where the vehicle is until the first target message."""
         self.hold = est.pos_ned_m.astype(float).copy()
         self.sp_xy = self.hold[:2].copy()  # the horizontal setpoint, m NED
-        self.gap_vel = np.zeros(2)  # its speed of closing the gap to the follow point, m/s
+        self.sp_vel = np.zeros(2)  # its velocity, m/s NED
         self.down, self.v_down = float(self.hold[2]), 0.0
         self.yaw_rad = est.yaw_rad
-        self.alpha = 0.0
+        self.alpha, self.alpha_rate = 0.0, 0.0  # the orbit angle (rad from north) and its rate (rad/s)
         self.last_us = now_us
 
     def update(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
@@ -162,7 +177,8 @@ class FollowTargetTask:
             self.estimator.reset()
             d = est.pos_ned_m[:2] - pos[:2]
             self.alpha = math.atan2(d[1], d[0]) if math.hypot(*d) > 0.1 else est.yaw_rad + math.pi
-            self.sp_xy, self.gap_vel = est.pos_ned_m[:2].astype(float).copy(), np.zeros(2)
+            self.alpha_rate = 0.0
+            self.sp_xy, self.sp_vel = est.pos_ned_m[:2].astype(float).copy(), est.vel_ned_m_s[:2].astype(float).copy()
             self.down, self.v_down = float(est.pos_ned_m[2]), 0.0
             self.following = True
             self.say(SEVERITY_INFO, f"Following target {fix.source[0]}/{fix.source[1]}")
@@ -185,37 +201,45 @@ class FollowTargetTask:
         p = self.params
         dist = p.get("FLW_TGT_DST")
         goal = self._goal_angle(fix, tgt_vel)
-        alpha0 = self.alpha
-        if goal is not None:
-            self.alpha = step_angle(self.alpha, goal, p.get("FLW_TGT_MAX_VEL") / dist, dt)
-        alpha_rate = wrap_pi(self.alpha - alpha0) / dt if dt > 0 else 0.0
+        limits = orbit_limits(dist, p.get("FLW_TGT_MAX_VEL"), p.get("MPC_ACC_HOR"))
+        self.alpha, self.alpha_rate = step_angle(
+            self.alpha, self.alpha_rate, self.alpha if goal is None else goal, limits, dt
+        )
         point = follow_point(tgt, self.alpha, dist)
-        point_vel = tgt_vel[:2] + alpha_rate * dist * np.array([-math.sin(self.alpha), math.cos(self.alpha)])
+        point_vel = tgt_vel[:2] + self.alpha_rate * dist * np.array([-math.sin(self.alpha), math.cos(self.alpha)])
         ground = tgt[2] if int(p.get("FLW_TGT_ALT_M")) == ALT_TRACK_TARGET else self.home_down_m
         goal_down = ground - p.get("FLW_TGT_HT")
         v_max = 0.7 * (p.get("MPC_Z_VEL_MAX_DN") if goal_down > self.down else p.get("MPC_Z_VEL_MAX_UP"))
         self.down, self.v_down = approach(self.down, self.v_down, goal_down, v_max, p.get("MPC_ACC_HOR"), dt)
+        acc_xy = np.zeros(2)
         if abs(goal_down - float(est.pos_ned_m[2])) <= ALT_ACCEPTANCE_M:
-            vel_xy = point_vel + self._close_gap(point, dt)
-            self.sp_xy = self.sp_xy + vel_xy * dt
+            acc_xy = self._track(point, point_vel, dt)
         else:  # climb (or descend) to the height first, where the vehicle is
-            vel_xy, self.gap_vel = np.zeros(2), np.zeros(2)
+            self.sp_vel = np.zeros(2)
         to_target = tgt[:2] - est.pos_ned_m[:2]
         if math.hypot(*to_target) > YAW_MIN_DISTANCE_M:
             self.yaw_rad = math.atan2(to_target[1], to_target[0])
         pos = np.array([*self.sp_xy, self.down])
-        return PositionSetpoint(pos, np.array([*vel_xy, self.v_down]), self.yaw_rad, np.zeros(3))
+        return PositionSetpoint(pos, np.array([*self.sp_vel, self.v_down]), self.yaw_rad, np.array([*acc_xy, 0.0]))
 
-    def _close_gap(self, point: np.ndarray, dt: float) -> np.ndarray:
-        """The setpoint's velocity relative to the follow point: up to MPC_XY_CRUISE, braking at MPC_ACC_HOR."""
+    def _track(self, point: np.ndarray, point_vel: np.ndarray, dt: float) -> np.ndarray:
+        """Move the setpoint one step towards the follow point; its acceleration (m/s^2 NED, horizontal).
+
+        The wanted velocity is the point's plus a closing speed on the gap (up to MPC_XY_CRUISE, braking
+        at MPC_ACC_HOR, at most CATCH_UP_GAIN_PER_S * gap); the setpoint's velocity changes towards it by
+        at most MPC_ACC_HOR * dt."""
         gap = point - self.sp_xy
         size = float(np.hypot(*gap))
         acc, cruise = self.params.get("MPC_ACC_HOR"), self.params.get("MPC_XY_CRUISE")
-        want = gap / size * min(cruise, math.sqrt(2.0 * acc * size), CATCH_UP_GAIN_PER_S * size) if size > 1e-6 else 0
-        change = want - self.gap_vel
+        closing = min(cruise, math.sqrt(2.0 * acc * size), CATCH_UP_GAIN_PER_S * size)
+        want = point_vel + (gap / size * closing if size > 1e-6 else 0.0)
+        change = want - self.sp_vel
         n = float(np.hypot(*change))
-        self.gap_vel = self.gap_vel + (change if n <= acc * dt else change / n * acc * dt)
-        return self.gap_vel
+        if n > acc * dt:
+            change = change / n * acc * dt
+        self.sp_vel = self.sp_vel + change
+        self.sp_xy = self.sp_xy + self.sp_vel * dt
+        return change / dt if dt > 0 else np.zeros(2)
 
     @property
     def done(self) -> bool:
