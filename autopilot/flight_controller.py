@@ -85,8 +85,8 @@ class FlightController:
         self.attitude_control = self.gains.attitude_control()
         self.rate_control = self.gains.rate_control()
         self.gyro_filter = self.gains.gyro_filter()
-        self.sat_pos = np.zeros(3, dtype=bool)
-        self.sat_neg = np.zeros(3, dtype=bool)
+        self.sat_pos: tuple[bool, ...] = (False, False, False)  # the mixer's per-axis saturation flags
+        self.sat_neg: tuple[bool, ...] = (False, False, False)
         self.last_us: int | None = None
         self.last_imu: ImuSample | None = None  # the sample of the latest step (HIGHRES_IMU)
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
@@ -120,8 +120,7 @@ class FlightController:
     def _reset_controllers(self) -> None:
         self.position_control.reset()
         self.rate_control.reset()
-        self.sat_pos[:] = False
-        self.sat_neg[:] = False
+        self.sat_pos = self.sat_neg = (False, False, False)  # (the mixer's per-axis flags: a tuple each)
 
     def _restart(self) -> None:
         """A reboot: the estimator starts again as at power-on (in place, so its parameter subscription is
@@ -190,8 +189,8 @@ class FlightController:
         status = self.commander.status
         tune = self.autotune  # (its excitation, or None: nothing to add; it aborts on a mode change or disarm)
         excite = tune.update(now, status.mode, status.armed, status.in_air) if tune.busy else None
-        n = len(self.spec.rotors)
         if not status.armed:
+            n = len(self.spec.rotors)
             self._reset_controllers()
             test = self.commander.motor_test_output(now, n)  # DO_MOTOR_TEST: one motor, disarmed, for a while
             out = np.zeros(n) if test is None else test
@@ -199,34 +198,43 @@ class FlightController:
             return out
         if self.setpoint is None:
             self._reset_controllers()
-            idle = np.full(n, self.params.get("MPC_IDLE_CMD"))
+            idle = np.full(len(self.spec.rotors), self.params.get("MPC_IDLE_CMD"))
             self._publish(idle, 0.0)
             return idle
-        # Inner loops at the IMU rate, on the selected estimator's latest attitude.
-        q = self.estimator.q
+        # Inner loops at the IMU rate, on the selected estimator's latest attitude (on Python floats: numpy's
+        # per-call cost on 3-vectors would be most of the work; the published setpoints stay arrays).
+        est = self.estimator
+        w, x, y, z = q = est.q.tolist()  # FRD -> NED
         if self.rate_override is None:
-            self.rate_sp = self.attitude_control.update(q, self.q_sp)
+            sp = self.attitude_control.update_floats(q, self.q_sp.tolist())
+            rate_sp = self.rate_sp = np.array(sp)
         else:
-            self.rate_sp = self.rate_override
+            rate_sp = self.rate_sp = self.rate_override
+            sp = rate_sp.tolist()
         if excite is not None:
-            self.rate_sp = self.rate_sp + excite
-        alpha = self.rate_control.update(
-            rate, self.rate_sp, dt, self.sat_pos, self.sat_neg, integrate=not status.ground_contact
+            self.rate_sp = rate_sp + excite
+            sp = self.rate_sp.tolist()
+        alpha = self.rate_control.update_floats(
+            rate, sp, dt, self.sat_pos, self.sat_neg, integrate=not status.ground_contact
         )
         if excite is not None:
-            tune.record(alpha, self.estimator.rate_frd, now)
+            tune.record(np.array(alpha), est.rate_frd, now)
         # Collective thrust: the part of the wanted thrust vector along the current body -z axis.
         if self.rate_override is None:
-            body_up = -self.estimator.r_ned_frd[:, 2]
-            thrust_n = max(float(self.thrust_vec @ body_up), 0.0)
+            # Body z axis in NED: the third column of quat.to_matrix(q) (not made here: off the critical path).
+            ux, uy, uz = 2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z
+            tx, ty, tz = self.thrust_vec.tolist()
+            thrust_n = max(-(tx * ux + ty * uy + tz * uz), 0.0)
         else:
             thrust_n = self.collective_n
-        out = self.mixer.mix(self.inertia * alpha, thrust_n)
-        collective_n = float(out.thrusts_n.sum())
+        jx, jy, jz = self.inertia.tolist()
+        commands, thrusts, self.sat_pos, self.sat_neg, _ = self.mixer.mix_floats(
+            jx * alpha[0], jy * alpha[1], jz * alpha[2], thrust_n
+        )
+        collective_n = sum(thrusts)
         self.disturbance.motors(collective_n, dt)
-        self.sat_pos, self.sat_neg = out.sat_pos, out.sat_neg
-        self._publish(out.commands, collective_n)
-        return out.commands
+        self._publish(commands, collective_n)
+        return np.array(commands)
 
     def after_step(self) -> None:
         """The estimator's deferred filter work, then the outer loops once per OUTER_PERIOD_US slot."""
@@ -317,10 +325,11 @@ class FlightController:
         """A LANDING_TARGET received from the simulator link or a ground/companion link (any sender)."""
         self.landing_target.on_message(msg, src_sysid, self.last_us or 0)
 
-    def _publish(self, commands: np.ndarray, thrust_n: float) -> None:
-        """Keep the step's outputs; the :attr:`actuators` record is built when first read, after the
-        commands have gone out (off the lockstep's critical path)."""
-        self._outputs = (self.last_us or 0, tuple(commands.tolist()), thrust_n)
+    def _publish(self, commands: np.ndarray | list[float], thrust_n: float) -> None:
+        """Keep the step's outputs (motor commands 0..1, collective thrust N); the :attr:`actuators` record is
+        built when first read, after the commands have gone out (off the lockstep's critical path)."""
+        motors = commands.tolist() if isinstance(commands, np.ndarray) else commands
+        self._outputs = (self.last_us or 0, tuple(motors), thrust_n)
         self._actuators = None
 
     @property

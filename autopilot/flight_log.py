@@ -100,14 +100,14 @@ def flight_log_fields(n_motors: int) -> list[tuple[str, str]]:
     )
 
 
-def _target_columns(fc) -> list:
+def _target_columns(fc) -> tuple | list:
     """The landing target estimate, the measurement count and the precision-landing phase code."""
     lt = fc.landing_target
     e = lt.estimate
     phase = getattr(fc.commander.task, "phase", None)
     code = PRECLAND_PHASES.index(phase.value) + 1 if phase is not None and phase.value in PRECLAND_PHASES else 0
-    if e is None or not e.valid:  # the usual case: no target (one list, no copies)
-        return [*_NO_TARGET, lt.accepted, code]
+    if e is None or not e.valid:  # the usual case: no target (one tuple, no copies)
+        return (*_NO_TARGET, lt.accepted, code)
     row = e.rel_pos_ned_m.tolist()
     row += e.target_vel_ned_m_s[:2].tolist() if e.target_vel_ned_m_s is not None else _NO_TARGET[3:]
     return row + [lt.accepted, code]
@@ -124,7 +124,9 @@ class FlightLogWriter:
         self._count = 0
         self.writer = NpyLogWriter(path, flight_log_fields(self.n_motors), chunk_rows)
         self._idle_motors = (0.0,) * self.n_motors
-        self._status, self._mode = None, (0, 0)  # the latest commander status seen and its (main, sub) mode
+        self._status = None  # the latest commander status seen, and its columns (a new record on every change):
+        self._head: tuple = (False, 0, 0)  # armed, main_mode, sub_mode
+        self._pos_vel: tuple = _NO_POS_VEL  # the estimate the outer loops used (position, velocity: 50 Hz)
 
     @property
     def path(self) -> Path:
@@ -138,14 +140,13 @@ class FlightLogWriter:
         self._count = 0
         fc = self.fc
         status = fc.commander.status
-        actuators = fc.actuators
-        est = fc.estimator
-        if status is not self._status:  # a new (frozen) record on every change: its mode's numbers once each
-            self._status, self._mode = status, status.mode.value
-        main_mode, sub_mode = self._mode
-        armed = status.armed
+        if status is not self._status:  # a new (frozen) record on every change: its columns once each
+            self._status = status
+            self._head = (status.armed, *status.mode.value)
+            e = status.estimate
+            self._pos_vel = _NO_POS_VEL if e is None else (*e.pos_ned_m.tolist(), *e.vel_ned_m_s.tolist())
         sp = fc.setpoint
-        if sp is not None and armed:  # .tolist(): far cheaper than numpy scalars
+        if sp is not None and status.armed:  # .tolist(): far cheaper than numpy scalars
             pc = fc.position_control
             tv = getattr(fc, "thrust_vec", None)
             if tv is not None:
@@ -157,11 +158,11 @@ class FlightLogWriter:
                          *fc.q_sp.tolist(), *fc.rate_sp.tolist(), thrust_sp]  # fmt: skip
         else:
             setpoints = _NO_SETPOINT
-        e = status.estimate  # the estimate the outer loops used (position, velocity: 50 Hz)
-        pos_vel = _NO_POS_VEL if e is None else [*e.pos_ned_m.tolist(), *e.vel_ned_m_s.tolist()]
+        est = fc.estimator
         q = getattr(est, "q", None)  # the selected filter's attitude, updated every step
+        actuators = fc.actuators
         self.writer.append(
-            fc.last_us or 0, armed, main_mode, sub_mode, *setpoints, actuators.throttle_frac, *pos_vel,
+            fc.last_us or 0, *self._head, *setpoints, actuators.throttle_frac, *self._pos_vel,
             *(q if q is not None else est.attitude.q).tolist(), *est.rate_frd.tolist(),
             *(actuators.motor_outputs or self._idle_motors)[: self.n_motors], *_target_columns(fc),
         )  # fmt: skip

@@ -40,7 +40,13 @@ from autopilot.topics import ImuSample
 from mavsim_core.constants import LOCKSTEP_DT_US
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.param_types import ParamType
-from mavsim_core.ulog_writer import DEFAULT_CONFIGURATION, DEFAULT_SYSTEM, ULogFormat, ULogWriter
+from mavsim_core.ulog_writer import (
+    DEFAULT_CONFIGURATION,
+    DEFAULT_SYSTEM,
+    SubscriptionGroup,
+    ULogFormat,
+    ULogWriter,
+)
 
 SUFFIX = ".ulg"
 FAST_US, POSITION_US, SLOW_US, STATUS_US = 12_000, 20_000, 100_000, 200_000  # logging intervals
@@ -140,6 +146,8 @@ class FlightULog:
         w.add_info("time_ref_utc", time.localtime(utc_start_us / 1e6).tm_gmtoff, "int32_t")
         write_parameters(w, fc.params)
         self.subs = {fmt.name: w.subscribe(fmt.name) for fmt in FORMATS}
+        self._groups: dict[tuple[str, ...], SubscriptionGroup] = {}  # the topics a step writes together
+        self._header = {name: sub.header for name, sub in self.subs.items()}  # each topic's message header
         self._due = [start_us] * 4  # fast, position, slow, status
         self._next_sync_us = start_us + SYNC_US
         self._last_us = start_us
@@ -172,57 +180,80 @@ class FlightULog:
         if now >= due[2]:
             due[2] = now + SLOW_US - SLACK_US
             self._slow(now, imu)
-        self._status(now)
+        status = self.fc.commander.status
+        if status is not self._status_seen or now >= due[3]:  # (the commander publishes a new record on a change)
+            self._status(now, status)
         if now >= self._next_sync_us:
             self._next_sync_us = now + SYNC_US
             self.writer.sync()
             self.writer.flush()
 
     # -- topics ---------------------------------------------------------------------
+    def _write(self, topics: tuple[str, ...], values: list) -> None:
+        """One sample of each of ``topics`` (``values``: for each its message header, then its fields), packed
+        together."""
+        group = self._groups.get(topics)
+        if group is None:
+            group = self._groups[topics] = self.writer.group(*(self.subs[t] for t in topics))
+        self.writer.write_group(group, *values)
+
     def _fast(self, now: int, imu: ImuSample | None) -> None:
-        fc, w, s = self.fc, self.writer, self.subs
+        fc, h = self.fc, self._header
         est = fc.estimator
-        w.write(s["vehicle_attitude"], now, now, *est.q.tolist(), *_NO_RESET)
-        w.write(s["vehicle_angular_velocity"], now, now, *est.rate_frd.tolist())
+        topics: tuple[str, ...] = ("vehicle_attitude", "vehicle_angular_velocity")
+        values = [*h["vehicle_attitude"], now, now, *est.q.tolist(), *_NO_RESET,
+                  *h["vehicle_angular_velocity"], now, now, *est.rate_frd.tolist()]  # fmt: skip
         if imu is not None:
             dt = LOCKSTEP_DT_US  # each sample integrates one lockstep period
-            w.write(s["sensor_combined"], now, *imu.gyro_frd_rad_s.tolist(), dt, 0, *imu.accel_frd_m_s2.tolist(), dt)
-        if fc.setpoint is None or not fc.commander.status.armed:
-            return
-        thrust = (0.0, 0.0, -math.hypot(*fc.thrust_vec.tolist()) / fc.max_thrust_n)
-        if fc.rate_override is None:
-            w.write(s["vehicle_attitude_setpoint"], now, *fc.q_sp.tolist(), *thrust)
-        w.write(s["vehicle_rates_setpoint"], now, *fc.rate_sp.tolist(), *thrust)
+            topics += ("sensor_combined",)
+            gyro, accel = imu.gyro_frd_rad_s.tolist(), imu.accel_frd_m_s2.tolist()
+            values += (*h["sensor_combined"], now, *gyro, dt, 0, *accel, dt)
+        if fc.setpoint is not None and fc.commander.status.armed:
+            x, y, z = fc.thrust_vec.tolist()
+            thrust = (0.0, 0.0, -math.hypot(x, y, z) / fc.max_thrust_n)
+            if fc.rate_override is None:
+                topics += ("vehicle_attitude_setpoint",)
+                values += (*h["vehicle_attitude_setpoint"], now, *fc.q_sp.tolist(), *thrust)
+            topics += ("vehicle_rates_setpoint",)
+            values += (*h["vehicle_rates_setpoint"], now, *fc.rate_sp.tolist(), *thrust)
+        self._write(topics, values)
 
     def _position(self, now: int) -> None:
-        fc, w, s = self.fc, self.writer, self.subs
+        fc, h = self.fc, self._header
         status = fc.commander.status
         e = status.estimate
+        topics: tuple[str, ...] = ("actuator_outputs", "actuator_motors")
+        values: list = []
         if e is not None:
             ok = e.position_valid
-            origin = (e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)
             ref_ok = math.isfinite(e.origin_lat_deg)
             resets = e.reset_count & 0xFF
-            w.write(s["vehicle_local_position"], now, e.timestamp_us, ok, e.height_valid, ok, e.height_valid,
-                    *e.pos_ned_m.tolist(), *e.vel_ned_m_s.tolist(), *e.accel_ned_m_s2.tolist(), e.yaw_rad,
-                    resets, resets, ref_ok, ref_ok, *origin)  # fmt: skip
+            topics = ("vehicle_local_position", *topics)
+            values += (*h["vehicle_local_position"], now, e.timestamp_us, ok, e.height_valid, ok, e.height_valid,
+                       *e.pos_ned_m.tolist(), *e.vel_ned_m_s.tolist(), *e.accel_ned_m_s2.tolist(), e.yaw_rad, resets,
+                       resets, ref_ok, ref_ok, e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)  # fmt: skip
         motors = fc.actuators.motor_outputs[:N_MOTORS]
         n = len(motors)
-        w.write(s["actuator_outputs"], now, n, *motors, *((0.0,) * (N_OUTPUTS - n)))
-        w.write(s["actuator_motors"], now, now, 0, *motors, *((math.nan,) * (N_MOTORS - n)))
+        values += (*h["actuator_outputs"], now, n, *motors, *((0.0,) * (N_OUTPUTS - n)),
+                   *h["actuator_motors"], now, now, 0, *motors, *((math.nan,) * (N_MOTORS - n)))  # fmt: skip
         sp = fc.setpoint
-        if sp is None or not status.armed:
-            return
-        thrust = [v / fc.max_thrust_n for v in fc.thrust_vec.tolist()]
-        pc = fc.position_control
-        if isinstance(sp, PositionSetpoint):
-            pos, yaw = sp.pos_ned_m.tolist(), sp.yaw_rad
-            acc_ff = sp.acc_ned_m_s2.tolist() if sp.acc_ned_m_s2 is not None else _NAN3
-            w.write(s["trajectory_setpoint"], now, *pos, *sp.vel_ned_m_s.tolist(), *acc_ff, *_NAN3, yaw, math.nan)
-            w.write(s["vehicle_local_position_setpoint"], now, *pos, *pc.vel_sp.tolist(), *pc.acc_sp.tolist(),
-                    *thrust, yaw, math.nan)  # fmt: skip
-        else:  # attitude or body rates flown: no position, velocity or acceleration setpoint
-            w.write(s["vehicle_local_position_setpoint"], now, *_NAN3, *_NAN3, *_NAN3, *thrust, math.nan, math.nan)
+        if sp is not None and status.armed:
+            mt = fc.max_thrust_n
+            x, y, z = fc.thrust_vec.tolist()
+            thrust = (x / mt, y / mt, z / mt)
+            if isinstance(sp, PositionSetpoint):
+                pos, yaw = sp.pos_ned_m.tolist(), sp.yaw_rad
+                acc_ff = sp.acc_ned_m_s2.tolist() if sp.acc_ned_m_s2 is not None else _NAN3
+                pc = fc.position_control
+                topics += ("trajectory_setpoint", "vehicle_local_position_setpoint")
+                values += (*h["trajectory_setpoint"], now, *pos, *sp.vel_ned_m_s.tolist(), *acc_ff, *_NAN3, yaw,
+                           math.nan, *h["vehicle_local_position_setpoint"], now, *pos, *pc.vel_sp.tolist(),
+                           *pc.acc_sp.tolist(), *thrust, yaw, math.nan)  # fmt: skip
+            else:  # attitude or body rates flown: no position, velocity or acceleration setpoint
+                topics += ("vehicle_local_position_setpoint",)
+                values += (*h["vehicle_local_position_setpoint"], now, *_NAN3, *_NAN3, *_NAN3, *thrust, math.nan,
+                           math.nan)  # fmt: skip
+        self._write(topics, values)
 
     def _slow(self, now: int, imu: ImuSample | None) -> None:
         fc, w, s = self.fc, self.writer, self.subs
@@ -249,11 +280,9 @@ class FlightULog:
                     g.eph_m, g.epv_m, math.hypot(vn, ve), vn, ve, vd, math.atan2(ve, vn), True, utc,
                     g.satellites)  # fmt: skip
 
-    def _status(self, now: int) -> None:
-        """vehicle_status and vehicle_land_detected every STATUS_US, and at once when one changes."""
-        status = self.fc.commander.status
-        if status is self._status_seen and now < self._due[3]:  # the commander publishes a new record on a change
-            return
+    def _status(self, now: int, status) -> None:
+        """vehicle_status and vehicle_land_detected every STATUS_US, and at once when one changes (``status``: the
+        commander's, a record not looked at yet or the interval is over)."""
         self._status_seen = status
         fs = status.failsafe
         key = (status.armed, status.mode, status.in_air, status.ground_contact, fs.action_in_force)

@@ -22,6 +22,7 @@ dependency only, as the reference the tests measure this mapping against.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -29,7 +30,7 @@ EARTH_RADIUS_M = 6378137.0
 
 
 def ned_to_geodetic(
-    pos_ned_m: np.ndarray, lat0_deg: float, lon0_deg: float, alt0_m: float
+    pos_ned_m: np.ndarray | Sequence[float], lat0_deg: float, lon0_deg: float, alt0_m: float
 ) -> tuple[float, float, float]:
     """NED offset from a reference -> (lat deg, lon deg, alt m AMSL)."""
     lat = lat0_deg + math.degrees(pos_ned_m[0] / EARTH_RADIUS_M)

@@ -37,18 +37,27 @@ def mul(a: Quat, b: Quat) -> np.ndarray:
     )
 
 
-def to_matrix(q: Quat) -> np.ndarray:
-    """Rotation matrix (3x3) taking FRD vectors to NED (q need not be normalised exactly)."""
-    w, x, y, z = _floats(q)
+def matrix_floats(w: float, x: float, y: float, z: float) -> tuple[float, ...]:
+    """The rotation matrix of :func:`to_matrix` as 9 floats, row by row (for callers working on plain floats)."""
     ww, xx, yy, zz = w * w, x * x, y * y, z * z
     wx, wy, wz, xy, xz, yz = w * x, w * y, w * z, x * y, x * z, y * z
-    return np.array(
-        (
-            (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy)),
-            (2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx)),
-            (2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz),
-        )
+    return (
+        ww + xx - yy - zz,
+        2.0 * (xy - wz),
+        2.0 * (xz + wy),
+        2.0 * (xy + wz),
+        ww - xx + yy - zz,
+        2.0 * (yz - wx),
+        2.0 * (xz - wy),
+        2.0 * (yz + wx),
+        ww - xx - yy + zz,
     )
+
+
+def to_matrix(q: Quat) -> np.ndarray:
+    """Rotation matrix (3x3) taking FRD vectors to NED (q need not be normalised exactly)."""
+    w, x, y, z = q.tolist() if type(q) is np.ndarray else _floats(q)
+    return np.array(matrix_floats(w, x, y, z)).reshape(3, 3)
 
 
 def from_matrix(r: np.ndarray) -> np.ndarray:
@@ -73,10 +82,10 @@ def from_matrix(r: np.ndarray) -> np.ndarray:
     return np.array((q[0] / n, q[1] / n, q[2] / n, q[3] / n))
 
 
-def integrate(q: Quat, rate_frd_rad_s: Sequence[float] | np.ndarray, dt_s: float) -> np.ndarray:
-    """q advanced by a body (FRD) rate held for dt_s: q * exp(rate dt / 2), normalised."""
-    qw, qx, qy, qz = _floats(q)
-    wx, wy, wz = _floats(rate_frd_rad_s)
+def integrate_floats(
+    qw: float, qx: float, qy: float, qz: float, wx: float, wy: float, wz: float, dt_s: float
+) -> tuple[float, float, float, float]:
+    """:func:`integrate` on plain floats: q (w, x, y, z) advanced by the FRD rate (wx, wy, wz) rad/s over dt_s."""
     wx, wy, wz = wx * dt_s, wy * dt_s, wz * dt_s
     angle = math.sqrt(wx * wx + wy * wy + wz * wz)
     if angle < 1e-15:
@@ -90,7 +99,14 @@ def integrate(q: Quat, rate_frd_rad_s: Sequence[float] | np.ndarray, dt_s: float
     y = qw * by - qx * bz + qy * bw + qz * bx
     z = qw * bz + qx * by - qy * bx + qz * bw
     n = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
-    return np.array((w * n, x * n, y * n, z * n))
+    return w * n, x * n, y * n, z * n
+
+
+def integrate(q: Quat, rate_frd_rad_s: Sequence[float] | np.ndarray, dt_s: float) -> np.ndarray:
+    """q advanced by a body (FRD) rate held for dt_s: q * exp(rate dt / 2), normalised."""
+    qw, qx, qy, qz = q.tolist() if type(q) is np.ndarray else _floats(q)
+    wx, wy, wz = rate_frd_rad_s.tolist() if type(rate_frd_rad_s) is np.ndarray else _floats(rate_frd_rad_s)
+    return np.array(integrate_floats(qw, qx, qy, qz, wx, wy, wz, dt_s))
 
 
 def to_euler(q: Quat) -> tuple[float, float, float]:

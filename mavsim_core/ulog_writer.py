@@ -17,7 +17,8 @@ supported (nothing here needs them).
 
 Cost: each format's :class:`struct.Struct` (file header fields included) is built once, and a
 data message is one ``pack_into`` into a preallocated buffer that goes to the file when full or
-on :meth:`ULogWriter.flush`.  This is file I/O for the process loops; nothing here reads a clock.
+on :meth:`ULogWriter.flush`; the samples of several subscriptions taken at once can be one
+``pack_into`` (:meth:`ULogWriter.write_group`).  This is file I/O for the process loops; nothing here reads a clock.
 """
 
 from __future__ import annotations
@@ -85,7 +86,7 @@ class ULogFormat:
 class Subscription:
     """A format being logged under one message id (the result of :meth:`ULogWriter.subscribe`)."""
 
-    __slots__ = ("format", "msg_id", "multi_id", "size", "pack_into", "payload_size")
+    __slots__ = ("format", "msg_id", "multi_id", "size", "pack_into", "payload_size", "header")
 
     def __init__(self, fmt: ULogFormat, msg_id: int, multi_id: int) -> None:
         self.format = fmt
@@ -95,6 +96,20 @@ class Subscription:
         self.size = s.size  # the whole message, its 3-byte header included
         self.payload_size = s.size - 3
         self.pack_into = s.pack_into
+        self.header = (self.payload_size, 68, msg_id)  # a data message's header values (68: 'D')
+
+
+class SubscriptionGroup:
+    """Subscriptions whose samples are written together (:meth:`ULogWriter.write_group`): the same 'D' messages,
+    one after the other, from one :class:`struct.Struct` for all of them (one pack instead of one per message)."""
+
+    __slots__ = ("subs", "size", "pack_into")
+
+    def __init__(self, subs: Sequence[Subscription]) -> None:
+        self.subs = tuple(subs)
+        codes = "".join(_DATA_HEADER[1:] + sub.format.codes for sub in self.subs)  # header and fields of each
+        self.pack_into = struct.Struct("<" + codes).pack_into
+        self.size = sum(sub.size for sub in self.subs)
 
 
 def _type_of(value: object, type_name: str | None) -> tuple[str, bytes]:
@@ -190,6 +205,20 @@ class ULogWriter:
             n = 0
         sub.pack_into(self._buf, n, sub.payload_size, 68, sub.msg_id, *values)  # 68: 'D'
         self._n = n + sub.size
+
+    def group(self, *subs: Subscription) -> SubscriptionGroup:
+        """Subscriptions to write together with :meth:`write_group`."""
+        return SubscriptionGroup(subs)
+
+    def write_group(self, group: SubscriptionGroup, *values: object) -> None:
+        """One sample of each subscription of ``group``, in its order: the bytes of one :meth:`write` per
+        subscription.  ``values``: for each subscription its ``header`` values, then its sample's."""
+        n = self._n
+        if n + group.size > self._cap:
+            self._drain()
+            n = 0
+        group.pack_into(self._buf, n, *values)
+        self._n = n + group.size
 
     def log(self, level: int, timestamp_us: int, text: str) -> None:
         """An 'L' message: a logged string at ``level`` 0 (emergency) .. 7 (debug), as MAV_SEVERITY."""

@@ -12,6 +12,7 @@ import bisect
 
 _SOC = (0.0, 0.05, 0.1, 0.2, 0.5, 0.8, 0.95, 1.0)
 _OCV = (3.3, 3.5, 3.6, 3.7, 3.8, 3.95, 4.1, 4.2)
+_LAST = len(_SOC) - 1
 
 
 def cell_ocv_v(soc: float) -> float:
@@ -59,8 +60,18 @@ class Battery:
         rotors).  ``min_frac``: the charge never falls below this fraction, and rises to it when it is
         raised above the charge (SIM_BAT_MIN_PCT).
         """
-        ocv = self.cells * cell_ocv_v(max(0.0, 1.0 - self.used_as / self.capacity_as))  # open_circuit_v()
-        self.current_a = self.idle_current_a + shaft_power_w / self.efficiency / max(ocv, 1.0)
-        self.voltage_v = ocv - self.current_a * self.r_ohm
-        self.used_as += self.capacity_as * dt_s / drain_s if drain_s > 0.0 else self.current_a * dt_s
-        self.used_as = min(self.used_as, self.capacity_as * (1.0 - min(max(min_frac, 0.0), 1.0)))
+        # The arithmetic of open_circuit_v() and of min/max, inline (every lockstep period: calls cost most here).
+        cap, used = self.capacity_as, self.used_as
+        soc = 1.0 - used / cap
+        soc = soc if soc > 0.0 else 0.0  # max(0.0, soc)
+        if soc > 1.0:  # cell_ocv_v's clamp (soc >= 0 here)
+            soc = 1.0
+        i = bisect.bisect_right(_SOC, soc)
+        i = 1 if i < 1 else _LAST if i > _LAST else i
+        ocv = self.cells * (_OCV[i - 1] + (soc - _SOC[i - 1]) / (_SOC[i] - _SOC[i - 1]) * (_OCV[i] - _OCV[i - 1]))
+        current = self.current_a = self.idle_current_a + shaft_power_w / self.efficiency / (1.0 if 1.0 > ocv else ocv)
+        self.voltage_v = ocv - current * self.r_ohm
+        used += cap * dt_s / drain_s if drain_s > 0.0 else current * dt_s
+        floor = 0.0 if min_frac < 0.0 else 1.0 if min_frac > 1.0 else min_frac  # min(max(min_frac, 0.0), 1.0)
+        limit = cap * (1.0 - floor)
+        self.used_as = limit if limit < used else used  # min(used, limit)

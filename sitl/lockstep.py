@@ -44,7 +44,7 @@ from sitl.peer_accept import accept_peer, listen
 from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sensor_faults import hil_sensor_fields, pressure_altitude_m
 from sitl.sim_params import SimParameters, format_value
-from sitl.simulation import LOCKSTEP_DT_S, Simulation
+from sitl.simulation import LOCKSTEP_DT_S, SensorTruth, Simulation, Truth
 from sitl.ugv_world import ugv_truth_messages
 
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
@@ -52,6 +52,11 @@ BATTERY_PERIOD_US = 200_000  # 5 Hz
 _HIL_SENSOR = MessageLayout(mavlink.MAVLink_hil_sensor_message)
 _HIL_STATE_QUATERNION = MessageLayout(mavlink.MAVLink_hil_state_quaternion_message)
 _LOCAL_POSITION_NED = MessageLayout(mavlink.MAVLink_local_position_ned_message)
+_ACTUATOR_CONTROLS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
+_CONTROLS_AT = _ACTUATOR_CONTROLS.field_index("controls")  # in the tuple the fast parser gives (wire order)
+_MODE_AT = _ACTUATOR_CONTROLS.field_index("mode")
+_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+_MG_PER_M_S2 = 1000.0 / GRAVITY_M_S2
 
 
 def _int16(x: float) -> int:
@@ -165,7 +170,7 @@ class LockstepServer:
         self.receiver = SpinReceiver(conn)
         self.mav = mavlink.MAVLink(None, self.sysid, SIM_COMPID)
         self.mav.robust_parsing = True
-        self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_actuator_controls_message])
+        self.parser = StreamParser(self.mav, [_ACTUATOR_CONTROLS.cls])
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")
 
     def _pack(self, msg) -> bytes:
@@ -226,7 +231,7 @@ class LockstepServer:
         if self.truth_log is not None:  # while the flight controller computes its step
             self.truth_log.record(time_us, t, self.armed, self.motor_commands, self.sim.ugv_truth())
         if time_us % TRUTH_PERIOD_US == 0:
-            self._every_truth_period(time_us)
+            self._every_truth_period(time_us, t)
 
     def _hil_gps(self, time_us: int, fix: GpsReading) -> bytes:
         """HIL_GPS for a fix, stamped ``time_us``: degE7, mm, cm, cm/s (NED), course in cdeg."""
@@ -272,15 +277,20 @@ class LockstepServer:
             )
         )
 
-    def _every_truth_period(self, time_us: int) -> None:
-        """50 Hz of simulated time: scenario events, ground truth, parameter service."""
+    def _every_truth_period(self, time_us: int, t: SensorTruth | None = None) -> None:
+        """50 Hz of simulated time: scenario events, ground truth, parameter service.  ``t``: the period's sensor
+        truth, which gives the truth port's position, velocity and rate (None: all from ``sim.truth()``)."""
         if time_us >= self.events.next_us:
             self._apply_events(time_us)
         if self.ugv_radio is not None:
             self.ugv_radio.step(time_us, self.sim.ugv_truth)
         server = self.param_server
         if server is not None:
-            self._send_truth(self.sim.truth())
+            if t is None:
+                self._send_truth(self.sim.truth())
+            else:  # the same numbers without building the full Truth's arrays
+                q, accel = self.sim.attitude_truth()
+                self._send_truth_values(time_us, q, t.pos_ned_m, t.vel_ned_m_s, t.rate_frd_rad_s, accel)
             server.poll(time.monotonic())
 
     def _apply_events(self, time_us: int) -> None:
@@ -291,19 +301,33 @@ class LockstepServer:
             )
             _log(f"t = {time_us / 1e6:.3f} s: scenario event: {changes}")
 
-    def _send_truth(self, t) -> None:
-        lat, lon, alt = ned_to_geodetic(t.pos_ned_m, *self.sim.sensors.home)
-        vn, ve, vd = t.vel_ned_m_s.tolist()
-        ax, ay, az = (t.accel_ned_m_s2 * (1000.0 / GRAVITY_M_S2)).tolist()  # mG
-        p, q, r = t.rate_frd_rad_s.tolist()
-        x, y, z = t.pos_ned_m.tolist()
+    def _send_truth(self, t: Truth) -> None:
+        """HIL_STATE_QUATERNION and LOCAL_POSITION_NED of a :class:`sitl.multicopter.Truth` (and the UGV's truth)."""
+        self._send_truth_values(
+            t.time_us,
+            t.q_ned_frd.tolist(),
+            t.pos_ned_m.tolist(),
+            t.vel_ned_m_s.tolist(),
+            t.rate_frd_rad_s.tolist(),
+            t.accel_ned_m_s2.tolist(),
+        )
+
+    def _send_truth_values(
+        self, time_us: int, q_ned_frd, pos_ned_m, vel_ned_m_s, rate_frd_rad_s, accel_ned_m_s2
+    ) -> None:
+        """:meth:`_send_truth` from floats: quaternion (w, x, y, z) FRD -> NED, m, m/s, rad/s FRD, m/s^2 NED."""
+        x, y, z = pos_ned_m
+        lat, lon, alt = ned_to_geodetic(pos_ned_m, *self.sim.sensors.home)
+        vn, ve, vd = vel_ned_m_s
+        ax, ay, az = [a * _MG_PER_M_S2 for a in accel_ned_m_s2]  # mG (as numpy's a * k: the same bits)
+        p, q, r = rate_frd_rad_s
         server = self.param_server
         mav = server.mav  # the component's own encoder: its sequence numbers go on
-        state = (t.time_us, t.q_ned_frd.tolist(), p, q, r, round(lat * 1e7), round(lon * 1e7), round(alt * 1000))
+        state = (time_us, q_ned_frd, p, q, r, round(lat * 1e7), round(lon * 1e7), round(alt * 1000))
         state += (_int16(vn * 100), _int16(ve * 100), _int16(vd * 100), 0, 0, _int16(ax), _int16(ay), _int16(az))
         server.send(
             _HIL_STATE_QUATERNION.encode(mav, state)
-            + _LOCAL_POSITION_NED.encode(mav, (t.time_us // 1000, x, y, z, vn, ve, vd))
+            + _LOCAL_POSITION_NED.encode(mav, (time_us // 1000, x, y, z, vn, ve, vd))
         )
         ugv = self.sim.ugv_truth()
         if ugv is not None:  # the ground vehicle, as its own component (UGV_COMPID)
@@ -328,15 +352,20 @@ class LockstepServer:
             if not data:
                 return False
             got = False
-            for msg in self.parser.parse(data):
-                if msg.get_type() != "HIL_ACTUATOR_CONTROLS":  # between two steps: SIM_* parameter requests
+            n = self.sim.rotors.n
+            for msg in self.parser.parse(data, raw=True):
+                if type(msg) is tuple:  # HIL_ACTUATOR_CONTROLS by the fast path: (msgid, its fields in wire order)
+                    values = msg[1]
+                    mode, controls = values[_MODE_AT], values[_CONTROLS_AT : _CONTROLS_AT + min(n, 16)]
+                elif msg.get_type() == "HIL_ACTUATOR_CONTROLS":  # (pymavlink's parser, after damaged bytes)
+                    mode, controls = msg.mode, msg.controls[:n]
+                else:  # between two steps: SIM_* parameter requests
                     replies = self.link_params.handle(msg)
                     if replies:
                         self.conn.sendall(b"".join(self._pack(r) for r in replies))
                     continue
-                armed = self.armed = bool(msg.mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-                n = self.sim.rotors.n
-                self.motor_commands = [c if math.isfinite(c) else 0.0 for c in msg.controls[:n]] if armed else [0.0] * n
+                armed = self.armed = bool(mode & _ARMED)
+                self.motor_commands = [c if math.isfinite(c) else 0.0 for c in controls] if armed else [0.0] * n
                 got = True
             if got:
                 return True

@@ -17,7 +17,6 @@ import mujoco
 import numpy as np
 
 from mavsim_core.constants import GRAVITY_M_S2
-from mavsim_core.frames import enu_to_ned, flu_to_frd, quat_enu_flu_to_ned_frd
 from params.vehicle import VehicleSpec
 from sitl.aerodynamics import Aerodynamics
 from sitl.battery import Battery
@@ -101,6 +100,20 @@ class Multicopter:
         self._failure: tuple | None = None  # (motor, efficiency) last applied to the rotors' efficiency list
         self._failure_list: list[float] | None = None
         self.start_xy_enu = (0.0, 0.0)  # set by the world once the vehicle has settled on its legs
+        self._data: mujoco.MjData | None = None  # the MjData the views of :meth:`bind` look into
+
+    def bind(self, d: mujoco.MjData) -> None:
+        """Views of this vehicle's slices of ``d``, made once (an MjData's arrays never move; slicing one
+        on every step costs more than the arithmetic that reads it)."""
+        a, v, s = self.qadr, self.vadr, self.accel_adr
+        self._qpos = d.qpos[a : a + 7]  # position ENU (m), then the FLU -> ENU quaternion (w, x, y, z)
+        self._qvel_lin = d.qvel[v : v + 3]  # velocity, world ENU (m/s)
+        self._qvel = d.qvel[v : v + 6]  # velocity ENU, then the angular velocity in the body frame FLU (rad/s)
+        self._accel = d.sensordata[s : s + 3]  # the accelerometer: specific force, body FLU (m/s^2)
+        self._xmat = d.xmat[self.body]  # body FLU -> world ENU, row-major
+        self._xfrc = d.xfrc_applied[self.body]  # external force and torque at the centre of mass, world ENU
+        self.ctrl = d.ctrl[self.ctrl0 : self.ctrl1]  # the rotor actuators' thrusts (N)
+        self._data = d
 
     def settled(self, data: mujoco.MjData) -> None:
         """Take the vehicle's present ground position as its start point (the origin of its truth)."""
@@ -119,17 +132,18 @@ class Multicopter:
 
     def apply_aerodynamics(self, d: mujoco.MjData, dt_s: float) -> None:
         """Wind for this step, then rotor drag, rolling moment and body drag as an external wrench."""
-        a, v = self.qadr, self.vadr
-        vx, vy, vz = d.qvel[v : v + 3].tolist()  # world ENU
-        wn, we, wd = self.wind.step(dt_s, float(d.qpos[a + 2]), math.sqrt(vx * vx + vy * vy + vz * vz))
+        if d is not self._data:
+            self.bind(d)
+        vx, vy, vz = self._qvel_lin.tolist()  # world ENU
+        wn, we, wd = self.wind.step(dt_s, self._qpos.item(2), math.sqrt(vx * vx + vy * vy + vz * vz))
         self.wind_enu = (we, wn, -wd)
         ax, ay, az = we - vx, wn - vy, -wd - vz  # V_a = V_wind - V_n ([F eq. 4.11], ENU
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = d.xmat[self.body].tolist()  # body FLU -> world ENU, row-major
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = self._xmat.tolist()  # body FLU -> world ENU, row-major
         bx = r0 * ax + r3 * ay + r6 * az  # R^T V_a
         by = r1 * ax + r4 * ay + r7 * az
         bz = r2 * ax + r5 * ay + r8 * az
         fx, fy, fz, mx, my, mz = self.aero.wrench_flu(self.rotors.speeds, (bx, by, bz))
-        d.xfrc_applied[self.body] = (
+        self._xfrc[:] = (
             r0 * fx + r1 * fy + r2 * fz,
             r3 * fx + r4 * fy + r5 * fz,
             r6 * fx + r7 * fy + r8 * fz,
@@ -146,41 +160,87 @@ class Multicopter:
         still holds the attitude before it) as R_ned_frd = P R_enu_flu F with P the ENU->NED
         swap and F = diag(1, -1, -1) the FRD->FLU flip (the conversions of :mod:`mavsim_core.frames`).
         """
-        a, s, v = self.qadr, self.accel_adr, self.vadr
-        fx, fy, fz = d.sensordata[s : s + 3].tolist()
-        w, x, y, z = d.qpos[a + 3 : a + 7].tolist()
+        if d is not self._data:
+            self.bind(d)
+        fx, fy, fz = self._accel.tolist()
+        e, n, u, w, x, y, z = self._qpos.tolist()
+        ve, vn, vu, p, q, r = self._qvel.tolist()
         r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
         r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
         r20, r21, r22 = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-        e, n, u = d.qpos[a : a + 3].tolist()
-        ve, vn, vu = d.qvel[v : v + 3].tolist()
-        p, q, r = d.qvel[v + 3 : v + 6].tolist()
-        return SensorTruth(
-            specific_force_frd_m_s2=(fx, -fy, -fz),
-            rate_frd_rad_s=(p, -q, -r),
-            r_ned_frd=((r10, -r11, -r12), (r00, -r01, -r02), (-r20, r21, r22)),
-            pos_ned_m=(n - self.start_xy_enu[1], e - self.start_xy_enu[0], -u),
-            vel_ned_m_s=(vn, ve, -vu),
+        e0, n0 = self.start_xy_enu
+        return SensorTruth(  # positional: a third cheaper than by keyword
+            (fx, -fy, -fz),  # specific_force_frd_m_s2
+            (p, -q, -r),  # rate_frd_rad_s
+            ((r10, -r11, -r12), (r00, -r01, -r02), (-r20, r21, r22)),  # r_ned_frd
+            (n - n0, e - e0, -u),  # pos_ned_m
+            (vn, ve, -vu),  # vel_ned_m_s
         )
 
     def truth(self, d: mujoco.MjData, time_us: int) -> Truth:
-        a, s, v = self.qadr, self.accel_adr, self.vadr
-        q = quat_enu_flu_to_ned_frd(d.qpos[a + 3 : a + 7])
-        f_frd = flu_to_frd(d.sensordata[s : s + 3])
-        r = np.empty(9)
-        mujoco.mju_quat2Mat(r, q)
-        r = r.reshape(3, 3)
-        accel_ned = r @ f_frd + np.array([0.0, 0.0, GRAVITY_M_S2])  # a = R f + g
+        """The full truth (NumPy arrays, MAVLink frames): the conversions of :mod:`mavsim_core.frames` written out
+        on plain floats (the same numbers, bit for bit), the attitude matrix by MuJoCo's ``mju_quat2Mat``."""
+        if d is not self._data:
+            self.bind(d)
+        e, n, u, w, x, y, z = self._qpos.tolist()
+        ve, vn, vu, p, q, r = self._qvel.tolist()  # free-joint angular velocity is in the body frame
+        fx, fy, fz = self._accel.tolist()
+        q_ned_frd, rot, f_frd, accel_ned = _attitude_arrays(_quat_ned_frd(w, x, y, z), (fx, -fy, -fz))
+        e0, n0 = self.start_xy_enu
+        we, wn, wu = self.wind_enu
         return Truth(
-            time_us=time_us,
-            pos_ned_m=enu_to_ned(
-                np.array([d.qpos[a] - self.start_xy_enu[0], d.qpos[a + 1] - self.start_xy_enu[1], d.qpos[a + 2]])
-            ),
-            vel_ned_m_s=enu_to_ned(d.qvel[v : v + 3]),
-            accel_ned_m_s2=accel_ned,
-            q_ned_frd=q,
-            r_ned_frd=r,
-            rate_frd_rad_s=flu_to_frd(d.qvel[v + 3 : v + 6]),  # free-joint angular velocity is in the body frame
-            specific_force_frd_m_s2=f_frd,
-            wind_ned_m_s=enu_to_ned(self.wind_enu),
+            time_us,
+            np.array((n - n0, e - e0, -u)),  # pos_ned_m
+            np.array((vn, ve, -vu)),  # vel_ned_m_s
+            accel_ned,  # accel_ned_m_s2
+            q_ned_frd,
+            rot,  # r_ned_frd
+            np.array((p, -q, -r)),  # rate_frd_rad_s
+            f_frd,  # specific_force_frd_m_s2
+            np.array((wn, we, -wu)),  # wind_ned_m_s
         )
+
+    def attitude_truth(self, d: mujoco.MjData) -> tuple[tuple[float, float, float, float], list[float]]:
+        """:meth:`truth`'s ``q_ned_frd`` (w, x, y, z) and ``accel_ned_m_s2`` (m/s^2) as floats, the same bits: with
+        :meth:`sensor_truth` (position, velocity, rate) all the truth port sends, without building a :class:`Truth`."""
+        if d is not self._data:
+            self.bind(d)
+        w, x, y, z = self._qpos.tolist()[3:]
+        fx, fy, fz = self._accel.tolist()
+        q = _quat_ned_frd(w, x, y, z)
+        return q, _attitude_arrays(q, (fx, -fy, -fz))[3].tolist()
+
+
+_GRAVITY_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
+
+
+def _attitude_arrays(q_ned_frd: tuple, f_frd: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """q_ned_frd, R_ned_frd (MuJoCo's ``mju_quat2Mat`` of it), the specific force f (FRD) as arrays, and the
+    acceleration a = R f + g (NED, m/s^2)."""
+    q = np.array(q_ned_frd)
+    f = np.array(f_frd)
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, q)
+    rot = rot.reshape(3, 3)
+    return q, rot, f, rot @ f + _GRAVITY_NED
+
+
+_SQRT_HALF = math.sqrt(0.5)
+
+
+def _hamilton(aw: float, ax: float, ay: float, az: float, bw: float, bx: float, by: float, bz: float) -> tuple:
+    """The Hamilton product a * b of :func:`mavsim_core.quaternion.mul`, on floats (the same expressions)."""
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+def _quat_ned_frd(w: float, x: float, y: float, z: float) -> tuple:
+    """:func:`mavsim_core.frames.quat_enu_flu_to_ned_frd` of MuJoCo's FLU -> ENU quaternion, on floats:
+    q_ned_enu * q * q_flu_frd, its w made non-negative."""
+    t = _hamilton(0.0, _SQRT_HALF, _SQRT_HALF, 0.0, w, x, y, z)  # q_ned_enu = (0, sqrt(1/2), sqrt(1/2), 0)
+    o = _hamilton(t[0], t[1], t[2], t[3], 0.0, 1.0, 0.0, 0.0)  # q_flu_frd = (0, 1, 0, 0)
+    return (-o[0], -o[1], -o[2], -o[3]) if o[0] < 0 else o

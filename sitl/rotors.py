@@ -53,11 +53,18 @@ class RotorModel:
             self._alpha_down = 1.0 - math.exp(-dt_s / self.tau_down_s)
             self._alpha_dt = dt_s
         up, down = self._alpha_up, self._alpha_down
-        self.speeds = [
-            w + (up if c > w else down) * (c - w) for w, c in zip(self.speeds, self.commanded_speed(commands))
-        ]
-        k = self.k_thrust
-        return [k * w * w for w in self.speeds]
+        w_max, k = self.max_speed_rad_s, self.k_thrust
+        speeds: list[float] = []
+        thrusts: list[float] = []
+        for w, c, e in zip(self.speeds, commands, self.efficiency):  # one loop: commanded_speed, lag, T = k w^2
+            c = 0.0 if c < 0.0 else w_max if c > 1.0 else c * w_max
+            if e != 1.0:  # (x 1.0 is exact: skipping it changes no bit)
+                c *= math.sqrt(max(e, 0.0))
+            w += (up if c > w else down) * (c - w)
+            speeds.append(w)
+            thrusts.append(k * w * w)
+        self.speeds = speeds
+        return thrusts
 
     def thrust_n(self) -> np.ndarray:
         """T_i = k_T w_i^2 ([F eq. 4.8]."""

@@ -33,6 +33,7 @@ from sitl.ugv_world import UgvDriver, UgvSettings, UgvTruth
 
 __all__ = ["LOCKSTEP_DT_S", "SensorTruth", "Simulation", "Truth", "VehicleView", "World", "spread"]
 
+_STEP_US = int(LOCKSTEP_DT_S * 1e6)  # simulated microseconds per World.step
 SPACING_M = 3.0  # between two vehicles' start points, East, as PX4's multi-vehicle launch scripts spread them
 
 
@@ -84,6 +85,8 @@ class World:
             )  # fmt: skip
             for k, p in enumerate(placements)
         ]
+        for v in self.vehicles:
+            v.bind(self.data)  # its views of the world's arrays (v.ctrl ...)
         self._settle()
         origin = self.vehicles[0].start_xy_enu  # the UGV's settings are NED from vehicle 0's start
         self.ugv = UgvDriver(self.model, self.data, self.ugv_settings, origin, seed) if ugv_start else None
@@ -109,13 +112,13 @@ class World:
             self.ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
         for _ in range(self.substeps):
             for v, c in zip(vehicles, cmds):
-                d.ctrl[v.ctrl0 : v.ctrl1] = v.rotors.step(c, PHYSICS_DT_S)  # a list of thrusts, N
+                v.ctrl[:] = v.rotors.step(c, PHYSICS_DT_S)  # a list of thrusts (N) into the vehicle's d.ctrl slice
                 v.apply_aerodynamics(d, PHYSICS_DT_S)
             mujoco.mj_step(self.model, d)
         for v in vehicles:
             m = v.motor_settings
             v.battery.step(v.rotors.shaft_power_w(), LOCKSTEP_DT_S, m.battery_drain_s, m.battery_min_pct / 100.0)
-        self.time_us += int(LOCKSTEP_DT_S * 1e6)
+        self.time_us += _STEP_US
 
     def ugv_truth(self, k: int = 0) -> UgvTruth | None:
         """The ground vehicle's truth (deck centre, NED from vehicle ``k``'s start point), None without one."""
@@ -167,6 +170,10 @@ class VehicleView:
 
     def truth(self) -> Truth:
         return self.vehicle.truth(self.data, self.world.time_us)
+
+    def attitude_truth(self) -> tuple[tuple[float, float, float, float], list[float]]:
+        """``truth().q_ned_frd`` and ``truth().accel_ned_m_s2`` as floats (:meth:`Multicopter.attitude_truth`)."""
+        return self.vehicle.attitude_truth(self.data)
 
     def ugv_truth(self) -> UgvTruth | None:
         """The ground vehicle's truth (deck centre, NED from this vehicle's start point), None without one."""

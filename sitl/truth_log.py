@@ -92,18 +92,20 @@ class TruthRecorder:
             w = self._w
             if w is None:
                 return
-            (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = t.r_ned_frd
-            roll = math.atan2(r21, r22)
-            pitch = -math.asin(max(-1.0, min(1.0, r20)))
-            yaw = math.atan2(r10, r00)
-            motors = list(motor_commands[: self.n_motors])
-            motors += [0.0] * (self.n_motors - len(motors))
-            extra: list[float] = []
+            (r00, _, _), (r10, _, _), (r20, r21, r22) = t.r_ned_frd
+            s = r20 if r20 < 1.0 else 1.0  # max(-1.0, min(1.0, r20)) without the calls (NaN -> 1.0 as there)
+            s = s if s > -1.0 else -1.0
+            n = self.n_motors
+            motors = motor_commands[:n]
+            if len(motors) < n:
+                motors = [*motors, *[0.0] * (n - len(motors))]
             if self.ugv:
-                extra = [math.nan] * len(UGV_FIELDS)
+                extra: Sequence[float] = [math.nan] * len(UGV_FIELDS)
                 if ugv is not None:
                     extra = [*ugv.deck_pos_ned_m.tolist(), *ugv.vel_ned_m_s[:2].tolist(), ugv.yaw_rad]
-            w.append(time_us, armed, *t.pos_ned_m, *t.vel_ned_m_s, roll, pitch, yaw, *t.rate_frd_rad_s, *motors, *extra)
+                motors = [*motors, *extra]
+            roll, pitch, yaw = math.atan2(r21, r22), -math.asin(s), math.atan2(r10, r00)
+            w.append(time_us, armed, *t.pos_ned_m, *t.vel_ned_m_s, roll, pitch, yaw, *t.rate_frd_rad_s, *motors)
             if self._close_at_us is not None and time_us >= self._close_at_us:
                 self._close()
         except Exception as exc:

@@ -114,25 +114,26 @@ class Commander(FlightCommands, VehicleCommands):
 
     # -- status -----------------------------------------------------------------------
     def _make_status(self) -> CommanderStatus:
-        armed = self.armed
+        armed, mode, battery = self.armed, self.mode, self.battery
+        warning = health.battery_warning(battery.remaining_frac, self.params)
         return CommanderStatus(
             timestamp_us=self.now_us,
             mav_type=self.mav_type,
             armed=armed,
-            mode=self.mode,
+            mode=mode,
             landed_state=self.landed_state(),
-            in_air=self.in_air,
+            in_air=self.land_detector.state is Landed.IN_AIR,
             ground_contact=self.land_detector.ground_contact,
             home=self.home,
             estimate=self.est,
             gps=self.gps,
             gps_ok=self.gps_ok,
-            battery=self.battery,
-            battery_warning=health.battery_warning(self.battery.remaining_frac, self.params),
+            battery=battery,
+            battery_warning=warning,
             prearm_failures=() if armed else tuple(self.prearm_failures()),
             position_setpoint_ned_m=getattr(self.setpoint, "pos_ned_m", None),
-            mission=self.plans.status(self.mode),
-            failsafe=failsafes.status(self),
+            mission=self.plans.status(mode),  # (the previous records again while nothing in them changed)
+            failsafe=failsafes.status(self, warning),
         )
 
     def _publish(self) -> None:
@@ -217,7 +218,7 @@ class Commander(FlightCommands, VehicleCommands):
                 if self.mode is Mode.AUTO_MISSION:
                     mission_control.on_landed(self)
                 self.task = None
-        if self.armed:
+        if self.armed and state is Landed.ON_GROUND:  # (the auto-disarm timers run on the ground only)
             reason = health.auto_disarm_reason(
                 self.land_detector, self.armed_at_us, now_us, self.mode in CLIMBS_FROM_GROUND, self.params
             )

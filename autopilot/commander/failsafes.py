@@ -30,7 +30,7 @@ while an action is in force, MAV_STATE_EMERGENCY at battery emergency or after a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as S
@@ -93,20 +93,29 @@ class FailsafeState:
     in_force: Mode | None = None  # the mode a failsafe action put the vehicle in (None: none in force)
     terminated: bool = False  # the motors were stopped by a failsafe (until the next arming)
     critical_failure: bool = False  # armed, the failure detector finds a loss of control now (failure_detector)
+    # the FailsafeStatus last published and its fields (:func:`status` publishes it again while they hold)
+    published: tuple[tuple, FailsafeStatus] | None = field(default=None, repr=False, compare=False)
 
 
-def status(c: Commander) -> FailsafeStatus:
-    """The failsafe part of the published status."""
+def status(c: Commander, level: BatteryWarning | None = None) -> FailsafeStatus:
+    """The failsafe part of the published status (``level``: the battery warning now, if the caller has it);
+    the record published last while its fields are the same (frozen: nobody can tell)."""
     st = c.failsafe
-    level = health.battery_warning(c.battery.remaining_frac, c.params)
-    battery_emergency = c.armed and level is BatteryWarning.EMERGENCY
-    return FailsafeStatus(
-        action_in_force=c.armed and st.in_force is not None and c.mode is st.in_force,
-        emergency=(st.terminated and not c.armed) or battery_emergency or (c.armed and st.critical_failure),
-        rc_seen=c.inputs.manual is not None,
-        rc_lost=st.rc_lost,
-        gcs_lost=st.gcs_lost,
+    if level is None:
+        level = health.battery_warning(c.battery.remaining_frac, c.params)
+    armed = c.armed
+    battery_emergency = armed and level is BatteryWarning.EMERGENCY
+    key = (
+        armed and st.in_force is not None and c.mode is st.in_force,  # action_in_force
+        (st.terminated and not armed) or battery_emergency or (armed and st.critical_failure),  # emergency
+        c.inputs.manual is not None,  # rc_seen
+        st.rc_lost,
+        st.gcs_lost,
     )
+    last = st.published
+    if last is None or last[0] != key:
+        last = st.published = (key, FailsafeStatus(*key))
+    return last[1]
 
 
 def check(c: Commander, now_us: int) -> None:
@@ -170,18 +179,22 @@ def _offboard(c: Commander, now_us: int) -> None:
 
 
 def _manual_control(c: Commander, now_us: int) -> None:
+    age = c.inputs.manual_age_s(now_us, c.wall_s)
+    if age is None:  # never seen: nothing to watch
+        return
+
     def target() -> Target:
         excepted = int(c.params.get("COM_RCL_EXCEPT")) & RCL_EXCEPT_BITS.get(c.mode, 0)
         return None if excepted else NAV_ACTIONS.get(int(c.params.get("NAV_RCL_ACT")))
 
-    age = c.inputs.manual_age_s(now_us, c.wall_s)
     _input_loss(c, age, c.params.get("COM_RC_LOSS_T"), "rc_lost", "Manual control", target)
 
 
 def _data_link(c: Commander, now_us: int) -> None:
     age = c.inputs.gcs_age_s(now_us, c.wall_s)
-    target = lambda: NAV_ACTIONS.get(int(c.params.get("NAV_DLL_ACT")))  # noqa: E731
-    _input_loss(c, age, c.params.get("COM_DL_LOSS_T"), "gcs_lost", "Data link", target)
+    if age is not None:
+        target = lambda: NAV_ACTIONS.get(int(c.params.get("NAV_DLL_ACT")))  # noqa: E731
+        _input_loss(c, age, c.params.get("COM_DL_LOSS_T"), "gcs_lost", "Data link", target)
 
 
 def _input_loss(

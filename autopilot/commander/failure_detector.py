@@ -41,7 +41,7 @@ parameters; times are simulated µs.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from pymavlink.dialects.v20 import common as S
@@ -112,11 +112,9 @@ class FailureDetector:
     def update(self, now_us: int, roll_rad: float, pitch_rad: float) -> bool:
         """One attitude (rad, FRD->NED Euler 3-2-1) while the checks apply; whether it is a failure now."""
         g = self.params.get
-        self.roll_failed, self._roll_since_us = _beyond(
-            now_us, roll_rad, g("FD_FAIL_R"), g("FD_FAIL_R_TTRI"), self._roll_since_us
-        )
+        self.roll_failed, self._roll_since_us = _beyond(now_us, roll_rad, g("FD_FAIL_R"), self._roll_since_us, g, "R")
         self.pitch_failed, self._pitch_since_us = _beyond(
-            now_us, pitch_rad, g("FD_FAIL_P"), g("FD_FAIL_P_TTRI"), self._pitch_since_us
+            now_us, pitch_rad, g("FD_FAIL_P"), self._pitch_since_us, g, "P"
         )
         return self.roll_failed or self.pitch_failed
 
@@ -135,13 +133,15 @@ class FailureDetector:
         return "roll" if self.roll_failed else "pitch"
 
 
-def _beyond(now_us: int, angle_rad: float, limit_deg: float, ttri_s: float, since_us: int | None):
-    """(failed, since): ``angle_rad`` beyond ``limit_deg`` (> 0) for ``ttri_s``; clears at once, as PX4's
-    hysteresis from false to true only."""
+def _beyond(
+    now_us: int, angle_rad: float, limit_deg: float, since_us: int | None, get: Callable[[str], float], axis: str
+):
+    """(failed, since): ``angle_rad`` beyond ``limit_deg`` (> 0) for FD_FAIL_<axis>_TTRI seconds (read with
+    ``get`` only then); clears at once, as PX4's hysteresis from false to true only."""
     if not (limit_deg > 0 and abs(angle_rad) > math.radians(limit_deg)):
         return False, None
     since_us = now_us if since_us is None else since_us
-    return now_us - since_us >= ttri_s * 1e6, since_us
+    return now_us - since_us >= get(f"FD_FAIL_{axis}_TTRI") * 1e6, since_us
 
 
 def check_failures(c: Commander, now_us: int, actuators: ActuatorStatus = NO_ACTUATORS) -> None:
@@ -168,12 +168,15 @@ def check_failures(c: Commander, now_us: int, actuators: ActuatorStatus = NO_ACT
     c.failsafe.critical_failure = c.armed and (fd.roll_failed or fd.pitch_failed or thrust.lost)
     if not c.armed or int(c.params.get("FS_CRASH_CHECK")) != 1:
         return
-    above_m = c.land_detector.ground_down_m - float(est.pos_ned_m[2])
-    get = c.params.get
-    grounded = thrust.grounded(
-        now_us, above_m, est.vel_ned_m_s, est.accel_ned_m_s2, get("LNDMC_Z_VEL_MAX"), get("LNDMC_XY_VEL_MAX")
-    )
-    if fd.crashed(now_us, tilt, est.accel_ned_m_s2) or grounded:
+    grounded = False  # (only after a thrust loss: before one, its timer is never running)
+    if thrust.lost:
+        above_m = c.land_detector.ground_down_m - float(est.pos_ned_m[2])
+        get = c.params.get
+        grounded = thrust.grounded(
+            now_us, above_m, est.vel_ned_m_s, est.accel_ned_m_s2, get("LNDMC_Z_VEL_MAX"), get("LNDMC_XY_VEL_MAX")
+        )
+    # (the crash check's tilt timer runs only after a loss of control: before one it is never running)
+    if (fd.lost_control and fd.crashed(now_us, tilt, est.accel_ned_m_s2)) or grounded:
         c.say(S.MAV_SEVERITY_CRITICAL, "Crash detected: disarming")
         c._disarm("crash detected")
         c.failsafe.terminated = True  # the motors were stopped by a failsafe: EMERGENCY until the next arming

@@ -55,6 +55,7 @@ class Plans:
         self._fence: Geofence | None = None
         self._fence_origin: tuple[float, float] | None = None
         self.fence_hold: object | None = None  # the hold task a geofence breach started
+        self._status: tuple[tuple, MissionStatus] | None = None  # the record last published and its fields
 
     def load(self, plans: dict[int, list[MissionItem]]) -> None:
         """Plans saved by an earlier run (already checked when they were uploaded)."""
@@ -116,11 +117,14 @@ class Plans:
         return self._fence
 
     def status(self, mode: Mode) -> MissionStatus:
-        return MissionStatus(
-            seq=self.current, total=len(self.items[mi.MISSION]), state=self.state,
-            in_mission_mode=mode is Mode.AUTO_MISSION, fence_items=len(self.items[mi.FENCE]),
-            rally_items=len(self.items[mi.RALLY]), fence_breached=self.breached,
-        )  # fmt: skip
+        """The mission part of the published status (the previous record again while nothing in it changed)."""
+        items = self.items
+        key = (self.current, len(items[mi.MISSION]), self.state, mode is Mode.AUTO_MISSION, len(items[mi.FENCE]),
+               len(items[mi.RALLY]), self.breached)  # fmt: skip
+        last = self._status
+        if last is None or last[0] != key:
+            last = self._status = (key, MissionStatus(*key))
+        return last[1]
 
 
 # ---------------------------------------------------------------------------------- the mode

@@ -51,7 +51,7 @@ class ThrustLossCheck:
         self.motor = 0  # the likely motor (1-based; 0 before any output was seen)
         self._since_us: int | None = None  # the conditions have held since
         self._still_since_us: int | None = None  # on the ground and still since (after a loss)
-        self._filtered: np.ndarray | None = None  # low-passed motor outputs
+        self._filtered: list[float] | None = None  # low-passed motor outputs
         self._last_us: int | None = None
 
     def reset(self) -> None:
@@ -114,12 +114,14 @@ class ThrustLossCheck:
         return now_us - self._still_since_us >= GROUND_S * 1e6
 
     def _filter(self, now_us: int, outputs: tuple[float, ...]) -> None:
+        """Low-pass the outputs (plain floats: numpy's per-call cost on a few values would be most of it)."""
         if not outputs:
             return
-        out = np.asarray(outputs, dtype=float)
-        if self._filtered is None or self._filtered.shape != out.shape or self._last_us is None:
-            self._filtered = out.copy()
+        f = self._filtered
+        if f is None or len(f) != len(outputs) or self._last_us is None:
+            self._filtered = [float(v) for v in outputs]
         else:
             dt = max(0.0, (now_us - self._last_us) * 1e-6)
-            self._filtered += dt / (dt + OUTPUT_TAU_S) * (out - self._filtered)
+            k = dt / (dt + OUTPUT_TAU_S)
+            self._filtered = [x + k * (float(v) - x) for x, v in zip(f, outputs)]
         self._last_us = now_us

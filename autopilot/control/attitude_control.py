@@ -10,6 +10,7 @@ Pure: gains arrive as an :class:`AttitudeGains` record; no I/O, no clock.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,17 +38,24 @@ class AttitudeControl:
         self._k = ((gx, mx), (gy, my), (gz, mz))
 
     def update(self, q: np.ndarray, q_sp: np.ndarray) -> np.ndarray:
-        """Rate setpoint (rad/s, FRD) that turns attitude q toward q_sp (both (w, x, y, z), FRD -> NED).
+        """Rate setpoint (rad/s, FRD) that turns attitude q toward q_sp (both (w, x, y, z), FRD -> NED)."""
+        return np.array(self.update_floats(q.tolist(), q_sp.tolist()))
 
-        Runs at the IMU rate on Python floats (q_e = q^-1 q_sp written out: cheaper than numpy calls)."""
-        w, x, y, z = q.tolist()
-        sw, sx, sy, sz = q_sp.tolist()
+    def update_floats(self, q: Sequence[float], q_sp: Sequence[float]) -> tuple[float, float, float]:
+        """:meth:`update` on Python floats (q_e = q^-1 q_sp written out): runs at the IMU rate, where numpy's
+        per-call cost would be most of the work."""
+        w, x, y, z = q
+        sw, sx, sy, sz = q_sp
         ew = w * sw + x * sx + y * sy + z * sz
         ex = w * sx - x * sw - y * sz + z * sy
         ey = w * sy + x * sz - y * sw - z * sx
         ez = w * sz - x * sy + y * sx - z * sw
         k = 2.0 if ew >= 0 else -2.0
         (gx, mx), (gy, my), (gz, mz) = self._k
-        return np.array(
-            [min(max(k * ex * gx, -mx), mx), min(max(k * ey * gy, -my), my), min(max(k * ez * gz, -mz), mz)]
+        rx, ry, rz = k * ex * gx, k * ey * gy, k * ez * gz
+        # Each limited to +-max (NaN passes, as min/max would let it).
+        return (
+            -mx if rx < -mx else (mx if rx > mx else rx),
+            -my if ry < -my else (my if ry > my else ry),
+            -mz if rz < -mz else (mz if rz > mz else rz),
         )

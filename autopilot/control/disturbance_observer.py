@@ -21,6 +21,7 @@ NaN-safe: a non-finite input changes nothing.  Pure: no I/O, no clock; ``dt`` is
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -48,24 +49,37 @@ class DisturbanceObserver:
         self.estimate = np.zeros(3)
         self.valid = False
 
-    def update(self, accel_ned_m_s2: np.ndarray, thrust_ned_n: np.ndarray, dt: float) -> np.ndarray:
-        """One step: ``accel_ned_m_s2`` measured (gravity removed), ``thrust_ned_n`` given; the estimate."""
-        raw = accel_ned_m_s2 - _G_NED - thrust_ned_n / self.mass_kg
-        if not (0.0 < dt <= MAX_DT_S) or not math.isfinite(float(raw[0]) + float(raw[1]) + float(raw[2])):
+    def update(
+        self, accel_ned_m_s2: np.ndarray | Sequence[float], thrust_ned_n: np.ndarray | Sequence[float], dt: float
+    ) -> np.ndarray:
+        """One step: ``accel_ned_m_s2`` measured (gravity removed), ``thrust_ned_n`` given; the estimate.
+        (On Python floats per axis: numpy's per-call cost on 3-vectors would be most of the work.)"""
+        ax, ay, az = _floats3(accel_ned_m_s2)
+        tx, ty, tz = _floats3(thrust_ned_n)
+        m = self.mass_kg
+        raw = (ax - _G_NED[0] - tx / m, ay - _G_NED[1] - ty / m, az - _G_NED[2] - tz / m)
+        if not (0.0 < dt <= MAX_DT_S) or not math.isfinite(raw[0] + raw[1] + raw[2]):
             return self.estimate
         self._contact_s = CONTACT_HOLD_S if raw[2] < -CONTACT_M_S2 else max(0.0, self._contact_s - dt)
         if self._contact_s > 0.0:  # on the ground (or bouncing on it): its reaction is no disturbance to cancel
             self.reset()
             return self.estimate
         k = dt / (dt + 1.0 / (2.0 * math.pi * self.cutoff_hz)) if self.cutoff_hz > 0 else 1.0
-        est = self.estimate + k * (raw - self.estimate)
-        h = math.hypot(est[0], est[1])
-        if h > self.limit_m_s2:
-            est[:2] *= self.limit_m_s2 / h
-        est[2] = min(max(est[2], -self.limit_m_s2), self.limit_m_s2)
-        self.estimate = est
+        ex, ey, ez = self.estimate.tolist()
+        ex, ey, ez = ex + k * (raw[0] - ex), ey + k * (raw[1] - ey), ez + k * (raw[2] - ez)
+        lim = self.limit_m_s2
+        h = math.hypot(ex, ey)
+        if h > lim:
+            ex, ey = ex * (lim / h), ey * (lim / h)
+        ez = min(max(ez, -lim), lim)
+        self.estimate = est = np.array((ex, ey, ez))
         self.valid = True
         return est
+
+
+def _floats3(v: np.ndarray | Sequence[float]) -> list[float]:
+    """A 3-vector's components as Python floats (``tolist`` is the fast way out of an array)."""
+    return v.tolist() if isinstance(v, np.ndarray) else [float(v[0]), float(v[1]), float(v[2])]
 
 
 class MotorLag:
@@ -112,5 +126,7 @@ class DisturbanceFeedForward:
         if not flying or not self.enabled:
             obs.reset()
             return None
-        est = obs.update(accel_ned_m_s2, -self.lag.thrust_n * r_ned_frd[:, 2], dt)
-        return np.array([est[0], est[1], 0.0])
+        t = -self.lag.thrust_n
+        ux, uy, uz = r_ned_frd[:, 2].tolist()  # body z axis, NED
+        ex, ey, _ = obs.update(accel_ned_m_s2, (t * ux, t * uy, t * uz), dt).tolist()
+        return np.array((ex, ey, 0.0))

@@ -46,8 +46,8 @@ class MixerOutput:
 
 class Mixer:
     """Allocation from the vehicle's geometry.  The per-step arithmetic runs on Python
-    floats: with 4-8 rotors that is several times faster than numpy's per-call cost,
-    and this runs at the IMU rate."""
+    floats (:meth:`mix_floats`): with 4-8 rotors that is several times faster than numpy's
+    per-call cost, and this runs at the IMU rate."""
 
     def __init__(self, spec: RotorGeometry) -> None:
         self.b = spec.effectiveness_matrix()
@@ -56,48 +56,65 @@ class Mixer:
         self.n = self.b.shape[1]
         # Columns of the pseudo-inverse: rotor thrust per unit roll, pitch, yaw torque and thrust.
         self._roll, self._pitch, self._yaw, self._thrust = (self.b_pinv[:, k].tolist() for k in range(4))
+        self._roll_pitch = tuple(zip(self._roll, self._pitch))  # per rotor: (roll, pitch) column entries
+        self._yaw_thrust = tuple(zip(self._yaw, self._thrust))  # per rotor: (yaw, thrust) column entries
 
     def mix(self, torque_frd_nm: np.ndarray, thrust_n: float, min_thrust_n: float = 0.0) -> MixerOutput:
         """Rotor commands for a body torque (N m, FRD) and collective thrust (N)."""
-        lo = max(0.0, min_thrust_n / self.n)
-        hi = self.t_max
         tr, tp, ty = float(torque_frd_nm[0]), float(torque_frd_nm[1]), float(torque_frd_nm[2])
-        rp = [r * tr + p * tp for r, p in zip(self._roll, self._pitch)]
-        sat_pos = [False, False, False]
-        sat_neg = [False, False, False]
-        thrust_sat = False
+        commands, thrusts, sat_pos, sat_neg, thrust_sat = self.mix_floats(tr, tp, ty, thrust_n, min_thrust_n)
+        return MixerOutput(np.array(commands), np.array(thrusts), np.array(sat_pos), np.array(sat_neg), thrust_sat)
 
+    def mix_floats(
+        self, tr: float, tp: float, ty: float, thrust_n: float, min_thrust_n: float = 0.0
+    ) -> tuple[list[float], list[float], tuple[bool, bool, bool], tuple[bool, bool, bool], bool]:
+        """:meth:`mix` on Python floats: roll, pitch, yaw torque (N m, FRD) and collective thrust (N) in;
+        (commands 0..1, rotor thrusts N, sat_pos, sat_neg per axis, thrust saturated) out."""
+        lo = min_thrust_n / self.n if min_thrust_n > 0.0 else 0.0
+        hi = self.t_max
+        rp = [r * tr + p * tp for r, p in self._roll_pitch]
+        sat_rp = False
         # 1. Roll/pitch must fit inside the range on their own.
         span = max(rp) - min(rp)
         if span > hi - lo:
             k = (hi - lo) / span
             rp = [x * k for x in rp]
-            sat_pos[0], sat_neg[0], sat_pos[1], sat_neg[1] = tr > 0, tr < 0, tp > 0, tp < 0
-        u = [t * thrust_n + x for t, x in zip(self._thrust, rp)]
+            sat_rp = True
+        u = [t * thrust_n + x for (_, t), x in zip(self._yaw_thrust, rp)]
         # 2. Shift the collective to fit (changes thrust, keeps attitude authority).
-        shift = 0.0
-        if min(u) < lo:
-            shift = lo - min(u)
-        elif max(u) > hi:
-            shift = hi - max(u)
-        if shift:
-            thrust_sat = True
+        thrust_sat = False
+        u_min = min(u)
+        if u_min < lo:
+            thrust_sat, shift = True, lo - u_min
+        else:
+            u_max = max(u)
+            thrust_sat, shift = u_max > hi, hi - u_max
+        if thrust_sat:
             u = [x + shift for x in u]
         # 3. Yaw gets what is left.
         scale = 1.0
-        for ui, yc in zip(u, self._yaw):
-            yi = yc * ty
-            if yi > 1e-12:
-                scale = min(scale, (hi - ui) / yi)
-            elif yi < -1e-12:
-                scale = min(scale, (lo - ui) / yi)
-        scale = max(0.0, scale)
-        if scale < 1.0:
-            sat_pos[2], sat_neg[2] = ty > 0, ty < 0
-        inv_max = 1.0 / self.t_max
-        thrusts = [min(max(ui + scale * yc * ty, 0.0), hi) for ui, yc in zip(u, self._yaw)]
-        commands = [math.sqrt(t * inv_max) for t in thrusts]
-        return MixerOutput(np.array(commands), np.array(thrusts), np.array(sat_pos), np.array(sat_neg), thrust_sat)
+        if ty != 0.0:  # (no yaw torque: nothing to scale)
+            for ui, (yc, _) in zip(u, self._yaw_thrust):
+                yi = yc * ty
+                if yi > 1e-12:
+                    room = (hi - ui) / yi
+                    scale = room if room < scale else scale
+                elif yi < -1e-12:
+                    room = (lo - ui) / yi
+                    scale = room if room < scale else scale
+            scale = max(0.0, scale)
+        sat_y = scale < 1.0
+        inv_max = 1.0 / hi
+        sqrt = math.sqrt
+        thrusts = []
+        for ui, (yc, _) in zip(u, self._yaw_thrust):
+            t = ui + scale * yc * ty
+            t = 0.0 if t < 0.0 else t  # (NaN passes, as min/max let it)
+            thrusts.append(hi if t > hi else t)
+        commands = [sqrt(t * inv_max) for t in thrusts]
+        sat_pos = (sat_rp and tr > 0, sat_rp and tp > 0, sat_y and ty > 0)
+        sat_neg = (sat_rp and tr < 0, sat_rp and tp < 0, sat_y and ty < 0)
+        return commands, thrusts, sat_pos, sat_neg, thrust_sat
 
     def wrench(self, thrusts_n: np.ndarray) -> np.ndarray:
         """(roll, pitch, yaw torque, collective thrust) produced by rotor thrusts."""

@@ -24,16 +24,15 @@ Pure: no I/O, no clock; ``dt`` is an input.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from mavsim_core.constants import GRAVITY_M_S2
-from mavsim_core.quaternion import cross
 
 Axes3 = tuple[float, float, float]  # north, east, down
 Flags3 = tuple[bool, bool, bool]
-_GRAVITY_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
 MAX_DT_S = 0.1  # the longest step integrated, s (the loop runs every 20 ms)
 
 
@@ -81,11 +80,14 @@ class PositionControlOutput:
 
 
 class PositionControl:
+    """The loops run on Python floats per axis (numpy's per-call cost on 3-vectors would be most of the work);
+    the state (``vel_int``, ``d_filt``, ``acc_ff``: m/s^2, NED) and the outputs stay arrays."""
+
     def __init__(self, gains: PositionGains, mass_kg: float, max_total_thrust_n: float) -> None:
         self.mass_kg = mass_kg
         self.max_total_thrust_n = max_total_thrust_n
         self.vel_int = np.zeros(3)  # m/s^2
-        self.prev_vel: np.ndarray | None = None
+        self.prev_vel: list[float] | None = None  # the latest step's velocity estimate, m/s
         self.d_filt = np.zeros(3)  # low-passed velocity derivative, m/s^2
         self.vel_sp = np.zeros(3)
         self.acc_sp = np.zeros(3)
@@ -96,11 +98,11 @@ class PositionControl:
     def set_gains(self, gains: PositionGains) -> None:
         """New gains and limits from the next update on."""
         self.gains = gains
-        self._pos_p = np.array(gains.pos_p_per_s)
-        self._vel_p = np.array(gains.vel_p_per_s)
-        self._vel_i = np.array(gains.vel_i_per_s2)
-        self._vel_d = np.array(gains.vel_d_unitless)
-        self._int_lim = np.array(gains.vel_int_lim_m_s2)
+        self._pos_p = _floats3(gains.pos_p_per_s)
+        self._vel_p = _floats3(gains.vel_p_per_s)
+        self._vel_i = _floats3(gains.vel_i_per_s2)
+        self._vel_d = _floats3(gains.vel_d_unitless)
+        self._int_lim = _floats3(gains.vel_int_lim_m_s2)
         self._thr_min_n = gains.thrust_min_frac * self.max_total_thrust_n
         self._thr_max_n = gains.thrust_max_frac * self.max_total_thrust_n
 
@@ -126,109 +128,130 @@ class PositionControl:
 
         ``disturbance_ned_m_s2``: an estimated external acceleration (m/s^2, NED; a disturbance
         observer's), cancelled by feeding it forward with the opposite sign (non-finite: ignored)."""
-        g = self.gains
-        acc_want = sp.acc_ned_m_s2 if sp.acc_ned_m_s2 is not None else np.zeros(3)
-        acc_given = np.isfinite(acc_want) if sp.acc_ned_m_s2 is not None else np.zeros(3, dtype=bool)
-        vel_ok = np.isfinite(vel)
-        if not _finite(vel):
-            vel = np.where(vel_ok, vel, math.nan)  # infinities as NaN: no inf - inf below
-        pos_ok = np.isfinite(pos)
-        if not _finite(pos):
-            pos = np.where(pos_ok, pos, math.nan)
-        pos_ctrl = np.isfinite(sp.pos_ned_m) & pos_ok & vel_ok
-        vel_given = np.isfinite(sp.vel_ned_m_s)
-        # The velocity loop runs (a NaN velocity setpoint: toward zero, holding) unless the axis is
-        # left to a given acceleration setpoint alone.
-        vel_ctrl = (pos_ctrl | vel_given | ~acc_given) & vel_ok
+        isfinite = math.isfinite
+        acc_in = sp.acc_ned_m_s2
+        acc_want = _floats3(acc_in) if acc_in is not None else [0.0, 0.0, 0.0]
+        vel_f, pos_f = _floats3(vel), _floats3(pos)
+        sp_pos, sp_vel = _floats3(sp.pos_ned_m), _floats3(sp.vel_ned_m_s)
+        acc_given, pos_ctrl, vel_given, vel_ctrl = [False] * 3, [False] * 3, [False] * 3, [False] * 3
+        for i in (0, 1, 2):
+            vel_ok = isfinite(vel_f[i])
+            if not vel_ok:
+                vel_f[i] = math.nan  # infinities as NaN: no inf - inf below
+            acc_given[i] = ag = acc_in is not None and isfinite(acc_want[i])
+            pos_ctrl[i] = pc = vel_ok and isfinite(sp_pos[i]) and isfinite(pos_f[i])
+            vel_given[i] = vg = isfinite(sp_vel[i])
+            # The velocity loop runs (a NaN velocity setpoint: toward zero, holding) unless the axis is
+            # left to a given acceleration setpoint alone.
+            vel_ctrl[i] = (pc or vg or not ag) and vel_ok
 
-        # Position P with velocity feed-forward, then velocity limits.
-        vel_sp = np.where(vel_given, sp.vel_ned_m_s, 0.0)
-        err = sp.pos_ned_m - pos
-        vel_sp[pos_ctrl] += self._pos_p[pos_ctrl] * err[pos_ctrl]
-        h = math.hypot(vel_sp[0], vel_sp[1])
-        if h > g.vel_xy_max_m_s:
-            vel_sp[:2] *= g.vel_xy_max_m_s / h
-        vel_sp[2] = min(max(vel_sp[2], -g.vel_up_max_m_s), g.vel_down_max_m_s)
-        all_vel = bool(vel_ctrl.all())
-        self.vel_sp = vel_sp if all_vel else np.where(vel_ctrl, vel_sp, math.nan)
+        vel_sp = self._velocity_setpoint(pos_f, sp_pos, sp_vel, pos_ctrl, vel_given)
+        all_vel = all(vel_ctrl)
+        self.vel_sp = np.array(vel_sp if all_vel else [v if c else math.nan for v, c in zip(vel_sp, vel_ctrl)])
 
         # Velocity PID (derivative on the measurement, clamped); nothing on an axis without velocity control.
-        vel_err = vel_sp - vel if all_vel else np.where(vel_ctrl, vel_sp - vel, 0.0)
-        acc_sp = self._velocity_pid(vel, vel_err, dt)
+        vel_err = [vs - v if c else 0.0 for vs, v, c in zip(vel_sp, vel_f, vel_ctrl)]
+        acc_sp = self._velocity_pid(vel_f, vel_err, dt)
         if not all_vel:
-            acc_sp = np.where(vel_ctrl, acc_sp, 0.0)
+            acc_sp = [a if c else 0.0 for a, c in zip(acc_sp, vel_ctrl)]
         # The trajectory's acceleration, fed forward at most MPC_JERK_AUTO faster per second: the
         # moves' speed profile is trapezoidal, and a step in it would be a step of the attitude
         # setpoint that saturates the motors.
-        step = g.jerk_max_m_s3 * dt if _dt_ok(dt) else 0.0  # (a negative step would swap the clip's bounds)
-        self.acc_ff += np.clip(np.where(acc_given, acc_want, 0.0) - self.acc_ff, -step, step)
-        acc_sp = acc_sp + self.acc_ff
+        step = self.gains.jerk_max_m_s3 * dt if _dt_ok(dt) else 0.0
+        ff = self.acc_ff.tolist()
+        for i in (0, 1, 2):
+            change = (acc_want[i] if acc_given[i] else 0.0) - ff[i]
+            ff[i] += _clamp(change, step)
+        self.acc_ff = np.array(ff)
+        acc_sp = [a + f for a, f in zip(acc_sp, ff)]
         if disturbance_ned_m_s2 is not None and _finite(disturbance_ned_m_s2):
-            acc_sp = acc_sp - disturbance_ned_m_s2
+            acc_sp = [a - d for a, d in zip(acc_sp, _floats3(disturbance_ned_m_s2))]
 
         thrust, sat = self._thrust(acc_sp, vel_err)
         self._integrate(vel_err, acc_sp, sat, dt)
-        self.acc_sp = acc_sp
+        self.acc_sp = np.array(acc_sp)
         self.output = out = PositionControlOutput(
-            thrust_ned_n=thrust,
+            thrust_ned_n=np.array(thrust),
             vel_sp_ned_m_s=self.vel_sp,
-            acc_sp_ned_m_s2=acc_sp,
-            pos_controlled=_flags(pos_ctrl),
-            vel_controlled=_flags(vel_ctrl),
-            saturated=_flags(sat),
+            acc_sp_ned_m_s2=self.acc_sp,
+            pos_controlled=(pos_ctrl[0], pos_ctrl[1], pos_ctrl[2]),
+            vel_controlled=(vel_ctrl[0], vel_ctrl[1], vel_ctrl[2]),
+            saturated=(sat[0], sat[1], sat[2]),
         )
         return out
 
-    def _velocity_pid(self, vel: np.ndarray, vel_err: np.ndarray, dt: float) -> np.ndarray:
+    def _velocity_setpoint(
+        self, pos: list[float], sp_pos: list[float], sp_vel: list[float], pos_ctrl: list[bool], vel_given: list[bool]
+    ) -> list[float]:
+        """Position P with velocity feed-forward, then the velocity limits (m/s, NED)."""
+        g = self.gains
+        vel_sp = [v if given else 0.0 for v, given in zip(sp_vel, vel_given)]
+        for i in (0, 1, 2):
+            if pos_ctrl[i]:
+                vel_sp[i] += self._pos_p[i] * (sp_pos[i] - pos[i])
+        h = math.hypot(vel_sp[0], vel_sp[1])
+        if h > g.vel_xy_max_m_s:
+            k = g.vel_xy_max_m_s / h
+            vel_sp[0] *= k
+            vel_sp[1] *= k
+        vel_sp[2] = min(max(vel_sp[2], -g.vel_up_max_m_s), g.vel_down_max_m_s)
+        return vel_sp
+
+    def _velocity_pid(self, vel: list[float], vel_err: list[float], dt: float) -> list[float]:
         """P and I on the velocity error, D on the measured velocity (low-passed, clamped); m/s^2."""
         g = self.gains
         dt_ok = _dt_ok(dt)
-        d_raw = np.zeros(3) if self.prev_vel is None or not dt_ok else -(vel - self.prev_vel) / dt
-        if not _finite(d_raw):
-            d_raw = np.where(np.isfinite(d_raw), d_raw, self.d_filt)  # a NaN velocity leaves the filter as it was
-        self.prev_vel = vel.copy()
+        d_filt = self.d_filt.tolist()
+        prev = self.prev_vel
+        d_raw = [0.0, 0.0, 0.0] if prev is None or not dt_ok else [-(v - p) / dt for v, p in zip(vel, prev)]
+        # A NaN velocity leaves the filter as it was.
+        d_raw = [r if math.isfinite(r) else d for r, d in zip(d_raw, d_filt)]
+        self.prev_vel = vel
         if g.vel_d_lowpass_hz > 0 and dt_ok:
-            self.d_filt += dt / (dt + 1.0 / (2.0 * math.pi * g.vel_d_lowpass_hz)) * (d_raw - self.d_filt)
+            k = dt / (dt + 1.0 / (2.0 * math.pi * g.vel_d_lowpass_hz))
+            d_filt = [d + k * (r - d) for r, d in zip(d_raw, d_filt)]
         else:
-            self.d_filt[:] = d_raw
-        d_term = np.minimum(np.maximum(self.d_filt, -g.vel_d_lim_m_s2), g.vel_d_lim_m_s2)
-        acc: np.ndarray = self._vel_p * vel_err + self.vel_int + self._vel_d * d_term
-        return acc
+            d_filt = d_raw
+        self.d_filt = np.array(d_filt)
+        lim = g.vel_d_lim_m_s2
+        kp, ki, kd = self._vel_p, self.vel_int.tolist(), self._vel_d
+        return [kp[i] * vel_err[i] + ki[i] + kd[i] * _clamp(d_filt[i], lim) for i in (0, 1, 2)]
 
-    def _thrust(self, acc_sp: np.ndarray, vel_err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _thrust(self, acc_sp: list[float], vel_err: list[float]) -> tuple[list[float], list[bool]]:
         """Thrust vector with hover feed-forward, T = m (a - g) in N, NED, within the thrust and tilt
         limits; and per axis whether a limit cut it (in the direction the velocity error asks for)."""
-        thrust = self.mass_kg * (acc_sp - _GRAVITY_NED)
-        sat = np.zeros(3, dtype=bool)
+        m = self.mass_kg
+        tx, ty, tz = m * acc_sp[0], m * acc_sp[1], m * (acc_sp[2] - GRAVITY_M_S2)
+        sat = [False, False, False]
         thr_min, thr_max = self._thr_min_n, self._thr_max_n
         # Vertical thrust limits (up is -z).
-        up = -thrust[2]
+        up = -tz
         if up > thr_max:
-            thrust[2], sat[2] = -thr_max, vel_err[2] < 0
+            tz, sat[2] = -thr_max, vel_err[2] < 0
         elif up < thr_min:
-            thrust[2], sat[2] = -thr_min, vel_err[2] > 0
+            tz, sat[2] = -thr_min, vel_err[2] > 0
         # Tilt limit: keep the vertical component, shorten the horizontal one.
-        h_max = -thrust[2] * math.tan(self.gains.tilt_max_rad)
-        h_max = min(h_max, math.sqrt(max(thr_max**2 - thrust[2] ** 2, 0.0)))
-        h = math.hypot(thrust[0], thrust[1])
+        h_max = -tz * math.tan(self.gains.tilt_max_rad)
+        h_max = min(h_max, math.sqrt(max(thr_max**2 - tz**2, 0.0)))
+        h = math.hypot(tx, ty)
         if h > h_max:
-            thrust[:2] *= h_max / h
-            sat[:2] = True
-        return thrust, sat
+            k = h_max / h
+            tx, ty = tx * k, ty * k
+            sat[0] = sat[1] = True
+        return [tx, ty, tz], sat
 
-    def _integrate(self, vel_err: np.ndarray, acc_sp: np.ndarray, sat: np.ndarray, dt: float) -> None:
+    def _integrate(self, vel_err: list[float], acc_sp: list[float], sat: list[bool], dt: float) -> None:
         """Integrate unless that would push further into saturation (anti-windup) or ``dt`` is not usable; clamp."""
         if not _dt_ok(dt):
             return
-        grow = self._vel_i * vel_err * dt
-        if sat[2]:
-            grow[2] = 0.0
-        if sat[0]:
-            grow[:2] = np.where(grow[:2] * acc_sp[:2] > 0, 0.0, grow[:2])
-        if not _finite(grow):
-            grow = np.where(np.isfinite(grow), grow, 0.0)  # NaN never reaches the integrator
-        self.vel_int += grow
-        self.vel_int = np.minimum(np.maximum(self.vel_int, -self._int_lim), self._int_lim)
+        vel_int = self.vel_int.tolist()
+        for i in (0, 1, 2):
+            grow = self._vel_i[i] * vel_err[i] * dt
+            if (sat[2] if i == 2 else sat[0] and grow * acc_sp[i] > 0) or not math.isfinite(grow):
+                grow = 0.0  # (NaN never reaches the integrator)
+            lim = self._int_lim[i]
+            vel_int[i] = _clamp(vel_int[i] + grow, lim)
+        self.vel_int = np.array(vel_int)
 
 
 def _dt_ok(dt: float) -> bool:
@@ -241,18 +264,25 @@ def _finite(v: np.ndarray) -> bool:
     return math.isfinite(float(v[0]) + float(v[1]) + float(v[2]))
 
 
-def _flags(mask: np.ndarray) -> Flags3:
-    a, b, c = mask.tolist()
-    return (bool(a), bool(b), bool(c))
+def _floats3(v: np.ndarray | Sequence[float]) -> list[float]:
+    """A 3-vector's components as Python floats (``tolist`` is the fast way out of an array)."""
+    return v.tolist() if isinstance(v, np.ndarray) else [float(v[0]), float(v[1]), float(v[2])]
+
+
+def _clamp(x: float, lim: float) -> float:
+    """x limited to [-lim, lim] (NaN passes, as numpy's minimum/maximum let it)."""
+    return -lim if x < -lim else (lim if x > lim else x)
 
 
 def attitude_from_thrust(thrust_ned_n: np.ndarray, yaw_rad: float) -> np.ndarray:
-    """Attitude (3x3, FRD->NED) whose -z axis points along the thrust, with the given yaw."""
-    n = np.linalg.norm(thrust_ned_n)
-    z_b = -thrust_ned_n / n if n > 1e-6 else np.array([0.0, 0.0, 1.0])
-    x_c = np.array([math.cos(yaw_rad), math.sin(yaw_rad), 0.0])
-    y_b = cross(z_b, x_c)
-    ny = np.linalg.norm(y_b)
-    y_b = y_b / ny if ny > 1e-6 else np.array([-math.sin(yaw_rad), math.cos(yaw_rad), 0.0])
-    x_b = cross(y_b, z_b)
-    return np.column_stack((x_b, y_b, z_b))
+    """Attitude (3x3, FRD->NED) whose -z axis points along the thrust (N, NED), with the given yaw (rad)."""
+    tx, ty, tz = _floats3(thrust_ned_n)
+    n = math.sqrt(tx * tx + ty * ty + tz * tz)
+    zx, zy, zz = (-tx / n, -ty / n, -tz / n) if n > 1e-6 else (0.0, 0.0, 1.0)
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    # y_b = z_b x (cos yaw, sin yaw, 0), normalised; x_b = y_b x z_b.
+    yx, yy, yz = zy * 0.0 - zz * s, zz * c - zx * 0.0, zx * s - zy * c
+    ny = math.sqrt(yx * yx + yy * yy + yz * yz)
+    yx, yy, yz = (yx / ny, yy / ny, yz / ny) if ny > 1e-6 else (-s, c, 0.0)
+    xx, xy, xz = yy * zz - yz * zy, yz * zx - yx * zz, yx * zy - yy * zx
+    return np.array(((xx, yx, zx), (xy, yy, zy), (xz, yz, zz)))

@@ -15,6 +15,7 @@ Pure: the gains arrive as a :class:`RateGains` record (from parameters, see
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +23,7 @@ import numpy as np
 Axes3 = tuple[float, float, float]  # roll, pitch, yaw (FRD x, y, z)
 
 _D_CUTOFF_HZ = 30.0
+_D_TAU_S = 1.0 / (2 * math.pi * _D_CUTOFF_HZ)  # the derivative filter's time constant, s
 MAX_DT_S = 0.02  # the longest step integrated, s (PX4's rate controller limits its dt to 20 ms too)
 
 
@@ -67,28 +69,50 @@ class RateControl:
 
         ``sat_pos``/``sat_neg``: per axis, the mixer could not deliver more
         positive / negative torque last step; the integrator does not grow that way.
-        Runs at the IMU rate on Python floats (three axes; cheaper than numpy calls).
         """
-        err = [float(rate_sp[i]) - float(rate[i]) for i in range(3)]
+        rate_f = rate.tolist() if isinstance(rate, np.ndarray) else rate
+        sp_f = rate_sp.tolist() if isinstance(rate_sp, np.ndarray) else rate_sp
+        return np.array(self.update_floats(rate_f, sp_f, dt, sat_pos, sat_neg, integrate))
+
+    def update_floats(
+        self,
+        rate: Sequence[float],
+        rate_sp: Sequence[float],
+        dt: float,
+        sat_pos: Sequence[bool] | np.ndarray | None = None,
+        sat_neg: Sequence[bool] | np.ndarray | None = None,
+        integrate: bool = True,
+    ) -> list[float]:
+        """:meth:`update` on Python floats (three of each, FRD): runs at the IMU rate, where numpy's per-call
+        cost would be most of the work."""
+        r0, r1, r2 = rate
+        s0, s1, s2 = rate_sp
+        err = (s0 - r0, s1 - r1, s2 - r2)
         if not math.isfinite(err[0] + err[1] + err[2]):
-            return np.zeros(3)  # NaN never reaches the integrator
+            return [0.0, 0.0, 0.0]  # NaN never reaches the integrator
         p, ki, kd, int_lim, lim = self._k
         dt_ok = 0.0 < dt <= MAX_DT_S  # (False for NaN)
-        if self.prev_rate is not None and dt_ok:
-            a = dt / (dt + 1.0 / (2 * math.pi * _D_CUTOFF_HZ))
-            for i in range(3):
-                raw = -(float(rate[i]) - self.prev_rate[i]) / dt
-                self.d_filtered[i] += a * (raw - self.d_filtered[i])
-        self.prev_rate = [float(rate[0]), float(rate[1]), float(rate[2])]
+        d = self.d_filtered
+        prev = self.prev_rate
+        if prev is not None and dt_ok:
+            a = dt / (dt + _D_TAU_S)
+            d[0] += a * (-(r0 - prev[0]) / dt - d[0])
+            d[1] += a * (-(r1 - prev[1]) / dt - d[1])
+            d[2] += a * (-(r2 - prev[2]) / dt - d[2])
+        self.prev_rate = [r0, r1, r2]
         out = [0.0, 0.0, 0.0]
-        for i in range(3):
-            d_term = min(max(kd[i] * self.d_filtered[i], -lim), lim)
-            out[i] = p[i] * err[i] + self.integral[i] + d_term
-            if integrate and dt_ok:
+        integral = self.integral
+        grow_ok = integrate and dt_ok
+        for i in (0, 1, 2):
+            d_term = kd[i] * d[i]
+            d_term = -lim if d_term < -lim else (lim if d_term > lim else d_term)  # (NaN passes, as min/max)
+            out[i] = p[i] * err[i] + integral[i] + d_term
+            if grow_ok:
                 grow = ki[i] * err[i] * dt
                 if (grow > 0 and sat_pos is not None and sat_pos[i]) or (
                     grow < 0 and sat_neg is not None and sat_neg[i]
                 ):
                     grow = 0.0
-                self.integral[i] = min(max(self.integral[i] + grow, -int_lim[i]), int_lim[i])
-        return np.array(out)
+                v, m = integral[i] + grow, int_lim[i]
+                integral[i] = -m if v < -m else (m if v > m else v)
+        return out

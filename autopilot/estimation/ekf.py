@@ -77,15 +77,15 @@ from collections import deque
 
 import numpy as np
 
+from autopilot.estimation.attitude_matrix import LazyAttitudeMatrix
+from autopilot.estimation.ekf_transition import F_INDEX, N, f_blocks, floats3
 from autopilot.estimation.state_history import state_at
 from autopilot.parameters import ParamDef, param
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
 
-_G = np.array([0.0, 0.0, GRAVITY_M_S2])
+_GRAVITY_M_S2 = float(GRAVITY_M_S2)
 P, V, TH, BG, BA = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)
-N = 15
-_EYE3 = np.eye(3)
 
 P_GYR_NOISE = param("EKF2_GYR_NOISE", 0.004, 0.0001, 0.1, "rad/s", "Rate gyro noise for covariance prediction")
 P_ACC_NOISE = param("EKF2_ACC_NOISE", 0.15, 0.01, 2.0, "m/s^2", "Accelerometer noise for covariance prediction")
@@ -104,13 +104,9 @@ P_HDG_GATE = param(
     "EKF2_HDG_GATE", 2.6, 1.0, 20.0, "SD", "Innovation gate of magnetometer heading (standard deviations)"
 )
 P_NOAID_NOISE = param(
-    "EKF2_NOAID_NOISE",
-    10.0,
-    0.5,
-    50.0,
-    "m",
+    "EKF2_NOAID_NOISE", 10.0, 0.5, 50.0, "m",
     "Noise of the constant-position pseudo-measurement fused when nothing aids the filter in flight",
-)
+)  # fmt: skip
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (
@@ -134,21 +130,17 @@ _MIN_VAR = np.array([1e-6] * 6 + [1e-9] * 3 + [1e-12] * 6)
 _MAX_VAR = np.array([1e6] * 6 + [1.0] * 3 + [0.01] * 3 + [1.0] * 3)
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-class ErrorStateEkf:
+class ErrorStateEkf(LazyAttitudeMatrix):
     """The filter; :class:`autopilot.estimation.estimator.Estimator` feeds it and reads it."""
 
     def __init__(self) -> None:
         self.p = np.zeros(3)
         self.v = np.zeros(3)
+        self._r_ned_frd: np.ndarray | None = None  # to_matrix(q), made when first asked for (r_ned_frd)
         self.q = np.array([1.0, 0.0, 0.0, 0.0])
         self.bg = np.zeros(3)
         self.ba = np.zeros(3)
         self.cov = np.zeros((N, N))
-        self.r_ned_frd = np.eye(3)
         self.accel_ned = np.zeros(3)  # kinematic acceleration (gravity removed), m/s^2
         self.initialised = False
         self.time_aligned_s = 0.0
@@ -163,6 +155,7 @@ class ErrorStateEkf:
         self.rejected = {"pos": 0, "vel": 0, "hgt": 0, "mag": 0}
         self._batch_kind: str | None = None  # scalars of one sensor being fused together
         self._f = np.eye(N)  # state transition of one prediction (blocks rewritten each time)
+        self._fp = np.empty((N, N))  # F P, a buffer of predict()
         self._q_key: tuple | None = None
         self._q_diag = np.zeros(N)
         self._predictions = 0
@@ -172,7 +165,6 @@ class ErrorStateEkf:
     def initialise(self, q: np.ndarray, time_s: float = 0.0) -> None:
         """Start from a levelled attitude (from gravity and magnetometer) at rest."""
         self.q = q / np.linalg.norm(q)
-        self.r_ned_frd = quat.to_matrix(self.q)
         self.p[:] = 0.0
         self.v[:] = 0.0
         self.cov = np.diag(
@@ -211,34 +203,40 @@ class ErrorStateEkf:
         """Turn the attitude about NED down by ``angle_rad`` (e.g. when the declination becomes known)."""
         half = 0.5 * angle_rad
         self.q = quat.mul(np.array([math.cos(half), 0.0, 0.0, math.sin(half)]), self.q)
-        self.r_ned_frd = quat.to_matrix(self.q)
 
     # -- prediction -------------------------------------------------------------------------
     def predict(self, dtheta_frd: np.ndarray, dvel_frd: np.ndarray, t: float, time_us: int) -> None:
         """Advance over ``t`` seconds of IMU data: ``dtheta_frd`` (rad) and ``dvel_frd`` (m/s) are the
         summed gyro and accelerometer increments of the interval (PX4's downsampled delta angle and
-        delta velocity), biases not yet removed."""
+        delta velocity), biases not yet removed; 3-vectors (arrays or sequences of floats).
+
+        The 3-vector and quaternion part on plain floats, the covariance with NumPy."""
         if t <= 0.0:
             return
-        dth = dtheta_frd - self.bg * t
-        dvb = dvel_frd - self.ba * t
+        (a0, a1, a2), (b0, b1, b2) = floats3(dtheta_frd), floats3(dvel_frd)
+        (bg0, bg1, bg2), (ba0, ba1, ba2) = self.bg.tolist(), self.ba.tolist()
+        d0, d1, d2 = a0 - bg0 * t, a1 - bg1 * t, a2 - bg2 * t  # bias-corrected delta angle
+        u0, u1, u2 = b0 - ba0 * t, b1 - ba1 * t, b2 - ba2 * t  # bias-corrected delta velocity (FRD)
         # Velocity increment rotated with the attitude at the middle of the interval.
-        q_mid = quat.integrate(self.q, dth, 0.5)
-        dv = quat.to_matrix(q_mid) @ dvb + _G * t
-        self.p += (self.v + 0.5 * dv) * t
-        self.v += dv
-        self.accel_ned = dv / t
-        self.q = quat.integrate(self.q, dth, 1.0)
-        self.r_ned_frd = r = quat.to_matrix(self.q)
+        qw, qx, qy, qz = self._q.tolist()
+        m = quat.matrix_floats(*quat.integrate_floats(qw, qx, qy, qz, d0, d1, d2, 0.5))
+        dv0 = m[0] * u0 + m[1] * u1 + m[2] * u2
+        dv1 = m[3] * u0 + m[4] * u1 + m[5] * u2
+        dv2 = m[6] * u0 + m[7] * u1 + m[8] * u2 + _GRAVITY_M_S2 * t
+        (p0, p1, p2), (v0, v1, v2) = self.p.tolist(), self.v.tolist()
+        self.p[:] = (p0 + (v0 + 0.5 * dv0) * t, p1 + (v1 + 0.5 * dv1) * t, p2 + (v2 + 0.5 * dv2) * t)
+        self.v[:] = (v0 + dv0, v1 + dv1, v2 + dv2)
+        self.accel_ned = np.array((dv0 / t, dv1 / t, dv2 / t))
+        q = quat.integrate_floats(qw, qx, qy, qz, d0, d1, d2, 1.0)
+        self.q = np.array(q)
+        r = quat.matrix_floats(*q)
+        self._r_ned_frd = np.array(r).reshape(3, 3)
         self.time_aligned_s += t
         f = self._f
         f[0, 3] = f[1, 4] = f[2, 5] = t
-        f[V, TH] = -r @ _skew(dvb)
-        f[V, BA] = -r * t
-        f[TH, TH] = _EYE3 - _skew(dth)
-        f[6, 9] = f[7, 10] = f[8, 11] = -t
-        c = f @ self.cov @ f.T
-        c.flat[:: N + 1] += self._process_noise(t)
+        f.put(F_INDEX, f_blocks(r, (u0, u1, u2), (d0, d1, d2), t))
+        c = np.dot(np.dot(f, self.cov, out=self._fp), f.T)  # F P F^T (F P into a buffer kept for it)
+        c.ravel()[:: N + 1] += self._process_noise(t)  # (c is contiguous: ravel is a view)
         self._predictions += 1
         if self._predictions % 10 == 0:  # keep P symmetric and its variances sane (once per 0.2 s)
             c = 0.5 * (c + c.T)
@@ -273,10 +271,12 @@ class ErrorStateEkf:
     # -- corrections ----------------------------------------------------------------------------
     def inject(self, dx: np.ndarray) -> None:
         """Add an error-state correction to the nominal state (attitude multiplicatively)."""
-        self.p += dx[P]
-        self.v += dx[V]
-        w, x, y, z = (float(c) for c in self.q)
-        a, b, c = 0.5 * float(dx[6]), 0.5 * float(dx[7]), 0.5 * float(dx[8])
+        d = dx.tolist()
+        (p0, p1, p2), (v0, v1, v2) = self.p.tolist(), self.v.tolist()
+        self.p[:] = (p0 + d[0], p1 + d[1], p2 + d[2])
+        self.v[:] = (v0 + d[3], v1 + d[4], v2 + d[5])
+        w, x, y, z = self._q.tolist()
+        a, b, c = 0.5 * d[6], 0.5 * d[7], 0.5 * d[8]
         qn = (
             w - x * a - y * b - z * c,
             x + w * a + y * c - z * b,
@@ -284,10 +284,10 @@ class ErrorStateEkf:
             z + w * c + x * b - y * a,
         )
         k = 1.0 / math.sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3])
-        self.q = np.array([qn[0] * k, qn[1] * k, qn[2] * k, qn[3] * k])
-        self.r_ned_frd = quat.to_matrix(self.q)
-        self.bg += dx[BG]
-        self.ba += dx[BA]
+        self.q = np.array((qn[0] * k, qn[1] * k, qn[2] * k, qn[3] * k))
+        (g0, g1, g2), (b0, b1, b2) = self.bg.tolist(), self.ba.tolist()
+        self.bg[:] = (g0 + d[9], g1 + d[10], g2 + d[11])
+        self.ba[:] = (b0 + d[12], b1 + d[13], b2 + d[14])
 
     def fuse_state(
         self, i: int, innovation: float, r: float, gate: float, kind: str | None = None, lag_s: float = 0.0
@@ -312,7 +312,7 @@ class ErrorStateEkf:
                 self.rejected[kind] += 1
             return False
         k = ph / s
-        self.cov = c - np.outer(k, ph)
+        c -= k[:, None] * ph  # k ph^T (in place: ph, a column of c, is read before)
         self.inject(k * innovation)
         return True
 

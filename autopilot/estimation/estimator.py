@@ -36,10 +36,12 @@ from collections import deque
 
 import numpy as np
 
+from autopilot.estimation.attitude_matrix import LazyAttitudeMatrix
 from autopilot.estimation.ekf import P_BARO_GATE, P_BARO_NOISE, P_HDG_GATE, P_HEAD_NOISE, P_NOAID_NOISE, ErrorStateEkf
 from autopilot.estimation.estimator_outputs import ekf_prearm_failures, estimator_status, vehicle_estimate
 from autopilot.estimation.gps_fusion import GPS_ACCEL_TAU_S, GpsFusion, finite3
 from autopilot.estimation.height_sources import GpsHeight, HeightSources
+from autopilot.estimation.imu_increments import ImuIncrements
 from autopilot.estimation.mag_fusion import MAG_TYPE_AUTO, P_MAG_GATE, P_MAG_NOISE, fuse_mag_vector
 from autopilot.estimation.mag_health import MagHealth, heading_from_mag, magnetic_field, magnetic_field_ned
 from autopilot.estimation.mahony import MahonyFilter
@@ -74,12 +76,17 @@ P_EST_GROUP = param(
 PARAMS: tuple[ParamDef, ...] = (P_EST_GROUP,)
 
 
+def _xyz(v: np.ndarray) -> list[float]:
+    """A 3-vector's components (a sequence, not an ndarray: ``tolist`` is faster there) as Python floats."""
+    return [float(v[0]), float(v[1]), float(v[2])]
+
+
 def pressure_to_altitude_m(pressure_hpa: float) -> float:
     """ISA barometric altitude (m) from static pressure (hPa)."""
     return (1.0 - (pressure_hpa / 1013.25) ** (1.0 / 5.25588)) / 2.25577e-5
 
 
-class Estimator:
+class Estimator(LazyAttitudeMatrix):
     def __init__(self, params: ParameterStore | None = None) -> None:
         self.params = params
         self.attitude = MahonyFilter()
@@ -95,20 +102,15 @@ class Estimator:
         self.heights = HeightSources(self.events, self._p)  # barometer vs GPS height, the GPS fallback
         self.rate_frd = np.zeros(3)
         self.accel_ned = np.zeros(3)
+        self._r_ned_frd: np.ndarray | None = None  # to_matrix(q), made when first asked for (r_ned_frd)
         self.last_imu_us: int | None = None
         # A sample stamped t holds over [t, t + dt] (the simulator steps on from it), so the filter's state
         # after summing it describes t + dt: its history is stamped so, for fusion at the GPS's true delay.
         self._sample_dt_us = int(LOCKSTEP_DT_S * 1e6)
         self.last_baro_alt_m: float | None = None
-        self.r_ned_frd = np.eye(3)  # attitude of the selected estimator (FRD -> NED), refreshed each sample
-        self.q = np.array([1.0, 0.0, 0.0, 0.0])
-        # IMU increments since the filters last ran: delta angle (rad) and delta velocity (m/s), FRD.
-        self._dth = np.zeros(3)
-        self._dvel = np.zeros(3)
-        self._acc_dt = 0.0
-        # The same, summed for each estimator since it last ran: [delta angle, delta velocity, seconds].
-        self._ekf_acc: list = [np.zeros(3), np.zeros(3), 0.0]
-        self._comp_acc: list = [np.zeros(3), np.zeros(3), 0.0]
+        self.q = np.array([1.0, 0.0, 0.0, 0.0])  # attitude of the selected estimator (FRD -> NED)
+        self._inc = ImuIncrements()  # since the filters last ran
+        self._ekf_acc, self._comp_acc = ImuIncrements(), ImuIncrements()  # the same, per estimator since it ran
         self._comp_accel_ned = np.zeros(3)
         self._am_lp = np.zeros(3)  # low-passed accelerometer NED acceleration (Mahony attitude), m/s^2
         self._am_history: deque[tuple[int, np.ndarray]] = deque(maxlen=50)
@@ -182,26 +184,40 @@ class Estimator:
 
     # -- inputs ---------------------------------------------------------------------
     def update_imu(self, s: ImuSample) -> None:
-        """One IMU sample (250 Hz): carry the attitude forward; every 20 ms run the filters."""
+        """One IMU sample (250 Hz): carry the attitude forward; every 20 ms run the filters.
+
+        Plain floats on this per-sample path (the NumPy calls on 3-vectors cost more than their arithmetic)."""
         if self._deferred_filters is not None or self._deferred_gps:
             self.run_deferred()  # never skipped, and always before this sample's increments
-        if s.timestamp_us % BARO_PERIOD_US < 4000:
+        now = s.timestamp_us
+        filter_due = now % BARO_PERIOD_US < 4000
+        if filter_due:
             self.sensor_checks.update(s)  # at 50 Hz: data stopped or stale
-        dt = LOCKSTEP_DT_S if self.last_imu_us is None else (s.timestamp_us - self.last_imu_us) * 1e-6
-        self.last_imu_us = s.timestamp_us
-        self._sample_dt_us = int(dt * 1e6) if 0.0 < dt < 0.1 else self._sample_dt_us
-        if not 0.0 < dt < 0.1 or not finite3(s.accel_frd_m_s2) or not finite3(s.gyro_frd_rad_s):
+        dt = LOCKSTEP_DT_S if self.last_imu_us is None else (now - self.last_imu_us) * 1e-6
+        self.last_imu_us = now
+        if not 0.0 < dt < 0.1:
             return  # NaN never reaches the filters
-        self._dth += s.gyro_frd_rad_s * dt
-        self._dvel += s.accel_frd_m_s2 * dt
-        self._acc_dt += dt
+        self._sample_dt_us = int(dt * 1e6)
+        acc, gyro = s.accel_frd_m_s2, s.gyro_frd_rad_s
+        ax, ay, az = acc.tolist() if type(acc) is np.ndarray else _xyz(acc)
+        gx, gy, gz = gyro.tolist() if type(gyro) is np.ndarray else _xyz(gyro)
+        if not math.isfinite(ax + ay + az) or not math.isfinite(gx + gy + gz):
+            return
+        self._inc.add_sample(gx, gy, gz, ax, ay, az, dt)
         # Output predictor: the selected filter's attitude carried forward by the bias-corrected gyro.
         bias = self.ekf.bg if self.use_ekf and self.ekf.initialised else self.attitude.gyro_bias
-        self.rate_frd = rate = s.gyro_frd_rad_s - bias
-        self.q = quat.integrate(self.q, rate, dt)
-        if s.timestamp_us % BARO_PERIOD_US >= 4000:
-            self.r_ned_frd = quat.to_matrix(self.q)
+        bx, by, bz = bias.tolist()
+        rx, ry, rz = gx - bx, gy - by, gz - bz
+        self.rate_frd = np.array((rx, ry, rz))
+        qw, qx, qy, qz = self._q.tolist()
+        self._q = np.array(quat.integrate_floats(qw, qx, qy, qz, rx, ry, rz, dt))
+        self._r_ned_frd = None  # (the q setter's work, inline)
+        if not filter_due:
             return
+        self._filter_sample(s)
+
+    def _filter_sample(self, s: ImuSample) -> None:
+        """The 50 Hz part of :meth:`update_imu`: the barometer's height, then the filters (now or deferred)."""
         mag = s.mag_frd_gauss if finite3(s.mag_frd_gauss) else None
         baro = None
         if math.isfinite(s.pressure_hpa) and s.pressure_hpa > 0 and self.sensor_checks.ok(BARO):
@@ -212,10 +228,8 @@ class Estimator:
                 baro = baro if self.heights.baro_ok else None  # inconsistent with the GPS height: not fused
         if self.defer_filters:
             self._deferred_filters = (s.timestamp_us, mag, baro)
-            self.r_ned_frd = quat.to_matrix(self.q)
             return
         self._filters(s.timestamp_us, mag, baro)
-        self.r_ned_frd = quat.to_matrix(self.q)
 
     def update_gps(self, g: GpsSample) -> None:
         """A GPS fix: fused now, or (deferred mode) by the next run_deferred()."""
@@ -229,7 +243,6 @@ class Estimator:
         pending, self._deferred_filters = self._deferred_filters, None
         if pending is not None:
             self._filters(*pending)
-            self.r_ned_frd = quat.to_matrix(self.q)
         gps, self._deferred_gps = self._deferred_gps, []
         for g in gps:
             self._fuse_gps(g)
@@ -240,18 +253,13 @@ class Estimator:
 
         The selected estimator runs at 50 Hz; the other (kept ready and comparable) at
         10 Hz on the summed increments of 100 ms, which costs a fifth as much."""
-        t = self._acc_dt
-        if t <= 0.0:
+        if self._inc.t <= 0.0:
             return
         self._slow_count += 1
         self.mag.check(now_us, mag)
-        for group in (self._ekf_acc, self._comp_acc):
-            group[0] += self._dth
-            group[1] += self._dvel
-            group[2] += t
-        self._dth[:] = 0.0
-        self._dvel[:] = 0.0
-        self._acc_dt = 0.0
+        inc = self._inc.take()
+        self._ekf_acc.add(*inc)
+        self._comp_acc.add(*inc)
         standby_due = self._slow_count % STANDBY_EVERY == 0 or not self.ekf.initialised
         if self.use_ekf or standby_due:
             self._run_ekf(now_us, mag, baro_down_m)
@@ -266,8 +274,8 @@ class Estimator:
 
     def _run_complementary(self, now_us: int, mag: np.ndarray | None, baro_down_m: float | None) -> None:
         """Mahony on the interval's mean rate and specific force, then the linear position filter."""
-        dth, dvel, t = self._comp_acc
-        self._comp_acc = [np.zeros(3), np.zeros(3), 0.0]
+        dth_list, dvel_list, t = self._comp_acc.take()
+        dth, dvel = np.array(dth_list), np.array(dvel_list)
         m = self.attitude
         m.update(dth / t, dvel / t, mag, t, self._mahony_reference(now_us, dvel / t, t))
         accel_ned = quat.to_matrix(m.q) @ (dvel / t) + _GRAVITY
@@ -297,8 +305,7 @@ class Estimator:
         return a_m - (lp_then - gps.accel_ned)
 
     def _run_ekf(self, now_us: int, mag: np.ndarray | None, baro_down_m: float | None) -> None:
-        dth, dvel, t = self._ekf_acc
-        self._ekf_acc = [np.zeros(3), np.zeros(3), 0.0]
+        dth, dvel, t = self._ekf_acc.take()
         ekf = self.ekf
         if not ekf.initialised:
             if self.attitude.initialised:

@@ -51,6 +51,11 @@ def magnetic_field_ned(lat_deg: float, lon_deg: float, alt_amsl_m: float) -> np.
     return np.array([res.x, res.y, res.z]) / 1e5  # nT -> gauss
 
 
+def _values(v: np.ndarray) -> list:
+    """The components as a list (what np.array_equal compared, for the 3-vectors here)."""
+    return v.tolist() if isinstance(v, np.ndarray) else list(v)
+
+
 class MagHealth:
     """Fault detection of one magnetometer; ``fault`` says whether its heading may be fused."""
 
@@ -71,7 +76,7 @@ class MagHealth:
         if mag is None:
             reason = "no magnetometer data"
         else:
-            if self.last is not None and np.array_equal(mag, self.last):
+            if self.last is not None and _values(mag) == _values(self.last):  # (np.array_equal costs more)
                 self._repeat += 1
             else:
                 self._repeat = 0

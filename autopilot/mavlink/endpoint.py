@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import socket
+import struct
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
@@ -24,7 +25,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core.mavlink_signing import SigningParser, SigningState
 from mavsim_core.mavlink_udp import UdpEndpoint
-from mavsim_core.sim_api_codec import numeric_layout
+from mavsim_core.sim_api_codec import MessageLayout, numeric_layout, x25_crc
 
 if TYPE_CHECKING:
     from autopilot.mavlink.link import GcsLink
@@ -34,6 +35,8 @@ RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net
 # A stream goes out at most once per link update (50 Hz of simulated time): a shorter interval is accepted and
 # capped, as PX4 accepts any interval and sends a stream at most once per iteration of its MAVLink loop.
 MIN_STREAM_INTERVAL_US = 20_000
+_HEADER = struct.Struct("<BBBBBBHB")  # a MAVLink 2 header after its STX: len, flags, seq, sysid, compid, msgid
+_CRC = struct.Struct("<H")
 
 
 @dataclass(slots=True)
@@ -106,6 +109,10 @@ class LinkEndpoint(UdpEndpoint):
         batch, self._batch = self._batch, None
         if not batch:
             return
+        data = b"".join(batch)
+        if len(data) <= MAX_DATAGRAM_BYTES:  # (the usual case) all in one datagram
+            self.send_datagram(data)
+            return
         out: list[bytes] = []
         size = 0
         for packet in batch:
@@ -116,14 +123,30 @@ class LinkEndpoint(UdpEndpoint):
             size += len(packet)
         self.send_datagram(b"".join(out))
 
-    def send(self, msg: mavlink.MAVLink_message) -> None:
+    def send(self, msg: mavlink.MAVLink_message) -> bytes | None:
         """``mav.send(msg)``; a message of numbers only, unsigned, is packed by its precomputed layout (the
-        same bytes: :func:`mavsim_core.sim_api_codec.numeric_layout`), a third of pymavlink's work."""
+        same bytes: :func:`mavsim_core.sim_api_codec.numeric_layout`), a third of pymavlink's work, and that
+        packet is returned (None when pymavlink packed it)."""
         mav, layout = self.mav, numeric_layout(type(msg))
         if layout is None or mav.signing.sign_outgoing or "pack" in msg.__dict__:
             mav.send(msg)
-            return
+            return None
         data = layout.encode(mav, layout.values_of(msg))
+        mav.total_bytes_sent += len(data)
+        self.write(data)
+        return data
+
+    def send_payload(self, layout: MessageLayout, payload: bytes) -> None:
+        """Send the message whose MAVLink 2 payload (trailing zeros trimmed) ``layout`` packed already, e.g. for
+        another endpoint: the bytes :meth:`send` writes for that message, framed with this endpoint's sequence
+        number (unsigned only: the caller checks ``signing.sign_outgoing``)."""
+        mav, msgid = self.mav, layout.msgid
+        seq = mav.seq
+        body = _HEADER.pack(len(payload), 0, 0, seq, mav.srcSystem, mav.srcComponent, msgid & 0xFFFF, msgid >> 16)
+        body += payload
+        data = b"\xfd" + body + _CRC.pack(x25_crc(body + layout.crc_extra))
+        mav.seq = (seq + 1) % 256
+        mav.total_packets_sent += 1
         mav.total_bytes_sent += len(data)
         self.write(data)
 

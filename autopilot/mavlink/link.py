@@ -229,7 +229,8 @@ class GcsLink:
     def poll(self, now_us: int) -> None:
         """Answer what has arrived, without streaming: one poll(2) of both sockets when nothing came, so
         it can run every step and a mission upload moves an item a step, not an update."""
-        if not self._rx.pending():  # one poll(2) of both sockets: 0.5 µs when nothing came
+        rx = self._rx
+        if not rx.backlog and not rx.sockets.poll(0):  # (rx.pending()) one poll(2) of both sockets: nothing came
             return
         self._now_us = max(self._now_us, now_us)
         self._streams.begin(self._now_us)

@@ -70,17 +70,19 @@ class RxDrain:
         self.backlog: deque[tuple[LinkEndpoint, bytes, Address]] = deque()  # commands read, not yet handled
         self._kept: dict[Address, int] = {}  # commands handled past the budget in this call, per sender
         self._handled = 0  # datagrams handled in this call from the socket being sorted (or the backlog)
-        self._readable = select.poll()  # every socket, for pending()
+        self.sockets = select.poll()  # every socket: sockets.poll(0) is what can be read (pending())
         for ep in endpoints:
-            self._readable.register(ep.sock, select.POLLIN)
+            self.sockets.register(ep.sock, select.POLLIN)
 
     def pending(self) -> bool:
         """Something to read or a command kept from the last call (one poll(2), no exception)."""
-        return bool(self._readable.poll(0)) or bool(self.backlog)
+        return bool(self.sockets.poll(0)) or bool(self.backlog)
 
     def drain(self, poll: bool = False) -> None:
         """Read every socket; handle the backlog, then what came, within the budget of an update (or a
-        ``poll``: see the module)."""
+        ``poll``: see the module).  Nothing to read and no backlog: one poll(2), nothing else."""
+        if not self.backlog and not self.sockets.poll(0):
+            return
         end = _clock() + (RX_POLL_BUDGET_S if poll else RX_BUDGET_S)
         waiting = [(ep, ep.read_waiting(RX_READ_MAX)) for ep in self.endpoints]
         self._kept, self._handled = {}, 0

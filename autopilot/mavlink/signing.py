@@ -103,9 +103,9 @@ class SigningService:
             state.keep_up_with_clock()
         if now_us + REPORT_INTERVAL_US < self._next_report_us:  # the simulated clock restarted
             self._next_report_us = now_us
-        refused = self.refused
-        total = sum(refused.values())
+        total = sum(state.refused for state in self.states)  # (all reasons; by reason only to report them)
         if total > self._reported and now_us >= self._next_report_us:
+            refused = self.refused
             new = total - self._reported
             self._reported = total
             self._next_report_us = now_us + REPORT_INTERVAL_US

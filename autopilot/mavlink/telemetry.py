@@ -15,8 +15,9 @@ MAVLink defines one (UINT16_MAX, -1), else 0, and never raise.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from typing import Callable, Sequence
 
+import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.topics import BatteryWarning, TelemetrySnapshot
@@ -95,6 +96,11 @@ def cdeg_0_36000(angle_rad: float) -> int:
     return int(round((math.degrees(angle_rad) % 360.0) * 100.0)) % 36000
 
 
+def floats(v: np.ndarray | Sequence[float]) -> list[float]:
+    """A vector (an array or a sequence of numbers) as a list of Python floats, the same values."""
+    return v.tolist() if type(v) is np.ndarray else [float(x) for x in v]
+
+
 def time_boot_ms(now_us: int) -> int:
     """MAVLink's time_boot_ms (uint32, wraps): simulated milliseconds."""
     return (now_us // 1000) & 0xFFFFFFFF
@@ -138,8 +144,8 @@ def attitude(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | Non
     e = s.estimate
     if e is None:
         return None
-    roll, pitch, yaw = to_euler(e.q_wxyz)
-    p, q, r = (float(v) for v in e.rate_frd_rad_s)
+    roll, pitch, yaw = to_euler(floats(e.q_wxyz))
+    p, q, r = floats(e.rate_frd_rad_s)
     return mavlink.MAVLink_attitude_message(time_boot_ms(e.timestamp_us), roll, pitch, yaw, p, q, r)  # (PX4: its time)
 
 
@@ -148,8 +154,8 @@ def attitude_quaternion(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_me
     e = s.estimate
     if e is None:
         return None
-    w, x, y, z = (float(v) for v in e.q_wxyz)
-    p, q, r = (float(v) for v in e.rate_frd_rad_s)
+    w, x, y, z = floats(e.q_wxyz)
+    p, q, r = floats(e.rate_frd_rad_s)
     return mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(e.timestamp_us), w, x, y, z, p, q, r, [0.0] * 4)
 
 
@@ -158,8 +164,8 @@ def attitude_target(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_messag
     c = s.control
     if c is None:
         return None
-    q = [float(v) for v in c.q_sp_wxyz]
-    p, q_rate, r = (float(v) for v in c.rate_sp_frd_rad_s)
+    q = floats(c.q_sp_wxyz)
+    p, q_rate, r = floats(c.rate_sp_frd_rad_s)
     thrust = min(max(c.thrust_frac, 0.0), 1.0) if math.isfinite(c.thrust_frac) else 0.0
     return mavlink.MAVLink_attitude_target_message(time_boot_ms(now_us), 0, q, p, q_rate, r, thrust)
 
@@ -169,7 +175,7 @@ def position_target_local_ned(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVL
     c = s.control
     if c is None:
         return None
-    values = [float(v) for v in (*c.pos_ned_m, *c.vel_ned_m_s, *c.acc_ned_m_s2)] + [float(c.yaw_rad)]
+    values = [*floats(c.pos_ned_m), *floats(c.vel_ned_m_s), *floats(c.acc_ned_m_s2), float(c.yaw_rad)]
     mask = mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # no yaw-rate setpoint in NED
     for value, bit in zip(values, _POSITION_TARGET_IGNORE_BITS):
         if not math.isfinite(value):
@@ -217,10 +223,11 @@ def global_position_int(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_me
     e = s.estimate
     if e is None or not e.position_valid:
         return None
-    lat, lon, alt = ned_to_geodetic(e.pos_ned_m, e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)
-    rel_alt_m = float(s.home.pos_ned_m[2] - e.pos_ned_m[2]) if s.home is not None else 0.0
-    vn, ve, vd = (clamp_int(v * 100.0, -INT16_MAX - 1, INT16_MAX, 0) for v in e.vel_ned_m_s)
-    yaw = to_euler(e.q_wxyz)[2]
+    pos = floats(e.pos_ned_m)
+    lat, lon, alt = ned_to_geodetic(pos, e.origin_lat_deg, e.origin_lon_deg, e.origin_alt_amsl_m)
+    rel_alt_m = float(s.home.pos_ned_m[2]) - pos[2] if s.home is not None else 0.0
+    vn, ve, vd = [clamp_int(v * 100.0, -INT16_MAX - 1, INT16_MAX, 0) for v in floats(e.vel_ned_m_s)]
+    yaw = to_euler(floats(e.q_wxyz))[2]
     return mavlink.MAVLink_global_position_int_message(
         time_boot_ms(e.timestamp_us), deg_e7(lat), deg_e7(lon), clamp_int(alt * 1000.0, *_INT32),
         clamp_int(rel_alt_m * 1000.0, *_INT32), vn, ve, vd, cdeg_0_36000(yaw),
@@ -232,8 +239,8 @@ def local_position_ned(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_mes
     e = s.estimate
     if e is None or not e.position_valid:
         return None
-    x, y, z = (float(v) for v in e.pos_ned_m)
-    vx, vy, vz = (float(v) for v in e.vel_ned_m_s)
+    x, y, z = floats(e.pos_ned_m)
+    vx, vy, vz = floats(e.vel_ned_m_s)
     return mavlink.MAVLink_local_position_ned_message(time_boot_ms(e.timestamp_us), x, y, z, vx, vy, vz)
 
 
@@ -283,9 +290,9 @@ def vfr_hud(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None
     e = s.estimate
     if e is None:
         return None
-    vn, ve, vd = (float(v) for v in e.vel_ned_m_s)
+    vn, ve, vd = floats(e.vel_ned_m_s)
     speed = math.hypot(vn, ve)
-    yaw = to_euler(e.q_wxyz)[2]
+    yaw = to_euler(floats(e.q_wxyz))[2]
     heading_deg = int(round(math.degrees(yaw) % 360.0)) % 360 if math.isfinite(yaw) else 0
     throttle = clamp_int(s.throttle_frac * 100.0, 0, 100, 0)
     return mavlink.MAVLink_vfr_hud_message(speed, speed, heading_deg, throttle, e.alt_amsl_m, -vd)

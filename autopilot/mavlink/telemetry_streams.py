@@ -18,6 +18,7 @@ from autopilot.mavlink.endpoint import LinkEndpoint
 from autopilot.mavlink.telemetry import Builder
 from autopilot.mavlink.vehicle_interface import VehicleInterface
 from autopilot.topics import TelemetrySnapshot
+from mavsim_core.sim_api_codec import CRC_LEN, HEADER_LEN, MessageLayout, numeric_layout
 
 log = logging.getLogger(__name__)
 
@@ -41,13 +42,18 @@ class TelemetryStreams:
         self._build_failures: set[int] = set()
         self._snap: TelemetrySnapshot | None = None
         self._built: dict[int, mavlink.MAVLink_message | None] = {}  # messages of the current update
+        # (layout, payload) of the messages of the current update packed by a first endpoint: the next ones frame
+        # the same payload (LinkEndpoint.send_payload) instead of packing the message again
+        self._packed: dict[int, tuple[MessageLayout, bytes]] = {}
         self._reported: dict[int, object] = {}  # what HOME_POSITION and MISSION_CURRENT last said
+        self._rescheduled = False  # due_now() moved a stream during send_due()
 
     def begin(self, now_us: int) -> None:
         """A new link update (or poll) at ``now_us``: the snapshot and built messages are stale."""
         self.now_us = now_us
         self._snap = None
         self._built.clear()
+        self._packed.clear()
 
     def snapshot(self) -> TelemetrySnapshot:
         """The vehicle's snapshot, fetched at most once per update."""
@@ -63,6 +69,7 @@ class TelemetryStreams:
             if stream is not None and stream.interval_us > 0:
                 stream.next_due_us = min(stream.next_due_us, self.now_us)
                 ep.next_due_us = min(ep.next_due_us, self.now_us)
+                self._rescheduled = True
 
     def _check_changes(self, snap: TelemetrySnapshot) -> None:
         """A new or moved home, a new current mission item, total or state: out at once (as PX4 sends
@@ -87,16 +94,38 @@ class TelemetryStreams:
 
     def send_due(self, ep: LinkEndpoint, now_us: int) -> None:
         """Send on ``ep`` every stream that is due at ``now_us`` and schedule its next one (no bursts)."""
+        self._rescheduled = False
+        next_due = 2**63  # the earliest next_due_us of the enabled streams (LinkEndpoint.refresh_next_due)
         for mid, stream in ep.streams.items():
-            if stream.interval_us <= 0 or now_us < stream.next_due_us:
+            interval = stream.interval_us
+            if interval <= 0:
                 continue
-            stream.next_due_us += stream.interval_us
-            if stream.next_due_us <= now_us:  # fell behind (first call, time jump): no bursts
-                stream.next_due_us = now_us + stream.interval_us
-            msg = self.build(mid, now_us)
-            if msg is not None:
-                ep.send(msg)
-        ep.refresh_next_due()
+            due = stream.next_due_us
+            if now_us >= due:
+                due += interval
+                if due <= now_us:  # fell behind (first call, time jump): no bursts
+                    due = now_us + interval
+                stream.next_due_us = due
+                msg = self.build(mid, now_us)
+                if msg is not None:
+                    self._send(ep, mid, msg)
+            if due < next_due:
+                next_due = due
+        if self._rescheduled:  # the snapshot moved a stream already passed (due_now): count it too
+            ep.refresh_next_due()
+        else:
+            ep.next_due_us = next_due
+
+    def _send(self, ep: LinkEndpoint, mid: int, msg: mavlink.MAVLink_message) -> None:
+        """``ep.send(msg)``, framing the payload another endpoint packed in this update if there is one."""
+        packed = self._packed.get(mid)
+        if packed is not None and not ep.signing.sign_outgoing:
+            ep.send_payload(*packed)
+            return
+        packet = ep.send(msg)
+        layout = numeric_layout(type(msg))
+        if packet is not None and layout is not None:  # packed by its layout, unsigned: header, payload, CRC
+            self._packed[mid] = (layout, packet[HEADER_LEN:-CRC_LEN])
 
     def build(self, mid: int, now_us: int) -> mavlink.MAVLink_message | None:
         """A stream message from the current snapshot, or None if there is nothing to report.

@@ -12,6 +12,8 @@ Positions are metres NED relative to the estimator origin; time is simulated mic
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from autopilot.navigation.flight_task import PositionSetpoint
@@ -86,7 +88,10 @@ class GotoTask:
 
     def arrived(self, now_us: int, est: VehicleEstimate) -> bool:
         """The move has ended and the vehicle is within ARRIVE_RADIUS_M of the goal."""
-        return self.finished(now_us) and float(np.linalg.norm(est.pos_ned_m - self.goal)) < ARRIVE_RADIUS_M
+        if not self.finished(now_us):
+            return False
+        dn, de, dd = (est.pos_ned_m - self.goal).tolist()  # floats: far cheaper than np.linalg.norm
+        return math.sqrt(dn * dn + de * de + dd * dd) < ARRIVE_RADIUS_M
 
     @property
     def done(self) -> bool:

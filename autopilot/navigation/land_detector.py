@@ -12,6 +12,7 @@ attitude.  Times are simulated seconds.
 
 from __future__ import annotations
 
+import math
 from enum import Enum
 
 import numpy as np
@@ -63,8 +64,9 @@ class LandDetector:
         dt = 0.0 if self._last_us is None else (now_us - self._last_us) * 1e-6
         self._last_us = now_us
         a = min(1.0, max(0.0, dt / FILTER_TIME_S))  # time going back filters nothing
-        self._f_vz += a * (abs(float(vel_ned[2])) - self._f_vz)
-        self._f_vxy += a * (float(np.hypot(vel_ned[0], vel_ned[1])) - self._f_vxy)
+        vn, ve, vd = vel_ned.tolist() if type(vel_ned) is np.ndarray else vel_ned  # floats: cheaper than numpy's
+        self._f_vz += a * (abs(vd) - self._f_vz)
+        self._f_vxy += a * (math.hypot(vn, ve) - self._f_vxy)
         self._f_thrust += a * (thrust - self._f_thrust)
 
     def on_arm(self, down_m: float) -> None:
