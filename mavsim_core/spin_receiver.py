@@ -7,10 +7,14 @@ first polls without blocking for a short spin budget, then blocks.  The spin is
 adaptive: if the previous wait was longer than the budget (the peer is paced to
 real time, or busy), the next receive blocks immediately and wastes no CPU.
 
-The budget is short (100 us): a flight runs three processes (simulator, flight
-controller, the ground station or test) on two cores here, and a longer spin took
-CPU from the process that had work.  ``vehicle_benchmark.py`` measured 9.5-9.9x with
-a 500 us budget against 9.8-10.6x with 100 us or none (three alternating runs each).
+The budget is 300 us.  At 10x (2026-11) a longer spin took CPU from the process
+that had work (a flight runs three processes on two cores here): ``vehicle_benchmark.py``
+measured 9.5-9.9x with 500 us against 9.8-10.6x with 100 us.  At ~25x (2026-11-28, after the
+issue 21 speed work) the simulator waits ~100-115 us for the flight controller's answer, just
+past a 100 us budget, so every step paid a blocking wake-up on both sides (~30 us each way,
+measured with per-phase timers in both loops).  ``flight_benchmark.py --hover 20``, alternating
+runs on a noisy machine: 100 us 23.7, 26.9, 22.5, 28.7, 28.5x; 300 us 28.1, 27.9, 30.9, 27.2,
+29.8x (whole flight).
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import select
 import socket
 import time
 
-SPIN_BUDGET_S = 0.0001  # s
+SPIN_BUDGET_S = 0.0003  # s
 
 
 class SpinReceiver:
