@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from mavsim_core.spin_receiver import SpinReceiver
+from mavsim_core.spin_receiver import SHORT_SPIN_S, SPIN_BUDGET_S, SpinReceiver
 
 
 def test_recv_times_out_then_waits_until_data_and_leaves_the_socket_blocking():
@@ -38,3 +38,18 @@ def test_a_closed_peer_reads_as_end_of_stream():
         rx = SpinReceiver(a)
         b.close()
         assert rx.recv(64, timeout_s=1.0) == b""
+
+
+def test_the_spin_shortens_while_it_keeps_missing_and_lengthens_when_it_catches_again():
+    a, b = socket.socketpair()
+    with a, b:
+        rx = SpinReceiver(a)
+        assert rx.spin_budget_s == SPIN_BUDGET_S
+        for _ in range(10):  # the peer answers only after the spin: each spin missed
+            with pytest.raises(socket.timeout):
+                rx.recv(64, timeout_s=0.001)
+        assert rx.spin_budget_s == SHORT_SPIN_S
+        for _ in range(40):  # the data is there each time: caught while spinning
+            b.sendall(b"x")
+            assert rx.recv(64, timeout_s=1.0) == b"x"
+        assert rx.spin_budget_s == SPIN_BUDGET_S
