@@ -170,11 +170,16 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
         client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
         client.wait_sim_time(3.0)  # settled in the hover
 
+        # Each window ends when the next change is sent and starts once it is acknowledged: on a loaded
+        # machine the stack flies on for a while between the two (a baseline that ended at the
+        # acknowledgement once took in high-gain oscillation and read twice its usual amplitude).
         t_base = client.sim_time_s()
         client.wait_sim_time(WINDOW_S)
+        t_base_end = client.sim_time_s()
         high_p = client.param_set("MC_ROLLRATE_P", HIGH_P)
         t_high = client.sim_time_s()
         client.wait_sim_time(WINDOW_S)
+        t_high_end = client.sim_time_s()
         assert client.param_set("MC_ROLLRATE_P", default_p) == pytest.approx(default_p)
         t_restored = client.sim_time_s()
         client.wait_sim_time(SETTLE_S + 0.1)
@@ -183,11 +188,11 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
 
     a = record.arrays()
     rate_hz = (len(a["t"]) - 1) / (a["t"][-1] - a["t"][0])
-    base = amplitudes(a, t_base, t_high)
-    high = amplitudes(a, t_high + SKIP_S, t_restored)
-    mid = (t_high + SKIP_S + t_restored) / 2
+    base = amplitudes(a, t_base, t_base_end)
+    high = amplitudes(a, t_high + SKIP_S, t_high_end)
+    mid = (t_high + SKIP_S + t_high_end) / 2
     high_1 = amplitudes(a, t_high + SKIP_S, mid)
-    high_2 = amplitudes(a, mid, t_restored)
+    high_2 = amplitudes(a, mid, t_high_end)
     restored = amplitudes(a, t_restored + SKIP_S, t_restored + SETTLE_S)
 
     print(
