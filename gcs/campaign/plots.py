@@ -28,7 +28,8 @@ def _rate(rows: list[dict[str, Any]]) -> tuple[float, float, float] | None:
     ok = sum(r["status"] == "ok" for r in flown)
     lo, hi = wilson(ok, len(flown))
     p = ok / len(flown)
-    return 100 * p, 100 * (p - lo), 100 * (hi - p)
+    # Rounding can put the interval a hair inside p (10 of 10: hi = 0.99999...), which matplotlib refuses.
+    return 100 * p, 100 * max(p - lo, 0.0), 100 * max(hi - p, 0.0)
 
 
 def errors_plot(stats: list[CellStats], error_key: str, path: Path) -> None:
