@@ -325,14 +325,15 @@ def prepare_parameters(
     """Fill the store at start-up from the vehicle defaults, the saved state and ``--params`` (in that order).
 
     Every problem is logged (with file and line) and skipped; nothing here stops the flight
-    controller from starting.  Before the saved state is read, the temporary files an interrupted
+    controller from starting.  Vehicle defaults that are refused (all or nothing) also become a warning.  Before the saved state is read, the temporary files an interrupted
     save left beside it are removed; a damaged state file is kept as ``*.corrupt``
     (:func:`load_saved_state`).  Returns the warnings a ground station should see (STATUSTEXT).
     """
     warnings: list[str] = []
     defaults = vehicle_defaults_file(vehicle_toml) if vehicle_toml is not None else None
-    if defaults is not None:
-        _load_logged(store, defaults, "vehicle defaults", log, as_defaults=True)
+    if defaults is not None and _load_logged(store, defaults, "vehicle defaults", log, as_defaults=True) == 0:
+        # All or nothing: one value out of range and the vehicle would fly on the declared defaults unnoticed.
+        warnings.append(f"Vehicle defaults {defaults.name} refused (see the log): declared defaults used")
     if state_path is not None:
         remove_stale_temporaries(state_path, log)
         if Path(state_path).exists():
@@ -346,8 +347,10 @@ def prepare_parameters(
 
 def _load_logged(
     store: ParameterStore, path: str | Path, what: str, log: Callable[[str], None], *, as_defaults: bool = False
-) -> None:
+) -> int:
+    """Load ``path`` (logging each problem and the count); the number of values applied."""
     applied, messages = load_file(store, path, as_defaults=as_defaults)
     for m in messages:
         log(f"[autopilot] {what}: {m}")
     log(f"[autopilot] {what}: {applied} values from {path}")
+    return applied

@@ -97,6 +97,19 @@ def test_start_up_order_vehicle_defaults_then_saved_state_then_params_file(tmp_p
     assert any("no saved parameters yet" in line for line in log)
 
 
+def test_refused_vehicle_defaults_are_a_warning_for_the_ground_station(tmp_path):
+    toml = tmp_path / "v.toml"
+    toml.write_text("")
+    (tmp_path / "v.params").write_text("1\t1\tMPC_XY_P\t1.1\t9\n1\t1\tMC_ROLL_P\t999\t9\n")  # 999: out of range
+    store, log = default_store(), []
+    warnings = prepare_parameters(store, vehicle_toml=toml, log=log.append)
+    assert warnings == ["Vehicle defaults v.params refused (see the log): declared defaults used"]
+    assert store.default("MPC_XY_P") == default_store().default("MPC_XY_P")  # all or nothing
+    assert any("MC_ROLL_P" in line and "not applied" in line for line in log)
+    (tmp_path / "v.params").write_text("1\t1\tMPC_XY_P\t1.1\t9\n")
+    assert prepare_parameters(default_store(), vehicle_toml=toml, log=log.append) == []
+
+
 def test_autopilot_options():
     from autopilot.__main__ import build_parser as autopilot_parser
 
