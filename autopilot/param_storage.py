@@ -325,9 +325,10 @@ def prepare_parameters(
     """Fill the store at start-up from the vehicle defaults, the saved state and ``--params`` (in that order).
 
     Every problem is logged (with file and line) and skipped; nothing here stops the flight
-    controller from starting.  Vehicle defaults that are refused (all or nothing) also become a warning.  Before the saved state is read, the temporary files an interrupted
-    save left beside it are removed; a damaged state file is kept as ``*.corrupt``
-    (:func:`load_saved_state`).  Returns the warnings a ground station should see (STATUSTEXT).
+    controller from starting.  Vehicle defaults that are refused (all or nothing) also become a
+    warning.  Before the saved state is read, the temporary files an interrupted save left beside
+    it are removed; a damaged state file is kept as ``*.corrupt`` (:func:`load_saved_state`).
+    Returns the warnings a ground station should see (STATUSTEXT).
     """
     warnings: list[str] = []
     defaults = vehicle_defaults_file(vehicle_toml) if vehicle_toml is not None else None
