@@ -154,6 +154,10 @@ def test_no_thrust_loss_while_climbing_holding_tilted_short_unsaturated_in_acro_
     b.run(2.0)
     b.sink_m_s, b.roll = 1.0, math.radians(35.0)  # sinking but tilted beyond 30 deg: the attitude checks' case
     b.run(1.5)
+    b.sink_m_s, b.roll = 0.4, math.radians(22.0)  # braking at 4 m/s^2 with a motor at its limit: manoeuvring
+    b.run(1.5)
+    b.sink_m_s, b.roll = 0.15, 0.0  # level, a motor at its limit (a yaw), the height dipping a little
+    b.run(1.5)
     b.roll, b.sink_m_s = 0.0, 2.0
     for _ in range(3):  # sinking at full throttle, 0.9 s at a time
         b.run(0.9)

@@ -10,7 +10,14 @@ and in the air, in a mode that controls the attitude, for ``TRIGGER_S`` (1 s) wi
 * the motors are at their limit: one output at ``SATURATED`` or more (ArduPilot: throttle at 90 % or
   the mixer's upper throttle limit reached) and the throttle at ``MIN_THROTTLE`` or more (25 %: not a
   limit that a low commanded throttle causes);
-* descending (the estimated NED vertical velocity positive).
+* descending faster than ``LEVEL_SINK_M_S`` (ArduPilot: at all, but with the collective at 90 %; here one
+  motor at its limit is the sign, and a yaw or a turn puts one there for a moment too); while leaning
+  more than ``LEVEL_DEG`` (ArduPilot checks only below a 15 deg desired lean) faster than
+  ``MANOEUVRE_SINK_M_S``.  Braking from a follow or a mission leg at MPC_ACC_HOR (4 m/s^2) leans 22 deg
+  with a motor at its limit and may sink a little for a second: the first version (any descent, up to
+  30 deg) took a manoeuvre for a lost motor once, and its failsafe brought a healthy vehicle down in the
+  follow-me end-to-end test.  A motor lost in a hover leans up to ~26 deg while it sinks ever faster,
+  so ArduPilot's 15 deg limit alone reported it only after the impact.
 
 The likely motor is the one with the highest output low-passed over ``OUTPUT_TAU_S`` (0.5 s), as
 ArduPilot's ``AP_MotorsMatrix::check_for_failed_motor``: the controllers ask the motor that gives
@@ -35,6 +42,9 @@ import numpy as np
 
 TRIGGER_S = 1.0  # ArduPilot's THRUST_LOSS_CHECK_TRIGGER_SEC
 MAX_TILT_DEG = 30.0  # ArduPilot's CRASH_CHECK_ANGLE_DEVIATION_DEG (attitude still controlled)
+LEVEL_DEG = 15.0  # ArduPilot's lean limit of its thrust-loss check: leaning more is a manoeuvre ...
+MANOEUVRE_SINK_M_S = 0.5  # ... and counts only when sinking faster than this
+LEVEL_SINK_M_S = 0.2  # level: sinking faster than this (a height controller's small dip is not a loss)
 SATURATED = 0.95  # a motor output (0..1) at its limit
 MIN_THROTTLE = 0.25  # ArduPilot's minimum throttle for the check (fraction of the maximum collective thrust)
 OUTPUT_TAU_S = 0.5  # low-pass of the outputs that names the likely motor (ArduPilot's)
@@ -75,7 +85,7 @@ class ThrustLossCheck:
             and bool(outputs)
             and max(outputs) >= SATURATED
             and throttle >= MIN_THROTTLE
-            and vel_down_m_s > 0.0
+            and vel_down_m_s > (LEVEL_SINK_M_S if tilt_rad < math.radians(LEVEL_DEG) else MANOEUVRE_SINK_M_S)
         )
         if not losing:
             self._since_us = None
