@@ -11,12 +11,7 @@ import numpy as np
 import pytest
 
 from autopilot.control.gains_from_params import position_control_from_params
-from autopilot.control.position_control import (
-    INT_ERROR_BAND_M_S,
-    PositionControl,
-    PositionSetpoint,
-    attitude_from_thrust,
-)
+from autopilot.control.position_control import PositionControl, PositionSetpoint, attitude_from_thrust
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
 
@@ -65,17 +60,3 @@ def test_attitude_from_thrust_points_body_down_against_thrust():
         assert -r[:, 2] == pytest.approx(thrust / np.linalg.norm(thrust))
         level_yaw = quat.to_euler(quat.from_matrix(attitude_from_thrust(np.array([0.0, 0.0, -10.0]), yaw)))
         assert level_yaw == pytest.approx((0.0, 0.0, yaw))
-
-
-def test_the_horizontal_integrator_learns_a_steady_residual_but_not_a_chase(params, quad):
-    """A velocity error beyond INT_ERROR_BAND_M_S (a chase) is not stored; a small steady one is, per axis."""
-    pc = make_position_control(params, quad)
-    here = np.array([0.0, 0.0, -5.0])
-    chase = PositionSetpoint(np.full(3, np.nan), np.array([INT_ERROR_BAND_M_S + 0.5, 0.0, 0.0]), 0.0)
-    for _ in range(50):
-        pc.update(here, np.zeros(3), chase, 0.02)
-    assert pc.vel_int[:2].tolist() == [0.0, 0.0]
-    residual = PositionSetpoint(np.full(3, np.nan), np.array([0.0, 0.5 * INT_ERROR_BAND_M_S, 0.0]), 0.0)
-    for _ in range(50):
-        pc.update(here, np.zeros(3), residual, 0.02)
-    assert pc.vel_int[0] == 0.0 and pc.vel_int[1] > 0.0

@@ -34,10 +34,6 @@ from mavsim_core.constants import GRAVITY_M_S2
 Axes3 = tuple[float, float, float]  # north, east, down
 Flags3 = tuple[bool, bool, bool]
 MAX_DT_S = 0.1  # the longest step integrated, s (the loop runs every 20 ms)
-# The horizontal velocity integrator learns only while the horizontal velocity error is below this (m/s):
-# it is there for what the disturbance observer leaves (a steady residual), not for a chase's transient,
-# which it would store and give back as a slow lag (a 3 m/s deck trailed by 0.2 m for seconds).
-INT_ERROR_BAND_M_S = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -249,10 +245,9 @@ class PositionControl:
         if not _dt_ok(dt):
             return
         vel_int = self.vel_int.tolist()
-        transient = math.hypot(vel_err[0], vel_err[1]) > INT_ERROR_BAND_M_S
         for i in (0, 1, 2):
             grow = self._vel_i[i] * vel_err[i] * dt
-            if (sat[2] if i == 2 else transient or sat[0] and grow * acc_sp[i] > 0) or not math.isfinite(grow):
+            if (sat[2] if i == 2 else sat[0] and grow * acc_sp[i] > 0) or not math.isfinite(grow):
                 grow = 0.0  # (NaN never reaches the integrator)
             lim = self._int_lim[i]
             vel_int[i] = _clamp(vel_int[i] + grow, lim)
