@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from mavsim_core.udp_buffers import enlarge_receive_buffer
+
 SIM_COMPONENT_ID = 51
 UGV_COMPONENT_ID = 52  # the ground vehicle's truth (SIM_UGV_EN=1), same system and socket
 
@@ -61,6 +63,7 @@ class SimClient:
     def __init__(self, port: int, host: str = "127.0.0.1") -> None:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind((host, port))
+        enlarge_receive_buffer(self.sock)  # 50 Hz truth at full speed: nothing lost while the reader is busy
         self.sock.settimeout(0.2)
         self.mav = mavlink.MAVLink(None, 254, 190)
         self.mav.robust_parsing = True
