@@ -14,8 +14,11 @@ import socket
 RECEIVE_BUFFER_BYTES = 4 * 1024 * 1024
 
 
-def enlarge_receive_buffer(sock: socket.socket, size: int = RECEIVE_BUFFER_BYTES) -> int:
-    """Ask for a ``size``-byte receive buffer on ``sock``; the size the kernel granted (0 if it refused)."""
+def enlarge_receive_buffer(sock: object, size: int = RECEIVE_BUFFER_BYTES) -> int:
+    """Ask for a ``size``-byte receive buffer on ``sock``; the size the kernel granted (0 if it refused, or
+    ``sock`` is not a UDP socket: a TCP or serial link of pymavlink's is left as it is)."""
+    if not isinstance(sock, socket.socket) or sock.type != socket.SOCK_DGRAM:
+        return 0
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, size)
         return int(sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF))

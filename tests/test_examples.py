@@ -134,6 +134,12 @@ def fly_mavproxy_txt(stack: Stack, path: Path, tmp_path: Path) -> None:
     from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py (MAVProxy in its own venv)
 
     observer = ready_client(stack, stack.api_url)  # the vehicle as another client sees it
+    # A person types the lines with the vehicle in real time; here each is sent once the last one's effect
+    # is seen, on the wall clock, while the stack runs at ~30x: a loaded machine's half second between
+    # "arm throttle" and "takeoff 5" is 15 simulated seconds, past COM_DISARM_PRFLT's 10 (disarmed, no
+    # take-off).  So the flight runs without that time-out, and gets it back after.
+    prflt = observer.param_get("COM_DISARM_PRFLT")
+    observer.param_set("COM_DISARM_PRFLT", -1)
     effects = {  # what each line of the file does; a line not listed here fails the test
         "arm throttle": observer.armed,
         "takeoff 5": lambda: observer.takeoff_done(5.0),
@@ -147,6 +153,7 @@ def fly_mavproxy_txt(stack: Stack, path: Path, tmp_path: Path) -> None:
             observer.wait_until(effects[line], WAIT_S, f"the effect of {line!r}")
     finally:
         mavproxy.close()
+        observer.param_set("COM_DISARM_PRFLT", prflt)
         observer.close()
 
 

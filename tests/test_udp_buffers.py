@@ -18,3 +18,4 @@ def test_the_receive_buffer_grows_as_far_as_the_kernel_allows_and_a_closed_socke
     closed = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     closed.close()
     assert enlarge_receive_buffer(closed) == 0
+    assert enlarge_receive_buffer(None) == 0  # pymavlink's non-UDP links have no such socket
