@@ -114,7 +114,11 @@ class MessageLayout:
                 else:
                     flat.extend(values[i])
             payload = self.struct.pack(*flat)
-        payload = payload.rstrip(b"\0") or payload[:1]  # MAVLink 2 trims trailing zeros, keeping one byte
+        return self.frame(mav, payload.rstrip(b"\0") or payload[:1])  # MAVLink 2 trims trailing zeros, keeps one
+
+    def frame(self, mav: mavlink.MAVLink, payload: bytes) -> bytes:
+        """An unsigned MAVLink 2 packet of this message around ``payload`` (already packed and trimmed), with
+        ``mav``'s ids and next sequence number (advanced, as ``mav.send`` does)."""
         msgid = self.msgid
         body = _HEADER.pack(len(payload), 0, 0, mav.seq, mav.srcSystem, mav.srcComponent, msgid & 0xFFFF, msgid >> 16)
         body += payload

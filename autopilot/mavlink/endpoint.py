@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import socket
-import struct
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
@@ -25,7 +24,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core.mavlink_signing import SigningParser, SigningState
 from mavsim_core.mavlink_udp import UdpEndpoint
-from mavsim_core.sim_api_codec import MessageLayout, numeric_layout, x25_crc
+from mavsim_core.sim_api_codec import MessageLayout, numeric_layout
 
 if TYPE_CHECKING:
     from autopilot.mavlink.link import GcsLink
@@ -35,8 +34,6 @@ RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net
 # A stream goes out at most once per link update (50 Hz of simulated time): a shorter interval is accepted and
 # capped, as PX4 accepts any interval and sends a stream at most once per iteration of its MAVLink loop.
 MIN_STREAM_INTERVAL_US = 20_000
-_HEADER = struct.Struct("<BBBBBBHB")  # a MAVLink 2 header after its STX: len, flags, seq, sysid, compid, msgid
-_CRC = struct.Struct("<H")
 
 
 @dataclass(slots=True)
@@ -140,14 +137,8 @@ class LinkEndpoint(UdpEndpoint):
         """Send the message whose MAVLink 2 payload (trailing zeros trimmed) ``layout`` packed already, e.g. for
         another endpoint: the bytes :meth:`send` writes for that message, framed with this endpoint's sequence
         number (unsigned only: the caller checks ``signing.sign_outgoing``)."""
-        mav, msgid = self.mav, layout.msgid
-        seq = mav.seq
-        body = _HEADER.pack(len(payload), 0, 0, seq, mav.srcSystem, mav.srcComponent, msgid & 0xFFFF, msgid >> 16)
-        body += payload
-        data = b"\xfd" + body + _CRC.pack(x25_crc(body + layout.crc_extra))
-        mav.seq = (seq + 1) % 256
-        mav.total_packets_sent += 1
-        mav.total_bytes_sent += len(data)
+        data = layout.frame(self.mav, payload)
+        self.mav.total_bytes_sent += len(data)
         self.write(data)
 
     # -- streams
