@@ -26,6 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from mavsim_core.constants import GRAVITY_M_S2
+from mavsim_core.floats import floats3
 
 MAX_DT_S = 0.1  # a longer step (a gap) filters nothing
 LIMIT_M_S2 = 5.0  # the largest disturbance fed forward (horizontal norm), m/s^2
@@ -54,8 +55,8 @@ class DisturbanceObserver:
     ) -> np.ndarray:
         """One step: ``accel_ned_m_s2`` measured (gravity removed), ``thrust_ned_n`` given; the estimate.
         (On Python floats per axis: numpy's per-call cost on 3-vectors would be most of the work.)"""
-        ax, ay, az = _floats3(accel_ned_m_s2)
-        tx, ty, tz = _floats3(thrust_ned_n)
+        ax, ay, az = floats3(accel_ned_m_s2)
+        tx, ty, tz = floats3(thrust_ned_n)
         m = self.mass_kg
         raw = (ax - _G_NED[0] - tx / m, ay - _G_NED[1] - ty / m, az - _G_NED[2] - tz / m)
         if not (0.0 < dt <= MAX_DT_S) or not math.isfinite(raw[0] + raw[1] + raw[2]):
@@ -75,11 +76,6 @@ class DisturbanceObserver:
         self.estimate = est = np.array((ex, ey, ez))
         self.valid = True
         return est
-
-
-def _floats3(v: np.ndarray | Sequence[float]) -> list[float]:
-    """A 3-vector's components as Python floats (``tolist`` is the fast way out of an array)."""
-    return v.tolist() if isinstance(v, np.ndarray) else [float(v[0]), float(v[1]), float(v[2])]
 
 
 class MotorLag:

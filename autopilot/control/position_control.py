@@ -24,12 +24,12 @@ Pure: no I/O, no clock; ``dt`` is an input.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from mavsim_core.constants import GRAVITY_M_S2
+from mavsim_core.floats import floats3
 
 Axes3 = tuple[float, float, float]  # north, east, down
 Flags3 = tuple[bool, bool, bool]
@@ -98,11 +98,11 @@ class PositionControl:
     def set_gains(self, gains: PositionGains) -> None:
         """New gains and limits from the next update on."""
         self.gains = gains
-        self._pos_p = _floats3(gains.pos_p_per_s)
-        self._vel_p = _floats3(gains.vel_p_per_s)
-        self._vel_i = _floats3(gains.vel_i_per_s2)
-        self._vel_d = _floats3(gains.vel_d_unitless)
-        self._int_lim = _floats3(gains.vel_int_lim_m_s2)
+        self._pos_p = floats3(gains.pos_p_per_s)
+        self._vel_p = floats3(gains.vel_p_per_s)
+        self._vel_i = floats3(gains.vel_i_per_s2)
+        self._vel_d = floats3(gains.vel_d_unitless)
+        self._int_lim = floats3(gains.vel_int_lim_m_s2)
         self._thr_min_n = gains.thrust_min_frac * self.max_total_thrust_n
         self._thr_max_n = gains.thrust_max_frac * self.max_total_thrust_n
 
@@ -130,9 +130,9 @@ class PositionControl:
         observer's), cancelled by feeding it forward with the opposite sign (non-finite: ignored)."""
         isfinite = math.isfinite
         acc_in = sp.acc_ned_m_s2
-        acc_want = _floats3(acc_in) if acc_in is not None else [0.0, 0.0, 0.0]
-        vel_f, pos_f = _floats3(vel), _floats3(pos)
-        sp_pos, sp_vel = _floats3(sp.pos_ned_m), _floats3(sp.vel_ned_m_s)
+        acc_want = floats3(acc_in) if acc_in is not None else [0.0, 0.0, 0.0]
+        vel_f, pos_f = floats3(vel), floats3(pos)
+        sp_pos, sp_vel = floats3(sp.pos_ned_m), floats3(sp.vel_ned_m_s)
         acc_given, pos_ctrl, vel_given, vel_ctrl = [False] * 3, [False] * 3, [False] * 3, [False] * 3
         for i in (0, 1, 2):
             vel_ok = isfinite(vel_f[i])
@@ -165,7 +165,7 @@ class PositionControl:
         self.acc_ff = np.array(ff)
         acc_sp = [a + f for a, f in zip(acc_sp, ff)]
         if disturbance_ned_m_s2 is not None and _finite(disturbance_ned_m_s2):
-            acc_sp = [a - d for a, d in zip(acc_sp, _floats3(disturbance_ned_m_s2))]
+            acc_sp = [a - d for a, d in zip(acc_sp, floats3(disturbance_ned_m_s2))]
 
         thrust, sat = self._thrust(acc_sp, vel_err)
         self._integrate(vel_err, acc_sp, sat, dt)
@@ -264,11 +264,6 @@ def _finite(v: np.ndarray) -> bool:
     return math.isfinite(float(v[0]) + float(v[1]) + float(v[2]))
 
 
-def _floats3(v: np.ndarray | Sequence[float]) -> list[float]:
-    """A 3-vector's components as Python floats (``tolist`` is the fast way out of an array)."""
-    return v.tolist() if isinstance(v, np.ndarray) else [float(v[0]), float(v[1]), float(v[2])]
-
-
 def _clamp(x: float, lim: float) -> float:
     """x limited to [-lim, lim] (NaN passes, as numpy's minimum/maximum let it)."""
     return -lim if x < -lim else (lim if x > lim else x)
@@ -276,7 +271,7 @@ def _clamp(x: float, lim: float) -> float:
 
 def attitude_from_thrust(thrust_ned_n: np.ndarray, yaw_rad: float) -> np.ndarray:
     """Attitude (3x3, FRD->NED) whose -z axis points along the thrust (N, NED), with the given yaw (rad)."""
-    tx, ty, tz = _floats3(thrust_ned_n)
+    tx, ty, tz = floats3(thrust_ned_n)
     n = math.sqrt(tx * tx + ty * ty + tz * tz)
     zx, zy, zz = (-tx / n, -ty / n, -tz / n) if n > 1e-6 else (0.0, 0.0, 1.0)
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)

@@ -78,11 +78,12 @@ from collections import deque
 import numpy as np
 
 from autopilot.estimation.attitude_matrix import LazyAttitudeMatrix
-from autopilot.estimation.ekf_transition import F_INDEX, N, f_blocks, floats3
+from autopilot.estimation.ekf_transition import F_INDEX, N, f_blocks
 from autopilot.estimation.state_history import state_at
 from autopilot.parameters import ParamDef, param
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2
+from mavsim_core.floats import floats3
 
 _GRAVITY_M_S2 = float(GRAVITY_M_S2)
 P, V, TH, BG, BA = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)

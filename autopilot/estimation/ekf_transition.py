@@ -23,11 +23,6 @@ F_INDEX = np.array(
 )
 
 
-def floats3(v: np.ndarray | list[float]) -> list[float]:
-    """A 3-vector (an array or a sequence) as a list of three floats."""
-    return v.tolist() if type(v) is np.ndarray else [float(v[0]), float(v[1]), float(v[2])]
-
-
 def f_blocks(r: tuple[float, ...], u: tuple[float, float, float], d: tuple[float, float, float], t: float) -> list:
     """The values of F at ``F_INDEX``: -R [u]x, -R t, I - [d]x and -t (R row by row; u the bias-corrected
     delta velocity, d the delta angle, FRD)."""

@@ -51,6 +51,7 @@ from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import EstimatorStatus, GpsSample, ImuSample, VehicleEstimate
 from mavsim_core import quaternion as quat
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from mavsim_core.floats import floats3
 from mavsim_core.geodesy import geodetic_to_ned
 
 _GRAVITY = np.array([0.0, 0.0, GRAVITY_M_S2])
@@ -74,11 +75,6 @@ P_EST_GROUP = param(
 
 # The parameters this module reads (listed in autopilot/param_catalogue.py).
 PARAMS: tuple[ParamDef, ...] = (P_EST_GROUP,)
-
-
-def _xyz(v: np.ndarray) -> list[float]:
-    """A 3-vector's components (a sequence, not an ndarray: ``tolist`` is faster there) as Python floats."""
-    return [float(v[0]), float(v[1]), float(v[2])]
 
 
 def pressure_to_altitude_m(pressure_hpa: float) -> float:
@@ -199,8 +195,8 @@ class Estimator(LazyAttitudeMatrix):
             return  # NaN never reaches the filters
         self._sample_dt_us = int(dt * 1e6)
         acc, gyro = s.accel_frd_m_s2, s.gyro_frd_rad_s
-        ax, ay, az = acc.tolist() if type(acc) is np.ndarray else _xyz(acc)
-        gx, gy, gz = gyro.tolist() if type(gyro) is np.ndarray else _xyz(gyro)
+        ax, ay, az = floats3(acc)
+        gx, gy, gz = floats3(gyro)
         if not math.isfinite(ax + ay + az) or not math.isfinite(gx + gy + gz):
             return
         self._inc.add_sample(gx, gy, gz, ax, ay, az, dt)
