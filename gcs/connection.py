@@ -105,9 +105,6 @@ class Connection:
         self.signing = SigningState()  # MAVLink 2 signing (set_signing_key); no key: nothing signed or checked
         self.conn.mav.signing = self.signing
         self.signing.set_key(signing_key)
-        self._vehicle_address: tuple[str, int] | None = None
-        if hasattr(self.conn, "last_address"):  # udpin: several vehicles may send to one port (PX4's 14550)
-            self.conn.write = self._write_to_vehicle  # type: ignore[method-assign]
         if wait_heartbeat:
             try:
                 self.wait_heartbeat()
@@ -233,7 +230,8 @@ class Connection:
             self._target_system = msg.get_srcSystem()
         if msg.get_srcSystem() != self._target_system or msg.get_srcComponent() != self.target_component:
             return False
-        self._note_vehicle_address()
+        if self._last_rx_wall is None:  # the vehicle is heard: our HEARTBEAT is due at once (on udpin the
+            self._last_gcs_heartbeat = -math.inf  # first went nowhere; it must not wait a period to hear us)
         now = time.monotonic()
         self._last_rx_wall = now
         self._latest[mtype] = msg
@@ -245,23 +243,6 @@ class Connection:
         for cb in self._listeners:
             cb(msg)
         return True
-
-    def _note_vehicle_address(self) -> None:
-        """Remember where our vehicle sends from, so replies go to it and not to whichever vehicle sent last.
-
-        pymavlink's udpin keeps only the last datagram's sender; a message returned while the parser
-        still holds bytes may come from an earlier datagram, so only a message that ended the buffer
-        (it came from that last sender) is trusted."""
-        address = getattr(self.conn, "last_address", None)
-        if address is not None and self.conn.mav.buf_len() == 0:
-            self._vehicle_address = address
-
-    def _write_to_vehicle(self, buf: bytes) -> None:
-        """udpin's write, to our vehicle's address once known (else to the last sender, as pymavlink)."""
-        conn = self.conn
-        if self._vehicle_address is not None:
-            conn.last_address = self._vehicle_address
-        type(conn).write(conn, buf)
 
     def _handle_statustext(self, msg, now: float) -> None:
         text = msg.text if isinstance(msg.text, str) else msg.text.decode("utf-8", "replace")

@@ -347,9 +347,16 @@ class GcsLink:
         self._ack(ep, msg, mavlink.MAVLINK_MSG_ID_SET_MODE, result)
 
     def _on_heartbeat(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
-        """A ground station's HEARTBEAT keeps the data link alive (COM_DL_LOSS_T); others only register a peer."""
+        """A ground station's HEARTBEAT keeps the data link alive (COM_DL_LOSS_T); others only register a peer.
+
+        Each ground station (address, system, component) is reported once on stdout, as PX4 reports its partner."""
         if msg.type == mavlink.MAV_TYPE_GCS:
             self.vehicle.on_gcs_heartbeat(self._now_us)
+            key = (ep.sender, msg.get_srcSystem(), msg.get_srcComponent())
+            if key not in ep.ground_stations:
+                ep.ground_stations.add(key)
+                host, port = ep.sender or ("?", 0)
+                print(f"INFO  [mavlink] {ep.name}: ground station {key[1]}/{key[2]} at {host}:{port}", flush=True)
 
     def _on_control(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         """MANUAL_CONTROL (target = our system) and SET_* setpoints (to us): the vehicle decodes and keeps them."""
