@@ -60,3 +60,23 @@ def test_attitude_from_thrust_points_body_down_against_thrust():
         assert -r[:, 2] == pytest.approx(thrust / np.linalg.norm(thrust))
         level_yaw = quat.to_euler(quat.from_matrix(attitude_from_thrust(np.array([0.0, 0.0, -10.0]), yaw)))
         assert level_yaw == pytest.approx((0.0, 0.0, yaw))
+
+
+def test_a_setpoints_band_keeps_a_chase_out_of_the_horizontal_integrator(params, quad):
+    """With ``int_band_m_s`` a horizontal velocity error beyond it (a chase) is not stored, a small steady one
+    is; without it (the default) the integrator learns from any error, as before."""
+    band = 0.5
+    here = np.array([0.0, 0.0, -5.0])
+
+    def integrated(vel_sp: tuple[float, float, float], band_m_s: float) -> list[float]:
+        pc = make_position_control(params, quad)
+        sp = PositionSetpoint(np.full(3, np.nan), np.array(vel_sp), 0.0, None, band_m_s)
+        for _ in range(50):
+            pc.update(here, np.zeros(3), sp, 0.02)
+        return pc.vel_int[:2].tolist()
+
+    assert integrated((band + 0.5, 0.0, 0.0), band) == [0.0, 0.0]
+    chase_unbanded = integrated((band + 0.5, 0.0, 0.0), math.inf)
+    assert chase_unbanded[0] > 0.0
+    steady = integrated((0.0, 0.5 * band, 0.0), band)
+    assert steady[0] == 0.0 and steady[1] > 0.0

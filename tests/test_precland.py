@@ -15,6 +15,7 @@ import pytest
 from autopilot.navigation.cubic_spline import MIN_DURATION_S, CubicSpline, duration_s
 from autopilot.navigation.flight_task import FlightTask
 from autopilot.navigation.precland import (
+    CHASE_INT_BAND_M_S,
     PARAMS,
     LandingTargetInput,
     PrecLandConfig,
@@ -261,3 +262,19 @@ def test_the_targets_acceleration_is_fed_forward_over_a_moving_deck_only(deck_sp
     sp = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, target)
     assert sim.task.phase is PrecLandPhase.TRACKING
     np.testing.assert_allclose(sp.acc_ned_m_s2 - sim.task._spline.at(0.0).acc, share * acc, atol=1e-9)
+
+
+def test_the_chase_keeps_the_velocity_integrator_to_a_band_from_tracking_on():
+    """From TRACKING to DONE the setpoints carry CHASE_INT_BAND_M_S (the integrator does not store the
+    catch-up); while searching, the position hold leaves it to learn freely."""
+    sim = Sim(target0=(3.0, 0.0, 0.0), target_vel=(3.0, 0.0, 0.0))
+    hold = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, None)
+    assert sim.task.phase is not PrecLandPhase.TRACKING and hold.int_band_m_s == math.inf
+    bands = set()
+    for _ in range(int(60.0 / DT_S)):
+        if sim.task.done:
+            break
+        sim.step()
+        if sim.task.phase in (PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
+            bands.add(sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, None).int_band_m_s)
+    assert PrecLandPhase.DOCKING in sim.phases and bands == {CHASE_INT_BAND_M_S}

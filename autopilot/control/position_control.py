@@ -59,12 +59,17 @@ class PositionGains:
 @dataclass(frozen=True, slots=True)
 class PositionSetpoint:
     """Position (m, NED; NaN = not controlled), velocity feed-forward (m/s; NaN = none), yaw (rad) and
-    acceleration feed-forward (m/s^2, NED; a trajectory's own acceleration; None or NaN = none)."""
+    acceleration feed-forward (m/s^2, NED; a trajectory's own acceleration; None or NaN = none).
+
+    ``int_band_m_s``: the horizontal velocity integrator learns only while the horizontal velocity
+    error is under this (m/s; inf, the default: always).  A chase of a moving target sets it, so that
+    the chase's transient is not stored and given back later as a slow lag behind the target."""
 
     pos_ned_m: np.ndarray
     vel_ned_m_s: np.ndarray
     yaw_rad: float
     acc_ned_m_s2: np.ndarray | None = None
+    int_band_m_s: float = math.inf
 
 
 @dataclass(frozen=True, slots=True)
@@ -168,7 +173,7 @@ class PositionControl:
             acc_sp = [a - d for a, d in zip(acc_sp, floats3(disturbance_ned_m_s2))]
 
         thrust, sat = self._thrust(acc_sp, vel_err)
-        self._integrate(vel_err, acc_sp, sat, dt)
+        self._integrate(vel_err, acc_sp, sat, dt, sp.int_band_m_s)
         self.acc_sp = np.array(acc_sp)
         self.output = out = PositionControlOutput(
             thrust_ned_n=np.array(thrust),
@@ -240,14 +245,16 @@ class PositionControl:
             sat[0] = sat[1] = True
         return [tx, ty, tz], sat
 
-    def _integrate(self, vel_err: list[float], acc_sp: list[float], sat: list[bool], dt: float) -> None:
-        """Integrate unless that would push further into saturation (anti-windup) or ``dt`` is not usable; clamp."""
+    def _integrate(self, vel_err: list[float], acc_sp: list[float], sat: list[bool], dt: float, band: float) -> None:
+        """Integrate unless that would push further into saturation (anti-windup), the horizontal velocity
+        error is outside ``band`` (m/s; horizontal axes only) or ``dt`` is not usable; clamp."""
         if not _dt_ok(dt):
             return
         vel_int = self.vel_int.tolist()
+        chase = band < math.inf and math.hypot(vel_err[0], vel_err[1]) > band
         for i in (0, 1, 2):
             grow = self._vel_i[i] * vel_err[i] * dt
-            if (sat[2] if i == 2 else sat[0] and grow * acc_sp[i] > 0) or not math.isfinite(grow):
+            if (sat[2] if i == 2 else chase or sat[0] and grow * acc_sp[i] > 0) or not math.isfinite(grow):
                 grow = 0.0  # (NaN never reaches the integrator)
             lim = self._int_lim[i]
             vel_int[i] = _clamp(vel_int[i] + grow, lim)

@@ -62,6 +62,10 @@ DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_WAIT_S = 2.0  # at the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long
 STILL_TARGET_M_S = 0.2  # ... over a deck slower than this; over a moving deck at once
+# From the tracking chase on, the horizontal velocity integrator learns only within this velocity error
+# (m/s): the chase's catch-up (at up to twice the deck's speed) would wind it up, and given back it held
+# the vehicle 0.2 m behind a 3 m/s deck for seconds (PositionSetpoint.int_band_m_s).
+CHASE_INT_BAND_M_S = 0.5
 
 
 class PrecLandPhase(Enum):
@@ -328,18 +332,19 @@ class PrecLandTask:
         base = self._above_target(self.cfg.trk_alt_m)
         vel = self._tgt_vel.copy()
         acc = self._tgt_acc * _moving(self._tgt_vel)
+        band = CHASE_INT_BAND_M_S
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc)
+            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc, band)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(base, vel, self.yaw_rad, acc)
+            return PositionSetpoint(base, vel, self.yaw_rad, acc, band)
         deck = self._above_target(self.feet_below_m + DOCK_HOVER_M)  # the reference point at the docking point
         if ph is PrecLandPhase.DOCKING:
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
-            return PositionSetpoint(pos, vel + float(p.vel[0]) * down, self.yaw_rad, acc + float(p.acc[0]) * down)
-        return PositionSetpoint(deck, vel, self.yaw_rad)  # DONE: the deck (motors are off)
+            return PositionSetpoint(pos, vel + float(p.vel[0]) * down, self.yaw_rad, acc + float(p.acc[0]) * down, band)
+        return PositionSetpoint(deck, vel, self.yaw_rad, None, band)  # DONE: the deck (motors are off)
 
 
 def _moving(target_vel_ned_m_s: np.ndarray) -> float:
