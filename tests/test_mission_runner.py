@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from autopilot.navigation.mission_leg import Leg, corner_speed
+from autopilot.navigation.mission_leg import CORNER_OVERSHOOT_M, Leg, corner_speed
 from mavsim_core import mission_items as mi
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.mission_items import MissionItem
@@ -100,6 +100,16 @@ def test_a_corner_is_flown_without_stopping():
             slowest = min(slowest, float(np.linalg.norm(b.vel[:2])))
     assert 0.5 < slowest  # a 90 degree corner at half the cruise speed, not a stop
     assert corner_speed(3.0, np.array([1.0, 0, 0]), np.array([0, 1.0, 0])) == 1.5
+
+
+def test_corner_speed_keeps_the_swing_past_a_sharp_corner_small_and_straight_on_is_cruise():
+    north, east = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    v = corner_speed(5.0, north, east, 4.0)  # a 90 degree corner: v^2 / 2a = CORNER_OVERSHOOT_M
+    assert math.isclose(v * v / (2 * 4.0), CORNER_OVERSHOOT_M)
+    assert corner_speed(5.0, north, north, 4.0) == 5.0
+    assert corner_speed(5.0, north, -north, 4.0) == 0.0
+    shallow = np.array([math.cos(0.2), math.sin(0.2), 0.0])
+    assert corner_speed(5.0, north, shallow, 4.0) == corner_speed(5.0, north, shallow)  # cos^2 rule is lower
 
 
 def test_leg_profile_enters_and_leaves_at_speed():

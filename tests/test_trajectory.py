@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from autopilot.navigation.trajectory import AxisMove, Limits, Move, velocity_change
+from autopilot.navigation.trajectory import AxisMove, Limits, LineProfile, Move, velocity_change
 
 DT = 0.002
 LIM = Limits(5.0, 4.0, 10.0)
@@ -115,3 +115,40 @@ def test_no_distance_and_nan_start_state_give_a_move_that_is_already_over():
     assert move.duration_s == 0.0
     p, v, a = move.sample(0.0)
     assert np.array_equal(p, np.ones(3)) and not v.any() and not a.any()
+
+
+def _line_samples(line: LineProfile, dt: float = 0.002) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Times from the start to ``duration_s`` (included) and distance, speed and acceleration at each."""
+    times = np.append(np.arange(0.0, line.duration_s, dt), line.duration_s)
+    rows = np.array([line.sample(float(t)) for t in times])
+    return times, rows[:, 0], rows[:, 1], rows[:, 2]
+
+
+@pytest.mark.parametrize(
+    ("length", "v_in", "v_out"),
+    [(10.0, 1.0, 1.5), (30.0, 0.0, 0.0), (30.0, 5.0, 2.5), (40.0, 5.0, 5.0), (3.0, 0.0, 0.0)],
+)
+def test_a_line_profile_enters_and_leaves_at_speed_within_every_limit(length, v_in, v_out):
+    """A mission leg's speed along its line: from v_in to v_out (both at zero acceleration), the distance
+    ending exactly on the line's end, speed, acceleration and jerk within the limits, no acceleration step."""
+    lim = Limits(5.0, 2.0, 4.0)
+    line = LineProfile(length, v_in, v_out, lim)
+    t, s, v, a = _line_samples(line)
+    assert (line.v_in, line.v_out) == (v_in, v_out)
+    assert line.sample(0.0) == (0.0, v_in, 0.0) and line.sample(line.duration_s) == (length, v_out, 0.0)
+    assert s[-1] == length and np.all(np.diff(s) >= -1e-12)
+    assert v.max() <= lim.speed_m_s + 1e-9 and np.abs(a).max() <= lim.accel_m_s2 + 1e-9
+    assert np.all(np.abs(np.diff(a)) <= lim.jerk_m_s3 * np.diff(t) + 1e-9)  # continuous: the jerk bounds each step
+    np.testing.assert_allclose(np.diff(s), (v[1:] + v[:-1]) / 2 * np.diff(t), atol=1e-5)  # speed is the slope
+
+
+def test_a_line_too_short_for_the_speeds_lowers_them_rather_than_overshoot():
+    lim = Limits(5.0, 2.0, 4.0)
+    faster = LineProfile(1.0, 0.0, 5.0, lim)  # cannot reach 5 m/s in 1 m
+    assert 0.0 < faster.v_out < 5.0 and faster.sample(faster.duration_s)[0] == 1.0
+    assert max(_line_samples(faster)[1]) <= 1.0
+    braking = LineProfile(1.0, 5.0, 0.0, lim)  # cannot stop from 5 m/s in 1 m: the entry speed is lowered
+    assert 0.0 < braking.v_in < 5.0 and braking.v_out == 0.0
+    assert max(_line_samples(braking)[1]) <= 1.0
+    still = LineProfile(0.0, 0.0, 0.0, lim)
+    assert still.duration_s == 0.0 and still.sample(1.0) == (0.0, 0.0, 0.0)

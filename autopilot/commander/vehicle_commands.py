@@ -153,7 +153,8 @@ class VehicleCommands:
         s, v, _ = leg.profile((self.now_us - leg.t0_us) * 1e-6)
         up, down = 0.7 * self.params.get("MPC_Z_VEL_MAX_UP"), 0.7 * self.params.get("MPC_Z_VEL_MAX_DN")
         cruise = path_speed(leg.dir, speed, up, down)
-        task.leg = Leg(leg.start + leg.dir * s, leg.end, v, min(leg.v_out, cruise), cruise, leg.a, self.now_us)
+        start, v_out = leg.start + leg.dir * s, min(leg.v_out, cruise)
+        task.leg = Leg(start, leg.end, v, v_out, cruise, leg.a, self.now_us, leg.jerk)
 
     # -- DO_SET_HOME ---------------------------------------------------------------------
     @publishes

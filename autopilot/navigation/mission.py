@@ -235,9 +235,9 @@ class MissionTask:
             d2 = nxt - goal
             n2 = float(np.linalg.norm(d2))
             if n2 > 1e-6:
-                v_out = corner_speed(min(cruise, self.cruise), direction, d2 / n2)
+                v_out = corner_speed(min(cruise, self.cruise), direction, d2 / n2, p.get("MPC_ACC_HOR"))
         accel = TAKEOFF_ACCEL_M_S2 if item.command == mi.NAV_TAKEOFF else p.get("MPC_ACC_HOR")
-        self.leg = Leg(self.sp, goal, self.v_carry, v_out, cruise, accel, now_us)
+        self.leg = Leg(self.sp, goal, self.v_carry, v_out, cruise, accel, now_us, p.get("MPC_JERK_AUTO"))
         self.pending = item
         if math.isfinite(item.param4) and item.command != mi.NAV_LAND:
             self.yaw = math.radians(item.param4)

@@ -23,6 +23,7 @@ Pure: no clock, no I/O.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -174,3 +175,71 @@ class Move:
         for ax, d in zip(self.axes, np.asarray(delta, dtype=float).tolist()):
             ax.goal += d
             ax._starts = [(t, p + d, v, a, j) for t, p, v, a, j in ax._starts]
+
+
+class LineProfile:
+    """Distance along a line of ``length`` m flown from speed ``v_in`` to ``v_out`` (m/s, both at zero
+    acceleration) within ``limits``: a jerk-limited change up to a peak speed, a cruise, a jerk-limited
+    change down to ``v_out`` (a mission leg entered and left at speed, :mod:`.mission_leg`).
+
+    The peak is the speed limit when the line is long enough, else the highest whose two changes fit.
+    An exit speed that cannot be reached within the line is lowered; an entry speed that cannot brake to
+    the exit speed within it is lowered too (the caller's setpoint then steps down, as a shorter line
+    than the braking distance leaves no other way).  ``v_in`` and ``v_out`` hold the speeds flown.
+    """
+
+    def __init__(self, length_m: float, v_in: float, v_out: float, limits: Limits) -> None:
+        L, top = max(float(length_m), 0.0), limits.speed_m_s
+        acc, jerk = limits.accel_m_s2, limits.jerk_m_s3
+
+        def change(v0: float, v1: float) -> list[Segment]:
+            return velocity_change(v0, 0.0, v1, acc, jerk)
+
+        def covered(v0: float, v1: float) -> float:
+            return _distance(change(v0, v1), v0, 0.0)[0]
+
+        v_in, v_out = min(max(v_in, 0.0), top), min(max(v_out, 0.0), top)
+        if v_out > v_in and covered(v_in, v_out) > L:
+            v_out = _highest(lambda v: covered(v_in, v) <= L, v_in, v_out)
+        elif v_in > v_out and covered(v_in, v_out) > L:
+            v_in = _highest(lambda v: covered(v, v_out) <= L, v_out, v_in)
+        self.length_m, self.v_in, self.v_out = L, v_in, v_out
+
+        def through(peak: float) -> float:
+            return covered(v_in, peak) + covered(peak, v_out)
+
+        low = max(v_in, v_out)
+        peak = top if through(top) <= L else _highest(lambda v: through(v) <= L, low, top)
+        cruise_s = (L - through(peak)) / peak if peak > _EPS else 0.0
+        self._starts: list[tuple[float, float, float, float, float]] = []  # (t, s, v, a, jerk) per segment
+        t, s, v, a = 0.0, 0.0, v_in, 0.0
+        for dur, j in change(v_in, peak) + [(max(cruise_s, 0.0), 0.0)] + change(peak, v_out):
+            if dur > 0:
+                self._starts.append((t, s, v, a, j))
+                s, v, a = _advance(s, v, a, dur, j)
+                t += dur
+        self.duration_s = t
+
+    def sample(self, t: float) -> tuple[float, float, float]:
+        """Distance (m), speed (m/s) and acceleration (m/s^2) along the line ``t`` s after the start: the
+        start before it, the end at ``v_out`` from ``duration_s`` on."""
+        if t <= 0.0 or not self._starts:
+            return (0.0, self.v_in, 0.0) if t < self.duration_s else (self.length_m, self.v_out, 0.0)
+        if t >= self.duration_s:
+            return self.length_m, self.v_out, 0.0
+        seg = self._starts[0]
+        for st in self._starts:
+            if st[0] > t:
+                break
+            seg = st
+        t0, s, v, a, j = seg
+        s, v, a = _advance(s, v, a, t - t0, j)
+        return min(s, self.length_m), v, a
+
+
+def _highest(fits: Callable[[float], bool], lo: float, hi: float) -> float:
+    """The highest value in [lo, hi] for which ``fits`` holds, by bisection (``fits(lo)`` is assumed)."""
+    for _ in range(_BISECT_STEPS):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+    return lo
