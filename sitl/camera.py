@@ -55,5 +55,13 @@ class DownwardCamera:
         self.render_s += time.perf_counter() - t0
         return grey
 
+    def skip(self, noise_grey: float = 0.0) -> None:
+        """A frame not rendered (nothing it could show is wanted): counted, with the noise draws a capture
+        makes, so the frames after it are the same as if it had been rendered."""
+        if noise_grey > 0.0:
+            self._rng.integers(NOISE_BANK)
+            self._rng.integers(self.spec.height_px)
+        self.frames += 1
+
     def close(self) -> None:
         self.renderer.close()

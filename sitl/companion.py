@@ -36,8 +36,8 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from params.vehicle import CameraSpec
 from sitl.camera import DownwardCamera
+from sitl.marker_view import MarkerView, deck_centre_enu
 from sitl.sim_settings import CameraSettings
-from sitl.ugv import UgvGeometry
 from vision.camera_model import pinhole
 from vision.detector import MarkerDetector
 from vision.landing_target import CameraMount, landing_target_message, target_offset
@@ -49,6 +49,7 @@ IN_FLIGHT = 3  # state copies: captures that may wait for their release at once 
 @dataclass
 class CompanionStats:
     frames: int = 0
+    not_rendered: int = 0  # frames skipped: the marker wholly out of view (sitl.marker_view)
     detections: int = 0
     render_s: float = 0.0
     detect_s: float = 0.0
@@ -62,7 +63,9 @@ class CompanionStats:
         return (
             f"camera: {self.frames} frames, {self.detections} with the marker "
             f"({100.0 * self.detections / n:.0f} %, farthest {self.max_range_m:.2f} m); "
-            f"{1e3 * self.render_s / n:.1f} ms render + {1e3 * self.detect_s / n:.1f} ms detect per frame; "
+            f"{self.not_rendered} not rendered (the marker out of view); per frame rendered "
+            f"{1e3 * self.render_s / max(n - self.not_rendered, 1):.1f} ms render + "
+            f"{1e3 * self.detect_s / max(n - self.not_rendered, 1):.1f} ms detect; "
             f"the simulator waited {self.waited_s:.2f} s for it; marker position error against the truth "
             f"{100 * self.pose_err_sum_m / max(self.detections, 1):.1f} cm mean, {100 * self.pose_err_max_m:.1f} cm max"
         )
@@ -142,13 +145,14 @@ class LockstepCompanion:
         except BaseException as exc:  # reported to the main thread at the first release
             camera, detector, self._error = None, None, exc
         mount = CameraMount(position_frd_m=self.spec.position_frd_m)
+        view = MarkerView(self.model, "downward", detector.camera) if detector is not None else None
         while (job := self._jobs.get()) is not None:
             time_us, copy, noise, answer = job
             if camera is None or detector is None:
                 answer.put(self._error)
                 continue
             try:
-                answer.put((copy, self._process(camera, detector, mount, copy, time_us, noise)))
+                answer.put((copy, self._process(camera, detector, mount, view, copy, time_us, noise)))
             except BaseException as exc:
                 answer.put(exc)
         if camera is not None:
@@ -159,14 +163,20 @@ class LockstepCompanion:
         camera: DownwardCamera,
         detector: MarkerDetector,
         mount: CameraMount,
+        view: MarkerView | None,
         data: mujoco.MjData,
         time_us: int,
         noise: float,
     ) -> bytes:
+        st = self.stats
+        saved = self.save_dir is not None and (camera.frames + 1) % self.save_every == 1
+        if view is not None and not saved and view.out_of_view(data):  # it could not show the marker
+            camera.skip(noise)
+            st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
+            return b""
         frame = camera.capture(data, noise)
         t0 = time.perf_counter()
         det = detector.detect(frame)
-        st = self.stats
         st.detect_s += time.perf_counter() - t0
         st.frames, st.render_s = camera.frames, camera.render_s
         if self.save_dir is not None and st.frames % self.save_every == 1:
@@ -186,10 +196,8 @@ class LockstepCompanion:
 
     def _truth_frd(self, data: mujoco.MjData) -> np.ndarray:
         """The marker's centre from the vehicle's centre of mass along body FRD axes, from the state copy."""
-        ugv, veh = self.model.body("ugv").id, self.model.body("vehicle").id
-        geom = UgvGeometry()
-        up = np.array([0.0, 0.0, geom.deck_top_m - geom.wheel_radius_m])
-        deck_enu = data.xpos[ugv] + data.xmat[ugv].reshape(3, 3) @ up
+        veh = self.model.body("vehicle").id
+        deck_enu = deck_centre_enu(self.model, data)
         flu = data.xmat[veh].reshape(3, 3).T @ (deck_enu - data.xpos[veh])
         return np.array([flu[0], -flu[1], -flu[2]])
 

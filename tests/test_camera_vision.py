@@ -19,6 +19,7 @@ from autopilot.mavlink.landing_target import decode_landing_target
 from mavsim_core.frames import quat_enu_flu_to_ned_frd
 from params.vehicle import load_vehicle
 from sitl.camera import DownwardCamera
+from sitl.marker_view import MarkerView
 from sitl.sim_settings import UgvSettings
 from sitl.simulation import Simulation
 from vision.camera_model import pinhole
@@ -124,3 +125,40 @@ def test_standalone_vision_on_a_recorded_video_sends_landing_target(world, tmp_p
     deck = 0.3  # the deck's top above the ground
     for t, h in zip(targets, heights):  # the marker straight below: z = height above the deck
         assert t.z == pytest.approx(h - deck, abs=0.05) and abs(t.x - 0.1) < 0.05 and abs(t.y) < 0.05
+
+
+def test_a_frame_the_view_test_skips_is_one_without_the_marker(world):
+    """sitl.marker_view: "out of view" only where the rendered frame shows no marker; in view where it does."""
+    sim, cam, det = world
+    view = MarkerView(sim.model, "downward", det.camera)
+    rng = np.random.default_rng(3)
+    outs = ins = 0
+    for _ in range(60):
+        north, east = rng.uniform(-3.0, 9.0), rng.uniform(-5.0, 7.0)
+        _place(sim, north, east, rng.uniform(0.6, 4.0), rng.uniform(0, 360), rng.uniform(-25, 25))
+        if view.out_of_view(sim.data):
+            outs += 1
+            assert det.detect(cam.capture(sim.data, noise_grey=2.0)) is None
+        else:
+            ins += 1
+    assert outs > 20 and ins > 3  # both kinds were drawn
+    _place(sim, -3.0, -3.0, 2.8, 0)
+    assert view.out_of_view(sim.data)
+    _place(sim, 2.5, 1.0, 2.8, 0)  # the first case of the detection test above
+    assert not view.out_of_view(sim.data)
+
+
+def test_a_skipped_frame_leaves_the_next_frames_as_they_were(world):
+    sim, _, _ = world
+    _place(sim, 2.8, 0.9, 2.5, 0)
+    a = DownwardCamera(sim.model, SPEC.camera, seed=7)
+    b = DownwardCamera(sim.model, SPEC.camera, seed=7)
+    try:
+        a.capture(sim.data, 3.0)
+        a.skip(3.0)
+        b.capture(sim.data, 3.0)
+        b.capture(sim.data, 3.0)
+        assert np.array_equal(a.capture(sim.data, 3.0), b.capture(sim.data, 3.0)) and a.frames == b.frames == 3
+    finally:
+        a.close()
+        b.close()

@@ -119,3 +119,15 @@ def test_the_report_takes_its_error_and_time_columns_from_the_kind(tmp_path, cap
     assert out.splitlines()[0].split()[-3:] == ["legs", "RTF", "infra"]
     assert "no success_vs_speed.png: the results have no UGV speed axis" in out
     assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == ["errors.png", "success_vs_wind.png"]
+
+
+def test_the_landing_kind_reads_the_simulators_camera_line():
+    """gcs.campaign.landing.camera_figures parses the line sitl/companion.py prints at exit."""
+    from gcs.campaign.landing import CAMERA_HZ, camera_figures
+    from sitl.companion import CompanionStats
+
+    stats = CompanionStats(frames=400, not_rendered=300, detections=60, render_s=0.9, detect_s=0.1, max_range_m=3.72)
+    stats.pose_err_sum_m, stats.pose_err_max_m = 60 * 0.014, 0.083
+    figures = camera_figures("[sitl] " + stats.line() + "\n")
+    assert figures["detections_per_s"] == pytest.approx(60 / (400 / CAMERA_HZ))
+    assert (figures["farthest_m"], figures["pose_err_mean_cm"], figures["pose_err_max_cm"]) == (3.72, 1.4, 8.3)
