@@ -144,6 +144,9 @@ def test_a_mode_change_aborts_at_once_and_leaves_the_gains():
     assert f.tune.phase is Phase.FAILED and not f.tune.busy
     assert "Autotune aborted: mode changed to POSCTL" in f.texts()[-1]
     assert f.tune.command(1, Mode.POSCTL, True, True, f.now_us) is Reply.FAILED  # a poll just after: FAILED
+    assert "start again after" in f.texts()[-1]
+    said = len(f.texts())
+    assert f.tune.command(1, Mode.POSCTL, True, True, f.now_us) is Reply.FAILED and len(f.texts()) == said  # once
     assert f.params.values() == before
 
 
@@ -177,6 +180,20 @@ def test_reject_drops_the_proposal_and_accept_then_has_nothing_to_apply():
     assert f.tune.command(0, Mode.AUTO_LOITER, True, True, f.now_us) is Reply.ACCEPTED
     assert f.tune.command(2, Mode.AUTO_LOITER, True, True, f.now_us) is Reply.DENIED
     assert f.params.values() == before
+
+
+def test_mc_at_apply_2_applies_the_proposal_at_once_in_the_air_as_px4():
+    f = Flight()
+    f.params.set("MC_AT_AXES", 4)  # yaw only
+    f.params.set("MC_AT_APPLY", 2)
+    f.tune.command(1, Mode.AUTO_LOITER, True, True, f.now_us)
+    f.steps(int((SETTLE_S + EXCITE_S) / DT) + 10)
+    (report,) = [r for r in map(parse_axis_line, f.texts()) if r is not None]
+    assert report.axis == "yaw" and f.tune.phase is Phase.IDLE
+    assert f.params.get("MC_YAWRATE_P") == pytest.approx(report.gains_new[0], rel=1e-3)
+    assert f.params.get("MC_YAWRATE_I") == pytest.approx(report.gains_new[1], rel=1e-3)
+    assert f.params.get("MC_ROLLRATE_P") == f.params.default("MC_ROLLRATE_P")
+    assert f.texts()[-1].startswith("Autotune: new gains applied")
 
 
 def test_mc_at_apply_1_applies_the_proposal_at_the_next_disarm_as_px4():

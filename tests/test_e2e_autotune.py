@@ -12,16 +12,21 @@ time; the simulator's truth (:class:`SimClient`) says where the vehicle really w
    stays within 0.5 m of where it started and within 5 deg of level.
 3. A second run is aborted by a mode change (Land) halfway through roll: the vehicle says so and every
    gain stays what the first run applied.
+4.-5. On a stack of its own at 5x real time: Ctrl-C, and MC_AT_APPLY 2 (the last test's docstring).
 """
 
 from __future__ import annotations
 
 import math
+import signal
+import subprocess
+import sys
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
 
+from autopilot.tuning.autotune import FAILED_HOLD_S
 from gcs.__main__ import main as gcs_main
 from gcs.autotune_cli import START, send
 from gcs.client import VehicleClient, mavlink
@@ -113,3 +118,69 @@ def test_autotune_refused_on_the_ground_applied_in_the_air_and_aborted_by_a_mode
         assert {n: float(client.param_get(n)) for n in GAINS} == applied
         later = [t.text for t in texts_after(client, second)]
         assert not any(parse_axis_line(t) or t.startswith("Autotune: pitch") for t in later), later
+
+
+PACED = 5.0  # this stack's speed (x real time): a Ctrl-C sent on a progress line lands well inside the run
+
+
+def test_ctrl_c_aborts_the_run_on_the_vehicle_and_mc_at_apply_2_applies_at_once(free_instance):
+    """4. ``gcs autotune`` as a user runs it (its own process) and stopped with Ctrl-C (SIGINT) during roll:
+    it tells the vehicle to abort (the vehicle says so), exits 130, and no gain changes.
+    5. With MC_AT_APPLY 2 (PX4's "apply at once in the air") the vehicle applies the proposal itself and
+    ``gcs autotune`` reports it without asking; the gains read back are the report's."""
+    inst = free_instance()
+    url = f"udpout:127.0.0.1:{ports.gcs_local_port(inst)}"
+    with (
+        Stack(instance=inst, speed=PACED, flight_logs=False) as stack,
+        VehicleClient(url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
+        client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
+        client.arm().check()
+        client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
+        client.wait_until(lambda: client.takeoff_done(ALT_M) and client.mode_name() == "LOITER", WAIT_S, "hold")
+        before = {n: float(client.param_get(n)) for n in GAINS}
+
+        first = len(client.statustexts)
+        cli = subprocess.Popen(
+            [sys.executable, "-m", "gcs", "--url", url, "autotune", "--accept"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            client.wait_until(
+                lambda: any(t.text == "Autotune: roll 30 %" for t in texts_after(client, first)), WAIT_S, "roll"
+            )
+            cli.send_signal(signal.SIGINT)
+            out, err = cli.communicate(timeout=WAIT_S)
+        finally:
+            cli.kill()
+        assert cli.returncode == 130, (out, err)
+        assert "autotune aborted on the vehicle: gains unchanged" in err
+        client.wait_until(
+            lambda: any("Autotune aborted by the ground station" in t.text for t in texts_after(client, first)),
+            WAIT_S,
+            "the vehicle's abort",
+        )
+        assert not any(parse_axis_line(t.text) for t in texts_after(client, first))
+        assert {n: float(client.param_get(n)) for n in GAINS} == before
+
+        client.param_set("MC_AT_AXES", 1)  # roll only
+        client.param_set("MC_AT_APPLY", 2)
+        client.wait_sim_time(FAILED_HOLD_S)  # (a start sooner after the abort is answered FAILED, with the reason)
+        second = len(client.statustexts)
+        with ThreadPoolExecutor(1) as pool:  # (no --accept: nothing is asked); this client keeps listening
+            run = pool.submit(gcs_main, ["--url", url, "autotune"])
+            client.wait_until(run.done, 3 * WAIT_S, "gcs autotune")
+        assert run.result() == 0
+        client.wait_sim_time(0.5)  # (the last STATUSTEXTs reach this client too)
+        reports = [r for r in (parse_axis_line(t.text) for t in texts_after(client, second)) if r]
+        assert [r.axis for r in reports] == ["roll"]
+        assert any(t.text.startswith("Autotune: new gains applied") for t in texts_after(client, second))
+        roll = {k: float(client.param_get(f"MC_ROLLRATE_{k}")) for k in "PID"}
+        for k, value in roll.items():
+            assert value == pytest.approx(reports[0].gains_new["PID".index(k)], rel=2e-3, abs=1e-3), k
+        assert roll != {k: before[f"MC_ROLLRATE_{k}"] for k in "PID"}
+        assert {n: float(client.param_get(n)) for n in GAINS if not n.startswith("MC_ROLL")} == {
+            n: v for n, v in before.items() if not n.startswith("MC_ROLL")
+        }

@@ -19,7 +19,7 @@ with the progress in per cent (20-39 roll, 40-59 pitch, 60-79 yaw, 95 proposal w
 aborts a run.  A run is aborted at once by any mode change, a disarm or a landing, and by
 the ground station; the excitation stops with it and the gains stay what they were.  For FAILED_HOLD_S
 after a failure, param1 = 1 answers FAILED (so a polling ground station learns it rather than starting
-another run).
+another run), saying so once.
 
 Pure: no socket, no clock (times are the flight controller's simulated µs, counted in control periods),
 no MAVLink (answers are :class:`Reply`, named as MAV_RESULT; messages go to ``say(severity, text)`` with
@@ -129,6 +129,7 @@ class Autotune:
         self._plants: dict[int, IdentifiedPlant] = {}
         self._mode: Mode | None = None
         self._failed_us: int | None = None
+        self._hold_said = False  # the FAILED hold's reason has been said (once per failure)
         self._applied = False  # the last run's gains were applied (progress 100 until the next start)
         self._settle_n = max(1, round(SETTLE_S / dt_s))
         self._excite_n = max(60, round(EXCITE_S / dt_s))
@@ -175,7 +176,14 @@ class Autotune:
         if self.busy:
             return Reply.IN_PROGRESS
         if self.phase is Phase.FAILED and self._failed_us is not None:
-            if now_us - self._failed_us < FAILED_HOLD_S * 1e6:
+            age_s = (now_us - self._failed_us) * 1e-6
+            if age_s < FAILED_HOLD_S:
+                if not self._hold_said:  # (once: a polling ground station asks every second)
+                    self._hold_said = True
+                    self.say(
+                        "WARNING",
+                        f"Autotune: the last run stopped {age_s:.1f} s ago; start again after {FAILED_HOLD_S:g} s",
+                    )
                 return Reply.FAILED
         return self._start(mode, armed, in_air)
 
@@ -204,7 +212,7 @@ class Autotune:
         self.say("INFO", f"Autotune: {AXES[self.axis]} {self.progress} %")
 
     def _fail(self, now_us: int, text: str) -> None:
-        self.phase, self._failed_us, self._prbs = Phase.FAILED, now_us, None
+        self.phase, self._failed_us, self._prbs, self._hold_said = Phase.FAILED, now_us, None, False
         self.say("WARNING", text)
 
     # -- every control period while busy ----------------------------------------------------
