@@ -278,3 +278,29 @@ def test_the_chase_keeps_the_velocity_integrator_to_a_band_from_tracking_on():
         if sim.task.phase in (PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
             bands.add(sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, None).int_band_m_s)
     assert PrecLandPhase.DOCKING in sim.phases and bands == {CHASE_INT_BAND_M_S}
+
+
+def test_a_circling_deck_unseen_is_predicted_on_its_circle():
+    """Docking is blind: the deck's point moves on turning as it was (target_coast), not straight."""
+    r, v = 2.0, 1.0
+    w = v / r
+    centre = np.array([0.0, 2.0, 0.0])
+
+    def deck(t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        a = w * t_s
+        pos = centre + r * np.array([math.sin(a), -math.cos(a), 0.0])
+        return pos, v * np.array([math.cos(a), math.sin(a), 0.0]), v * w * np.array([-math.sin(a), math.cos(a), 0.0])
+
+    task = PrecLandTask(0.0, default_store())
+    here = np.array([0.0, 0.0, -2.8])
+    t_us = T0_US
+    task.activate(estimate(t_us, here, np.zeros(3)), t_us)
+    for k in range(150):  # 3 s seen, 50 Hz
+        pos, vel, acc = deck(k * DT_S)
+        task.update(estimate(t_us, here, np.zeros(3)), t_us, LandingTargetInput(t_us, pos - here, vel, True, acc))
+        t_us += STEP_US
+    for _ in range(50):  # then 1 s unseen
+        task.update(estimate(t_us, here, np.zeros(3)), t_us, None)
+        t_us += STEP_US
+    truth = deck(199 * DT_S)[0]
+    assert np.linalg.norm(task._tgt_pos[:2] - truth[:2]) < 0.02  # (straight on it would be ~0.25 m off)

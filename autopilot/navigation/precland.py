@@ -30,6 +30,7 @@ import numpy as np
 from autopilot.navigation.cubic_spline import CubicSpline, duration_s
 from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.land import LandTask
+from autopilot.navigation.target_coast import TurnRate, coast
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import VehicleEstimate
 
@@ -150,6 +151,7 @@ class PrecLandTask:
         self._tgt_pos: np.ndarray | None = None  # target's latest absolute position, m NED
         self._tgt_vel = np.zeros(3)
         self._tgt_acc = np.zeros(3)  # fed forward while tracking, approaching and docking
+        self._turn = TurnRate()  # the target's turn rate from its measured headings
         self._fallback: LandTask | None = None
         self._last_us: int | None = None  # time of the previous update
         self._used_us: int | None = None  # timestamp of the latest measurement taken
@@ -210,18 +212,23 @@ class PrecLandTask:
         if new and t is not None:
             rel, vel = np.asarray(t.rel_pos_ned_m, float), np.asarray(t.vel_ned_m_s, float)
             if np.all(np.isfinite(rel)) and np.all(np.isfinite(vel)):
-                # The measurement is as old as its timestamp: move it on to now at the target's velocity.
-                self._tgt_pos = est.pos_ned_m + rel + vel * ((now_us - t.timestamp_us) * 1e-6)
-                self._tgt_vel = vel
+                # The measurement is as old as its timestamp: move it on to now (target_coast).
                 acc = t.acc_ned_m_s2
-                self._tgt_acc = np.asarray(acc, float) if acc is not None and np.all(np.isfinite(acc)) else np.zeros(3)
+                acc = np.asarray(acc, float) if acc is not None and np.all(np.isfinite(acc)) else np.zeros(3)
+                age_s = (now_us - t.timestamp_us) * 1e-6
+                self._turn.add(t.timestamp_us, vel)
+                turn = self._turn.rate()
+                self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(est.pos_ned_m + rel, vel, acc, age_s, turn)
                 self._used_us = t.timestamp_us
                 self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
             else:
                 new = False
         if not new and self._tgt_pos is not None and self._last_us is not None:
-            # Unseen: the target's point moves on at its last velocity (as an estimator predicts it).
-            self._tgt_pos = self._tgt_pos + self._tgt_vel * max(0.0, (now_us - self._last_us) * 1e-6)
+            # Unseen: the target's point moves on at its last velocity, turning as it was (target_coast).
+            dt_s = max(0.0, (now_us - self._last_us) * 1e-6)
+            self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
+                self._tgt_pos, self._tgt_vel, self._tgt_acc, dt_s, self._turn.rate()
+            )
         self._last_us = now_us
         return self._lost_s(now_us) <= TARGET_FRESH_S
 
