@@ -294,6 +294,7 @@ class FlightController:
         self.setpoint = sp
         flying = self.commander.status.in_air and not self.commander.status.ground_contact
         dist = self.disturbance.update(est.accel_ned_m_s2, estimator.r_ned_frd, flying, dt)
+        self.commander.contact_push = self.disturbance.observer.in_contact
         self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt, dist).thrust_ned_n
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 

@@ -71,15 +71,17 @@ def test_the_ground_carrying_the_vehicle_is_no_disturbance_and_bounces_are_held_
     dob = DisturbanceObserver(MASS, 2.0)
     tilt = math.radians(8.0)
     on_legs = 0.4 * MASS * GRAVITY_M_S2 * np.array([math.sin(tilt), 0.0, -math.cos(tilt)])
+    assert not dob.in_contact
     for _ in range(100):
         assert not np.any(dob.update(np.zeros(3), on_legs, DT))  # at rest on the ground: a = 0
+    assert dob.in_contact  # (a precision landing's docking reads this: legs on the deck)
     hover = np.array([0.0, 0.0, -MASS * GRAVITY_M_S2])
     wind = np.array([1.0, 0.0, 0.0])  # m/s^2, in the air again (a hop)
     for _ in range(int(CONTACT_HOLD_S / DT) - 1):
-        assert not np.any(dob.update(wind, hover, DT))
+        assert not np.any(dob.update(wind, hover, DT)) and dob.in_contact
     for _ in range(100):
         est = dob.update(wind, hover, DT)
-    assert est == pytest.approx(wind, abs=1e-6)
+    assert est == pytest.approx(wind, abs=1e-6) and not dob.in_contact
 
 
 def test_motor_lag_follows_the_command_with_its_time_constant():

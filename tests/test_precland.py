@@ -16,6 +16,7 @@ from autopilot.navigation.cubic_spline import MIN_DURATION_S, CubicSpline, durat
 from autopilot.navigation.flight_task import FlightTask
 from autopilot.navigation.precland import (
     CHASE_INT_BAND_M_S,
+    DOCK_TOUCH_M,
     PARAMS,
     LandingTargetInput,
     PrecLandConfig,
@@ -304,3 +305,23 @@ def test_a_circling_deck_unseen_is_predicted_on_its_circle():
         t_us += STEP_US
     truth = deck(199 * DT_S)[0]
     assert np.linalg.norm(task._tgt_pos[:2] - truth[:2]) < 0.02  # (straight on it would be ~0.25 m off)
+
+
+def test_legs_felt_on_the_deck_end_the_docking_but_not_from_higher_up():
+    """Ground contact (the commander's ``on_deck``) with the feet estimated within DOCK_TOUCH_M: motors off at
+    once, over a still deck whatever the error (sliding on it in wind only made it grow); higher up: ignored."""
+    sim = Sim(target0=(0.3, 0.2, 0.0), start=(0.0, 0.0, -2.8))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 20.0)
+    sim.task.on_deck = True  # a spurious contact 1 m above the deck changes nothing
+    sim.step()
+    assert sim.task.phase is PrecLandPhase.DOCKING and not sim.task.done
+    sim.task.on_deck = False
+
+    def feet(s: Sim) -> float:
+        return s.task._feet_above_target(estimate(s.t_us, s.pos, s.vel))
+
+    assert sim.run_until(lambda s: feet(s) < DOCK_TOUCH_M, 10.0)
+    assert feet(sim) > 0.05 and not sim.task.done  # not yet at the docking point
+    sim.task.on_deck = True
+    sim.step()
+    assert sim.task.done and sim.task.phase is PrecLandPhase.DONE

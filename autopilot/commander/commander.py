@@ -94,6 +94,9 @@ class Commander(FlightCommands, VehicleCommands):
         # Precision landing: the target the flight controller measured this update (None: no new
         # measurement), NAV_LAND param 2's mode, and the feet's depth below the reference point.
         self.landing_target: LandingTargetInput | None = None
+        # The ground pushed up on the vehicle (the disturbance observer's contact: an impact, legs on a deck),
+        # set by the flight controller after each outer-loop step; a precision landing's docking reads it.
+        self.contact_push = False
         self.precland_mode = PrecLandMode.REQUIRED
         self.feet_below_m = 0.0
         self.plans = Plans(params)  # mission, fence, rally (mission_control)

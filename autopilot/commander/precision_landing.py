@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 def step(commander: Commander, task: PrecLandTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
     """One update of the precision landing; the setpoint, or None once the motors are cut."""
     failed_before = task.failed
+    task.on_deck = commander.land_detector.ground_contact or commander.contact_push
     setpoint = task.update(est, now_us, commander.landing_target)
     for _t, text in task.events:
         commander.say(S.MAV_SEVERITY_INFO, text)

@@ -50,6 +50,11 @@ class DisturbanceObserver:
         self.estimate = np.zeros(3)
         self.valid = False
 
+    @property
+    def in_contact(self) -> bool:
+        """The ground pushed up within the last CONTACT_HOLD_S (the estimate is held at zero meanwhile)."""
+        return self._contact_s > 0.0
+
     def update(
         self, accel_ned_m_s2: np.ndarray | Sequence[float], thrust_ned_n: np.ndarray | Sequence[float], dt: float
     ) -> np.ndarray:

@@ -61,6 +61,7 @@ APPROACH_PATIENCE_S = 5.0  # approaching longer than this: within PLD_HACC_RAD (
 DOCK_HOVER_M = 0.03  # the docking point: the feet this high (m) above the deck
 DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
+DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
 DOCK_WAIT_S = 2.0  # at the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long
 STILL_TARGET_M_S = 0.2  # ... over a deck slower than this; over a moving deck at once
 # From the tracking chase on, the horizontal velocity integrator learns only within this velocity error
@@ -152,6 +153,7 @@ class PrecLandTask:
         self._tgt_vel = np.zeros(3)
         self._tgt_acc = np.zeros(3)  # fed forward while tracking, approaching and docking
         self._turn = TurnRate()  # the target's turn rate from its measured headings
+        self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
         self._fallback: LandTask | None = None
         self._last_us: int | None = None  # time of the previous update
         self._used_us: int | None = None  # timestamp of the latest measurement taken
@@ -218,7 +220,9 @@ class PrecLandTask:
                 age_s = (now_us - t.timestamp_us) * 1e-6
                 self._turn.add(t.timestamp_us, vel)
                 turn = self._turn.rate()
-                self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(est.pos_ned_m + rel, vel, acc, age_s, turn)
+                self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
+                    est.pos_ned_m + rel, vel, acc, age_s, turn, _moving(vel)
+                )
                 self._used_us = t.timestamp_us
                 self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
             else:
@@ -227,7 +231,7 @@ class PrecLandTask:
             # Unseen: the target's point moves on at its last velocity, turning as it was (target_coast).
             dt_s = max(0.0, (now_us - self._last_us) * 1e-6)
             self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
-                self._tgt_pos, self._tgt_vel, self._tgt_acc, dt_s, self._turn.rate()
+                self._tgt_pos, self._tgt_vel, self._tgt_acc, dt_s, self._turn.rate(), _moving(self._tgt_vel)
             )
         self._last_us = now_us
         return self._lost_s(now_us) <= TARGET_FRESH_S
@@ -321,11 +325,16 @@ class PrecLandTask:
                 self._close_since_us = None
             elif self._tgt_pos is not None:
                 settled_s = in_phase_s - self._spline.td_s - DOCK_SETTLE_S
-                there = self._feet_above_target(est) <= DOCK_HOVER_M + DOCK_DONE_M or settled_s >= 0.0
+                feet_m = self._feet_above_target(est)
+                touching = self.on_deck and feet_m <= DOCK_TOUCH_M  # (the height estimate may be cm off)
+                there = feet_m <= DOCK_HOVER_M + DOCK_DONE_M or settled_s >= 0.0 or touching
                 # Over a still deck, wait there for the error to shrink (a gust); a moving deck is
                 # tracked blind (the camera is too close to see the marker whole): cut at once.
+                # Legs on the deck (ground contact: the deck carries weight, or pushed up in an impact) end
+                # the docking at once: sliding on the deck in wind the error only grew (0.03 -> 0.29 m).
                 still = float(np.linalg.norm(self._tgt_vel[:2])) < STILL_TARGET_M_S
-                if there and (not still or err <= 2.0 * cfg.appr_rad_m or settled_s >= DOCK_WAIT_S):
+                waited = err <= 2.0 * cfg.appr_rad_m or settled_s >= DOCK_WAIT_S or touching
+                if there and (not still or waited):
                     self.motors_cut = True
                     self._enter(PrecLandPhase.DONE, now_us, f"docking point reached {err:.2f} m off, motors off")
 

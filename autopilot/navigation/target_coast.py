@@ -67,17 +67,24 @@ class TurnRate:
 
 
 def coast(
-    pos_ned_m: np.ndarray, vel_ned_m_s: np.ndarray, acc_ned_m_s2: np.ndarray, dt_s: float, turn_rad_s: float = 0.0
+    pos_ned_m: np.ndarray,
+    vel_ned_m_s: np.ndarray,
+    acc_ned_m_s2: np.ndarray,
+    dt_s: float,
+    turn_rad_s: float = 0.0,
+    move_share: float = 1.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position, velocity and acceleration ``dt_s`` later, turning at ``turn_rad_s`` (the velocity and
-    acceleration turned with it; straight on below TURNING_FROM_M_S)."""
+    acceleration turned with it; straight on below TURNING_FROM_M_S).  Moving straight, the position moves
+    by ``move_share`` (0-1) of the velocity: a still deck's measured velocity is the marker's noise, and
+    moved on at it for 2 s of blind docking its point drifted 0.1 m."""
     if dt_s <= 0.0:
         return pos_ned_m, vel_ned_m_s, acc_ned_m_s2
     vx, vy, vz = (float(v) for v in vel_ned_m_s)
     w = turn_rad_s if vx * vx + vy * vy >= TURNING_FROM_M_S * TURNING_FROM_M_S else 0.0
     th = w * dt_s
     if abs(th) < 1e-9:
-        return pos_ned_m + vel_ned_m_s * dt_s, vel_ned_m_s, acc_ned_m_s2
+        return pos_ned_m + vel_ned_m_s * (dt_s * move_share), vel_ned_m_s, acc_ned_m_s2
     s, c = math.sin(th), math.cos(th)
     ax, ay, az = (float(a) for a in acc_ned_m_s2)
     moved = np.array([(vx * s - vy * (1.0 - c)) / w, (vy * s + vx * (1.0 - c)) / w, vz * dt_s])
