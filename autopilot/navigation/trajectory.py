@@ -74,6 +74,33 @@ def _distance(segments: list[Segment], v0: float, a0: float) -> tuple[float, flo
     return p, v, a
 
 
+class JerkPath:
+    """Motion through constant-jerk segments from (``p0`` m, ``v0`` m/s, ``a0`` m/s^2): the state at each
+    segment's start (``starts``: time, position, velocity, acceleration, jerk) and ``duration_s``."""
+
+    def __init__(self, p0: float, v0: float, a0: float, segs: list[Segment]) -> None:
+        self.starts: list[tuple[float, float, float, float, float]] = []
+        t, p, v, a = 0.0, p0, v0, a0
+        for dur, j in segs:
+            if dur > 0:
+                self.starts.append((t, p, v, a, j))
+                p, v, a = _advance(p, v, a, dur, j)
+                t += dur
+        self.duration_s = t
+
+    def at(self, t: float) -> tuple[float, float, float, float]:
+        """Position, velocity, acceleration and jerk ``t`` s after the start (0 <= t < duration_s; a path
+        with segments)."""
+        seg = self.starts[0]
+        for s in self.starts:
+            if s[0] > t:
+                break
+            seg = s
+        t0, p, v, a, j = seg
+        p, v, a = _advance(p, v, a, max(t - t0, 0.0), j)
+        return p, v, a, j
+
+
 class AxisMove:
     """One axis from (``p0`` m, ``v0`` m/s, ``a0`` m/s^2) to ``goal`` at rest within ``limits``."""
 
@@ -109,28 +136,15 @@ class AxisMove:
         self._build(p0, v0, a0, segs)
 
     def _build(self, p0: float, v0: float, a0: float, segs: list[Segment]) -> None:
-        self._starts: list[tuple[float, float, float, float, float]] = []  # (t, p, v, a, jerk) per segment
-        t, p, v, a = 0.0, p0, v0, a0
-        for dur, j in segs:
-            if dur > 0:
-                self._starts.append((t, p, v, a, j))
-                p, v, a = _advance(p, v, a, dur, j)
-                t += dur
-        self.duration_s = t
+        self.path = JerkPath(p0, v0, a0, segs)
+        self.duration_s = self.path.duration_s
 
     def sample(self, t: float) -> tuple[float, float, float, float]:
         """Position (m), velocity (m/s), acceleration (m/s^2) and jerk (m/s^3) ``t`` s after the start;
         before it the start state, from ``duration_s`` on the goal at rest."""
         if t >= self.duration_s:
             return self.goal, 0.0, 0.0, 0.0
-        seg = self._starts[0]
-        for s in self._starts:
-            if s[0] > t:
-                break
-            seg = s
-        t0, p, v, a, j = seg
-        p, v, a = _advance(p, v, a, max(t - t0, 0.0), j)
-        return p, v, a, j
+        return self.path.at(t)
 
 
 def shares(delta: np.ndarray, vel: np.ndarray, acc: np.ndarray, limits: Limits) -> np.ndarray:
@@ -174,7 +188,7 @@ class Move:
         self.goal += delta
         for ax, d in zip(self.axes, np.asarray(delta, dtype=float).tolist()):
             ax.goal += d
-            ax._starts = [(t, p + d, v, a, j) for t, p, v, a, j in ax._starts]
+            ax.path.starts = [(t, p + d, v, a, j) for t, p, v, a, j in ax.path.starts]
 
 
 class LineProfile:
@@ -211,29 +225,17 @@ class LineProfile:
         low = max(v_in, v_out)
         peak = top if through(top) <= L else _highest(lambda v: through(v) <= L, low, top)
         cruise_s = (L - through(peak)) / peak if peak > _EPS else 0.0
-        self._starts: list[tuple[float, float, float, float, float]] = []  # (t, s, v, a, jerk) per segment
-        t, s, v, a = 0.0, 0.0, v_in, 0.0
-        for dur, j in change(v_in, peak) + [(max(cruise_s, 0.0), 0.0)] + change(peak, v_out):
-            if dur > 0:
-                self._starts.append((t, s, v, a, j))
-                s, v, a = _advance(s, v, a, dur, j)
-                t += dur
-        self.duration_s = t
+        self.path = JerkPath(0.0, v_in, 0.0, change(v_in, peak) + [(max(cruise_s, 0.0), 0.0)] + change(peak, v_out))
+        self.duration_s = self.path.duration_s
 
     def sample(self, t: float) -> tuple[float, float, float]:
         """Distance (m), speed (m/s) and acceleration (m/s^2) along the line ``t`` s after the start: the
         start before it, the end at ``v_out`` from ``duration_s`` on."""
-        if t <= 0.0 or not self._starts:
+        if t <= 0.0 or not self.path.starts:
             return (0.0, self.v_in, 0.0) if t < self.duration_s else (self.length_m, self.v_out, 0.0)
         if t >= self.duration_s:
             return self.length_m, self.v_out, 0.0
-        seg = self._starts[0]
-        for st in self._starts:
-            if st[0] > t:
-                break
-            seg = st
-        t0, s, v, a, j = seg
-        s, v, a = _advance(s, v, a, t - t0, j)
+        s, v, a, _ = self.path.at(t)
         return min(s, self.length_m), v, a
 
 
