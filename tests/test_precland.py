@@ -325,3 +325,4 @@ def test_legs_felt_on_the_deck_end_the_docking_but_not_from_higher_up():
     sim.task.on_deck = True
     sim.step()
     assert sim.task.done and sim.task.phase is PrecLandPhase.DONE
+    assert "legs on the deck" in sim.task.events[-1][1]

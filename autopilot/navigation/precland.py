@@ -336,7 +336,8 @@ class PrecLandTask:
                 waited = err <= 2.0 * cfg.appr_rad_m or settled_s >= DOCK_WAIT_S or touching
                 if there and (not still or waited):
                     self.motors_cut = True
-                    self._enter(PrecLandPhase.DONE, now_us, f"docking point reached {err:.2f} m off, motors off")
+                    how = "legs on the deck" if touching else "docking point reached"
+                    self._enter(PrecLandPhase.DONE, now_us, f"{how} {err:.2f} m off, motors off")
 
     def _setpoint(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
         ph, zero = self.phase, np.zeros(3)
