@@ -170,12 +170,20 @@ def test_a_full_run_proposes_and_applies_only_when_accepted():
     assert f.tune.phase is Phase.IDLE and f.tune.progress == 100
 
 
-def test_reject_drops_the_proposal_and_accept_then_has_nothing_to_apply():
+def one_axis_run(axes: int, apply: int = 0) -> tuple[Flight, dict]:
+    """A flight that has run the autotune over one axis (MC_AT_AXES ``axes``, MC_AT_APPLY ``apply``) in Hold,
+    and the parameter values from before the run."""
     f = Flight()
-    f.params.set("MC_AT_AXES", 1)  # roll only
+    f.params.set("MC_AT_AXES", axes)
+    f.params.set("MC_AT_APPLY", apply)
     before = f.params.values()
     f.tune.command(1, Mode.AUTO_LOITER, True, True, f.now_us)
     f.steps(int((SETTLE_S + EXCITE_S) / DT) + 10)
+    return f, before
+
+
+def test_reject_drops_the_proposal_and_accept_then_has_nothing_to_apply():
+    f, before = one_axis_run(1)  # roll only
     assert f.tune.phase is Phase.READY
     assert f.tune.command(0, Mode.AUTO_LOITER, True, True, f.now_us) is Reply.ACCEPTED
     assert f.tune.command(2, Mode.AUTO_LOITER, True, True, f.now_us) is Reply.DENIED
@@ -183,11 +191,7 @@ def test_reject_drops_the_proposal_and_accept_then_has_nothing_to_apply():
 
 
 def test_mc_at_apply_2_applies_the_proposal_at_once_in_the_air_as_px4():
-    f = Flight()
-    f.params.set("MC_AT_AXES", 4)  # yaw only
-    f.params.set("MC_AT_APPLY", 2)
-    f.tune.command(1, Mode.AUTO_LOITER, True, True, f.now_us)
-    f.steps(int((SETTLE_S + EXCITE_S) / DT) + 10)
+    f, _ = one_axis_run(4, apply=2)  # yaw only
     (report,) = [r for r in map(parse_axis_line, f.texts()) if r is not None]
     assert report.axis == "yaw" and f.tune.phase is Phase.IDLE
     assert f.params.get("MC_YAWRATE_P") == pytest.approx(report.gains_new[0], rel=1e-3)
@@ -197,11 +201,7 @@ def test_mc_at_apply_2_applies_the_proposal_at_once_in_the_air_as_px4():
 
 
 def test_mc_at_apply_1_applies_the_proposal_at_the_next_disarm_as_px4():
-    f = Flight()
-    f.params.set("MC_AT_AXES", 2)  # pitch only
-    f.params.set("MC_AT_APPLY", 1)
-    f.tune.command(1, Mode.AUTO_LOITER, True, True, f.now_us)
-    f.steps(int((SETTLE_S + EXCITE_S) / DT) + 10)
+    f, _ = one_axis_run(2, apply=1)  # pitch only
     assert f.tune.phase is Phase.READY and "next disarm" in f.texts()[-1]
     proposal = f.tune.proposals[0].gains_new
     f.steps(10)  # still armed: nothing applied

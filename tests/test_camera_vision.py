@@ -8,6 +8,7 @@ import math
 import socket
 import subprocess
 import sys
+from contextlib import contextmanager
 
 import cv2
 import mujoco
@@ -78,17 +79,24 @@ def test_no_marker_in_view_gives_no_fix(world):
     assert det.detect(cam.capture(sim.data, noise_grey=2.0)) is None
 
 
-def test_same_seed_same_frames(world):
-    sim, _, _ = world
-    _place(sim, 2.8, 0.9, 2.5, 0)
-    a = DownwardCamera(sim.model, SPEC.camera, seed=7)
-    b = DownwardCamera(sim.model, SPEC.camera, seed=7)
+@contextmanager
+def twin_cameras(sim: Simulation, seed: int = 7):
+    """Two cameras of the same seed (closed after)."""
+    a = DownwardCamera(sim.model, SPEC.camera, seed=seed)
+    b = DownwardCamera(sim.model, SPEC.camera, seed=seed)
     try:
-        for _ in range(3):
-            assert np.array_equal(a.capture(sim.data, 3.0), b.capture(sim.data, 3.0))
+        yield a, b
     finally:
         a.close()
         b.close()
+
+
+def test_same_seed_same_frames(world):
+    sim, _, _ = world
+    _place(sim, 2.8, 0.9, 2.5, 0)
+    with twin_cameras(sim) as (a, b):
+        for _ in range(3):
+            assert np.array_equal(a.capture(sim.data, 3.0), b.capture(sim.data, 3.0))
 
 
 def test_standalone_vision_on_a_recorded_video_sends_landing_target(world, tmp_path):
@@ -151,14 +159,9 @@ def test_a_frame_the_view_test_skips_is_one_without_the_marker(world):
 def test_a_skipped_frame_leaves_the_next_frames_as_they_were(world):
     sim, _, _ = world
     _place(sim, 2.8, 0.9, 2.5, 0)
-    a = DownwardCamera(sim.model, SPEC.camera, seed=7)
-    b = DownwardCamera(sim.model, SPEC.camera, seed=7)
-    try:
+    with twin_cameras(sim) as (a, b):
         a.capture(sim.data, 3.0)
         a.skip(3.0)
         b.capture(sim.data, 3.0)
         b.capture(sim.data, 3.0)
         assert np.array_equal(a.capture(sim.data, 3.0), b.capture(sim.data, 3.0)) and a.frames == b.frames == 3
-    finally:
-        a.close()
-        b.close()

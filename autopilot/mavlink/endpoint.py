@@ -72,7 +72,6 @@ class LinkEndpoint(UdpEndpoint):
         self.param_cursor: int | None = None  # next index of a PARAM_REQUEST_LIST being served
         self.tap: Callable[[bytes], None] | None = None  # sees every packet sent (GcsLink.set_traffic_tap)
         self._batch: list[bytes] | None = None  # packets held for one datagram (begin_batch .. flush)
-        self.sender: tuple[str, int] | None = None  # (host, port) of the datagram being handled
         self.ground_stations: set[tuple[tuple[str, int] | None, int, int]] = set()  # (address, sysid, compid) heard
 
     # -- signing
@@ -86,7 +85,6 @@ class LinkEndpoint(UdpEndpoint):
     def incoming(self, data: bytes, addr: tuple[str, int]) -> tuple[list[mavlink.MAVLink_message], int]:
         """The good (and, with a key, correctly signed) messages; refused packets are not counted as damage."""
         refused = self.signing.refused
-        self.sender = addr
         msgs, damaged = super().incoming(data, addr)
         return msgs, damaged - (self.signing.refused - refused)
 

@@ -352,10 +352,11 @@ class GcsLink:
         Each ground station (address, system, component) is reported once on stdout, as PX4 reports its partner."""
         if msg.type == mavlink.MAV_TYPE_GCS:
             self.vehicle.on_gcs_heartbeat(self._now_us)
-            key = (ep.sender, msg.get_srcSystem(), msg.get_srcComponent())
+            sender = ep.peers[-1] if ep.peers else None  # (a good message's sender is the latest peer)
+            key = (sender, msg.get_srcSystem(), msg.get_srcComponent())
             if key not in ep.ground_stations:
                 ep.ground_stations.add(key)
-                host, port = ep.sender or ("?", 0)
+                host, port = sender or ("?", 0)
                 print(f"INFO  [mavlink] {ep.name}: ground station {key[1]}/{key[2]} at {host}:{port}", flush=True)
 
     def _on_control(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:

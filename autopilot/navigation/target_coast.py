@@ -1,5 +1,5 @@
 """The landing target's point moved on in time, between measurements and while it is unseen: at its velocity,
-turning at the rate its acceleration implies, so that a deck driving a circle is predicted on the circle.
+turning at the rate its heading turned, so that a deck driving a circle is predicted on the circle.
 
 A precision landing docks blind (the camera is too close to the deck to see the marker whole) for a second
 or more.  Moved on straight, a deck turning at 1 m/s on a 2 m radius is 0.25 m off after 1 s (half its
