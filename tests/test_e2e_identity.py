@@ -28,6 +28,7 @@ mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.info import InfoAsync  # noqa: E402
+from mavsdk.asyncio.plugins.param import ParamAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.info import InfoError  # noqa: E402
 
@@ -144,6 +145,7 @@ def test_telemetry_plugin_gets_odometry_imu_altitude_and_time(stack):
 async def _flight_information(system):
     """MAVSDK's flight information (FLIGHT_INFORMATION, which its Info plugin asks for at 1 Hz) disarmed, then armed."""
     info, tel, action = InfoAsync(system), TelemetryAsync(system), ActionAsync(system)
+    param = ParamAsync(system)
 
     async def armable():
         h = await tel.health()
@@ -151,6 +153,10 @@ async def _flight_information(system):
 
     await until(armable, 90, "health: position, home, armable, disarmed")
     before = await _first(info.subscribe_flight_information())
+    # At --speed max PX4's disarm-if-no-take-off (COM_DISARM_PRFLT, 10 s) passes in a third of a wall second,
+    # which can fall between two of MAVSDK's 1 Hz requests: the vehicle stays armed while the test reads.
+    prflt = await param.get_param_float("COM_DISARM_PRFLT")
+    await param.set_param_float("COM_DISARM_PRFLT", -1.0)
     await action.arm()
     try:
         flights = info.subscribe_flight_information()
@@ -159,6 +165,7 @@ async def _flight_information(system):
                 break
     finally:
         await action.disarm()
+        await param.set_param_float("COM_DISARM_PRFLT", prflt)
     return before, armed
 
 
