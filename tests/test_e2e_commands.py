@@ -71,6 +71,11 @@ async def _take_off(tel, action) -> float:
         return (await tel.position()).relative_altitude_m > ALT_M - 0.4
 
     await until(up, 60, f"take-off to {ALT_M} m")
+
+    async def holding():  # the take-off done (AUTO.LOITER): its climb no longer braking
+        return getattr(await tel.flight_mode(), "name", "") == "HOLD"
+
+    await until(holding, 60, "take-off complete (Hold)")
     return (await tel.home()).absolute_altitude_m
 
 
@@ -88,6 +93,7 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
 
     async def body(tel, action):
         home_amsl = await _take_off(tel, action)
+        await sim_sleep(truth, 1.0)  # settled: a goto sent into the climb's end tripped a false thrust loss
         # goto_location with yaw 90 deg: MAVSDK sends DO_REPOSITION param4 = pi/2 (radians)
         lat, lon = latlon(15.0, 0.0)
         await action.goto_location(lat, lon, home_amsl + ALT_M, 90.0)
