@@ -25,6 +25,8 @@ rest_detector`); moving while disarmed before that (a restart in the air: the ve
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
@@ -284,6 +286,7 @@ class FlightController:
         checks = tuple(estimator.prearm_failures()) if estimator.use_ekf and not self.commander.status.armed else ()
         self._check_rest()
         sp = self.commander.update(now, est, gps, estimator.gps_ok(now), self.actuators, checks, self.wall_s)
+        self.commander.vel_sp_down_m_s = math.nan  # (set again below when the position loop runs)
         if isinstance(sp, AttitudeSetpoint) and self.commander.status.armed:
             self._fly_attitude(sp)
             return
@@ -295,7 +298,9 @@ class FlightController:
         flying = self.commander.status.in_air and not self.commander.status.ground_contact
         dist = self.disturbance.update(est.accel_ned_m_s2, estimator.r_ned_frd, flying, dt)
         self.commander.contact_push = self.disturbance.observer.in_contact
-        self.thrust_vec = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt, dist).thrust_ned_n
+        out = self.position_control.control(est.pos_ned_m, est.vel_ned_m_s, sp, dt, dist)
+        self.thrust_vec = out.thrust_ned_n
+        self.commander.vel_sp_down_m_s = float(out.vel_sp_ned_m_s[2])
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
 
     def _check_rest(self) -> None:

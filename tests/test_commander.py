@@ -327,6 +327,30 @@ def test_reposition():
     assert b.texts()[-1] == "Reposition denied: no position estimate"
 
 
+def test_a_reposition_sent_as_the_take_off_brakes_keeps_its_height():
+    # MAVSDK's goto_location (Hold, then DO_REPOSITION in one go) as the take-off's climb brakes: the move
+    # starts from the take-off's setpoint, once with too small a share of the limits for the vertical axis
+    # to end the braking: a flight controller took it down 4.9 m to the ground at 1.1 m/s.
+    b = Bench()
+    b.run(1.0)
+    assert b.arm() == ACCEPTED and b.takeoff() == ACCEPTED
+    b.run(3.0)  # braking the climb (NED: accelerating down) ...
+    while b.cmd.setpoint.vel_ned_m_s[2] < -0.15:  # ... to its last 0.15 m/s
+        b.run(0.02)
+    assert b.cmd.setpoint.acc_ned_m_s2[2] > 0.9
+    top = float(b.pos[2])
+    lat, lon, _ = ned_to_geodetic([15.0, 0.0, 0.0], *ORIGIN)
+    alt = ORIGIN[2] - top
+    assert b.set_mode(Mode.AUTO_LOITER) == ACCEPTED
+    assert b.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.pi / 2, lat, lon, alt) == ACCEPTED
+    heights = []
+    for _ in range(400):
+        b.run(0.02)
+        heights.append(float(b.pos[2]))
+    assert max(heights) - top < 0.1 and top - min(heights) < 0.1, (top, min(heights), max(heights))
+    np.testing.assert_allclose(b.pos, [15.0, 0.0, top], atol=1e-6)
+
+
 # --------------------------------------------------------------------------- status record
 
 

@@ -93,7 +93,7 @@ def test_goto_with_heading_change_speed_and_orbit(stack, truth):
 
     async def body(tel, action):
         home_amsl = await _take_off(tel, action)
-        await sim_sleep(truth, 1.0)  # settled: a goto sent into the climb's end tripped a false thrust loss
+        await sim_sleep(truth, 1.0)  # settled (a goto into the climb's braking: tests/test_commander.py)
         # goto_location with yaw 90 deg: MAVSDK sends DO_REPOSITION param4 = pi/2 (radians)
         lat, lon = latlon(15.0, 0.0)
         await action.goto_location(lat, lon, home_amsl + ALT_M, 90.0)

@@ -146,6 +146,18 @@ def test_a_vehicle_that_lost_thrust_but_holds_its_height_is_reported_and_not_dis
     assert b.cmd.status.armed and b.pos[2] < -1.0 and not any("Crash" in t for t in b.texts())
 
 
+def test_a_descent_the_controller_asks_for_is_no_thrust_loss_but_sinking_faster_than_asked_is():
+    b = motor_out()
+    b.lost, b.sink_m_s = True, 1.0  # a go-to down at 1.1 m/s while yawing: a motor at its limit, 10 deg lean
+    b.roll = math.radians(10.0)
+    b.cmd.vel_sp_down_m_s = 1.1
+    b.run(1.2)
+    assert not any("Critical failure" in t for t in b.texts()), b.texts()
+    b.cmd.vel_sp_down_m_s = 0.3  # asked to slow down (a landing's last metre), still sinking at 1 m/s: lost
+    b.run(1.1)
+    assert b.texts().count(LOST) == 1
+
+
 def test_no_thrust_loss_while_climbing_holding_tilted_short_unsaturated_in_acro_or_without_the_crash_check():
     b = motor_out()
     b.lost, b.sink_m_s = True, -1.0  # climbing at full throttle: a hard climb, not a loss

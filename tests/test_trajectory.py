@@ -76,6 +76,17 @@ def test_a_goal_changed_mid_move_is_followed_smoothly_from_the_state_it_was_in()
     assert np.array_equal(p[-1], goal) and not v[-1].any()
 
 
+def test_an_axis_braking_at_the_start_gets_the_share_it_needs_and_does_not_dive():
+    # a go-to 15 m north sent as a take-off's climb brakes (0.1 m/s up, 1 m/s^2 down, NED), at the same height:
+    # the vertical axis once got a 5 % share, needed 2 s to end the braking and dived 4.4 m
+    start, goal = np.array([0.0, 0.0, -4.92]), np.array([15.0, 0.0, -4.98])
+    move = Move(start, np.array([0.0, 0.0, -0.1]), np.array([0.0, 0.0, 1.0]), goal, LIM)
+    _, p, v, a = sampled(move)
+    assert p[:, 2].max() < -4.85 and p[:, 2].min() > -5.0  # within 7 cm of the start height, not below the goal
+    assert norms(v).max() <= 1.1 * LIM.speed_m_s and norms(a).max() <= 1.1 * LIM.accel_m_s2
+    assert np.array_equal(p[-1], goal) and not v[-1].any()
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_one_axis_from_any_state_ends_on_its_goal_at_rest(seed):
     rng = np.random.default_rng(seed)

@@ -16,6 +16,8 @@ clock.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -97,6 +99,9 @@ class Commander(FlightCommands, VehicleCommands):
         # The ground pushed up on the vehicle (the disturbance observer's contact: an impact, legs on a deck),
         # set by the flight controller after each outer-loop step; a precision landing's docking reads it.
         self.contact_push = False
+        # The vertical velocity the position controller flew at its latest step (m/s, NED down; NaN: none, as
+        # with attitude setpoints), set by the flight controller; the thrust-loss check reads it.
+        self.vel_sp_down_m_s = math.nan
         self.precland_mode = PrecLandMode.REQUIRED
         self.feet_below_m = 0.0
         self.plans = Plans(params)  # mission, fence, rally (mission_control)

@@ -162,7 +162,8 @@ def check_failures(c: Commander, now_us: int, actuators: ActuatorStatus = NO_ACT
     checking = controlled and c.in_air
     thrust = fd.thrust
     vel_down = float(est.vel_ned_m_s[2])
-    if thrust.update(now_us, checking, tilt, vel_down, actuators.motor_outputs, actuators.throttle_frac):
+    outputs, throttle = actuators.motor_outputs, actuators.throttle_frac
+    if thrust.update(now_us, checking, tilt, vel_down, outputs, throttle, c.vel_sp_down_m_s):
         which = f", likely motor {thrust.motor}" if thrust.motor else ""
         c.say(S.MAV_SEVERITY_CRITICAL, f"Critical failure detected (thrust loss{which}): descending at full throttle")
     c.failsafe.critical_failure = c.armed and (fd.roll_failed or fd.pitch_failed or thrust.lost)

@@ -17,7 +17,13 @@ and in the air, in a mode that controls the attitude, for ``TRIGGER_S`` (1 s) wi
   with a motor at its limit and may sink a little for a second: the first version (any descent, up to
   30 deg) took a manoeuvre for a lost motor once, and its failsafe brought a healthy vehicle down in the
   follow-me end-to-end test.  A motor lost in a hover leans up to ~26 deg while it sinks ever faster,
-  so ArduPilot's 15 deg limit alone reported it only after the impact.
+  so ArduPilot's 15 deg limit alone reported it only after the impact;
+* sinking faster than the position controller asks, by ``LEVEL_SINK_M_S`` (its vertical velocity
+  setpoint; none, as in the attitude modes: holding the height).  ArduPilot's check waits for the
+  collective at 90 %, so a descent the pilot asked for never meets it; here one motor at its limit is
+  the sign, and a commanded descent while yawing meets that: a MAVSDK go-to sent at the end of a
+  take-off, 90 deg of yaw on the way down at 1.1 m/s, was reported as a thrust loss and landed.  A lost
+  motor sinks against the setpoint, which then asks for a climb.
 
 The likely motor is the one with the highest output low-passed over ``OUTPUT_TAU_S`` (0.5 s), as
 ArduPilot's ``AP_MotorsMatrix::check_for_failed_motor``: the controllers ask the motor that gives
@@ -76,9 +82,12 @@ class ThrustLossCheck:
         vel_down_m_s: float,
         outputs: tuple[float, ...],
         throttle: float,
+        vel_sp_down_m_s: float = math.nan,
     ) -> bool:
-        """One step; ``checking``: armed, in the air and the attitude controlled.  True once, at the loss."""
+        """One step; ``checking``: armed, in the air and the attitude controlled; ``vel_sp_down_m_s``: the
+        position controller's vertical velocity setpoint (NaN: none).  True once, at the loss."""
         self._filter(now_us, outputs)
+        asked_down = vel_sp_down_m_s if math.isfinite(vel_sp_down_m_s) else 0.0
         losing = (
             checking
             and tilt_rad < math.radians(MAX_TILT_DEG)
@@ -86,6 +95,7 @@ class ThrustLossCheck:
             and max(outputs) >= SATURATED
             and throttle >= MIN_THROTTLE
             and vel_down_m_s > (LEVEL_SINK_M_S if tilt_rad < math.radians(LEVEL_DEG) else MANOEUVRE_SINK_M_S)
+            and vel_down_m_s - asked_down > LEVEL_SINK_M_S
         )
         if not losing:
             self._since_us = None

@@ -149,11 +149,27 @@ class AxisMove:
 
 def shares(delta: np.ndarray, vel: np.ndarray, acc: np.ndarray, limits: Limits) -> np.ndarray:
     """Each axis's share of the limits (squares add up to 1): from rest the line's direction cosines; an axis
-    that moves or accelerates also gets a share for stopping that (its stopping distance counts as distance)."""
+    that moves or accelerates also gets a share for stopping that (its stopping distance counts as distance).
+
+    An axis's share is never below what its start state needs: its speed and acceleration within its
+    share's limits (the other axes give up the difference).  With less, the axis could not ramp its
+    acceleration down in time: a go-to sent as a take-off's climb braked (0.1 m/s up, 1 m/s^2 down, the
+    goal 15 m away at the same height) got a 5 % share, took 2 s to end the braking at its share's jerk,
+    was then sinking at 1 m/s, and dived 4.4 m before its share's acceleration could stop it."""
     stop = np.abs(vel) * limits.speed_m_s / limits.accel_m_s2 + np.abs(acc) * limits.speed_m_s / limits.jerk_m_s3
     w = np.abs(delta) + stop
     n = float(np.linalg.norm(w))
-    return w / n if n > _EPS else np.zeros(len(delta))
+    share = w / n if n > _EPS else np.zeros(len(delta))
+    need = np.minimum(np.maximum(np.abs(vel) / limits.speed_m_s, np.abs(acc) / limits.accel_m_s2), 1.0)
+    forced = np.zeros(len(delta), dtype=bool)
+    while np.any(short := ~forced & (share < need - _EPS)):
+        forced |= short
+        f2 = float(np.sum(need[forced] ** 2))
+        if f2 >= 1.0:  # the start state alone needs every share (beyond the limits): those axes only
+            return np.where(forced, need / math.sqrt(f2), 0.0)
+        rest = float(np.linalg.norm(share[~forced]))
+        share = np.where(forced, need, share * (math.sqrt(1.0 - f2) / rest if rest > _EPS else 0.0))
+    return share
 
 
 class Move:
