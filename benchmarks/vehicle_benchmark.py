@@ -26,7 +26,7 @@ The vehicles fly one after another (``--jobs 1``, so the real-time factors are t
 alone on the machine); a progress bar (stderr) counts the flights.
 
 Usage: ``python benchmarks/vehicle_benchmark.py [--vehicles quad_x firefly] [--hover S] [--seed N] [-i N]
-[--sim-param NAME=VALUE] [--fc-param NAME=VALUE] [--jobs N] [--out CSV]``
+[--sim-param NAME=VALUE] [--fc-param NAME=VALUE] [--jobs N] [--out CSV] [--keep-logs DIR]``
 """
 
 from __future__ import annotations
@@ -136,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--jobs", type=int, default=1, help="vehicles flown at a time (more: lower real-time factors)")
     ap.add_argument("--out", type=Path, help="keep the results CSV here (default: a temporary file)")
+    ap.add_argument("--keep-logs", type=Path, metavar="DIR", help="keep each flight's logs (.ulg, .fc.npy ...) here")
     args = ap.parse_args(argv)
     if args.jobs < 1 or args.instance + args.jobs - 1 > ports.MAX_INSTANCE:
         ap.error(f"argument --jobs: 1 to {ports.MAX_INSTANCE - args.instance + 1} with -i {args.instance}")
@@ -149,6 +150,8 @@ def main(argv: list[str] | None = None) -> int:
         out.unlink(missing_ok=True)  # one campaign per file
         options = runner.Options(out=out, jobs=args.jobs, on_row=lambda r: rows.__setitem__(r["cell"], r))
         options.instances = (args.instance, args.instance + args.jobs - 1)
+        if args.keep_logs:
+            options.log_dir = args.keep_logs.resolve()
         runner.run(campaign, options)
     print_table(args, [rows[c] for c in sorted(rows)])
     return 0 if all(r["status"] == "ok" for r in rows.values()) else 1
