@@ -1,0 +1,202 @@
+"""The gRPC MAVSDK-Python flies the stack as its upstream examples do.
+
+Many users still run the gRPC MAVSDK-Python: ``mavsdk<4``, published on from MAVSDK 4 on as
+``mavsdk-grpc`` and imported as ``mavsdk_grpc`` ("``import mavsdk_grpc as mavsdk``: the code is
+identical", its README).  Its ``System`` starts the bundled ``mavsdk_server`` (C++, gRPC) and talks
+to it; a different path from MAVSDK 4's native binding (tests/test_e2e_commands.py and others),
+so a feature works only when both drive it.  The flows are those of MAVSDK-Python's examples,
+written as a user would: ``takeoff_and_land.py`` (connect, wait for a global position and home,
+arm, take off, land), ``mission.py`` (upload, return after the mission, start, follow the progress),
+``offboard_position_ned.py`` (a setpoint before starting, then NED position setpoints) and the Param
+plugin.  Asserted by the simulator's truth: the height reached, each waypoint passed
+within a metre, the vehicle back home, on the ground and disarmed.
+
+Each ``mavsdk_server`` serves gRPC on a port of its own, ``GRPC_BASE + instance``: the examples'
+default 50051 would collide between test files running in parallel.  Wall-clock values are only
+"give up waiting" timeouts.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import mavsdk_grpc as mavsdk  # the upstream examples' ``mavsdk``, as its README says
+import pytest
+from mavsdk_grpc.mission import MissionItem, MissionPlan
+from mavsdk_grpc.offboard import PositionNedYaw
+
+from e2e_flight_helpers import latlon, sim_sleep, truth_and_stack_fixtures  # tests/e2e_flight_helpers.py
+
+# (the package's own start-up of mavsdk_server uses importlib.resources.path, deprecated: not ours to mend)
+pytestmark = [pytest.mark.e2e, pytest.mark.filterwarnings("ignore:path is deprecated:DeprecationWarning")]
+truth, stack = truth_and_stack_fixtures()
+
+GRPC_BASE = 50100  # mavsdk_server's gRPC port: this plus the stack's instance number
+WAIT_S = 180.0  # wall seconds for one whole flight (a loaded 2-core machine)
+ALT_M = 4.0
+MISSION_NE = [(12.0, 0.0), (12.0, 10.0), (0.0, 10.0)]  # waypoints, m north/east of home
+
+
+async def connected(stack, inst: int) -> mavsdk.System:
+    """``System()`` connected and ready to fly, as the examples wait for it."""
+    drone = mavsdk.System(port=GRPC_BASE + inst)
+    await drone.connect(system_address=f"udpin://0.0.0.0:{stack.api_port}")
+    async for state in drone.core.connection_state():
+        if state.is_connected:
+            break
+    async for health in drone.telemetry.health():
+        if health.is_global_position_ok and health.is_home_position_ok:
+            break
+    return drone
+
+
+async def landed_and_disarmed(drone: mavsdk.System) -> None:
+    async for in_air in drone.telemetry.in_air():
+        if not in_air:
+            break
+    async for armed in drone.telemetry.armed():
+        if not armed:
+            break
+
+
+def run(flight) -> None:
+    asyncio.run(asyncio.wait_for(flight, WAIT_S))
+
+
+def test_takeoff_and_land_as_the_upstream_example(stack, truth, inst):
+    heights = []
+
+    async def flight():
+        drone = await connected(stack, inst)
+        ground = truth.latest().pos_ned_m[2]  # NED: heights are up from here
+        await drone.action.set_takeoff_altitude(ALT_M)
+        await drone.action.arm()
+        await drone.action.takeoff()
+        async for position in drone.telemetry.position():
+            if position.relative_altitude_m > ALT_M - 0.3:
+                break
+        await sim_sleep(truth, 3.0)
+        heights.append(ground - truth.latest().pos_ned_m[2])
+        await drone.action.land()
+        await landed_and_disarmed(drone)
+        heights.append(ground - truth.latest().pos_ned_m[2])
+
+    run(flight())
+    stack.check_alive()
+    print(f"hovering {heights[0]:.2f} m up by the truth, then {heights[1]:.2f} m, disarmed")
+    assert heights[0] == pytest.approx(ALT_M, abs=0.3)
+    assert abs(heights[1]) < 0.1
+
+
+def test_mission_as_the_upstream_example_returns_home_and_lands(stack, truth, inst):
+    seen = {"progress": [], "track": []}
+
+    async def flight():
+        drone = await connected(stack, inst)
+        seen["ground"] = truth.latest().pos_ned_m[2]
+        items = [
+            MissionItem(
+                *latlon(n, e),
+                ALT_M,
+                5.0,
+                True,
+                math.nan,
+                math.nan,
+                MissionItem.CameraAction.NONE,
+                math.nan,
+                math.nan,
+                math.nan,
+                math.nan,
+                math.nan,
+                MissionItem.VehicleAction.NONE,
+            )  # fmt: skip
+            for n, e in MISSION_NE
+        ]
+        await drone.mission.set_return_to_launch_after_mission(True)
+        await drone.mission.upload_mission(MissionPlan(items))
+        seen["downloaded"] = len((await drone.mission.download_mission()).mission_items)
+        await drone.action.arm()
+        await drone.mission.start_mission()
+
+        async def progress():
+            async for p in drone.mission.mission_progress():
+                seen["progress"].append((p.current, p.total))
+                if p.current == p.total:
+                    return
+
+        async def track():
+            while True:
+                seen["track"].append(truth.latest().pos_ned_m[:2])
+                await asyncio.sleep(0.002)
+
+        tracker = asyncio.ensure_future(track())
+        await progress()
+        await landed_and_disarmed(drone)
+        tracker.cancel()
+        seen["end"] = truth.latest().pos_ned_m
+
+    run(flight())
+    stack.check_alive()
+    track = seen["track"]
+    closest = [min(math.hypot(p[0] - n, p[1] - e) for p in track) for n, e in MISSION_NE]
+    end = seen["end"]
+    print(f"progress {seen['progress']}; closest to each waypoint {[round(c, 2) for c in closest]} m; end {end}")
+    assert seen["downloaded"] == len(MISSION_NE)
+    assert seen["progress"][-1] == (len(MISSION_NE), len(MISSION_NE))
+    assert max(closest) < 1.0
+    assert math.hypot(end[0], end[1]) < 1.0 and abs(end[2] - seen["ground"]) < 0.1  # returned home, on the ground
+
+
+def test_offboard_position_ned_as_the_upstream_example(stack, truth, inst):
+    seen = {}
+
+    async def flight():
+        drone = await connected(stack, inst)
+        ground = truth.latest().pos_ned_m
+        await drone.action.arm()
+        await drone.offboard.set_position_ned(PositionNedYaw(0.0, 0.0, 0.0, 0.0))  # one before start, as required
+        await drone.offboard.start()
+        await drone.offboard.set_position_ned(PositionNedYaw(0.0, 0.0, -3.0, 0.0))
+        await sim_sleep(truth, 8.0)
+        first = truth.latest().pos_ned_m
+        await drone.offboard.set_position_ned(PositionNedYaw(6.0, -4.0, -3.0, 90.0))
+        await sim_sleep(truth, 10.0)
+        here = truth.latest().pos_ned_m  # the truth moved as the setpoints (their frame's origin is the EKF's)
+        seen["offset"] = [here[0] - first[0], here[1] - first[1], here[2] - ground[2]]
+        async for pv in drone.telemetry.position_velocity_ned():
+            seen["own"] = (pv.position.north_m, pv.position.east_m, pv.position.down_m)
+            break
+        await drone.offboard.stop()
+        await drone.action.land()
+        await landed_and_disarmed(drone)
+
+    run(flight())
+    stack.check_alive()
+    n, e, d = seen["offset"]
+    own = seen["own"]
+    print(f"offboard: moved {n:.2f} N {e:.2f} E, {-d:.2f} m up (asked 6, -4, 3); own estimate {own}")
+    assert math.hypot(n - 6.0, e + 4.0) < 0.3 and abs(-d - 3.0) < 0.3
+    assert math.hypot(own[0] - 6.0, own[1] + 4.0) < 0.2 and abs(own[2] + 3.0) < 0.2
+
+
+def test_parameters_read_and_written_through_the_param_plugin(stack, inst):
+    seen = {}
+
+    async def session():
+        drone = await connected(stack, inst)
+        seen["before"] = await drone.param.get_param_float("MPC_XY_CRUISE")
+        await drone.param.set_param_float("MPC_XY_CRUISE", 4.5)
+        seen["after"] = await drone.param.get_param_float("MPC_XY_CRUISE")
+        seen["int"] = await drone.param.get_param_int("SYS_AUTOSTART")
+        try:
+            await drone.param.get_param_float("NO_SUCH_PARAM")
+        except mavsdk.param.ParamError as exc:
+            seen["missing"] = exc._result.result
+        await drone.param.set_param_float("MPC_XY_CRUISE", seen["before"])
+
+    run(session())
+    assert seen["before"] == pytest.approx(5.0)
+    assert seen["after"] == pytest.approx(4.5)
+    assert seen["int"] > 0
+    assert seen.get("missing") is not None, "a missing parameter was read without an error"
