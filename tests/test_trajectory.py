@@ -87,6 +87,21 @@ def test_an_axis_braking_at_the_start_gets_the_share_it_needs_and_does_not_dive(
     assert np.array_equal(p[-1], goal) and not v[-1].any()
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_a_move_from_any_moving_state_reaches_its_goal_on_every_axis_without_a_jump(seed):
+    # e.g. a climb asked while cruising north at full speed: the cruise needs the whole share of the limits,
+    # and a version that gave the climb none kept it where it was and jumped to the goal at the end
+    rng = np.random.default_rng(seed)
+    cases = [(np.array([5.0, 0.0, 0.0]), np.zeros(3), np.array([20.0, 0.0, -10.0]))]
+    cases += [(rng.uniform(-5, 5, 3), rng.uniform(-4, 4, 3), rng.uniform(-20, 20, 3)) for _ in range(6)]
+    for vel, acc, goal in cases:
+        move = Move(np.zeros(3), vel, acc, goal, LIM)
+        assert all(ax.goal == g for ax, g in zip(move.axes, goal))  # every axis plans to its goal
+        _, p, v, _ = sampled(move)
+        assert (norms(np.diff(p, axis=0)) / DT).max() <= 2.0 * LIM.speed_m_s  # no step anywhere
+        assert np.array_equal(p[-1], goal) and not v[-1].any()
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_one_axis_from_any_state_ends_on_its_goal_at_rest(seed):
     rng = np.random.default_rng(seed)

@@ -30,6 +30,7 @@ import numpy as np
 
 Segment = tuple[float, float]  # (duration s, jerk m/s^3)
 _BISECT_STEPS = 60
+MAX_NEEDS_SHARE = 0.9  # axes whose start state needs a share (shares()) take at most this of the limits
 _EPS = 1e-9
 
 
@@ -152,7 +153,8 @@ def shares(delta: np.ndarray, vel: np.ndarray, acc: np.ndarray, limits: Limits) 
     that moves or accelerates also gets a share for stopping that (its stopping distance counts as distance).
 
     An axis's share is never below what its start state needs: its speed and acceleration within its
-    share's limits (the other axes give up the difference).  With less, the axis could not ramp its
+    share's limits (the other axes give up the difference; together such axes take at most
+    MAX_NEEDS_SHARE while another axis has a way to go).  With less, the axis could not ramp its
     acceleration down in time: a go-to sent as a take-off's climb braked (0.1 m/s up, 1 m/s^2 down, the
     goal 15 m away at the same height) got a 5 % share, took 2 s to end the braking at its share's jerk,
     was then sinking at 1 m/s, and dived 4.4 m before its share's acceleration could stop it."""
@@ -164,11 +166,13 @@ def shares(delta: np.ndarray, vel: np.ndarray, acc: np.ndarray, limits: Limits) 
     forced = np.zeros(len(delta), dtype=bool)
     while np.any(short := ~forced & (share < need - _EPS)):
         forced |= short
-        f2 = float(np.sum(need[forced] ** 2))
-        if f2 >= 1.0:  # the start state alone needs every share (beyond the limits): those axes only
-            return np.where(forced, need / math.sqrt(f2), 0.0)
         rest = float(np.linalg.norm(share[~forced]))
-        share = np.where(forced, need, share * (math.sqrt(1.0 - f2) / rest if rest > _EPS else 0.0))
+        f = float(np.linalg.norm(need[forced]))
+        # the needs take at most MAX_NEEDS_SHARE of the limits while other axes have a way to go (with none,
+        # an axis at the cruise speed left a climb none: it stayed, and the setpoint jumped at the end)
+        scale = min(1.0, (MAX_NEEDS_SHARE if rest > _EPS else 1.0) / f)
+        others = math.sqrt(max(1.0 - (f * scale) ** 2, 0.0)) / rest if rest > _EPS else 0.0
+        share = np.where(forced, need * scale, share * others)
     return share
 
 
