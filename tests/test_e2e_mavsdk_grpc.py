@@ -7,9 +7,12 @@ to it; a different path from MAVSDK 4's native binding (tests/test_e2e_commands.
 so a feature works only when both drive it.  The flows are those of MAVSDK-Python's examples,
 written as a user would: ``takeoff_and_land.py`` (connect, wait for a global position and home,
 arm, take off, land), ``mission.py`` (upload, return after the mission, start, follow the progress),
-``offboard_position_ned.py`` (a setpoint before starting, then NED position setpoints) and the Param
-plugin.  Asserted by the simulator's truth: the height reached, each waypoint passed
-within a metre, the vehicle back home, on the ground and disarmed.
+``offboard_position_ned.py`` (a setpoint before starting, then NED position setpoints), ``goto.py``
+(a point and a heading at an altitude AMSL from home's), ``all_params.py`` with the Info plugin's
+version, ``log_files.py`` (list, download a ULog) and the Param plugin.  Asserted by the simulator's
+truth where the vehicle went (the height reached, each waypoint passed within a metre, the point and
+heading of a go-to, back home, on the ground and disarmed), else by what the client got (the
+parameters, the version, a log file that is a ULog).
 
 Each ``mavsdk_server`` serves gRPC on a port of its own, ``GRPC_BASE + instance``: the examples'
 default 50051 would collide between test files running in parallel.  Wall-clock values are only
@@ -26,7 +29,13 @@ import pytest
 from mavsdk_grpc.mission import MissionItem, MissionPlan
 from mavsdk_grpc.offboard import PositionNedYaw
 
-from e2e_flight_helpers import latlon, sim_sleep, truth_and_stack_fixtures  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import (
+    latlon,
+    sim_sleep,
+    truth_and_stack_fixtures,
+    truth_yaw,
+    until,
+)  # tests/e2e_flight_helpers.py
 
 # (the package's own start-up of mavsdk_server uses importlib.resources.path, deprecated: not ours to mend)
 pytestmark = [pytest.mark.e2e, pytest.mark.filterwarnings("ignore:path is deprecated:DeprecationWarning")]
@@ -178,6 +187,72 @@ def test_offboard_position_ned_as_the_upstream_example(stack, truth, inst):
     print(f"offboard: moved {n:.2f} N {e:.2f} E, {-d:.2f} m up (asked 6, -4, 3); own estimate {own}")
     assert math.hypot(n - 6.0, e + 4.0) < 0.3 and abs(-d - 3.0) < 0.3
     assert math.hypot(own[0] - 6.0, own[1] + 4.0) < 0.2 and abs(own[2] + 3.0) < 0.2
+
+
+def test_goto_as_the_upstream_example(stack, truth, inst):
+    seen = {}
+
+    async def flight():
+        drone = await connected(stack, inst)
+        async for home in drone.telemetry.home():
+            absolute_altitude = home.absolute_altitude_m
+            break
+        ground = truth.latest().pos_ned_m[2]
+        await drone.action.arm()
+        await drone.action.takeoff()
+        async for position in drone.telemetry.position():
+            if position.relative_altitude_m > 2.0:
+                break
+        start = truth.latest().pos_ned_m
+        await drone.action.goto_location(*latlon(start[0] + 10.0, start[1]), absolute_altitude + ALT_M, 90.0)
+
+        async def there():
+            p = truth.latest()
+            return math.hypot(p.pos_ned_m[0] - start[0] - 10.0, p.pos_ned_m[1] - start[1]) < 0.5 and (
+                math.hypot(*p.vel_ned_m_s[:2]) < 0.2
+            )
+
+        await until(there, WAIT_S, "at the go-to point")
+        await sim_sleep(truth, 3.0)
+        seen["yaw_deg"] = math.degrees(truth_yaw(truth))
+        seen["height"] = ground - truth.latest().pos_ned_m[2]
+        await drone.action.land()
+        await landed_and_disarmed(drone)
+
+    run(flight())
+    stack.check_alive()
+    print(f"goto: yaw {seen['yaw_deg']:.1f} deg, {seen['height']:.2f} m up (asked {ALT_M} m above home)")
+    assert seen["yaw_deg"] == pytest.approx(90.0, abs=3.0) and seen["height"] == pytest.approx(ALT_M, abs=0.3)
+
+
+def test_all_parameters_the_version_and_the_flight_logs(stack, inst, tmp_path):
+    seen = {}
+
+    async def session():
+        drone = await connected(stack, inst)
+        params = await drone.param.get_all_params()
+        seen["ints"] = {p.name: p.value for p in params.int_params}
+        seen["floats"] = {p.name: p.value for p in params.float_params}
+        version = await drone.info.get_version()
+        seen["version"] = (version.flight_sw_major, version.flight_sw_minor, version.flight_sw_patch)
+        entries = await drone.log_files.get_entries()
+        seen["entries"] = len(entries)
+        smallest = min(entries, key=lambda e: e.size_bytes)
+        path = tmp_path / "downloaded.ulg"
+        async for progress in drone.log_files.download_log_file(smallest, str(path)):
+            if progress.progress == 1.0:
+                break
+        seen["log"] = path.read_bytes()
+        seen["log_size"] = smallest.size_bytes
+
+    run(session())
+    print(f"{len(seen['ints'])} int and {len(seen['floats'])} float parameters; version {seen['version']}; "
+          f"{seen['entries']} logs, the smallest {seen['log_size']} bytes")  # fmt: skip
+    assert seen["floats"]["MPC_XY_CRUISE"] == pytest.approx(5.0) and seen["ints"]["SYS_AUTOSTART"] > 0
+    assert len(seen["ints"]) + len(seen["floats"]) > 100
+    assert seen["version"] == (1, 14, 0)  # PX4's numbering, AUTOPILOT_VERSION.flight_sw_version
+    assert seen["entries"] >= 3  # this module's flights
+    assert len(seen["log"]) == seen["log_size"] and seen["log"].startswith(b"ULog")
 
 
 def test_parameters_read_and_written_through_the_param_plugin(stack, inst):
