@@ -75,9 +75,9 @@ class NpyLogWriter:
         f = self._f
         if f is None:
             return
-        if self._n:
-            f.write(memoryview(self._buf)[: self._n * self.row_bytes])
-            self._n = 0
+        n, self._n = self._n, 0  # counted out before the write: a SIGTERM's SystemExit raised just after
+        if n:  # it (between two bytecodes) must not leave the rows in the buffer for close() to write again
+            f.write(memoryview(self._buf)[: n * self.row_bytes])
             f.flush()
         end = f.seek(0, 2)
         rows = (end - HEADER_BYTES) // self.row_bytes  # complete rows on disk, whatever happened before

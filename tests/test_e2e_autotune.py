@@ -120,7 +120,7 @@ def test_autotune_refused_on_the_ground_applied_in_the_air_and_aborted_by_a_mode
         assert not any(parse_axis_line(t) or t.startswith("Autotune: pitch") for t in later), later
 
 
-PACED = 5.0  # this stack's speed (x real time): a Ctrl-C sent on a progress line lands well inside the run
+PACED = 3.0  # this stack's speed (x real time): a Ctrl-C sent on a progress line lands well inside the run
 
 
 def test_ctrl_c_aborts_the_run_on_the_vehicle_and_mc_at_apply_2_applies_at_once(free_instance):
@@ -148,13 +148,14 @@ def test_ctrl_c_aborts_the_run_on_the_vehicle_and_mc_at_apply_2_applies_at_once(
             text=True,
         )
         try:
-            # Ctrl-C when the command prints the progress line, as a user presses it: read from its own output
-            # (a fresh-clone run's test process, starved on the loaded machine, saw the vehicle's line through
-            # its own link only after the whole run had ended, and the signal came too late)
+            # Ctrl-C at the command's first progress line, as a user presses it, read from its own output.  Two
+            # fresh-clone runs sent it too late on the loaded machine: at the vehicle's "roll 30 %" seen through
+            # this test's link, then at the command's own; the command, starved too, printed it from its backlog
+            # when the vehicle was through, and finished.  The whole run is left now (and this stack is slower).
             shown = []
             for line in cli.stdout:
                 shown.append(line)
-                if line.strip() == "Autotune: roll 30 %":
+                if line.startswith("Autotune: roll"):
                     break
             cli.send_signal(signal.SIGINT)
             out, err = cli.communicate(timeout=WAIT_S)

@@ -189,6 +189,36 @@ def test_npy_log_survives_an_abrupt_kill(tmp_path):
     assert list(log["time_us"]) == [i * 4000 for i in range(30)] and log["x"][-1] == pytest.approx(14.5)
 
 
+def test_npy_log_chunk_is_written_once_when_an_exit_interrupts_its_write(tmp_path):
+    """The flight controller's SIGTERM handler raises SystemExit wherever the loop is; raised just after a
+    chunk's write, the close() that follows wrote the chunk again (a fresh-clone run's control log went 1 s
+    back in time at its end: 250 rows twice)."""
+    path = tmp_path / "interrupted.npy"
+    w = NpyLogWriter(path, [("time_us", "q"), ("x", "f")], chunk_rows=5)
+    real = w._f
+
+    class ExitAfterWrite:  # the file, with a SIGTERM arriving right after its first write
+        def __init__(self) -> None:
+            self.hit = False
+
+        def write(self, data):
+            n = real.write(data)
+            if not self.hit:
+                self.hit = True
+                raise SystemExit(143)
+            return n
+
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+    w._f = ExitAfterWrite()
+    with pytest.raises(SystemExit):
+        for i in range(5):
+            w.append(i * 4000, float(i))
+    w.close()
+    assert list(read_npy_log(path)["time_us"]) == [i * 4000 for i in range(5)]
+
+
 def test_npy_log_header_counts_only_complete_rows(tmp_path):
     """Rows written after the last header update (a kill between the two) are ignored, never misread."""
     path = tmp_path / "torn.npy"
