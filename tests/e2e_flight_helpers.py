@@ -172,3 +172,13 @@ def truth_and_stack_fixtures(params: dict[str, float] | None = None):
             yield s
 
     return truth, stack
+
+
+def sigint_default() -> None:
+    """``preexec_fn`` of a command a test stops with Ctrl-C: SIGINT's default action, whatever pytest inherited.
+    A shell without job control starts background commands with SIGINT ignored (``nohup bash .ci/run &``), an
+    ignored signal stays ignored across exec, and Python then installs no KeyboardInterrupt handler: the
+    command would run on to its end."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

@@ -25,6 +25,8 @@ import pytest
 from gcs.campaign import plan, runner, spec
 from gcs.campaign.results import WALL_COLUMNS, read
 
+from e2e_flight_helpers import sigint_default  # tests/e2e_flight_helpers.py
+
 pytestmark = pytest.mark.e2e
 
 RUNS = 3
@@ -43,13 +45,6 @@ ugv_speed_m_s = [0]
 
 def campaign_command(path, out, *extra, jobs: int = 2) -> list[str]:
     return [sys.executable, "-m", "gcs.campaign", "run", str(path), "--out", str(out), "--jobs", str(jobs), *extra]
-
-
-def sigint_default() -> None:
-    """In the campaign's process before it starts: Ctrl-C's default action, whatever pytest inherited.  A shell
-    without job control starts background commands with SIGINT ignored, an ignored signal stays ignored
-    across exec, and Python then installs no KeyboardInterrupt handler: the campaign would fly on to the end."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def wait_rows(path, n: int, proc: subprocess.Popen, timeout_s: float = 600) -> None:
