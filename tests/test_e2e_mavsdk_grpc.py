@@ -29,13 +29,8 @@ import pytest
 from mavsdk_grpc.mission import MissionItem, MissionPlan
 from mavsdk_grpc.offboard import PositionNedYaw
 
-from e2e_flight_helpers import (
-    latlon,
-    sim_sleep,
-    truth_and_stack_fixtures,
-    truth_yaw,
-    until,
-)  # tests/e2e_flight_helpers.py
+# tests/e2e_flight_helpers.py
+from e2e_flight_helpers import latlon, sim_sleep, truth_and_stack_fixtures, truth_yaw, until
 
 # (the package's own start-up of mavsdk_server uses importlib.resources.path, deprecated: not ours to mend)
 pytestmark = [pytest.mark.e2e, pytest.mark.filterwarnings("ignore:path is deprecated:DeprecationWarning")]
