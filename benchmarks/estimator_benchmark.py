@@ -166,12 +166,10 @@ def fly(vehicle: str, instance: int, seed: int, group: int, fc_params: list[str]
         c.takeoff(c.home().alt_amsl_m + ALT_M).check()
         rec.on = True
         c.wait_until(lambda: c.takeoff_done(ALT_M), 120, "take-off")
-        home = c.latest("HOME_POSITION")
-        n0, e0 = home.x, home.y
         for k, (dn, de) in enumerate(((SQUARE_M, 0), (SQUARE_M, SQUARE_M), (0, SQUARE_M), (0, 0))):
             progress.done(phase=f"corner {k + 1} of 4")
-            c.goto_ned(n0 + dn, e0 + de, home.z - ALT_M).check()
-            c.wait_until(lambda: c.arrived(n0 + dn, e0 + de, 0.5, 0.5), 120, "corner")
+            c.goto_ned(dn, de, -ALT_M).check()  # m NED from home
+            c.wait_until(lambda: c.arrived(dn, de, 0.5, 0.5), 120, "corner")
         progress.done(phase=f"hover {HOVER_S:g} s in wind")
         for name, value in WIND.items():
             truth.set(name, value)

@@ -103,12 +103,13 @@ def print_table(args, rows: list[dict[str, Any]]) -> None:
         )
         print(
             f"{'':9} flight controller's own tracking (estimate - setpoint), horizontal RMS: "
-            f"calm {r['calm_ctrl_h_rms_m']:.3f} m, wind {r['wind_ctrl_h_rms_m']:.3f} m"
+            f"calm {r['calm_ctrl_h_rms_m']:.3f} m, wind {r['wind_ctrl_h_rms_m']:.3f} m; "
+            f"step settle {settle_text(r['step_ctrl_settle_s'])}, overshoot {r['step_ctrl_overshoot_pct']:.1f} %"
         )
     print(
         f"step: {STEP_M:g} m North via DO_REPOSITION; rise 10-90 %, settle = from the command until the 1 s moving "
         f"average stays within 0.1 m of the target (never: not within the {STEP_WINDOW_S:g} s); "
-        f"final = error at {STEP_WINDOW_S:g} s"
+        f"final = error at {STEP_WINDOW_S:g} s; own step: the same of the estimate against the point sent"
     )
 
 

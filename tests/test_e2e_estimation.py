@@ -53,7 +53,6 @@ def flying(inst):
 def test_estimates_stay_close_to_ground_truth_in_flight(flying):
     """EKF attitude and velocity against the simulator's truth while the vehicle flies a 6 m leg."""
     client, truth = flying
-    home = client.latest("HOME_POSITION")
     d_att, d_yaw, d_vel = [], [], []
 
     def compare(msg):
@@ -76,10 +75,10 @@ def test_estimates_stay_close_to_ground_truth_in_flight(flying):
 
     client.add_listener(compare)
     try:
-        client.goto_ned(home.x + 6.0, home.y, home.z - ALT_M).check()
-        client.wait_until(lambda: client.arrived(home.x + 6.0, home.y, 0.5, 0.5), WAIT_S, "the 6 m leg")
-        client.goto_ned(home.x, home.y, home.z - ALT_M).check()
-        client.wait_until(lambda: client.arrived(home.x, home.y, 0.5, 0.5), WAIT_S, "back")
+        client.goto_ned(6.0, 0.0, -ALT_M).check()  # m NED from home
+        client.wait_until(lambda: client.arrived(6.0, 0.0, 0.5, 0.5), WAIT_S, "the 6 m leg")
+        client.goto_ned(0.0, 0.0, -ALT_M).check()
+        client.wait_until(lambda: client.arrived(0.0, 0.0, 0.5, 0.5), WAIT_S, "back")
     finally:
         client.remove_listener(compare)
     # Enough pairs for an RMS; on a loaded machine the truth's UDP stream drops samples (20 of the 12 m of

@@ -131,19 +131,37 @@ def step_figures(t: np.ndarray, north: np.ndarray, step_m: float) -> dict[str, f
     }
 
 
-def step_response(truth: SimClient, client: VehicleClient, start: np.ndarray) -> dict[str, float]:
-    """Command a ``STEP_M`` North step from ``start`` (the flight controller's frame) and score the truth's
-    North response over ``STEP_WINDOW_S``, from where the truth was when the step was commanded."""
+def step_response(
+    truth: SimClient, client: VehicleClient, hold: np.ndarray, hold_local: np.ndarray
+) -> dict[str, float]:
+    """Command a ``STEP_M`` North step from the hold point and score the North response over ``STEP_WINDOW_S``:
+    the truth's, from where it was when the step was commanded, and (``step_ctrl_*``) the flight controller's
+    own estimate's against the point it was sent.  ``hold``: m NED from home (the frame of ``goto_ned``);
+    ``hold_local``: the same point in the flight controller's LOCAL_POSITION_NED frame (from its estimator's
+    origin, which is not home)."""
     client.pump(0.05)
     t0 = truth.latest().time_ms
     north0 = truth.latest().pos_ned_m[0]
-    step_m = start[0] + STEP_M - client.local_position_ned()[0]  # what the vehicle has to fly, by its estimate
-    client.goto_ned(start[0] + STEP_M, start[1], start[2]).check()
+    start_est = client.latest("LOCAL_POSITION_NED")
+    est: list[tuple[float, float]] = []
+
+    def listener(m) -> None:
+        if m.get_type() == "LOCAL_POSITION_NED":
+            est.append(((m.time_boot_ms - start_est.time_boot_ms) / 1000.0, m.x - start_est.x))
+
+    step_m = hold_local[0] + STEP_M - start_est.x  # what the vehicle has to fly, by its estimate
+    client.add_listener(listener)
+    client.goto_ned(hold[0] + STEP_M, hold[1], hold[2]).check()
     while truth.latest().time_ms - t0 < STEP_WINDOW_S * 1000:
         client.pump(0.05)
+    client.remove_listener(listener)
     s = [x for x in truth.since(t0) if x.time_ms <= t0 + STEP_WINDOW_S * 1000]
     t = np.array([x.time_ms - t0 for x in s]) / 1000.0
-    return step_figures(t, np.array([x.pos_ned_m[0] for x in s]) - north0, step_m)
+    out = step_figures(t, np.array([x.pos_ned_m[0] for x in s]) - north0, step_m)
+    e = np.array([x for x in est if x[0] <= STEP_WINDOW_S]).reshape(-1, 2)
+    own = step_figures(e[:, 0], e[:, 1], step_m)
+    out.update({"step_ctrl_settle_s": own["step_settle_s"], "step_ctrl_overshoot_pct": own["step_overshoot_pct"]})
+    return out
 
 
 def _hover(prefix: str, err: np.ndarray, ctrl: np.ndarray) -> dict[str, float]:
@@ -164,18 +182,21 @@ def fly_hover_step(client: VehicleClient, truth: SimClient, hover_s: float, wind
     client.takeoff(client.home().alt_amsl_m + ALT_M).check()
     client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, f"take-off to {ALT_M:g} m")
     client.wait_sim_time(CALM_SETTLE_S)
-    target = start + np.array([0.0, 0.0, -ALT_M])  # truth's frame: from the start point
-    home = client.latest("HOME_POSITION")  # the estimator's home is where it armed; commands are relative to it
-    step_start = np.array([home.x, home.y, home.z]) + np.array([0.0, 0.0, -ALT_M])
-    err, _, ctrl = hover_errors(truth, client, target, hover_s, step_start)
+    hold = np.array([0.0, 0.0, -ALT_M])  # where the take-off holds: m NED from home, the frame of goto_ned
+    target = start + hold  # truth's frame: from the start point
+    # The estimator's home is where it armed, in its LOCAL_POSITION_NED frame (from its origin, the first
+    # GPS fix): tenths of a metre from the origin as the GPS error wanders.  Commands are relative to home.
+    home = client.latest("HOME_POSITION")
+    hold_local = np.array([home.x, home.y, home.z]) + hold
+    err, _, ctrl = hover_errors(truth, client, target, hover_s, hold_local)
     out: dict[str, Any] = _hover("calm", err, ctrl)
-    out.update(step_response(truth, client, step_start))
-    client.goto_ned(*step_start).check()
-    client.wait_until(lambda: client.arrived(step_start[0], step_start[1], 0.3, 0.3), WAIT_S, "back")
+    out.update(step_response(truth, client, hold, hold_local))
+    client.goto_ned(*hold).check()
+    client.wait_until(lambda: client.arrived(hold[0], hold[1], 0.3, 0.3), WAIT_S, "back")
     for name, value in windy_parameters(wind_m_s).items():
         truth.set(name, value)
     client.wait_sim_time(WIND_SETTLE_S)
-    err, rtf_wind, ctrl = hover_errors(truth, client, target, hover_s, step_start)
+    err, rtf_wind, ctrl = hover_errors(truth, client, target, hover_s, hold_local)
     out.update(_hover("wind", err, ctrl), rtf_wind=rtf_wind)
     client.land().check()
     client.wait_until(client.landed_and_disarmed, WAIT_S + 60, "landed and disarmed")
@@ -207,6 +228,8 @@ class HoverStepKind:
         "step_overshoot_pct",
         "step_settle_s",
         "step_final_err_m",
+        "step_ctrl_settle_s",
+        "step_ctrl_overshoot_pct",
         "wind_h_rms_m",
         "wind_v_rms_m",
         "wind_h_max_m",
