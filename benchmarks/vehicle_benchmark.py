@@ -25,7 +25,7 @@ windy hover (all effects on) and over the whole flight.
 The vehicles fly one after another (``--jobs 1``, so the real-time factors are those of one stack
 alone on the machine); a progress bar (stderr) counts the flights.
 
-Usage: ``python benchmarks/vehicle_benchmark.py [--vehicles quad_x firefly] [--hover S] [--seed N] [-i N]
+Usage: ``python benchmarks/vehicle_benchmark.py [--vehicles quad_x firefly] [--hover S] [--seed N] [-i N] [--gps rtk]
 [--sim-param NAME=VALUE] [--fc-param NAME=VALUE] [--jobs N] [--out CSV] [--keep-logs DIR]``
 """
 
@@ -39,9 +39,12 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import params as params_package  # noqa: E402
 from gcs.campaign import runner, spec  # noqa: E402
 from gcs.campaign.hover_step import ALT_M, STEP_M, STEP_WINDOW_S, WIND_REF_M_S, windy_parameters  # noqa: E402
 from mavsim_core import ports  # noqa: E402
+from params.param_file import read_param_file  # noqa: E402
+from sitl.scenario import load_scenario  # noqa: E402
 
 from _cli import add_instance, parser  # noqa: E402
 
@@ -58,8 +61,18 @@ def params(items: list[str], flag: str, ap) -> dict[str, float]:
     return out
 
 
+def gps_params(gps: str) -> tuple[dict[str, float], dict[str, float]]:
+    """(SIM_* parameters, flight-controller parameters) of a ``--gps`` choice: none for the default receiver;
+    for ``rtk``, params/scenarios/rtk_gps.toml and params/rtk_gps.params."""
+    if gps != "rtk":
+        return {}, {}
+    fc = read_param_file(Path(params_package.__file__).resolve().parent / "rtk_gps.params")
+    return dict(load_scenario("rtk_gps").parameters), {e.name: float(e.value) for e in fc.entries}
+
+
 def campaign_dict(args, ap) -> dict[str, Any]:
     """The campaign these flags make (benchmarks/campaigns/hover_step.toml's keys): one run per vehicle."""
+    sim, fc = gps_params(args.gps)
     return {
         "name": "vehicle_benchmark",
         "kind": "hover_step",
@@ -68,8 +81,8 @@ def campaign_dict(args, ap) -> dict[str, Any]:
         "retries": 1,
         "grid": {"vehicle": args.vehicles, "wind_m_s": [WIND_REF_M_S], "fault": ["none"], "hover_s": [args.hover]},
         "random": {"sim_seed": [args.seed, args.seed]},
-        "sim_params": params(args.sim_param, "--sim-param", ap),
-        "fc_params": params(args.fc_param, "--fc-param", ap),
+        "sim_params": sim | params(args.sim_param, "--sim-param", ap),
+        "fc_params": fc | params(args.fc_param, "--fc-param", ap),
     }
 
 
@@ -80,6 +93,9 @@ def settle_text(settle_s: float) -> str:
 
 def print_table(args, rows: list[dict[str, Any]]) -> None:
     wind = windy_parameters()
+    if args.gps == "rtk":
+        sim, fc = gps_params(args.gps)
+        print("GPS: RTK fixed (" + " ".join(f"{k}={v:g}" for k, v in (sim | fc).items()) + ")")
     if args.sim_param or args.fc_param:
         print("settings: " + " ".join(args.sim_param + args.fc_param))
     print(
@@ -134,6 +150,13 @@ def main(argv: list[str] | None = None) -> int:
         default=[],
         metavar="NAME=VALUE",
         help="a flight-controller parameter from the start (e.g. MPC_XY_P=1.2), repeatable",
+    )
+    ap.add_argument(
+        "--gps",
+        choices=("single", "rtk"),
+        default="single",
+        help="the simulated receiver: single (default: a single-point fix, 0.1 m noise, 0.05 m wander) or rtk "
+        "(sitl --scenario rtk_gps with params/rtk_gps.params: 2 cm noise, 1 cm wander)",
     )
     ap.add_argument("--jobs", type=int, default=1, help="vehicles flown at a time (more: lower real-time factors)")
     ap.add_argument("--out", type=Path, help="keep the results CSV here (default: a temporary file)")

@@ -22,7 +22,9 @@ standard normal draw per axis and per use::
     epv    = max(0.01, sqrt(SIM_GPS_VNOISE^2 + (1.5 SIM_GPS_DRIFT)^2))
 
 The glitch is not in eph/epv (the receiver does not know of it).  Healthy
-fixes have fix_type 3 and 12-14 satellites (a slow random walk).  Outages
+fixes have fix_type SIM_GPS_FIXTYPE (3, a 3D fix; 6 for an RTK fixed solution, whose smaller
+errors are set by the same SIM_GPS_* parameters: ``sitl --scenario rtk_gps``) and 12-14 satellites
+(a slow random walk).  Outages
 start as a Poisson process of rate SIM_GPS_DROP_RT per minute while the
 receiver has lock and last SIM_GPS_DROP_S; so the long-run fraction of time
 without a fix is r*d / (60 + r*d).  During an outage fixes are still sent at
@@ -54,7 +56,7 @@ GPS_MIN_ERROR_M = 0.01  # floor of the reported eph/epv
 GPS_NO_FIX_ERROR_M = 99.99  # eph/epv reported without lock
 GPS_SATS_MIN, GPS_SATS_MAX = 12, 14
 GPS_SATS_STEP_Z = 2.326  # |n| beyond this (2 % per fix) moves the satellite count by one
-FIX_TYPE_NO_FIX, FIX_TYPE_3D = 1, 3
+FIX_TYPE_NO_FIX = 1
 HISTORY_LEN = 1024  # truth samples kept for the GPS latency (>= 500 ms at calls down to 0.5 ms apart)
 
 _GPS_DRAWS = 10  # per fix: position white 3, Gauss-Markov 3, velocity 3, satellites 1
@@ -74,7 +76,7 @@ class GpsReading:
     eph_m: float  # 1-sigma error per horizontal axis
     epv_m: float  # 1-sigma vertical error
     satellites: int
-    fix_type: int  # GPS_FIX_TYPE: 1 no fix, 3 3D fix
+    fix_type: int  # GPS_FIX_TYPE: 1 no fix, 3 3D fix, ... 6 RTK fixed
 
 
 def _vec(v) -> tuple | list:
@@ -228,5 +230,5 @@ class GpsReceiver:
             max(GPS_MIN_ERROR_M, math.hypot(hn, dr)),
             max(GPS_MIN_ERROR_M, math.hypot(vn, drv)),
             self._sats,
-            FIX_TYPE_3D,
+            s.gps_fix_type,
         )

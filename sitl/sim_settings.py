@@ -174,6 +174,15 @@ class SensorSettings:
     gps_drift_m: float = sim_param(
         "SIM_GPS_DRIFT", 0.05, 0.0, 20.0, "m", "RMS of the slowly wandering GPS position error (Gauss-Markov, 60 s)"
     )
+    gps_fix_type: int = sim_param(
+        "SIM_GPS_FIXTYPE",
+        3,
+        3,
+        6,
+        "",
+        "GPS_FIX_TYPE of a good fix: 3 = 3D, 4 = DGPS, 5 = RTK float, 6 = RTK fixed (the errors are the SIM_GPS_* above)",
+        ParamType.INT32,
+    )
     gps_dropout_per_min: float = sim_param(
         "SIM_GPS_DROP_RT", 0.0, 0.0, 60.0, "1/min", "Mean number of GPS outages (no fix) per minute"
     )

@@ -47,6 +47,15 @@ def test_vehicle_default_files_exist_and_load():
     assert s.get("SYS_AUTOSTART") == 6001  # PX4's generic hexacopter X airframe
 
 
+def test_the_rtk_gps_file_loads_and_lowers_the_gps_noise_floors():
+    """params/rtk_gps.params (with sitl --scenario rtk_gps): every line applies, each floor below the default."""
+    s = default_store()
+    applied, messages = load_file(s, ROOT / "params" / "rtk_gps.params")
+    assert messages == [] and applied == 2
+    for name in ("EKF2_GPS_P_NOISE", "EKF2_GPS_V_NOISE"):
+        assert s.get(name) < s.definition(name).default
+
+
 def test_load_file_names_each_bad_line_and_applies_the_rest(store, tmp_path):
     path = tmp_path / "startup.params"
     path.write_text(

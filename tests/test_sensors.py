@@ -12,8 +12,11 @@ import numpy as np
 import pytest
 
 from mavsim_core.geodesy import geodetic_to_ned
+from sitl.scenario import load_scenario
 from sitl.sensors import SensorSuite, pressure_hpa_at
 from sitl.sim_settings import SensorSettings
+
+from sim_params_helpers import make_params  # tests/sim_params_helpers.py
 
 HOME = (47.397742, 8.545594, 488.0)
 G = 9.80665
@@ -206,6 +209,18 @@ def test_gps_fixes_at_5_hz_on_multiples_of_the_period():
     times = [t for t, _ in fixes]
     assert times == list(range(0, 10_000_000, 200_000))
     assert all(f.fix_type == 3 and 12 <= f.satellites <= 14 for _, f in fixes)
+
+
+def test_gps_rtk_scenario_reports_an_rtk_fix_with_centimetre_errors():
+    """sitl --scenario rtk_gps: fix type 6 (RTK fixed), eph and the spread of the fixes about 2 cm."""
+    scenario = load_scenario("rtk_gps").parameters
+    params, _, sensors, _ = make_params()
+    params.set_many(scenario)
+    fixes = run_gps(SensorSuite(*HOME, seed=1, settings=sensors), 20.0)
+    assert all(f.fix_type == 6 for _, f in fixes)
+    assert fixes[0][1].eph_m == pytest.approx(math.hypot(scenario["SIM_GPS_NOISE"], scenario["SIM_GPS_DRIFT"]))
+    north = np.array([fix_ned(f)[0] for _, f in fixes])
+    assert 0.01 < north.std() < 0.04
 
 
 def test_gps_odd_rate_rounds_to_the_nearest_step_and_rate_change_acts():

@@ -43,12 +43,14 @@ def test_shipped_scenarios():
     assert hexa.parameters == {}
     assert hexa.events == (ScenarioEvent(20_000_000, {"SIM_ENGINE_FAIL": 1, "SIM_ENGINE_MUL": 0.0}),)
     assert all(s.description for s in (calm, windy, hexa))
+    rtk = load_scenario("rtk_gps")  # (tests/test_sensors.py flies its receiver)
+    assert rtk.parameters["SIM_GPS_FIXTYPE"] == 6 and rtk.parameters["SIM_GPS_NOISE"] < params.get("SIM_GPS_NOISE")
 
 
 def test_scenarios_are_package_data():
     with open(ROOT / "pyproject.toml", "rb") as f:
         package_data = tomllib.load(f)["tool"]["setuptools"]["package-data"]["params"]
-    assert "scenarios/*.toml" in package_data
+    assert "scenarios/*.toml" in package_data and "*.params" in package_data  # params/rtk_gps.params
 
 
 def test_good_file_with_events(tmp_path):
