@@ -7,9 +7,11 @@ to it; a different path from MAVSDK 4's native binding (tests/test_e2e_commands.
 so a feature works only when both drive it.  The flows are those of MAVSDK-Python's examples,
 written as a user would: ``takeoff_and_land.py`` (connect, wait for a global position and home,
 arm, take off, land), ``mission.py`` (upload, return after the mission, start, follow the progress),
+``geofence.py`` (an inclusion square around home; then a go-to past it, stopped inside),
 ``offboard_position_ned.py`` (a setpoint before starting, then NED position setpoints), ``goto.py``
 (a point and a heading at an altitude AMSL from home's), ``all_params.py`` with the Info plugin's
-version, ``log_files.py`` (list, download a ULog) and the Param plugin.  Asserted by the simulator's
+version, ``log_files.py`` (list, download a ULog), the Param plugin and ``failure_injection.py`` (GPS
+off in flight: it lands).  Asserted by the simulator's
 truth where the vehicle went (the height reached, each waypoint passed within a metre, the point and
 heading of a go-to, back home, on the ground and disarmed), else by what the client got (the
 parameters, the version, a log file that is a ULog).
@@ -26,6 +28,8 @@ import math
 
 import mavsdk_grpc as mavsdk  # the upstream examples' ``mavsdk``, as its README says
 import pytest
+from mavsdk_grpc.failure import FailureType, FailureUnit
+from mavsdk_grpc.geofence import FenceType, GeofenceData, Point, Polygon
 from mavsdk_grpc.mission import MissionItem, MissionPlan
 from mavsdk_grpc.offboard import PositionNedYaw
 
@@ -93,12 +97,55 @@ def test_takeoff_and_land_as_the_upstream_example(stack, truth, inst):
     assert abs(heights[1]) < 0.1
 
 
+def test_geofence_as_the_upstream_example_holds_the_vehicle_inside(stack, truth, inst):
+    """geofence.py's fence (an inclusion square of +-0.0001 deg around home), then a go-to 60 m North: the
+    vehicle stops inside it (GF_ACTION 2, Hold, as PX4).  Before the module's flights that move the vehicle:
+    outside an inclusion fence arming is refused, as PX4 refuses it.  The fence is cleared at the end."""
+    seen = {}
+
+    async def flight():
+        drone = await connected(stack, inst)
+        async for home in drone.telemetry.home():
+            lat, lon, amsl = home.latitude_deg, home.longitude_deg, home.absolute_altitude_m
+            break
+        corners = [
+            (lat - 1e-4, lon - 1e-4),
+            (lat + 1e-4, lon - 1e-4),
+            (lat + 1e-4, lon + 1e-4),
+            (lat - 1e-4, lon + 1e-4),
+        ]
+        polygon = Polygon([Point(*c) for c in corners], FenceType.INCLUSION)
+        await drone.geofence.upload_geofence(GeofenceData(polygons=[polygon], circles=[]))
+        start = truth.latest().pos_ned_m
+        await drone.action.arm()
+        await drone.action.takeoff()
+        async for position in drone.telemetry.position():
+            if position.relative_altitude_m > 2.0:
+                break
+        await sim_sleep(truth, 2.0)
+        await drone.action.goto_location(*latlon(start[0] + 60.0, start[1]), amsl + ALT_M, 0.0)
+        async for mode in drone.telemetry.flight_mode():
+            if mode == mavsdk.telemetry.FlightMode.HOLD:
+                break
+        await sim_sleep(truth, 8.0)
+        seen["north"] = truth.latest().pos_ned_m[0] - start[0]
+        await drone.geofence.clear_geofence()
+        await drone.action.land()
+        await landed_and_disarmed(drone)
+
+    run(flight())
+    stack.check_alive()
+    fence_m = 1e-4 * math.pi / 180 * 6_371_000
+    print(f"geofence: stopped {seen['north']:.1f} m North of the 60 m asked, the fence {fence_m:.1f} m away")
+    assert 3.0 < seen["north"] < fence_m
+
+
 def test_mission_as_the_upstream_example_returns_home_and_lands(stack, truth, inst):
     seen = {"progress": [], "track": []}
 
     async def flight():
         drone = await connected(stack, inst)
-        seen["ground"] = truth.latest().pos_ned_m[2]
+        seen["start"] = truth.latest().pos_ned_m  # home will be here: where it arms
         items = [
             MissionItem(
                 *latlon(n, e),
@@ -149,7 +196,8 @@ def test_mission_as_the_upstream_example_returns_home_and_lands(stack, truth, in
     assert seen["downloaded"] == len(MISSION_NE)
     assert seen["progress"][-1] == (len(MISSION_NE), len(MISSION_NE))
     assert max(closest) < 1.0
-    assert math.hypot(end[0], end[1]) < 1.0 and abs(end[2] - seen["ground"]) < 0.1  # returned home, on the ground
+    start = seen["start"]
+    assert math.hypot(end[0] - start[0], end[1] - start[1]) < 1.0 and abs(end[2] - start[2]) < 0.1  # home, landed
 
 
 def test_offboard_position_ned_as_the_upstream_example(stack, truth, inst):
@@ -161,8 +209,16 @@ def test_offboard_position_ned_as_the_upstream_example(stack, truth, inst):
         await drone.action.arm()
         await drone.offboard.set_position_ned(PositionNedYaw(0.0, 0.0, 0.0, 0.0))  # one before start, as required
         await drone.offboard.start()
-        await drone.offboard.set_position_ned(PositionNedYaw(0.0, 0.0, -3.0, 0.0))
+        await drone.offboard.set_position_ned(
+            PositionNedYaw(0.0, 0.0, -3.0, 0.0)
+        )  # the EKF's origin: may be metres off
         await sim_sleep(truth, 8.0)
+
+        async def still() -> bool:
+            return math.hypot(*truth.latest().vel_ned_m_s) < 0.05
+
+        await until(still, WAIT_S, "still over the offboard frame's origin")
+        await sim_sleep(truth, 2.0)
         first = truth.latest().pos_ned_m
         await drone.offboard.set_position_ned(PositionNedYaw(6.0, -4.0, -3.0, 90.0))
         await sim_sleep(truth, 10.0)
@@ -270,3 +326,43 @@ def test_parameters_read_and_written_through_the_param_plugin(stack, inst):
     assert seen["after"] == pytest.approx(4.5)
     assert seen["int"] > 0
     assert seen.get("missing") is not None, "a missing parameter was read without an error"
+
+
+def test_failure_injection_as_the_upstream_example_lands_on_losing_gps(stack, truth, inst):
+    """failure_injection.py's flow: SYS_FAILURE_EN 1, take off, GPS off in flight (MAV_CMD_INJECT_FAILURE):
+    the position estimate is lost, so the vehicle lands (LAND, as PX4's failsafe without a position); GPS
+    back on; it ends on the ground, disarmed."""
+    seen = {"modes": []}
+
+    async def flight():
+        drone = await connected(stack, inst)
+        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
+        ground = truth.latest().pos_ned_m[2]
+        await drone.action.arm()
+        await drone.action.takeoff()
+        async for position in drone.telemetry.position():
+            if position.relative_altitude_m > ALT_M - 0.5:
+                break
+        await sim_sleep(truth, 2.0)
+
+        async def modes():
+            async for mode in drone.telemetry.flight_mode():
+                seen["modes"].append(mode)
+
+        watcher = asyncio.ensure_future(modes())
+        await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0)
+
+        async def landing() -> bool:
+            return bool(seen["modes"]) and seen["modes"][-1] == mavsdk.telemetry.FlightMode.LAND
+
+        await until(landing, WAIT_S, "LAND after the GPS was lost")
+        await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OK, 0)
+        await landed_and_disarmed(drone)
+        watcher.cancel()
+        seen["height"] = ground - truth.latest().pos_ned_m[2]
+        await drone.param.set_param_int("SYS_FAILURE_EN", 0)
+
+    run(flight())
+    stack.check_alive()
+    print(f"failure injection: modes {[m.name for m in dict.fromkeys(seen['modes'])]}; {seen['height']:.2f} m up")
+    assert mavsdk.telemetry.FlightMode.LAND in seen["modes"] and abs(seen["height"]) < 0.1

@@ -2,8 +2,8 @@
 the target to follow.
 
 :class:`ExternalInputs` keeps the latest MANUAL_CONTROL (:class:`~autopilot.topics.ManualInput`),
-the latest offboard setpoint (:class:`~autopilot.topics.OffboardSetpoint`) with the arrival times
-of the recent ones (OFFBOARD may be entered only while they stream, as in PX4), and when a ground
+the latest offboard setpoint (:class:`~autopilot.topics.OffboardSetpoint`; OFFBOARD may be entered
+while it is recent, as in PX4: :func:`autopilot.navigation.offboard.offboard_refusal`), and when a ground
 station's HEARTBEAT last arrived (the data-link-loss failsafe), and the latest FOLLOW_TARGET
 (:class:`~autopilot.navigation.follow_target_estimator.FollowTargetFix`) of the sender being followed
 (:meth:`ExternalInputs.on_follow_target`).  The link writes into it through the vehicle interface
@@ -15,12 +15,8 @@ simulated time (µs) and wall-clock time (s, time.monotonic): ages are
 
 from __future__ import annotations
 
-from collections import deque
-
 from autopilot.navigation.follow_target_estimator import TARGET_TIMEOUT_S, FollowTargetFix
 from autopilot.topics import ManualInput, OffboardSetpoint, input_age_s
-
-OFFBOARD_HISTORY = 8  # arrival times kept to judge whether setpoints are streaming
 
 
 class ExternalInputs:
@@ -29,7 +25,6 @@ class ExternalInputs:
     def __init__(self) -> None:
         self.manual: ManualInput | None = None
         self.offboard: OffboardSetpoint | None = None
-        self.offboard_arrivals: deque[tuple[int, float]] = deque(maxlen=OFFBOARD_HISTORY)  # (sim µs, wall s)
         self.gcs_heartbeat: tuple[int, float] | None = None  # (sim µs, wall s) of the latest
         self.follow_target: FollowTargetFix | None = None  # the latest from the sender being followed
 
@@ -38,7 +33,6 @@ class ExternalInputs:
 
     def on_offboard(self, setpoint: OffboardSetpoint) -> None:
         self.offboard = setpoint
-        self.offboard_arrivals.append((setpoint.received_us, setpoint.received_wall_s))
 
     def on_gcs_heartbeat(self, now_us: int, wall_s: float) -> None:
         self.gcs_heartbeat = (now_us, wall_s)
@@ -70,8 +64,3 @@ class ExternalInputs:
     def follow_target_age_s(self, now_us: int, wall_s: float | None) -> float | None:
         f = self.follow_target
         return None if f is None else input_age_s(f.received_us, f.received_wall_s, now_us, wall_s)
-
-    def offboard_streaming(self, now_us: int, wall_s: float | None, window_s: float, count: int = 2) -> bool:
-        """At least ``count`` setpoints arrived within the last ``window_s`` (on either clock)."""
-        recent = [a for a in self.offboard_arrivals if input_age_s(a[0], a[1], now_us, wall_s) <= window_s]
-        return len(recent) >= count

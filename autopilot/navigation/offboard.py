@@ -18,7 +18,7 @@ more than :data:`TAKEOFF_ABOVE_M` above the vehicle, an upward velocity or accel
 MAVSDK's "arm, stream, offboard.start()" lifts off once the stream asks for height.
 
 Entry and loss, as PX4: OFFBOARD may be entered only while setpoints stream (:func:`offboard_refusal`:
-at least two arrived within ``COM_OF_LOSS_T`` and the latest is no older than that); it is lost when the
+the latest is no older than ``COM_OF_LOSS_T``, as PX4's offboard check; one is enough); it is lost when the
 latest setpoint is older than ``COM_OF_LOSS_T`` on both clocks (:func:`offboard_lost`; a client streams
 on the wall clock while the simulation may run faster).  Then the failsafes switch to
 :func:`loss_fallback_mode` of ``COM_OBL_RC_ACT``: 0 Position, 1 Altitude and 2 Manual (PX4: these
@@ -50,8 +50,6 @@ class ExternalInputs(Protocol):
 
     def offboard_age_s(self, now_us: int, wall_s: float | None) -> float | None: ...
 
-    def offboard_streaming(self, now_us: int, wall_s: float | None, window_s: float, count: int = 2) -> bool: ...
-
 
 # The parameters of OFFBOARD mode (listed in autopilot/param_catalogue.py), PX4's names, defaults, ranges.
 PARAMS: tuple[ParamDef, ...] = (
@@ -68,7 +66,6 @@ FALLBACK: dict[int, Mode | str] = {
     0: Mode.POSCTL, 1: Mode.POSCTL, 2: Mode.POSCTL, 3: Mode.AUTO_RTL, 4: Mode.AUTO_LAND, 5: Mode.AUTO_LOITER,
     6: TERMINATE, 7: TERMINATE,
 }  # fmt: skip
-STREAM_COUNT = 2  # setpoints that must have arrived within COM_OF_LOSS_T to enter OFFBOARD
 
 TAKEOFF_ABOVE_M = 0.3  # on the ground: a position setpoint this far above the vehicle lifts off ...
 TAKEOFF_UP_M_S = 0.1  # ... or an upward velocity setpoint faster than this ...
@@ -152,10 +149,11 @@ class OffboardTask:
 
 
 def offboard_refusal(inputs: ExternalInputs, now_us: int, wall_s: float | None, params: ParameterStore) -> str | None:
-    """Why OFFBOARD cannot be entered now (PX4: only while setpoints stream), or None."""
-    timeout = params.get("COM_OF_LOSS_T")
+    """Why OFFBOARD cannot be entered now, or None: as PX4's offboard check, the latest setpoint must be no
+    older than COM_OF_LOSS_T (on either clock).  One is enough: MAVSDK's examples send one setpoint, then
+    start offboard at once, while the client streams the rest."""
     age = inputs.offboard_age_s(now_us, wall_s)
-    if age is None or age > timeout or not inputs.offboard_streaming(now_us, wall_s, timeout, STREAM_COUNT):
+    if age is None or age > params.get("COM_OF_LOSS_T"):
         return "no offboard setpoints streaming"
     return None
 
