@@ -16,6 +16,9 @@ from autopilot.navigation.cubic_spline import MIN_DURATION_S, CubicSpline, durat
 from autopilot.navigation.flight_task import FlightTask
 from autopilot.navigation.precland import (
     CHASE_INT_BAND_M_S,
+    DOCK_DONE_M,
+    DOCK_HOVER_M,
+    DOCK_INTO_DECK_M,
     DOCK_TOUCH_M,
     PARAMS,
     LandingTargetInput,
@@ -326,3 +329,27 @@ def test_legs_felt_on_the_deck_end_the_docking_but_not_from_higher_up():
     sim.step()
     assert sim.task.done and sim.task.phase is PrecLandPhase.DONE
     assert "legs on the deck" in sim.task.events[-1][1]
+
+
+@pytest.mark.parametrize("deck_speed", [0.0, 1.0])
+def test_over_a_moving_deck_the_docking_aims_into_it_so_the_legs_meet_it_descending(deck_speed):
+    """A moving deck: the docking spline ends DOCK_INTO_DECK_M below its top, so the feet reach the docking
+    point still descending and the motors are cut at once (no blind stop just above a deck driving on); a
+    still deck: the spline ends DOCK_HOVER_M above it, at rest."""
+    sim = Sim(target0=(0.5, 0.0, 0.0), target_vel=(deck_speed, 0.0, 0.0), start=(0.0, 0.0, -1.5))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 15.0)
+
+    def feet(s: Sim) -> float:
+        return s.task._feet_above_target(estimate(s.t_us, s.pos, s.vel))
+
+    spline = sim.task._spline
+    end_feet_m = feet(sim) + float(spline.p0[0])  # the spline runs from -h to 0, h = feet now - feet at its end
+    assert end_feet_m == pytest.approx(-DOCK_INTO_DECK_M if deck_speed else DOCK_HOVER_M, abs=0.01)
+    assert sim.run_until(lambda s: feet(s) <= DOCK_HOVER_M + DOCK_DONE_M, 5.0)
+    descent_m_s = float(spline.at((sim.t_us - sim.task._phase_us) * 1e-6).vel[0])
+    if deck_speed:
+        assert descent_m_s > 0.5  # (aiming at the docking point at rest: 0.30 m/s here)
+        sim.step()
+        assert sim.task.done
+    else:
+        assert descent_m_s < 0.35 and float(spline.at(spline.td_s).vel[0]) == 0.0

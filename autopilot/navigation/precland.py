@@ -59,6 +59,11 @@ APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long
 APPROACH_SLIP_M_S = 0.1  # ... and the vehicle moves with the target to within this (m/s) before docking
 APPROACH_PATIENCE_S = 5.0  # approaching longer than this: within PLD_HACC_RAD (and twice the slip) will do
 DOCK_HOVER_M = 0.03  # the docking point: the feet this high (m) above the deck
+# Over a moving deck the docking spline ends this far (m) below the deck's top instead: the legs meet it
+# still descending (about 0.5 m/s) and the motors are cut on the contact.  Ending above it at rest, the
+# vehicle could stop blind a few centimetres over a turning deck (braked, bounced up) and hover there
+# for the settling time while the deck drove on: 0.9 s blind instead of 0.3 s, 0.2-0.34 m off.
+DOCK_INTO_DECK_M = 0.05
 DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
@@ -152,6 +157,7 @@ class PrecLandTask:
         self._tgt_pos: np.ndarray | None = None  # target's latest absolute position, m NED
         self._tgt_vel = np.zeros(3)
         self._tgt_acc = np.zeros(3)  # fed forward while tracking, approaching and docking
+        self._dock_end_m = DOCK_HOVER_M  # the feet's height over the deck where the docking spline ends
         self._turn = TurnRate()  # the target's turn rate from its measured headings
         self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
         self._fallback: LandTask | None = None
@@ -256,7 +262,9 @@ class PrecLandTask:
         self._enter(PrecLandPhase.TRACKING, now_us, f"{why}; td {td:.1f} s")
 
     def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
-        h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - DOCK_HOVER_M
+        moving = float(np.linalg.norm(self._tgt_vel[:2])) >= STILL_TARGET_M_S
+        self._dock_end_m = -DOCK_INTO_DECK_M if moving else DOCK_HOVER_M  # the feet's height at the spline's end
+        h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - self._dock_end_m
         # [F 3]'s td (h over the mean speed), but never shorter than the cubic's peak acceleration 6 h / td^2
         # allows within MPC_ACC_DOWN_MAX: 0.7 m in 0.7 s starts with 8.5 m/s^2 down, a near free fall whose
         # low collective thrust leaves the motors no room to hold the attitude just above the deck.
@@ -357,6 +365,7 @@ class PrecLandTask:
             return PositionSetpoint(base, vel, self.yaw_rad, acc, band)
         deck = self._above_target(self.feet_below_m + DOCK_HOVER_M)  # the reference point at the docking point
         if ph is PrecLandPhase.DOCKING:
+            deck = self._above_target(self.feet_below_m + self._dock_end_m)  # ... or in the moving deck
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
