@@ -68,6 +68,18 @@ async def landed_and_disarmed(drone: mavsdk.System) -> None:
             break
 
 
+async def take_off(drone: mavsdk.System, truth, above_m: float, settle_s: float = 0.0) -> None:
+    """Arm, take off (to the take-off altitude set before), on once higher than ``above_m`` above home and
+    ``settle_s`` simulated seconds later."""
+    await drone.action.arm()
+    await drone.action.takeoff()
+    async for position in drone.telemetry.position():
+        if position.relative_altitude_m > above_m:
+            break
+    if settle_s > 0:
+        await sim_sleep(truth, settle_s)
+
+
 def run(flight) -> None:
     asyncio.run(asyncio.wait_for(flight, WAIT_S))
 
@@ -79,12 +91,7 @@ def test_takeoff_and_land_as_the_upstream_example(stack, truth, inst):
         drone = await connected(stack, inst)
         ground = truth.latest().pos_ned_m[2]  # NED: heights are up from here
         await drone.action.set_takeoff_altitude(ALT_M)
-        await drone.action.arm()
-        await drone.action.takeoff()
-        async for position in drone.telemetry.position():
-            if position.relative_altitude_m > ALT_M - 0.3:
-                break
-        await sim_sleep(truth, 3.0)
+        await take_off(drone, truth, ALT_M - 0.3, 3.0)
         heights.append(ground - truth.latest().pos_ned_m[2])
         await drone.action.land()
         await landed_and_disarmed(drone)
@@ -117,12 +124,7 @@ def test_geofence_as_the_upstream_example_holds_the_vehicle_inside(stack, truth,
         polygon = Polygon([Point(*c) for c in corners], FenceType.INCLUSION)
         await drone.geofence.upload_geofence(GeofenceData(polygons=[polygon], circles=[]))
         start = truth.latest().pos_ned_m
-        await drone.action.arm()
-        await drone.action.takeoff()
-        async for position in drone.telemetry.position():
-            if position.relative_altitude_m > 2.0:
-                break
-        await sim_sleep(truth, 2.0)
+        await take_off(drone, truth, 2.0, 2.0)
         await drone.action.goto_location(*latlon(start[0] + 60.0, start[1]), amsl + ALT_M, 0.0)
         async for mode in drone.telemetry.flight_mode():
             if mode == mavsdk.telemetry.FlightMode.HOLD:
@@ -249,11 +251,7 @@ def test_goto_as_the_upstream_example(stack, truth, inst):
             absolute_altitude = home.absolute_altitude_m
             break
         ground = truth.latest().pos_ned_m[2]
-        await drone.action.arm()
-        await drone.action.takeoff()
-        async for position in drone.telemetry.position():
-            if position.relative_altitude_m > 2.0:
-                break
+        await take_off(drone, truth, 2.0)
         start = truth.latest().pos_ned_m
         await drone.action.goto_location(*latlon(start[0] + 10.0, start[1]), absolute_altitude + ALT_M, 90.0)
 
@@ -338,12 +336,7 @@ def test_failure_injection_as_the_upstream_example_lands_on_losing_gps(stack, tr
         drone = await connected(stack, inst)
         await drone.param.set_param_int("SYS_FAILURE_EN", 1)
         ground = truth.latest().pos_ned_m[2]
-        await drone.action.arm()
-        await drone.action.takeoff()
-        async for position in drone.telemetry.position():
-            if position.relative_altitude_m > ALT_M - 0.5:
-                break
-        await sim_sleep(truth, 2.0)
+        await take_off(drone, truth, ALT_M - 0.5, 2.0)
 
         async def modes():
             async for mode in drone.telemetry.flight_mode():
