@@ -180,7 +180,7 @@ class SensorSettings:
         3,
         6,
         "",
-        "GPS_FIX_TYPE of a good fix: 3 = 3D, 4 = DGPS, 5 = RTK float, 6 = RTK fixed (the errors are the SIM_GPS_* above)",
+        "GPS_FIX_TYPE of a good fix: 3 = 3D, 4 = DGPS, 5 = RTK float, 6 = RTK fixed (errors: the SIM_GPS_* above)",
         ParamType.INT32,
     )
     gps_dropout_per_min: float = sim_param(
