@@ -39,12 +39,11 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import params as params_package  # noqa: E402
 from gcs.campaign import runner, spec  # noqa: E402
 from gcs.campaign.hover_step import ALT_M, STEP_M, STEP_WINDOW_S, WIND_REF_M_S, windy_parameters  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 from params.param_file import read_param_file  # noqa: E402
-from sitl.scenario import load_scenario  # noqa: E402
+from sitl.scenario import SCENARIO_DIR, load_scenario  # noqa: E402
 
 from _cli import add_instance, parser  # noqa: E402
 
@@ -66,13 +65,14 @@ def gps_params(gps: str) -> tuple[dict[str, float], dict[str, float]]:
     for ``rtk``, params/scenarios/rtk_gps.toml and params/rtk_gps.params."""
     if gps != "rtk":
         return {}, {}
-    fc = read_param_file(Path(params_package.__file__).resolve().parent / "rtk_gps.params")
+    fc = read_param_file(SCENARIO_DIR.parent / "rtk_gps.params")
     return dict(load_scenario("rtk_gps").parameters), {e.name: float(e.value) for e in fc.entries}
 
 
-def campaign_dict(args, ap) -> dict[str, Any]:
-    """The campaign these flags make (benchmarks/campaigns/hover_step.toml's keys): one run per vehicle."""
-    sim, fc = gps_params(args.gps)
+def campaign_dict(args, ap, gps: tuple[dict[str, float], dict[str, float]]) -> dict[str, Any]:
+    """The campaign these flags make (benchmarks/campaigns/hover_step.toml's keys): one run per vehicle;
+    ``gps``: :func:`gps_params` of ``--gps``."""
+    sim, fc = gps
     return {
         "name": "vehicle_benchmark",
         "kind": "hover_step",
@@ -91,11 +91,10 @@ def settle_text(settle_s: float) -> str:
     return "never" if math.isnan(settle_s) else f"{settle_s:.2f}s"
 
 
-def print_table(args, rows: list[dict[str, Any]]) -> None:
+def print_table(args, rows: list[dict[str, Any]], gps: tuple[dict[str, float], dict[str, float]]) -> None:
     wind = windy_parameters()
     if args.gps == "rtk":
-        sim, fc = gps_params(args.gps)
-        print("GPS: RTK fixed (" + " ".join(f"{k}={v:g}" for k, v in (sim | fc).items()) + ")")
+        print("GPS: RTK fixed (" + " ".join(f"{k}={v:g}" for k, v in (gps[0] | gps[1]).items()) + ")")
     if args.sim_param or args.fc_param:
         print("settings: " + " ".join(args.sim_param + args.fc_param))
     print(
@@ -164,8 +163,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.jobs < 1 or args.instance + args.jobs - 1 > ports.MAX_INSTANCE:
         ap.error(f"argument --jobs: 1 to {ports.MAX_INSTANCE - args.instance + 1} with -i {args.instance}")
+    gps = gps_params(args.gps)
     try:
-        campaign = spec.from_dict(campaign_dict(args, ap), "vehicle_benchmark")
+        campaign = spec.from_dict(campaign_dict(args, ap, gps), "vehicle_benchmark")
     except spec.SpecError as exc:
         ap.error(str(exc))
     rows: dict[int, dict[str, Any]] = {}
@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.keep_logs:
             options.log_dir = args.keep_logs.resolve()
         runner.run(campaign, options)
-    print_table(args, [rows[c] for c in sorted(rows)])
+    print_table(args, [rows[c] for c in sorted(rows)], gps)
     return 0 if all(r["status"] == "ok" for r in rows.values()) else 1
 
 

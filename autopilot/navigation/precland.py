@@ -363,9 +363,11 @@ class PrecLandTask:
             return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc, band)
         if ph is PrecLandPhase.APPROACHING:
             return PositionSetpoint(base, vel, self.yaw_rad, acc, band)
-        deck = self._above_target(self.feet_below_m + DOCK_HOVER_M)  # the reference point at the docking point
+        # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
+        deck = self._above_target(
+            self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M)
+        )
         if ph is PrecLandPhase.DOCKING:
-            deck = self._above_target(self.feet_below_m + self._dock_end_m)  # ... or in the moving deck
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
