@@ -97,3 +97,31 @@ def make_harness():
     yield make
     for h in made:
         h.close()
+
+
+# ---------------------------------------------------------------------------------------------
+# A failed e2e test prints the tails of both processes' logs and each link's last messages
+# (tests/e2e_diagnostics.py), so a CI failure can be read without re-running it.
+
+
+def pytest_configure(config):
+    import e2e_diagnostics
+
+    e2e_diagnostics.install()
+
+
+def pytest_runtest_setup(item):
+    import e2e_diagnostics
+
+    e2e_diagnostics.enter_module(item.module.__name__)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    if report.failed and item.get_closest_marker("e2e") is not None:
+        import e2e_diagnostics
+
+        for title, text in e2e_diagnostics.sections():
+            report.sections.append((title, text))

@@ -182,3 +182,130 @@ def sigint_default() -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+# ---------------------------------------------------------------------------------------------
+# Flights in simulated time (issue 33): a test that asserts a figure of a flight (a drift, a sink, a
+# speed, an error) flies it through the simulator's holds (gcs/launcher/sim_stepper.py), so each command
+# takes effect at a chosen simulated time and the figure is the same on a busy machine and a quiet one.
+
+START_HOLD_MS = 100  # the simulator starts held at t = 0.1 s, until the test moves the hold
+
+
+def record_figure(name: str, value: float, limit: float, *, below: bool = True, unit: str = "") -> None:
+    """Assert a figure of a flight against its limit (``value < limit``, or ``>`` with ``below=False``), print
+    it, and record it for the flake hunt (``benchmarks/flake_hunt.py`` sets ``E2E_FIGURES`` to a file: one JSON
+    line per figure, with the test's node id).  docs/testing.md lists every figure, its spread and its limit."""
+    import json
+    import os
+
+    test = os.environ.get("PYTEST_CURRENT_TEST", "?").rsplit(" ", 1)[0]
+    print(f"FIGURE {name} = {value:.4g} {unit} (limit {'<' if below else '>'} {limit:g})")
+    path = os.environ.get("E2E_FIGURES")
+    if path:
+        line = json.dumps({"test": test, "name": name, "value": value, "limit": limit, "below": below, "unit": unit})
+        with open(path, "a") as f:  # one write of one line: workers appending at once do not interleave
+            f.write(line + "\n")
+    ok = value < limit if below else value > limit
+    assert ok, f"{name} = {value:.3f} {unit}, limit {'<' if below else '>'} {limit:g} {unit}"
+
+
+class SteppedFlight:
+    """A vehicle flown in simulated time: its link, the truth, and the stepper that moves the hold.
+
+    ``wait(s)`` lets ``s`` simulated seconds pass; ``until(predicate, max_s, what)`` advances in slices of
+    ``every_s`` until ``predicate()`` is true (read only while held); commands are sent between two slices and
+    take effect from the next step.  A limit passed in simulated time fails the same way in every run
+    (:class:`gcs.launcher.sim_stepper.SimTimeout`); wall time only bounds each slice (a dead process).
+    """
+
+    def __init__(self, client: VehicleClient, truth, stepper) -> None:
+        self.client, self.truth, self.step = client, truth, stepper
+
+    @property
+    def now_s(self) -> float:
+        """The simulated time of the current hold, s."""
+        return self.step.time_s
+
+    @property
+    def now_ms(self) -> int:
+        return self.step.time_ms
+
+    def wait(self, seconds: float) -> None:
+        self.step.advance(seconds)
+
+    def until(self, predicate, max_s: float, what: str, every_s: float = 0.1):
+        return self.step.run_until(predicate, max_s, what, check_every_s=every_s)
+
+    def truth_now(self):
+        """The true vehicle at the current hold (arrived before the simulator's "held" report)."""
+        return self.truth.at(self.now_ms, within_ms=0)
+
+    def truth_since(self, time_ms: int):
+        """The truth samples from ``time_ms`` to the current hold (later ones are not part of this flight yet)."""
+        return [s for s in self.truth.since(time_ms) if s.time_ms <= self.now_ms]
+
+    def ready(self, max_s: float = 60.0) -> None:
+        """Until the vehicle may be armed and has a home."""
+        self.until(lambda: self.client.prearm_ok() and self.client.home() is not None, max_s, "ready to arm", 0.5)
+
+    def take_off(self, alt_m: float, settle_s: float = 2.0, max_s: float = 60.0):
+        """Arm, take off to ``alt_m`` above home (unless already holding there), settle; the truth then."""
+        client = self.client
+        if not (client.armed() and client.mode_name() == "LOITER"):
+            self.ready()
+            client.arm(timeout_s=10).check()
+            client.takeoff(client.home().alt_amsl_m + alt_m, timeout_s=10).check()
+        self.until(lambda: client.mode_name() == "LOITER" and client.takeoff_done(alt_m), max_s, f"hover at {alt_m} m")
+        self.wait(settle_s)
+        return self.truth_now()
+
+    def land(self, max_s: float = 60.0) -> None:
+        self.client.land(timeout_s=10).check()
+        self.until(self.client.landed_and_disarmed, max_s, "landed and disarmed", 0.25)
+
+    def set_sim(self, name: str, value: float) -> float:
+        """Set a simulator parameter between two steps (it acts from the next); the simulated time, s."""
+        self.truth.set(name, value)
+        return self.now_s
+
+
+def sim_seed() -> int | None:
+    """The simulator's seed for the flights in simulated time: ``E2E_SEED`` if set (the flake hunt's
+    ``--seeds`` sets it, to see each figure's spread over the sensors' noise), else the simulator's default."""
+    import os
+
+    value = os.environ.get("E2E_SEED")
+    return int(value) if value else None
+
+
+def stepped_flight_fixture(params: dict[str, float] | None = None, sim_params: dict[str, float] | None = None):
+    """A module-scoped ``flight`` fixture (:class:`SteppedFlight`) on the module's free instance (``inst``): both
+    processes at full speed, the simulator held from :data:`START_HOLD_MS`; ``params``: flight-controller
+    parameters at start-up (``autopilot --params``), ``sim_params``: the simulator's (``sitl --param``)."""
+    import pytest
+
+    from gcs.launcher import Stack
+    from gcs.launcher.sim_stepper import SimStepper
+    from gcs.sim_client import SimClient
+
+    @pytest.fixture(scope="module")
+    def flight(inst, tmp_path_factory):
+        fc_args: list[str] = []
+        if params:
+            path = tmp_path_factory.mktemp("startup-params") / "startup.params"
+            path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
+            fc_args = ["--params", str(path)]
+        sim_args = ["--param", f"SIM_HOLD_MS={START_HOLD_MS}"]
+        for name, value in (sim_params or {}).items():
+            sim_args += ["--param", f"{name}={value:g}"]
+        with (
+            SimClient(ports.sim_component_port(inst)) as truth,
+            Stack(inst, "max", extra_sitl_args=sim_args, extra_autopilot_args=fc_args, seed=sim_seed()) as stack,
+            VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+        ):
+            stepper = SimStepper(client, truth, timeout_s=WAIT_S)
+            stepper.start()
+            yield SteppedFlight(client, truth, stepper)
+
+    return flight

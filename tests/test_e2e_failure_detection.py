@@ -19,144 +19,121 @@ after another in this order (a quadcopter that lost a motor ends upside down, so
    a vehicle that flips is found by the attitude checks (FD_FAIL_R/FD_FAIL_P, unit-tested in
    tests/test_failure_detector.py) and disarmed by the same crash check.
 
-Durations are simulated seconds; wall-clock timeouts are safety nets only.
+Flown in simulated time (``stepped_flight_fixture``): every fault is set between two steps and every
+figure is the same in every run; wall-clock timeouts are safety nets only.
 """
 
 from __future__ import annotations
 
 import pytest
 
-from gcs.client import VehicleClient, mavlink
-from gcs.launcher import Stack
-from gcs.sim_client import SimClient
-from mavsim_core import ports
+from gcs.client import mavlink
 
-from e2e_flight_helpers import Recorder, horizontal, texts_since, wait_text
+from e2e_flight_helpers import Recorder, SteppedFlight, horizontal, record_figure, stepped_flight_fixture, texts_since
 
 pytestmark = pytest.mark.e2e
-WAIT_S = 120.0
 ALT_M = 5.0
 BARO_BIT = mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
 DRIFT_M_S = 0.3  # the barometer's altitude drifts up this fast: 6 m in 20 s (the audit saw 10-12 m)
 DRIFT_S = 20.0
 
-
-@pytest.fixture(scope="module")
-def vehicle(inst):
-    with (
-        Stack(instance=inst, speed="max") as stack,
-        SimClient(ports.sim_component_port(inst)) as truth,
-        VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
-    ):
-        truth.wait_connected()
-        yield client, truth
+flight = stepped_flight_fixture()  # one stack, flown in simulated time (tests/e2e_flight_helpers.py)
 
 
-def take_off(client: VehicleClient, truth: SimClient):
-    """Arm, take off to ALT_M (unless already holding there), settle 2 s; the truth sample of the hover point."""
-    if not (client.armed() and client.mode_name() == "LOITER"):
-        client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
-        client.arm().check()
-        client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
-    client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
-    client.wait_sim_time(2.0)
-    return truth.latest()
+def baro_healthy(f: SteppedFlight) -> bool:
+    return bool(f.client.latest("SYS_STATUS").onboard_control_sensors_health & BARO_BIT)
 
 
-def baro_healthy(client: VehicleClient) -> bool:
-    return bool(client.latest("SYS_STATUS").onboard_control_sensors_health & BARO_BIT)
+def text_seen(f: SteppedFlight, index: int, fragment: str, max_s: float) -> None:
+    """Until a STATUSTEXT containing ``fragment`` has come (after the first ``index``), within ``max_s``."""
+    f.until(lambda: any(fragment in t for t in texts_since(f.client, index)), max_s, repr(fragment))
 
 
-def drift(client: VehicleClient, truth: SimClient, rate_m_s: float) -> float:
-    """Set the barometer's drift rate; the vehicle time it took effect (s)."""
-    truth.set("SIM_BARO_DRIFT", rate_m_s)
-    return client.sim_time_s()
+def vertical_excursion(f: SteppedFlight, hold) -> float:
+    """How far the true vehicle went up or down from the hover point since it, m."""
+    return max(abs(s.pos_ned_m[2] - hold.pos_ned_m[2]) for s in f.truth_since(hold.time_ms))
 
 
-def test_a_gps_height_glitch_is_blamed_on_the_gps_not_the_barometer(vehicle):
+def test_a_gps_height_glitch_is_blamed_on_the_gps_not_the_barometer(flight):
     """The GPS height jumps 8 m (SIM_GPS_GLITCH_D) while its velocity does not: the GPS is at fault, the
     barometer stays the height reference and the vehicle does not move."""
-    client, truth = vehicle
-    hold = take_off(client, truth)
-    n = len(client.statustexts)
-    truth.set("SIM_GPS_GLITCH_D", 8.0)
+    f = flight
+    hold = f.take_off(ALT_M)
+    n = len(f.client.statustexts)
+    f.set_sim("SIM_GPS_GLITCH_D", 8.0)
     try:
-        wait_text(client, n, "GPS height inconsistent with the barometer")
-        client.wait_sim_time(3.0)
-        assert baro_healthy(client)
+        text_seen(f, n, "GPS height inconsistent with the barometer", 10.0)
+        f.wait(3.0)
+        assert baro_healthy(f)
     finally:
-        truth.set("SIM_GPS_GLITCH_D", 0.0)
-    wait_text(client, n, "GPS height consistent again")
-    moved = max(abs(s.pos_ned_m[2] - hold.pos_ned_m[2]) for s in truth.since(hold.time_ms))
-    assert moved < 0.5, f"moved {moved:.1f} m vertically ({texts_since(client, n)})"
-    assert not any("Barometer" in t for t in texts_since(client, n))
+        f.set_sim("SIM_GPS_GLITCH_D", 0.0)
+    text_seen(f, n, "GPS height consistent again", 20.0)
+    record_figure("gps_glitch_vertical_m", vertical_excursion(f, hold), 0.5, unit="m")
+    assert not any("Barometer" in t for t in texts_since(f.client, n))
 
 
-def test_a_stuck_barometer_is_found_and_the_height_held_on_gps(vehicle):
+def test_a_stuck_barometer_is_found_and_the_height_held_on_gps(flight):
     """A frozen barometer (SIM_BARO_STUCK) fails its stale-data check within a second; the GPS height
     then holds the vehicle's altitude for as long as it lasts."""
-    client, truth = vehicle
-    hold = take_off(client, truth)
-    n = len(client.statustexts)
-    truth.set("SIM_BARO_STUCK", 1)
+    f = flight
+    hold = f.take_off(ALT_M)
+    n = len(f.client.statustexts)
+    f.set_sim("SIM_BARO_STUCK", 1)
     try:
-        wait_text(client, n, "Barometer failed: stale data")
-        client.wait_sim_time(8.0)
-        moved = max(abs(s.pos_ned_m[2] - hold.pos_ned_m[2]) for s in truth.since(hold.time_ms))
-        assert moved < 0.5, f"moved {moved:.1f} m vertically on the GPS height ({texts_since(client, n)})"
-        assert not baro_healthy(client)
+        text_seen(f, n, "Barometer failed: stale data", 2.0)
+        f.wait(8.0)
+        record_figure("baro_stuck_vertical_m", vertical_excursion(f, hold), 0.5, unit="m")
+        assert not baro_healthy(f)
     finally:
-        truth.set("SIM_BARO_STUCK", 0)
-    wait_text(client, n, "Barometer healthy again")
+        f.set_sim("SIM_BARO_STUCK", 0)
+    text_seen(f, n, "Barometer healthy again", 20.0)
 
 
-def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(vehicle):
+def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(flight):
     """Issue 18 finding 9: the barometer reads higher and higher; before the fix the vehicle sank to the
     ground in silence.  Now it is failed once its disagreement with the GPS height passes EKF2_BARO_GATE
     (5 SD: about 1.3 m here), and the vehicle climbs back onto its hover point on the GPS height."""
-    client, truth = vehicle
-    hold = take_off(client, truth)
-    n = len(client.statustexts)
-    started = drift(client, truth, DRIFT_M_S)
+    f = flight
+    hold = f.take_off(ALT_M)
+    n = len(f.client.statustexts)
+    f.set_sim("SIM_BARO_DRIFT", DRIFT_M_S)
     try:
-        client.wait_sim_time(DRIFT_S)
-        during = truth.since(hold.time_ms)
-        sink = max(s.pos_ned_m[2] - hold.pos_ned_m[2] for s in during)  # m, + is below the hover point
-        now = truth.latest().pos_ned_m[2] - hold.pos_ned_m[2]
-        texts = texts_since(client, n)
+        f.wait(DRIFT_S)
+        sink = max(s.pos_ned_m[2] - hold.pos_ned_m[2] for s in f.truth_since(hold.time_ms))  # m, + is below
+        now = f.truth_now().pos_ned_m[2] - hold.pos_ned_m[2]
+        texts = texts_since(f.client, n)
         print(f"barometer drifting {DRIFT_M_S} m/s: {texts}; sank at most {sink:.2f} m, now {now:+.2f} m")
         assert any("Barometer failed: inconsistent with GPS height" in t for t in texts), texts
-        assert not baro_healthy(client), "SYS_STATUS still says the barometer is healthy"
-        assert sink < 1.5, f"sank {sink:.1f} m on a barometer {DRIFT_M_S * DRIFT_S:.0f} m wrong ({texts})"
-        assert abs(now) < 0.5, f"{now:+.1f} m (down) from the hover point on the GPS height"
-        assert client.mode_name() == "LOITER" and client.armed()
+        assert not baro_healthy(f), "SYS_STATUS still says the barometer is healthy"
+        record_figure("baro_drift_sink_m", sink, 1.5, unit="m")
+        record_figure("baro_drift_offset_after_m", abs(now), 0.5, unit="m")
+        assert f.client.mode_name() == "LOITER" and f.client.armed()
     finally:
-        back = drift(client, truth, -2 * DRIFT_M_S)  # back twice as fast, half as long: the error undone
-        client.wait_until(lambda: client.sim_time_s() >= back + (back - started) / 2, WAIT_S, "the drift undone")
-        drift(client, truth, 0.0)
-    wait_text(client, n, "Barometer healthy again")
-    client.wait_until(lambda: baro_healthy(client), WAIT_S, "the barometer healthy in SYS_STATUS")
-    client.land().check()
-    client.wait_until(client.landed_and_disarmed, WAIT_S, "landed and disarmed")
+        f.set_sim("SIM_BARO_DRIFT", -2 * DRIFT_M_S)  # back twice as fast, half as long: the error undone
+        f.wait(DRIFT_S / 2)
+        f.set_sim("SIM_BARO_DRIFT", 0.0)
+    text_seen(f, n, "Barometer healthy again", 20.0)
+    f.until(lambda: baro_healthy(f), 10.0, "the barometer healthy in SYS_STATUS")
+    f.land()
 
 
-def test_a_motor_lost_in_a_hover_is_reported_at_once_and_the_wreck_disarmed(vehicle):
+def test_a_motor_lost_in_a_hover_is_reported_at_once_and_the_wreck_disarmed(flight):
     """PX4's defaults: CBRK_FLIGHTTERM 121212 (no flight termination), so the detector reports (CRITICAL
     STATUSTEXT, HEARTBEAT EMERGENCY) and the motors run on while the vehicle falls; on the ground, where
     the position controller would keep its motors at full thrust, it is disarmed (FS_CRASH_CHECK)."""
-    client, truth = vehicle
+    f = flight
+    client = f.client
     assert client.param_get("CBRK_FLIGHTTERM") == 121212
-    hold = take_off(client, truth)
+    hold = f.take_off(ALT_M)
     n = len(client.statustexts)
     with Recorder(client, ("HEARTBEAT",)) as rec:
-        t0 = client.sim_time_s()
-        truth.set("SIM_ENGINE_FAIL", 1)
+        t0 = f.set_sim("SIM_ENGINE_FAIL", 1)
         try:
-            client.wait_until(lambda: truth.latest().pos_ned_m[2] > -0.3, WAIT_S, "on the ground")
-            t_ground = client.sim_time_s()
-            client.wait_sim_time(5.0)
+            f.until(lambda: f.truth_now().pos_ned_m[2] > -0.3, 20.0, "on the ground", every_s=0.05)
+            t_ground = f.now_s
+            f.wait(5.0)
         finally:
-            truth.set("SIM_ENGINE_FAIL", 0)
+            f.set_sim("SIM_ENGINE_FAIL", 0)
     texts = texts_since(client, n)
     found = [st for st in client.statustexts[n:] if st.text.startswith("Critical failure detected")]
     assert found, f"no failure reported ({texts})"
@@ -168,10 +145,14 @@ def test_a_motor_lost_in_a_hover_is_reported_at_once_and_the_wreck_disarmed(vehi
     assert found[0].severity == mavlink.MAV_SEVERITY_CRITICAL
     if "thrust loss" in found[0].text:  # (upright: the mixer's outputs name the motor; flipped: roll or pitch)
         assert "likely motor 1" in found[0].text, found[0].text
-    assert found[0].sim_time_s - t0 < 2.0, f"found {found[0].sim_time_s - t0:.1f} s after the motor stopped"
+    record_figure("motor_loss_found_after_s", found[0].sim_time_s - t0, 2.0, unit="s")
     assert disarmed is not None and not client.armed(), f"still armed on the ground ({texts})"
     states = [m.system_status for m in rec.of("HEARTBEAT") if m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED]
     assert mavlink.MAV_STATE_EMERGENCY in states, f"armed HEARTBEAT states: {sorted(set(states))}"
     assert client.latest("HEARTBEAT").system_status == mavlink.MAV_STATE_EMERGENCY  # disarmed by a failsafe
-    fall = truth.since(hold.time_ms)
-    assert max(horizontal(s.pos_ned_m, hold.pos_ned_m) for s in fall) < 5.0, "no fly-away"
+    record_figure(
+        "motor_loss_drift_m",
+        max(horizontal(s.pos_ned_m, hold.pos_ned_m) for s in f.truth_since(hold.time_ms)),
+        5.0,
+        unit="m",
+    )
