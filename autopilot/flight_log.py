@@ -42,6 +42,8 @@ from pathlib import Path
 
 from mavsim_core.npy_log import NpyLogWriter
 
+from .control.position_control import PositionSetpoint
+
 SUFFIX = ".fc.npy"
 
 _SETPOINT_FIELDS = (
@@ -81,6 +83,7 @@ _ESTIMATE_FIELDS = (
     "rate_r_rad_s",
 )
 _NO_SETPOINT = (math.nan,) * len(_SETPOINT_FIELDS)
+_NO_POSITION_LOOP = (math.nan,) * 10  # position, velocity, acceleration and yaw setpoints: attitude flown
 _NO_POS_VEL = (math.nan,) * 6
 
 
@@ -154,8 +157,11 @@ class FlightLogWriter:
                 thrust_sp = math.sqrt(x * x + y * y + z * z) / self.max_thrust_n
             else:
                 thrust_sp = math.nan
-            setpoints = [*sp.pos_ned_m.tolist(), *pc.vel_sp.tolist(), *pc.acc_sp.tolist(), sp.yaw_rad,
-                         *fc.q_sp.tolist(), *fc.rate_sp.tolist(), thrust_sp]  # fmt: skip
+            if isinstance(sp, PositionSetpoint):
+                head = (*sp.pos_ned_m.tolist(), *pc.vel_sp.tolist(), *pc.acc_sp.tolist(), sp.yaw_rad)
+            else:  # an attitude or body rates flown (AttitudeSetpoint): no position-loop setpoints
+                head = _NO_POSITION_LOOP
+            setpoints = [*head, *fc.q_sp.tolist(), *fc.rate_sp.tolist(), thrust_sp]
         else:
             setpoints = _NO_SETPOINT
         est = fc.estimator

@@ -27,6 +27,7 @@ from autopilot import flight_log, flight_recorder  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
 from autopilot.param_catalogue import default_store
+from autopilot.topics import AttitudeSetpoint  # noqa: E402
 from mavsim_core import tlog  # noqa: E402
 from mavsim_core.npy_log import NpyLogWriter, read_npy_log  # noqa: E402
 from mavsim_core.quaternion import from_euler  # noqa: E402
@@ -168,6 +169,24 @@ def test_control_log_round_trip(tmp_path):
     assert fly["thrust_sp"] == pytest.approx(13.7 / max_thrust, rel=1e-5)
     assert [fly[f"motor_{i}"] for i in range(4)] == pytest.approx([0.5, 0.55, 0.6, 0.65])
     assert fly["q_w"] == pytest.approx(1.0)  # the estimator has not moved
+
+
+def test_control_log_goes_on_while_an_attitude_is_flown(tmp_path):
+    """Offboard attitude or body rates (an AttitudeSetpoint, no position): NaN position-loop setpoints, the
+    attitude and rate setpoints logged, and the log goes on (it stopped on the first such row, losing the rest
+    of the flight: "flight logging stopped: AttributeError", seen in an offboard e2e flight's autopilot.log)."""
+    fc = _flight_controller()
+    w = flight_log.FlightLogWriter(tmp_path / "x.fc.npy", fc)
+    _fly(fc, 4000)
+    fc.setpoint = AttitudeSetpoint(from_euler(0.1, 0.0, 0.0), None, 0.6)
+    w.record()
+    _fly(fc, 8000)
+    w.record()
+    w.close()
+    attitude, position = np.load(tmp_path / "x.fc.npy")
+    assert all(math.isnan(attitude[f]) for f in ("pos_sp_n_m", "vel_sp_e_m_s", "acc_sp_d_m_s2", "yaw_sp_rad"))
+    assert [attitude[f"q_sp_{c}"] for c in "wxyz"] == pytest.approx(list(fc.q_sp), abs=1e-6)
+    assert position["time_us"] == 8000 and position["pos_sp_d_m"] == -5.0
 
 
 def test_npy_log_survives_an_abrupt_kill(tmp_path):

@@ -1,0 +1,193 @@
+"""Flake hunt: run chosen tests N times, under load, and print each test's failures and its figures' spread.
+
+A test that fails once on correct code is a broken test.  This runs the selection (default: every end-to-end
+test, ``-m e2e``) ``--runs`` times through pytest, each run a whole pytest invocation with the suite's own
+options (pytest-xdist, ``--dist loadfile``), ``--parallel`` runs at a time (2: two suites side by side, as a
+loaded CI machine sees) and ``--load`` extra processes spinning on the CPU meanwhile.  Every run writes a
+JUnit XML file (which tests failed, and why) and the figures the tests assert through
+``record_figure`` (tests/e2e_flight_helpers.py: ``E2E_FIGURES`` points each run at its own file).
+
+It prints, per test: runs, failures (with the first line of each distinct failure) and, per figure, its
+minimum, median and maximum over the runs, its limit and the margin of the worst run to the limit.  With
+``--seeds`` run k flies with simulator seed k (``E2E_SEED``): the flights in simulated time are then exactly
+reproducible within a seed, and the spread over seeds is the spread of the sensors' noise, which is what a
+limit must allow for.  ``--markdown`` prints the tables as Markdown (docs/testing.md holds the last ones).
+
+Usage:
+    python benchmarks/flake_hunt.py --runs 20 --parallel 2                       # the whole e2e set
+    python benchmarks/flake_hunt.py --runs 20 --seeds tests/test_e2e_failure_detection.py
+    python benchmarks/flake_hunt.py --runs 5 --load 1 -k drifting tests/test_e2e_failure_detection.py
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+from collections import defaultdict
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+from _cli import parser
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _spin() -> None:  # a load process: one core busy until killed
+    while True:
+        pass
+
+
+def run_once(k: int, args, out: Path) -> tuple[int, float, str]:
+    """Run pytest once (run ``k``); (exit status, wall seconds, the summary line)."""
+    env = dict(os.environ)
+    env["E2E_FIGURES"] = str(out / f"figures-{k}.jsonl")
+    if args.seeds:
+        env["E2E_SEED"] = str(args.first_seed + k)
+    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--junitxml={out / f'run-{k}.xml'}"]
+    if args.jobs is not None:
+        cmd += ["-n", str(args.jobs)]
+    if args.k:
+        cmd += ["-k", args.k]
+    cmd += args.tests or ["-m", "e2e", "tests"]
+    t0 = time.monotonic()
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    lines = [ln for ln in done.stdout.splitlines() if ln.strip()]
+    return done.returncode, time.monotonic() - t0, lines[-1] if lines else done.stderr[-300:]
+
+
+def read_results(out: Path, runs: int):
+    """Per test node id: (passed, failed, [distinct first lines of failures], [wall seconds])."""
+    tests: dict[str, dict] = defaultdict(lambda: {"passed": 0, "failed": 0, "why": [], "times": []})
+    for k in range(runs):
+        path = out / f"run-{k}.xml"
+        if not path.exists():
+            continue
+        for case in ET.parse(path).getroot().iter("testcase"):
+            node = f"{case.get('classname', '').replace('.', '/')}.py::{case.get('name')}"
+            t = tests[node]
+            bad = [c for c in case if c.tag in ("failure", "error")]
+            if any(c.tag == "skipped" for c in case):
+                continue
+            t["times"].append(float(case.get("time", 0.0)))
+            if bad:
+                t["failed"] += 1
+                first = (bad[0].get("message") or bad[0].text or "").strip().splitlines()
+                why = f"run {k}: {first[0][:160] if first else bad[0].tag}"
+                t["why"].append(why)
+            else:
+                t["passed"] += 1
+    return tests
+
+
+def read_figures(out: Path, runs: int):
+    """Per (test, figure name): the values over the runs, the limit, below-or-above, unit."""
+    figures: dict[tuple[str, str], dict] = {}
+    for k in range(runs):
+        path = out / f"figures-{k}.jsonl"
+        if not path.exists():
+            continue
+        for line in path.read_text().splitlines():
+            try:
+                f = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            key = (f["test"], f["name"])
+            entry = figures.setdefault(key, {"values": [], "limit": f["limit"], "below": f["below"], "unit": f["unit"]})
+            entry["values"].append(float(f["value"]))
+    return figures
+
+
+def margin(entry) -> float:
+    """How far the worst run is from the limit, as a fraction of the limit's distance from zero (+: inside)."""
+    values, limit = entry["values"], entry["limit"]
+    worst = max(values) if entry["below"] else min(values)
+    return (limit - worst) / abs(limit) if entry["below"] else (worst - limit) / abs(limit)
+
+
+def report(tests, figures, runs: int, markdown: bool) -> str:
+    out: list[str] = []
+    bar = "|" if markdown else " "
+    failing = {n: t for n, t in tests.items() if t["failed"]}
+    total_failures = sum(t["failed"] for t in tests.values())
+    out.append(
+        f"{len(tests)} tests, {runs} runs: {total_failures} failures in {len(failing)} tests"
+        + ("" if not failing else ": " + ", ".join(sorted(failing)))
+    )
+    out.append("")
+    head = ["test", "passed", "failed", "wall s (median, max)"]
+    if markdown:
+        out += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for node in sorted(tests):
+        t = tests[node]
+        times = t["times"] or [0.0]
+        row = [node, str(t["passed"]), str(t["failed"]), f"{statistics.median(times):.1f}, {max(times):.1f}"]
+        out.append((f"{bar} " + f" {bar} ".join(row) + f" {bar}") if markdown else "  ".join(row))
+        for why in t["why"]:
+            out.append(f"{bar}   {why}" if markdown else f"    {why}")
+    if figures:
+        out += ["", "Figures the tests assert (record_figure):", ""]
+        head = ["test", "figure", "runs", "min", "median", "max", "limit", "worst's margin"]
+        if markdown:
+            out += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for (node, name), e in sorted(figures.items()):
+            v = e["values"]
+            op = "<" if e["below"] else ">"
+            row = [
+                node.split("::")[-1][:60],
+                name,
+                str(len(v)),
+                f"{min(v):.4g}",
+                f"{statistics.median(v):.4g}",
+                f"{max(v):.4g}",
+                f"{op} {e['limit']:g} {e['unit']}".strip(),
+                f"{100 * margin(e):.0f} %",
+            ]
+            out.append((f"{bar} " + f" {bar} ".join(row) + f" {bar}") if markdown else "  ".join(row))
+    return "\n".join(out)
+
+
+def main() -> int:
+    ap = parser(__doc__)
+    ap.add_argument("tests", nargs="*", help="pytest paths or node ids (default: -m e2e tests)")
+    ap.add_argument("--runs", type=int, default=20, help="how many times to run the selection")
+    ap.add_argument("--parallel", type=int, default=1, help="runs at a time (2: two suites side by side)")
+    ap.add_argument("--load", type=int, default=0, help="extra processes spinning on the CPU meanwhile")
+    ap.add_argument("--jobs", default=None, help="pytest-xdist workers of each run (default: the suite's -n auto)")
+    ap.add_argument("-k", default=None, help="pytest's -k expression")
+    ap.add_argument("--seeds", action="store_true", help="run k flies with simulator seed FIRST_SEED + k")
+    ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=None, help="keep each run's JUnit XML and figures here")
+    ap.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
+    args = ap.parse_args()
+    out = args.out or Path(tempfile.mkdtemp(prefix="flake-hunt-"))
+    out.mkdir(parents=True, exist_ok=True)
+    import multiprocessing
+
+    spinners = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(args.load)]
+    for p in spinners:
+        p.start()
+    t0 = time.monotonic()
+    try:
+        with ThreadPoolExecutor(max(1, args.parallel)) as pool:
+            futures = [pool.submit(run_once, k, args, out) for k in range(args.runs)]
+            for k, fut in enumerate(futures):
+                status, wall, summary = fut.result()
+                print(f"run {k}: exit {status} in {wall:.0f} s: {summary}", file=sys.stderr, flush=True)
+    finally:
+        for p in spinners:
+            p.terminate()
+    print(f"{args.runs} runs, {args.parallel} at a time, {args.load} load processes: {time.monotonic() - t0:.0f} s")
+    print(f"(JUnit XML and figures in {out})")
+    tests, figures = read_results(out, args.runs), read_figures(out, args.runs)
+    print(report(tests, figures, args.runs, args.markdown))
+    return 1 if any(t["failed"] for t in tests.values()) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
