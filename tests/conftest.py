@@ -108,6 +108,10 @@ def pytest_configure(config):
     import e2e_diagnostics
 
     e2e_diagnostics.install()
+    if not hasattr(config, "workerinput"):  # the run's main process (xdist's controller, or -n0's only one)
+        from mavproxy_env import prepare_in_background
+
+        prepare_in_background()  # MAVProxy's environment made beside the unit tests (tests/mavproxy_env.py)
 
 
 def pytest_runtest_setup(item):

@@ -3,11 +3,13 @@
 MAVProxy 1.8.75 requires opencv-python (with vtk and matplotlib) on Linux, and the project needs
 opencv-python-headless: both install the same ``cv2`` package, so in one environment whichever is
 installed last wins (pip sees two names, no conflict) and the GUI build, which needs libGL, can
-replace the headless one.  MAVProxy is therefore not in the test extras: the first test that runs it
-makes a virtual environment with ``pip install --no-deps`` of the packages MAVProxy really imports
-(tests/mavproxy-requirements.txt, about a minute, once), next to the project's one
-(``<venv>/mavproxy``; ``~/.cache/mavsim/mavproxy`` outside a virtual environment).  It is reused
-while the requirements file is unchanged; parallel test workers wait for the one making it.
+replace the headless one.  MAVProxy is therefore not in the test extras: the test command makes a
+virtual environment with ``pip install --no-deps`` of the packages MAVProxy really imports
+(tests/mavproxy-requirements.txt, 10-20 s), once per machine, user and requirements: it lives in the user's
+cache (``~/.cache/mavsim/mavproxy-<python>-<hash of the requirements>``, ``XDG_CACHE_HOME`` respected), so a
+fresh clone reuses it.  ``tests/conftest.py`` starts making it in the background as the run starts
+(:func:`prepare_in_background`), beside the unit tests; a test that needs it waits for it (a file lock,
+which parallel test workers and concurrent runs share).
 """
 
 from __future__ import annotations
@@ -24,10 +26,27 @@ INSTALL_TIMEOUT_S = 900.0  # wall seconds for pip (a slow mirror); a safety net 
 
 
 def venv_dir() -> Path:
-    """Where the MAVProxy environment lives."""
-    if sys.prefix != sys.base_prefix:  # the project's virtual environment
-        return Path(sys.prefix) / "mavproxy"
-    return Path.home() / ".cache" / "mavsim" / "mavproxy"
+    """Where the MAVProxy environment lives (see the module docstring)."""
+    import hashlib
+    import os
+
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    key = hashlib.sha256(REQUIREMENTS.read_bytes()).hexdigest()[:12]
+    return cache / "mavsim" / f"mavproxy-py{sys.version_info[0]}.{sys.version_info[1]}-{key}"
+
+
+def prepare_in_background() -> None:
+    """Make the environment (if it is not there yet) in a background thread: the first test that needs it then
+    finds it made, or waits for the rest.  A failure is left for that test to report."""
+    import threading
+
+    def make() -> None:
+        try:
+            mavproxy_command()
+        except Exception:  # noqa: BLE001 - mavproxy_command raises it again in the test that needs it
+            mavproxy_command.cache_clear()
+
+    threading.Thread(target=make, name="mavproxy-venv", daemon=True).start()
 
 
 def _make(root: Path) -> None:
