@@ -82,7 +82,7 @@ class HeldService:
         ``now_us``, the latest sensor time); True if the simulator link has something to read."""
         socks = [sim.sock] + [ep.sock for ep in self.link.endpoints]
         readable, _, _ = select.select(socks, [], [], HELD_SLICE_S)
-        self.link.poll(now_us)
+        self.link.serve_held(now_us)
         self.send_heartbeat_if_due(time.monotonic())
         return sim.sock in readable
 

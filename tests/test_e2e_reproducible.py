@@ -20,6 +20,8 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 from sitl.ugv_paths import Pose2
 
+from e2e_flight_helpers import stepped_flight_fixture  # tests/e2e_flight_helpers.py
+
 pytestmark = pytest.mark.e2e
 
 WAIT_S = 240.0  # wall-clock safety net
@@ -64,3 +66,21 @@ def test_the_same_landing_on_two_stacks_gives_identical_results(free_instance):
         common = set(mine) & set(theirs)
         assert len([t for t in common if t <= end_ms]) > 0.5 * end_ms / 20  # 50 Hz, UDP may drop a few
         assert all(mine[t] == theirs[t] for t in common)
+
+
+flight = stepped_flight_fixture()  # a stack held from 0.1 s (tests/e2e_flight_helpers.py)
+
+
+def test_a_held_vehicle_answers_the_parameter_protocol_and_stays_held(flight):
+    """While the simulator holds, a ground station sets, reads and lists parameters as it would in flight (a
+    stepped test changes a gain between two steps): the set is echoed, the read answered, the whole list sent,
+    and the world has not moved a step meanwhile."""
+    f = flight
+    f.ready()
+    held_ms = f.now_ms
+    echoed = f.client.param_set("MIS_TAKEOFF_ALT", 3.5, timeout_s=10)
+    assert echoed == pytest.approx(3.5)
+    assert f.client.param_get("MIS_TAKEOFF_ALT", timeout_s=10) == pytest.approx(3.5)
+    assert len(f.client.param_list(timeout_s=30)) > 100
+    assert f.truth.held_ms == held_ms and f.truth.latest().time_ms == held_ms  # nothing stepped
+    f.client.param_set("MIS_TAKEOFF_ALT", 2.5, timeout_s=10)

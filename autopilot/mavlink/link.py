@@ -245,6 +245,20 @@ class GcsLink:
             for ep in self._endpoints:
                 ep.flush()
 
+    def serve_held(self, now_us: int) -> None:
+        """While the simulator holds (``autopilot/lockstep_loop.py``): :meth:`poll`, then the parameter service,
+        so a PARAM_SET is echoed, a read of a value being saved answered and a list continued during the hold
+        (they would wait for the next :meth:`update`, which no step comes to run).  Nothing here streams, and
+        nothing it sends changes what the vehicle does: a held run stays the same whatever the hold's length."""
+        self.poll(now_us)
+        for ep in self._endpoints:
+            ep.begin_batch()
+        try:
+            self._params.update(self._endpoints)
+        finally:
+            for ep in self._endpoints:
+                ep.flush()
+
     def _receive(self, poll: bool = False) -> None:
         """Drain both sockets: what is for us within a time budget, past it commands only (rx_drain)."""
         self._rx.drain(poll)
