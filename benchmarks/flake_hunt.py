@@ -161,7 +161,7 @@ def main() -> int:
     ap.add_argument("--jobs", default=None, help="pytest-xdist workers of each run (default: the suite's -n auto)")
     ap.add_argument("-k", default=None, help="pytest's -k expression")
     ap.add_argument("--seeds", action="store_true", help="run k flies with simulator seed FIRST_SEED + k")
-    ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--first-seed", type=int, default=1, help="the seed of run 0 with --seeds")
     ap.add_argument("--out", type=Path, default=None, help="keep each run's JUnit XML and figures here")
     ap.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
     args = ap.parse_args()

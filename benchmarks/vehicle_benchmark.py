@@ -22,6 +22,11 @@ Errors are ground truth (the simulator's LOCAL_POSITION_NED, float metres) again
 the commanded point.  Real-time factor = simulated seconds / wall seconds over the
 windy hover (all effects on) and over the whole flight.
 
+Each flight goes through the simulator's holds (the kind's module docstring): the same ``--seed``
+gives the same figures to the last digit whatever the machine's load, the real-time factors aside
+(wall-clock, the holds' round trips included); ``--sim-param SIM_HOLD_MS=0`` flies with the simulator
+running free instead.
+
 The vehicles fly one after another (``--jobs 1``, so the real-time factors are those of one stack
 alone on the machine); a progress bar (stderr) counts the flights.
 
