@@ -205,6 +205,11 @@ class LockstepServer:
             out += self._battery_status()
         if self.companion is not None:  # LANDING_TARGET whose simulated latency has passed
             out += self.companion.step(sim.data, time_us)
+        if self.ugv_radio is not None and time_us % TRUTH_PERIOD_US == 0:
+            # The UGV's FOLLOW_TARGET (UDP) before the period's sensors (TCP): on loopback the datagram is in the
+            # flight controller's socket when the HIL_SENSOR that starts its step arrives, so the same step reads
+            # it in every run (sent after, which step read it depended on the machine's load).
+            self.ugv_radio.step(time_us, sim.ugv_truth)
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
         out += _HIL_SENSOR.encode(
             self.mav,
@@ -282,8 +287,6 @@ class LockstepServer:
         truth, which gives the truth port's position, velocity and rate (None: all from ``sim.truth()``)."""
         if time_us >= self.events.next_us:
             self._apply_events(time_us)
-        if self.ugv_radio is not None:
-            self.ugv_radio.step(time_us, self.sim.ugv_truth)
         server = self.param_server
         if server is not None:
             if t is None:
