@@ -219,8 +219,18 @@ class SteppedFlight:
     (:class:`gcs.launcher.sim_stepper.SimTimeout`); wall time only bounds each slice (a dead process).
     """
 
-    def __init__(self, client: VehicleClient, truth, stepper) -> None:
-        self.client, self.truth, self.step = client, truth, stepper
+    def __init__(self, client: VehicleClient, truth, stepper, stack=None) -> None:
+        self.client, self.truth, self.step, self.stack = client, truth, stepper, stack
+        self.free = False  # the hold lifted for good (:meth:`run_free`)
+
+    def run_free(self) -> None:
+        """Lift the hold for good: the simulation runs on at full speed, for the tests of a file that come after
+        its stepped flights and drive clients in wall time (MAVSDK, the ``gcs`` command line)."""
+        self.step.release(run_free=True)
+        self.free = True
+
+    def _check_held(self) -> None:
+        assert not self.free, "a stepped flight after the hold was lifted (run_free): the file's order"
 
     @property
     def now_s(self) -> float:
@@ -232,9 +242,11 @@ class SteppedFlight:
         return self.step.time_ms
 
     def wait(self, seconds: float) -> None:
+        self._check_held()
         self.step.advance(seconds)
 
     def until(self, predicate, max_s: float, what: str, every_s: float = 0.1):
+        self._check_held()
         return self.step.run_until(predicate, max_s, what, check_every_s=every_s)
 
     def truth_now(self):
@@ -306,6 +318,6 @@ def stepped_flight_fixture(params: dict[str, float] | None = None, sim_params: d
         ):
             stepper = SimStepper(client, truth, timeout_s=WAIT_S)
             stepper.start()
-            yield SteppedFlight(client, truth, stepper)
+            yield SteppedFlight(client, truth, stepper, stack)
 
     return flight

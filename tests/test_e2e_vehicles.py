@@ -1,14 +1,21 @@
 """End-to-end: both vehicles of the source documents fly from their files, in wind, with failures.
 
 The real ``sitl`` and ``autopilot`` processes (``gcs.launcher.Stack``, ``--speed max``),
-a ground-station client on the API port, and :class:`gcs.sim_client.SimClient` on
-the simulator's own port (ground truth, and the ``SIM_*`` parameters a user sets
-from MAVProxy).  Durations are simulated seconds; wall-clock values are only
-"give up waiting" timeouts.  Instances: free ones (``free_instance``, tests/conftest.py).
+a ground-station client (:class:`gcs.client.VehicleClient`), and :class:`gcs.sim_client.SimClient` on
+the simulator's own port (ground truth, and the ``SIM_*`` parameters a user sets from MAVProxy).  One
+stack per vehicle or scenario: the Firefly hexacopter (module scope, its tests in file order) and the
+quadcopter started with ``sitl --scenario windy``.
+
+Flown in simulated time (issue 33): the simulator starts held and the test moves the hold on
+(:class:`e2e_flight_helpers.SteppedFlight`), every command and ``SIM_*`` parameter is sent between two
+steps, so every figure (a hold error, a roll angle, a heading change) is the same in every run;
+wall-clock values are only "give up waiting" timeouts.  Instances: free ones (``free_instance``,
+tests/conftest.py).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -16,20 +23,43 @@ import pytest
 
 from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
+from gcs.launcher.sim_stepper import SimStepper
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
+from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
+    START_HOLD_MS,
+    WAIT_S,
+    Recorder,
+    SteppedFlight,
+    record_figure,
+    sim_seed,
+)
+
 pytestmark = pytest.mark.e2e
-WAIT_S = 120.0
 ALT_M = 5.0
 
 
-def hold_errors(client: VehicleClient, truth: SimClient, point: np.ndarray, seconds: float) -> np.ndarray:
-    """Truth minus ``point`` (NED, truth frame) over ``seconds`` of simulated time."""
-    client.pump(0.05)
-    t0 = truth.latest().time_ms
-    client.wait_sim_time(seconds)
-    samples = [s for s in truth.since(t0) if s.time_ms <= t0 + seconds * 1000]
+@contextlib.contextmanager
+def stepped_flight(inst: int, vehicle: str, sim_args: tuple[str, ...] = ()):
+    """A :class:`SteppedFlight` of ``vehicle`` on instance ``inst`` (as ``stepped_flight_fixture``, which
+    flies only the default vehicle); ``sim_args``: more ``sitl`` arguments (``--scenario``, ``--param``)."""
+    args = [*sim_args, "--param", f"SIM_HOLD_MS={START_HOLD_MS}"]
+    with (
+        SimClient(ports.sim_component_port(inst)) as truth,
+        Stack(inst, "max", vehicle=vehicle, extra_sitl_args=args, seed=sim_seed()) as stack,
+        VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
+        stepper = SimStepper(client, truth, timeout_s=WAIT_S)
+        stepper.start()
+        yield SteppedFlight(client, truth, stepper)
+
+
+def hold_errors(f: SteppedFlight, point: np.ndarray, seconds: float) -> np.ndarray:
+    """Truth minus ``point`` (NED, truth frame) over the next ``seconds`` of simulated time."""
+    t0 = f.now_ms
+    f.wait(seconds)
+    samples = f.truth_since(t0)
     assert len(samples) > 40 * seconds  # truth at 50 Hz
     return np.array([np.array(s.pos_ned_m) - point for s in samples])
 
@@ -38,47 +68,42 @@ def rms(a) -> float:
     return float(np.sqrt(np.mean(np.square(a))))
 
 
-def take_off(client: VehicleClient, truth: SimClient) -> np.ndarray:
-    """Arm, take off to ALT_M, settle; return the truth point it should hold (NED)."""
-    client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
-    truth.wait_connected()
-    start = np.array(truth.latest().pos_ned_m)
-    client.arm().check()
-    client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
-    client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
-    client.wait_sim_time(3.0)
+def take_off(f: SteppedFlight) -> np.ndarray:
+    """Arm, take off to ALT_M, settle 3 s; return the truth point it should hold (NED): ALT_M above its start."""
+    f.ready()
+    start = np.array(f.truth_now().pos_ned_m)
+    f.take_off(ALT_M, settle_s=3.0)
     return start + np.array([0.0, 0.0, -ALT_M])
 
 
-def land(client: VehicleClient) -> None:
-    client.land().check()
-    client.wait_until(client.landed_and_disarmed, WAIT_S, "landed and disarmed")
+def attitudes(f: SteppedFlight, seconds: float) -> list:
+    """The ATTITUDE messages of the next ``seconds`` of simulated time."""
+    with Recorder(f.client, ("ATTITUDE",)) as rec:
+        f.wait(seconds)
+    out = rec.of("ATTITUDE")
+    assert out, "no ATTITUDE"
+    return out
 
 
 @pytest.fixture(scope="module")
 def firefly(free_instance):
-    i = free_instance()
-    with (
-        Stack(instance=i, vehicle="firefly") as stack,
-        SimClient(ports.sim_component_port(i)) as truth,
-        VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
-    ):
-        yield client, truth
+    with stepped_flight(free_instance(), "firefly") as f:
+        yield f
 
 
 def test_firefly_flies_from_its_file_holds_and_reports_its_battery(firefly):
-    client, truth = firefly
-    client.wait_heartbeat()
+    f = firefly
+    client = f.client
     hb = client.latest("HEARTBEAT")
     assert hb.type == mavlink.MAV_TYPE_HEXAROTOR and hb.autopilot == mavlink.MAV_AUTOPILOT_PX4
-    client.wait_until(lambda: client.latest("SYS_STATUS") is not None, WAIT_S, "SYS_STATUS")
+    f.until(lambda: client.latest("SYS_STATUS") is not None, 10.0, "SYS_STATUS")
     v_rest = client.latest("SYS_STATUS").voltage_battery / 1000.0
     assert 11.0 < v_rest < 12.7  # the Firefly's 3S pack, nearly full
 
-    point = take_off(client, truth)
-    err = hold_errors(client, truth, point, 10.0)
-    assert rms(np.hypot(err[:, 0], err[:, 1])) < 0.25
-    assert rms(err[:, 2]) < 0.15
+    point = take_off(f)
+    err = hold_errors(f, point, 10.0)
+    record_figure("firefly_hover_horizontal_rms_m", rms(np.hypot(err[:, 0], err[:, 1])), 0.25, unit="m")
+    record_figure("firefly_hover_vertical_rms_m", rms(err[:, 2]), 0.15, unit="m")
 
     sys_status = client.latest("SYS_STATUS")
     batt = client.latest("BATTERY_STATUS")
@@ -90,71 +115,57 @@ def test_firefly_flies_from_its_file_holds_and_reports_its_battery(firefly):
 def test_sim_wind_set_in_flight_makes_it_lean_into_the_wind_and_hold(firefly):
     """A SIM_* parameter set over the simulator's port acts in flight: 8 m/s from the West pushes
     East, so the vehicle (facing North) rolls left (negative roll) to hold its position."""
-    client, truth = firefly
-    point = np.array(truth.latest().pos_ned_m)
-    rolls_calm = [m.roll for m in collect(client, "ATTITUDE", 2.0)]
-    assert abs(np.mean(rolls_calm)) < math.radians(1.5)
-    assert truth.set("SIM_WIND_DIR", 270.0) == 270.0
-    assert truth.set("SIM_WIND_SPD", 8.0) == 8.0
-    client.wait_sim_time(6.0)
-    rolls_windy = [m.roll for m in collect(client, "ATTITUDE", 3.0)]
-    assert np.mean(rolls_windy) < math.radians(-3.0)
-    err = np.array(truth.latest().pos_ned_m) - point
-    assert math.hypot(err[0], err[1]) < 1.0
+    f = firefly
+    point = np.array(f.truth_now().pos_ned_m)
+    rolls_calm = [m.roll for m in attitudes(f, 2.0)]
+    record_figure("firefly_calm_mean_roll_deg", abs(math.degrees(np.mean(rolls_calm))), 1.5, unit="deg")
+    assert f.truth.set("SIM_WIND_DIR", 270.0) == 270.0
+    assert f.truth.set("SIM_WIND_SPD", 8.0) == 8.0
+    f.wait(6.0)
+    rolls_windy = [m.roll for m in attitudes(f, 3.0)]
+    record_figure("firefly_wind_8_m_s_mean_roll_deg", math.degrees(np.mean(rolls_windy)), -3.0, unit="deg")
+    err = np.array(f.truth_now().pos_ned_m) - point
+    record_figure("firefly_wind_8_m_s_offset_m", math.hypot(err[0], err[1]), 1.0, unit="m")
 
 
 def test_firefly_holds_position_in_5_m_s_wind_with_gusts(firefly):
-    client, truth = firefly
+    f = firefly
     for name, value in {"SIM_WIND_SPD": 5.0, "SIM_WIND_TURB": 1.0, "SIM_GUST_SPD": 2.0, "SIM_GUST_INT": 5.0}.items():
-        truth.set(name, value)
-    point = np.array(truth.latest().pos_ned_m)
-    client.wait_sim_time(8.0)
-    err = hold_errors(client, truth, point, 20.0)
-    assert rms(np.hypot(err[:, 0], err[:, 1])) < 0.5
-    assert rms(err[:, 2]) < 0.3
+        f.set_sim(name, value)
+    point = np.array(f.truth_now().pos_ned_m)
+    f.wait(8.0)
+    err = hold_errors(f, point, 20.0)
+    record_figure("firefly_gusts_horizontal_rms_m", rms(np.hypot(err[:, 0], err[:, 1])), 0.5, unit="m")
+    record_figure("firefly_gusts_vertical_rms_m", rms(err[:, 2]), 0.3, unit="m")
     for name in ("SIM_WIND_SPD", "SIM_WIND_TURB", "SIM_GUST_SPD"):
-        truth.set(name, 0.0)
+        f.set_sim(name, 0.0)
 
 
 def test_hexacopter_survives_a_motor_losing_most_of_its_thrust(firefly):
     """Motor 1 at 30 % thrust (SIM_ENGINE_MUL 0.3): survivable, the hexacopter keeps position and
-    heading.  (A motor stopped outright costs the heading: see the next test.)"""
-    client, truth = firefly
-    point = np.array(truth.latest().pos_ned_m)
-    yaw0 = client.latest("ATTITUDE").yaw
-    truth.set("SIM_ENGINE_MUL", 0.3)
-    truth.set("SIM_ENGINE_FAIL", 1)
-    err = hold_errors(client, truth, point, 10.0)
-    assert np.abs(np.hypot(err[:, 0], err[:, 1])).max() < 1.0
-    assert np.abs(err[:, 2]).max() < 0.5
-    assert abs(math.remainder(client.latest("ATTITUDE").yaw - yaw0, 2 * math.pi)) < math.radians(10)
-    land(client)
-    truth.set("SIM_ENGINE_FAIL", 0)
-
-
-def collect(client: VehicleClient, kind: str, seconds: float) -> list:
-    """Messages of one type received over ``seconds`` of simulated time."""
-    out = []
-    t0 = client.sim_time_s()
-    while client.sim_time_s() - t0 < seconds:
-        out += [m for m in client.pump(0.05) if m.get_type() == kind]
-    assert out, f"no {kind}"
-    return out
+    heading, and lands.  (A motor stopped outright costs the heading.)"""
+    f = firefly
+    point = np.array(f.truth_now().pos_ned_m)
+    yaw0 = f.client.latest("ATTITUDE").yaw
+    f.set_sim("SIM_ENGINE_MUL", 0.3)
+    f.set_sim("SIM_ENGINE_FAIL", 1)
+    err = hold_errors(f, point, 10.0)
+    record_figure("firefly_weak_motor_max_horizontal_m", float(np.hypot(err[:, 0], err[:, 1]).max()), 1.0, unit="m")
+    record_figure("firefly_weak_motor_max_vertical_m", float(np.abs(err[:, 2]).max()), 0.5, unit="m")
+    yaw_change = abs(math.remainder(f.client.latest("ATTITUDE").yaw - yaw0, 2 * math.pi))
+    record_figure("firefly_weak_motor_heading_change_deg", math.degrees(yaw_change), 10.0, unit="deg")
+    f.land()
+    f.set_sim("SIM_ENGINE_FAIL", 0)
 
 
 def test_quad_holds_position_in_the_windy_scenario(free_instance):
     """The [Q] quadcopter started with ``sitl --scenario windy`` (5 m/s from the West,
     1 m/s turbulence, 2 m/s gusts)."""
-    i = free_instance()
-    with (
-        Stack(instance=i, vehicle="quad_x", extra_sitl_args=["--scenario", "windy"]) as stack,
-        SimClient(ports.sim_component_port(i)) as truth,
-        VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
-    ):
-        point = take_off(client, truth)
-        assert truth.get("SIM_WIND_SPD") == 5.0
-        client.wait_sim_time(3.0)
-        err = hold_errors(client, truth, point, 10.0)
-        assert rms(np.hypot(err[:, 0], err[:, 1])) < 0.5
-        assert rms(err[:, 2]) < 0.3
-        land(client)
+    with stepped_flight(free_instance(), "quad_x", ("--scenario", "windy")) as f:
+        point = take_off(f)
+        assert f.truth.get("SIM_WIND_SPD") == 5.0
+        f.wait(3.0)
+        err = hold_errors(f, point, 10.0)
+        record_figure("quad_windy_scenario_horizontal_rms_m", rms(np.hypot(err[:, 0], err[:, 1])), 0.5, unit="m")
+        record_figure("quad_windy_scenario_vertical_rms_m", rms(err[:, 2]), 0.3, unit="m")
+        f.land()
