@@ -262,6 +262,12 @@ class Connection:
         if self.on_statustext is not None:
             self.on_statustext(st)
 
+    def keep_alive(self) -> None:
+        """Send the ground station's HEARTBEAT if its period has passed, without reading anything: for a caller
+        that waits on something else for a while (:class:`gcs.launcher.sim_stepper.SimStepper`), so the vehicle
+        does not take the silence for a lost data link."""
+        self._send_gcs_heartbeat_if_due()
+
     def _send_gcs_heartbeat_if_due(self) -> None:
         now = time.monotonic()
         if now - self._last_gcs_heartbeat >= self.heartbeat_period_s:

@@ -206,9 +206,8 @@ class LockstepServer:
         if self.companion is not None:  # LANDING_TARGET whose simulated latency has passed
             out += self.companion.step(sim.data, time_us)
         if self.ugv_radio is not None and time_us % TRUTH_PERIOD_US == 0:
-            # The UGV's FOLLOW_TARGET (UDP) before the period's sensors (TCP): on loopback the datagram is in the
-            # flight controller's socket when the HIL_SENSOR that starts its step arrives, so the same step reads
-            # it in every run (sent after, which step read it depended on the machine's load).
+            # The UGV's FOLLOW_TARGET (UDP) before the sensors (TCP): on loopback it is in the flight controller's
+            # socket when the HIL_SENSOR starting its step arrives, so the same step reads it in every run.
             self.ugv_radio.step(time_us, sim.ugv_truth)
         # HIL_SENSOR last: it closes the period and triggers the flight controller's step.
         out += _HIL_SENSOR.encode(

@@ -7,7 +7,10 @@ STATUSTEXTs, and horizontal distances in metres (NED).
 
 from __future__ import annotations
 
+import contextlib
 import math
+import time
+from typing import Iterator, Sequence
 
 from gcs.client import VehicleClient, mavlink
 from mavsim_core import ports
@@ -245,9 +248,33 @@ class SteppedFlight:
         self._check_held()
         self.step.advance(seconds)
 
-    def until(self, predicate, max_s: float, what: str, every_s: float = 0.1):
+    def until(self, predicate, max_s: float, what: str, every_s: float = 0.1, paced: bool = False, lead_s: float = 0.0):
+        """Advance until ``predicate()``; its value.  ``paced``: the simulation never ahead of the wall clock (from
+        the call, the wall clock ``lead_s`` ahead), for what the flight controller judges on both clocks: an input
+        is lost only once it is silent in simulated *and* wall time (``autopilot.topics.input_age_s``), so slices
+        flown faster than real time would make the moment of a loss depend on the machine; paced, the simulated
+        clock is the later and decides."""
         self._check_held()
+        if paced:
+            wall0, sim0, ready = time.monotonic(), self.now_s, predicate
+
+            def predicate():
+                value = ready()
+                if not value:
+                    time.sleep(max(0.0, wall0 + lead_s + (self.now_s - sim0) - time.monotonic()))
+                return value
+
         return self.step.run_until(predicate, max_s, what, check_every_s=every_s)
+
+    def mode_is(self, name: str, max_s: float = 5.0) -> None:
+        """Until the vehicle reports mode ``name`` (PX4's name: LOITER, OFFBOARD, POSCTL ...)."""
+        self.until(lambda: self.client.mode_name() == name, max_s, f"mode {name}")
+
+    def text_seen(self, index: int, fragment: str, max_s: float = 5.0, every_s: float = 0.1, **pacing) -> None:
+        """Until a STATUSTEXT containing ``fragment`` has come (after the first ``index``); ``pacing``: ``paced``,
+        ``lead_s`` of :meth:`until`."""
+        seen = lambda: any(fragment in t for t in texts_since(self.client, index))  # noqa: E731
+        self.until(seen, max_s, f"a STATUSTEXT with {fragment!r}", every_s, **pacing)
 
     def truth_now(self):
         """The true vehicle at the current hold (arrived before the simulator's "held" report)."""
@@ -258,8 +285,20 @@ class SteppedFlight:
         return [s for s in self.truth.since(time_ms) if s.time_ms <= self.now_ms]
 
     def ready(self, max_s: float = 60.0) -> None:
-        """Until the vehicle may be armed and has a home."""
-        self.until(lambda: self.client.prearm_ok() and self.client.home() is not None, max_s, "ready to arm", 0.5)
+        """Until the vehicle, disarmed, may be armed and has a home, by a SYS_STATUS sent after the call (the one
+        before may be from before a disarm, when the pre-arm bit still read armed's "ready")."""
+        c, fresh = self.client, []
+
+        def listener(msg) -> None:
+            if msg.get_type() == "SYS_STATUS":
+                fresh.append(msg)
+
+        c.add_listener(listener)
+        try:
+            ok = lambda: bool(fresh) and not c.armed() and c.prearm_ok() and c.home() is not None  # noqa: E731
+            self.until(ok, max_s, "ready to arm", 0.5)
+        finally:
+            c.remove_listener(listener)
 
     def take_off(self, alt_m: float, settle_s: float = 2.0, max_s: float = 60.0):
         """Arm, take off to ``alt_m`` above home (unless already holding there), settle; the truth then."""
@@ -291,33 +330,49 @@ def sim_seed() -> int | None:
     return int(value) if value else None
 
 
-def stepped_flight_fixture(params: dict[str, float] | None = None, sim_params: dict[str, float] | None = None):
-    """A module-scoped ``flight`` fixture (:class:`SteppedFlight`) on the module's free instance (``inst``): both
-    processes at full speed, the simulator held from :data:`START_HOLD_MS`; ``params``: flight-controller
-    parameters at start-up (``autopilot --params``), ``sim_params``: the simulator's (``sitl --param``)."""
-    import pytest
-
+@contextlib.contextmanager
+def stepped_flight(
+    inst: int, vehicle: str = "quad_x", sim_args: Sequence[str] = (), fc_args: Sequence[str] = ()
+) -> Iterator[SteppedFlight]:
+    """A :class:`SteppedFlight` of ``vehicle`` on instance ``inst``: both processes at full speed, the simulator
+    held from :data:`START_HOLD_MS`; ``sim_args``, ``fc_args``: more ``sitl`` (``--scenario``, ``--param``) and
+    ``autopilot`` (``--params``) arguments."""
     from gcs.launcher import Stack
     from gcs.launcher.sim_stepper import SimStepper
     from gcs.sim_client import SimClient
 
-    @pytest.fixture(scope="module")
-    def flight(inst, tmp_path_factory):
+    args = [*sim_args, "--param", f"SIM_HOLD_MS={START_HOLD_MS}"]
+    with (
+        SimClient(ports.sim_component_port(inst)) as truth,
+        Stack(inst, "max", vehicle, args, fc_args, seed=sim_seed()) as stack,
+        VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
+    ):
+        stepper = SimStepper(client, truth, timeout_s=WAIT_S)
+        stepper.start()
+        yield SteppedFlight(client, truth, stepper, stack)
+
+
+def stepped_flight_fixture(
+    params: dict[str, float] | None = None,
+    sim_params: dict[str, float] | None = None,
+    vehicle: str = "quad_x",
+    scope: str = "module",
+):
+    """A ``flight`` fixture (:class:`SteppedFlight`, :func:`stepped_flight`) for a module, on its instance
+    (``inst``), or for a class (``scope``), on a free instance of its own; ``params``: flight-controller
+    parameters at start-up (``autopilot --params``), ``sim_params``: the simulator's (``sitl --param``)."""
+    import pytest
+
+    @pytest.fixture(scope=scope)
+    def flight(request, free_instance, tmp_path_factory):
         fc_args: list[str] = []
         if params:
             path = tmp_path_factory.mktemp("startup-params") / "startup.params"
             path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
             fc_args = ["--params", str(path)]
-        sim_args = ["--param", f"SIM_HOLD_MS={START_HOLD_MS}"]
-        for name, value in (sim_params or {}).items():
-            sim_args += ["--param", f"{name}={value:g}"]
-        with (
-            SimClient(ports.sim_component_port(inst)) as truth,
-            Stack(inst, "max", extra_sitl_args=sim_args, extra_autopilot_args=fc_args, seed=sim_seed()) as stack,
-            VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
-        ):
-            stepper = SimStepper(client, truth, timeout_s=WAIT_S)
-            stepper.start()
-            yield SteppedFlight(client, truth, stepper, stack)
+        sim_args = [a for name, value in (sim_params or {}).items() for a in ("--param", f"{name}={value:g}")]
+        instance = request.getfixturevalue("inst") if scope == "module" else free_instance()  # a module's: ``inst``
+        with stepped_flight(instance, vehicle, sim_args, fc_args) as f:
+            yield f
 
     return flight

@@ -44,11 +44,6 @@ def baro_healthy(f: SteppedFlight) -> bool:
     return bool(f.client.latest("SYS_STATUS").onboard_control_sensors_health & BARO_BIT)
 
 
-def text_seen(f: SteppedFlight, index: int, fragment: str, max_s: float) -> None:
-    """Until a STATUSTEXT containing ``fragment`` has come (after the first ``index``), within ``max_s``."""
-    f.until(lambda: any(fragment in t for t in texts_since(f.client, index)), max_s, repr(fragment))
-
-
 def vertical_excursion(f: SteppedFlight, hold) -> float:
     """How far the true vehicle went up or down from the hover point since it, m."""
     return max(abs(s.pos_ned_m[2] - hold.pos_ned_m[2]) for s in f.truth_since(hold.time_ms))
@@ -62,12 +57,12 @@ def test_a_gps_height_glitch_is_blamed_on_the_gps_not_the_barometer(flight):
     n = len(f.client.statustexts)
     f.set_sim("SIM_GPS_GLITCH_D", 8.0)
     try:
-        text_seen(f, n, "GPS height inconsistent with the barometer", 10.0)
+        f.text_seen(n, "GPS height inconsistent with the barometer", 10.0)
         f.wait(3.0)
         assert baro_healthy(f)
     finally:
         f.set_sim("SIM_GPS_GLITCH_D", 0.0)
-    text_seen(f, n, "GPS height consistent again", 20.0)
+    f.text_seen(n, "GPS height consistent again", 20.0)
     record_figure("gps_glitch_vertical_m", vertical_excursion(f, hold), 0.5, unit="m")
     assert not any("Barometer" in t for t in texts_since(f.client, n))
 
@@ -80,13 +75,13 @@ def test_a_stuck_barometer_is_found_and_the_height_held_on_gps(flight):
     n = len(f.client.statustexts)
     f.set_sim("SIM_BARO_STUCK", 1)
     try:
-        text_seen(f, n, "Barometer failed: stale data", 2.0)
+        f.text_seen(n, "Barometer failed: stale data", 2.0)
         f.wait(8.0)
         record_figure("baro_stuck_vertical_m", vertical_excursion(f, hold), 0.5, unit="m")
         assert not baro_healthy(f)
     finally:
         f.set_sim("SIM_BARO_STUCK", 0)
-    text_seen(f, n, "Barometer healthy again", 20.0)
+    f.text_seen(n, "Barometer healthy again", 20.0)
 
 
 def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(flight):
@@ -112,7 +107,7 @@ def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(flight):
         f.set_sim("SIM_BARO_DRIFT", -2 * DRIFT_M_S)  # back twice as fast, half as long: the error undone
         f.wait(DRIFT_S / 2)
         f.set_sim("SIM_BARO_DRIFT", 0.0)
-    text_seen(f, n, "Barometer healthy again", 20.0)
+    f.text_seen(n, "Barometer healthy again", 20.0)
     f.until(lambda: baro_healthy(f), 10.0, "the barometer healthy in SYS_STATUS")
     f.land()
 

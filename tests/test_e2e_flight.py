@@ -117,10 +117,6 @@ def client(free):
             vehicle.disarm(force=True, timeout_s=10)
 
 
-def mode_is(f: SteppedFlight, name: str) -> None:
-    f.until(lambda: f.client.mode_name() == name, 5.0, f"mode {name}")
-
-
 def arm(f: SteppedFlight) -> None:
     f.client.arm(timeout_s=10).check()
     f.until(f.client.armed, 5.0, "armed")
@@ -130,10 +126,6 @@ def hovering(f: SteppedFlight, alt_m: float) -> None:
     """Until the take-off is over: mode LOITER, near the altitude, not climbing."""
     c = f.client
     f.until(lambda: c.mode_name() == "LOITER" and c.takeoff_done(alt_m, 0.5), 60.0, f"hover at {alt_m:g} m")
-
-
-def text_seen(f: SteppedFlight, index: int, fragment: str, max_s: float = 5.0) -> None:
-    f.until(lambda: any(fragment in t for t in texts_since(f.client, index)), max_s, f"a STATUSTEXT with {fragment!r}")
 
 
 def truth_at_s(f: SteppedFlight, sim_time_s: float):
@@ -161,12 +153,12 @@ def test_identity_modes_and_unknown_command(f):
     assert res.result == mavlink.MAV_RESULT_UNSUPPORTED
     # mode changes on the ground, MAVSDK's way (DO_SET_MODE) and QGroundControl's way (SET_MODE)
     client.set_mode("AUTO.LOITER", timeout_s=10).check()
-    mode_is(f, "LOITER")
+    f.mode_is("LOITER")
     posctl = 3 << 16
     client.conn.mav.set_mode_send(client.target_system, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, posctl)
     ack = client.recv("COMMAND_ACK", WAIT_S, lambda m: m.command == mavlink.MAVLINK_MSG_ID_SET_MODE)
     assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
-    mode_is(f, "POSCTL")
+    f.mode_is("POSCTL")
     assert client.latest("HEARTBEAT").custom_mode == posctl
 
 
@@ -249,7 +241,7 @@ def test_mavproxy_takeoff_goto_and_return_to_launch(f):
     arm(f)
     n_texts = len(client.statustexts)
     client.takeoff(5.0, timeout_s=10).check()  # what MAVProxy's "takeoff 5" sends
-    text_seen(f, n_texts, "below home")
+    f.text_seen(n_texts, "below home")
     assert any("5 m above home" in t for t in texts_since(client, n_texts))
     hovering(f, 5.0)
     assert client.relative_alt_m() == pytest.approx(5.0, abs=0.5)
@@ -263,7 +255,7 @@ def test_mavproxy_takeoff_goto_and_return_to_launch(f):
     return_alt = client.param_get("RTL_RETURN_ALT", timeout_s=10)
     with Recorder(client, ("GLOBAL_POSITION_INT",)) as rec:
         client.return_to_launch(timeout_s=10).check()
-        mode_is(f, "RTL")
+        f.mode_is("RTL")
         f.until(client.landed_and_disarmed, 120.0, "return, landing and disarm", 0.25)
     top = max(m.relative_alt / 1000.0 for m in rec.of("GLOBAL_POSITION_INT"))
     record_figure("rtl_top_vs_return_alt_m", abs(top - return_alt), 0.5, unit="m")

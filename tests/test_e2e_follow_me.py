@@ -44,21 +44,17 @@ from mavsdk.asyncio.plugins.follow_me import Config, FollowMeAsync, TargetLocati
 from mavsdk.asyncio.plugins.param import ParamAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
-from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from gcs.launcher import Stack  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
 from e2e_flight_helpers import (  # noqa: E402  # tests/e2e_flight_helpers.py
-    Recorder,
-    SteppedFlight,
     latlon,
     record_figure,
     sim_ms,
     sim_sleep,
     stepped_flight_fixture,
-    texts_since,
     until,
 )
 
@@ -203,44 +199,6 @@ UGV_DRIVE_S = 20.0
 UGV_SETTLE_S = 10.0
 
 
-def set_param(f: SteppedFlight, name: str, value: float) -> None:
-    """PARAM_SET of a REAL32 parameter while held (it acts from the next step), then advance until the vehicle's
-    echo: the flight controller echoes a PARAM_SET at its next link update, which needs a step
-    (``VehicleClient.param_set``, waiting for the echo in wall time, would time out while the simulation holds)."""
-    c = f.client
-    with Recorder(c, ("PARAM_VALUE",)) as rec:
-        c.conn.mav.param_set_send(
-            c.target_system, c.target_component, name.encode(), float(value), mavlink.MAV_PARAM_TYPE_REAL32
-        )
-        f.until(lambda: any(m.param_id == name for m in rec.of("PARAM_VALUE")), 1.0, f"{name}'s echo")
-    assert [m.param_value for m in rec.of("PARAM_VALUE") if m.param_id == name][-1] == pytest.approx(value)
-
-
-def land(f: SteppedFlight) -> None:
-    f.client.land(timeout_s=10).check()
-    f.until(f.client.landed_and_disarmed, 60.0, "landed and disarmed", every_s=0.25)
-
-
-def text_seen(f: SteppedFlight, index: int, fragment: str, max_s: float, paced: bool = False) -> None:
-    """Until a STATUSTEXT containing ``fragment`` has come (after the first ``index``), within ``max_s``.
-
-    ``paced``: not faster than real time.  The flight controller judges an input lost (here the target, after
-    TARGET_TIMEOUT_S) only once it is silent on both clocks, simulated and wall (``autopilot.topics.input_age_s``);
-    slices flown faster than real time would make the wall clock's the later, and the moment of the loss
-    depend on the machine.  Paced so that the wall clock runs ahead of the simulated one since the call (by
-    more than a slice and the broadcast's period), the loss is judged on the simulated clock alone."""
-    wall0, sim0 = time.monotonic(), f.now_s
-
-    def seen() -> bool:
-        if any(fragment in t for t in texts_since(f.client, index)):
-            return True
-        if paced:
-            time.sleep(max(0.0, wall0 + (f.now_s - sim0) + 0.5 - time.monotonic()))
-        return False
-
-    f.until(seen, max_s, repr(fragment))
-
-
 def test_ground_station_target_is_followed_through_a_turn_and_hold_holds(flight):
     """2: the MAVSDK flight's target (north at 2 m/s, then east) as FOLLOW_TARGET from a ground station, as
     MAVSDK's ``set_target_location`` sends it (position and velocity, the POS bit), 5 times a second of simulated
@@ -248,8 +206,8 @@ def test_ground_station_target_is_followed_through_a_turn_and_hold_holds(flight)
     f = flight
     c = f.client
     f.ready()
-    set_param(f, "FLW_TGT_DST", DST_M)
-    set_param(f, "FLW_TGT_HT", HT_M)
+    f.client.param_set("FLW_TGT_DST", DST_M)
+    f.client.param_set("FLW_TGT_HT", HT_M)
     origin = tuple(f.truth_now().pos_ned_m[:2])  # the target starts START_NE from the take-off point
     c.arm(timeout_s=10).check()
     c.takeoff(timeout_s=10).check()  # MAVSDK's action.takeoff(): the default height
@@ -273,7 +231,7 @@ def test_ground_station_target_is_followed_through_a_turn_and_hold_holds(flight)
     t_hold = f.now_ms
     f.wait(3.0)
     hold = [s.pos_ned_m for s in f.truth_since(t_hold)]
-    land(f)
+    f.land()
 
     def target(time_ms: int) -> tuple[float, float]:
         return target_at((time_ms - t0) / 1000, origin)[:2]
@@ -304,8 +262,8 @@ def test_ugv_broadcast_is_followed_and_its_loss_holds(flight):
     f = flight
     c = f.client
     f.ready()
-    set_param(f, "FLW_TGT_DST", DST_M)
-    set_param(f, "FLW_TGT_HT", 8.0)
+    f.client.param_set("FLW_TGT_DST", DST_M)
+    f.client.param_set("FLW_TGT_HT", 8.0)
     start = f.truth_now().pos_ned_m
     f.set_sim("SIM_UGV_X", start[0] + 6.0)  # parked 6 m north of the vehicle (a start pose set: it is put there)
     f.set_sim("SIM_UGV_Y", start[1])
@@ -313,7 +271,7 @@ def test_ugv_broadcast_is_followed_and_its_loss_holds(flight):
     f.take_off(3.0)
     n = len(c.statustexts)
     c.set_mode("FOLLOW_TARGET", timeout_s=10).check()
-    text_seen(f, n, "Following target", 5.0)
+    f.text_seen(n, "Following target", 5.0)
     f.set_sim("SIM_UGV_SPD", SPEED_M_S)
     f.set_sim("SIM_UGV_PATH", 1)  # straight on, north
     f.wait(UGV_DRIVE_S)
@@ -329,13 +287,13 @@ def test_ugv_broadcast_is_followed_and_its_loss_holds(flight):
 
     n = len(c.statustexts)
     t_off = f.set_sim("SIM_UGV_FLW", 0)  # its radio falls silent
-    text_seen(f, n, "Follow target lost", 10.0, paced=True)
+    f.text_seen(n, "Follow target lost", 10.0, paced=True, lead_s=0.5)
     t_lost = f.now_s
     assert c.mode_name() == "FOLLOW_TARGET"  # still in the mode, holding, as PX4
     f.wait(4.0)
     held = [s.pos_ned_m for s in f.truth_since(round(1000 * t_lost) + 2000)]
     f.set_sim("SIM_UGV_SPD", 0.0)
-    land(f)
+    f.land()
     print(f"UGV: distance {min(dists):.2f}..{max(dists):.2f} m (set {DST_M:g}), ", end="")
     print(f"height {min(heights):.2f}..{max(heights):.2f} m; lost {t_lost - t_off:.1f} s after its radio fell silent")
     assert len(dists) > 100

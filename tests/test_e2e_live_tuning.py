@@ -1,15 +1,14 @@
 """End-to-end: live tuning of the roll-rate gain in a hover ([Q 3.5]: gains changed in flight).
 
-A real ``sitl`` + ``autopilot`` stack (a free instance, ``--speed max``,
-default seed) and a :class:`VehicleClient` on the flight controller's ground-station socket
-(``udpout`` to 18570 + instance, so no fixed port is bound here).  The test does what someone tuning with
-a ground station does.  It asks for ATTITUDE, ATTITUDE_TARGET and SERVO_OUTPUT_RAW at
-250 Hz with MAV_CMD_SET_MESSAGE_INTERVAL (the link sends at most at its own update
-rate, 50 Hz of simulated time, and the received rate is printed).  It hovers at 5 m,
-raises MC_ROLLRATE_P from the vehicle's default (50.7 on quad_x, from `design-gains`) to its declared
-maximum, 150, and then sets it back.  Every
-duration is simulated time; the assertions compare amplitudes measured in the same
-run, never wall-clock figures.
+A real ``sitl`` + ``autopilot`` stack (a free instance, ``--speed max``, the default seed unless ``E2E_SEED``) flown in
+simulated time (``stepped_flight_fixture``, tests/e2e_flight_helpers.py) by a :class:`VehicleClient`
+on the flight controller's ground-station link.  The test does what someone tuning with a ground
+station does.  It asks for ATTITUDE, ATTITUDE_TARGET and SERVO_OUTPUT_RAW at 250 Hz with
+MAV_CMD_SET_MESSAGE_INTERVAL (the link sends at most at its own update rate, 50 Hz of simulated
+time, and the received rate is printed).  It hovers at 5 m, raises MC_ROLLRATE_P from the vehicle's
+default (50.7 on quad_x, from `design-gains`) to its declared maximum, 150, and then sets it back.
+Each change is sent while the simulator holds, so it acts from the next step and every window starts
+and ends at the same simulated time in every run: every figure is the same in every run.
 
 Why a three-fold rate gain oscillates: the roll-rate loop is angular acceleration
 P * error through the motors' first-order lag (12.5 ms up, 25 ms down), the 4 ms
@@ -22,16 +21,13 @@ ATTITUDE.rollspeed and in the motor outputs but small in the roll angle.  It is
 measured as the part of ATTITUDE.rollspeed above ~5 Hz: the rate minus its 0.1 s
 running mean, which takes out the slow motion of the hover.
 
-Assertions (the measured spread over several runs is printed with ``pytest -s``):
+Assertions (each a FIGURE line with ``pytest -s``):
 
 * at the high gain the fast roll-rate amplitude is >= 8 x the baseline, the rate moves
   >= 5 x as much per unit of the fast rate setpoint (ATTITUDE_TARGET.body_roll_rate),
   and the motors' roll differential (SERVO_OUTPUT_RAW) oscillates >= 10 x as much;
 * it is still >= 8 x the baseline in the second half of the 5 s high-gain window: a
-  limit cycle, not a transient that dies away.  (How fast it grows from the baseline is
-  not asserted: a 50 Hz message stream and a client that learns simulated time from it
-  cannot place the gain change more precisely than a few tenths of a second at 13x real
-  time, and the growth takes about that long.)
+  limit cycle, not a transient that dies away (how fast it grows is not asserted);
 * within 2 s of setting the gain back to the default, the fast roll-rate amplitude is back within
   2 x the baseline and below 0.2 x the high-gain amplitude.
 """
@@ -43,13 +39,12 @@ import math
 import numpy as np
 import pytest
 
-from gcs.client import VehicleClient, mavlink
-from gcs.launcher import Stack
-from mavsim_core import ports
+from gcs.client import mavlink
 from params.vehicle import load_vehicle
 
+from e2e_flight_helpers import record_figure, stepped_flight_fixture
+
 pytestmark = pytest.mark.e2e
-WAIT_S = 60.0  # wall seconds before giving up on one exchange (a busy 2-core machine)
 ALT_M = 5.0
 HIGH_P = 150.0  # MC_ROLLRATE_P's declared maximum: about 3 x the designed default, beyond its 6.3 dB gain margin
 REQUESTED_INTERVAL_US = 4_000  # 250 Hz, as ground stations ask while tuning
@@ -59,9 +54,7 @@ SKIP_S = 0.2  # left out after each gain change
 RUNNING_MEAN_S = 0.1  # the slow motion taken out of the rates: what is left is above ~5 Hz
 
 
-def fc_gcs_url(instance: int) -> str:
-    """The flight controller's ground-station socket (18570 + instance), as a ``udpout`` url."""
-    return f"udpout:127.0.0.1:{ports.gcs_local_port(instance)}"
+flight = stepped_flight_fixture()  # one stack, flown in simulated time
 
 
 def fast_part(t_s: np.ndarray, x: np.ndarray, width_s: float = RUNNING_MEAN_S) -> np.ndarray:
@@ -148,43 +141,34 @@ def roll_weights(vehicle: str = "quad_x") -> list[float]:
     return [-0.5 * math.copysign(1.0, r.position_frd_m[1]) for r in load_vehicle(vehicle).rotors]
 
 
-def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_it_settles(inst):
-    with (
-        Stack(instance=inst, speed="max", flight_logs=False, extra_sitl_args=["--truth-port", "0"]) as stack,
-        VehicleClient(fc_gcs_url(inst), timeout_s=WAIT_S, idle=stack.check_alive) as client,
+def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_it_settles(flight):
+    f = flight
+    client = f.client
+    for msg_id in (
+        mavlink.MAVLINK_MSG_ID_ATTITUDE,
+        mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET,
+        mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
     ):
-        for msg_id in (
-            mavlink.MAVLINK_MSG_ID_ATTITUDE,
-            mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET,
-            mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
-        ):
-            client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, REQUESTED_INTERVAL_US).check()
-        default_p = client.param_get("MC_ROLLRATE_P")
-        assert default_p * 2.5 < HIGH_P, default_p  # beyond the default's gain margin
-        record = Record(roll_weights())
-        client.add_listener(record)
+        client.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, REQUESTED_INTERVAL_US).check()
+    default_p = client.param_get("MC_ROLLRATE_P")
+    assert default_p * 2.5 < HIGH_P, default_p  # beyond the default's gain margin
+    record = Record(roll_weights())
+    client.add_listener(record)
+    try:
+        f.take_off(ALT_M, settle_s=3.0)  # settled in the hover
 
-        client.wait_until(client.prearm_ok, WAIT_S, "ready to arm")
-        client.arm().check()
-        client.takeoff(client.wait_home().alt_amsl_m + ALT_M).check()
-        client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
-        client.wait_sim_time(3.0)  # settled in the hover
-
-        # Each window ends when the next change is sent and starts once it is acknowledged: on a loaded
-        # machine the stack flies on for a while between the two (a baseline that ended at the
-        # acknowledgement once took in high-gain oscillation and read twice its usual amplitude).
-        t_base = client.sim_time_s()
-        client.wait_sim_time(WINDOW_S)
-        t_base_end = client.sim_time_s()
+        # Each window runs from one hold to the next; a change sent in a hold acts from the next step.
+        t_base = f.now_s
+        f.wait(WINDOW_S)
+        t_base_end = t_high = f.now_s
         high_p = client.param_set("MC_ROLLRATE_P", HIGH_P)
-        t_high = client.sim_time_s()
-        client.wait_sim_time(WINDOW_S)
-        t_high_end = client.sim_time_s()
+        f.wait(WINDOW_S)
+        t_high_end = t_restored = f.now_s
         assert client.param_set("MC_ROLLRATE_P", default_p) == pytest.approx(default_p)
-        t_restored = client.sim_time_s()
-        client.wait_sim_time(SETTLE_S + 0.1)
+        f.wait(SETTLE_S)  # all the telemetry before the hold has arrived (SimStepper)
+    finally:
         client.remove_listener(record)
-        assert client.armed(), "the vehicle disarmed during the test"
+    assert client.armed(), "the vehicle disarmed during the test"
 
     a = record.arrays()
     rate_hz = (len(a["t"]) - 1) / (a["t"][-1] - a["t"][0])
@@ -211,13 +195,18 @@ def test_roll_rate_gain_raised_in_hover_makes_roll_rate_oscillate_and_restoring_
         f"restored {restored['rate_fast'] / base['rate_fast']:.2f} x"
     )
 
-    assert rate_hz > 40.0, f"ATTITUDE came at {rate_hz:.1f} Hz"
+    record_figure("live_tuning_attitude_rate_hz", rate_hz, 40.0, below=False, unit="Hz")
     # the raised gain makes the roll rate oscillate ...
-    assert high["rate_fast"] >= 8.0 * base["rate_fast"], "no fast roll-rate oscillation at the high gain"
-    assert high["gain"] >= 5.0 * base["gain"], "the roll rate does not ring more per unit of setpoint"
-    assert high["motor_fast"] >= 10.0 * base["motor_fast"], "the motors do not oscillate more in roll"
+    record_figure("live_tuning_high_gain_fast_roll_rate_ratio", high["rate_fast"] / base["rate_fast"], 8.0, below=False)
+    record_figure("live_tuning_high_gain_rate_per_setpoint_ratio", high["gain"] / base["gain"], 5.0, below=False)
+    record_figure("live_tuning_high_gain_motor_roll_ratio", high["motor_fast"] / base["motor_fast"], 10.0, below=False)
     # ... for as long as it stays high (a limit cycle, not a transient that dies away) ...
-    assert high_2["rate_fast"] >= 8.0 * base["rate_fast"], "the oscillation died away at the high gain"
+    record_figure(
+        "live_tuning_high_gain_second_half_fast_roll_rate_ratio",
+        high_2["rate_fast"] / base["rate_fast"],
+        8.0,
+        below=False,
+    )
     # ... and settles within SETTLE_S of the gain being set back
-    assert restored["rate_fast"] <= 2.0 * base["rate_fast"], "the roll rate did not settle after the restore"
-    assert restored["rate_fast"] <= 0.2 * high["rate_fast"], "the roll rate did not settle after the restore"
+    record_figure("live_tuning_restored_to_baseline_ratio", restored["rate_fast"] / base["rate_fast"], 2.0)
+    record_figure("live_tuning_restored_to_high_gain_ratio", restored["rate_fast"] / high["rate_fast"], 0.2)

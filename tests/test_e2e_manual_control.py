@@ -1,25 +1,23 @@
-"""A pilot's sticks fly the real stack: POSCTL and ALTCTL, ``gcs fly`` and MAVSDK's ManualControl plugin.
+"""A pilot's sticks fly the real stack: POSCTL and ALTCTL, and ``gcs fly`` (MAVSDK's ManualControl plugin:
+tests/test_e2e_manual_control_mavsdk.py).
 
 What a user with a joystick does: send MANUAL_CONTROL continuously (stopping is a manual-control loss), switch
 to position or altitude control and steer.  In POSCTL full forward stick flies at MPC_VEL_MANUAL and centred
 sticks hold the position; in ALTCTL forward stick tilts the vehicle and accelerates it forward and centred
-sticks hold the altitude; ``gcs fly`` with a key script holding ``w`` moves the vehicle forward; MAVSDK's
-ManualControl plugin switches the modes and flies the same sticks.  Where the vehicle went is the simulator's
-ground truth.
+sticks hold the altitude; ``gcs fly`` with a key script holding ``w`` moves the vehicle forward.  Where the
+vehicle went is the simulator's ground truth.
 
 One stack (module scope, the tests in file order).  The figures (speeds, drifts, accelerations, altitude
 ranges) are flown in simulated time (``stepped_flight_fixture``, issue 33): the simulator is held and the
 test moves the hold on in slices (0.1 s while it watches a condition, 0.5 s while the sticks stay put),
 sending the sticks (pymavlink MANUAL_CONTROL) at every hold as a joystick streams them, so every stick move
-acts from a chosen step and every figure is the same in every run.  Two clients act in wall time and assert
-only what does not depend on the machine's load: ``gcs fly`` (the simulation advanced in slices, never ahead
-of the wall clock, while its process runs) and, last, MAVSDK (sticks at 25 Hz of wall time) on the same
-stack run free.
+acts from a chosen step and every figure is the same in every run.  ``gcs fly`` acts in wall time and asserts
+only what does not depend on the machine's load (the simulation advanced in slices, never ahead of the wall
+clock, while its process runs).
 """
 
 from __future__ import annotations
 
-import asyncio
 import math
 import os
 import select
@@ -29,21 +27,12 @@ import time
 
 import pytest
 
-mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
-from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
-from mavsdk.asyncio.plugins.manual_control import ManualControlAsync  # noqa: E402
-from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
-from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
-
 from mavsim_core import ports  # noqa: E402
 
 from e2e_flight_helpers import (  # noqa: E402  # tests/e2e_flight_helpers.py
     SteppedFlight,
     record_figure,
-    sim_sleep,
     stepped_flight_fixture,
-    until,
 )
 
 pytestmark = pytest.mark.e2e
@@ -248,7 +237,7 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(flight, inst, tmp_path):
         # Held until gcs fly is up and streaming (its first line comes just before its first sticks): the
         # sticks change hands within a slice, far within COM_RC_LOSS_T.
         head = _output_until(proc, "flying", WAIT_S)
-        real_time_until(f, lambda: proc.poll() is not None, 60.0, "gcs fly to finish")  # its sticks, not ours
+        f.until(lambda: proc.poll() is not None, 60.0, "gcs fly to finish", paced=True)  # its sticks, not ours
         out, err = proc.communicate()
         out = head + out
     finally:
@@ -269,20 +258,6 @@ def test_gcs_fly_key_script_moves_the_vehicle_forward(flight, inst, tmp_path):
     assert top < 1.2 * MPC_VEL_MANUAL
 
 
-def real_time_until(f: SteppedFlight, predicate, max_s: float, what: str):
-    """``f.until`` with the simulation never ahead of the wall clock (from the call): for a client acting in
-    wall time, as it would fly a vehicle in real time."""
-    wall0, sim0 = time.monotonic(), f.now_s
-
-    def paced():
-        if predicate():
-            return True
-        time.sleep(max(0.0, wall0 + (f.now_s - sim0) - time.monotonic()))
-        return False
-
-    return f.until(paced, max_s, what)
-
-
 def _output_until(proc: subprocess.Popen, fragment: str, timeout_s: float) -> str:
     """A process's standard output until it contains ``fragment`` (or the process ended), read from its file
     descriptor (``communicate`` reads the rest); AssertionError after ``timeout_s`` wall seconds."""
@@ -297,135 +272,3 @@ def _output_until(proc: subprocess.Popen, fragment: str, timeout_s: float) -> st
                 break  # it ended
             data += chunk
     return data.decode(errors="replace")
-
-
-# --------------------------------------------------------------------------- MAVSDK: a client in wall time
-
-STICK_PERIOD_S = 0.04  # MAVSDK sticks at 25 Hz (wall clock)
-
-
-@pytest.fixture(scope="module")
-def free(flight) -> SteppedFlight:
-    """The stack run free (SIM_HOLD_MS 0) for the client that sends on the wall clock: after the stepped
-    flights (the last tests of the file), for good."""
-    flight.step.release()
-    return flight
-
-
-class Sticks:
-    """Send ``value`` (x pitch, y roll, z throttle 0..1, r yaw) through MAVSDK continuously."""
-
-    def __init__(self, system) -> None:
-        self.mc = ManualControlAsync(system)
-        self.value = CENTRED
-        self._task: asyncio.Task | None = None
-
-    async def _run(self) -> None:
-        while True:
-            await self.mc.set_manual_control_input(*self.value)
-            await asyncio.sleep(STICK_PERIOD_S)
-
-    async def start(self) -> None:
-        await self.mc.set_manual_control_input(*self.value)  # MAVSDK switches modes only once it has input
-        self._task = asyncio.ensure_future(self._run())
-
-    async def move(self, value: tuple[float, float, float, float]) -> None:
-        """Move the sticks to ``value``: sent now (not at the stream's next wall-clock tick), then streamed."""
-        self.value = value
-        await self.mc.set_manual_control_input(*value)
-
-    async def stop(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            try:
-                await self._task
-            except asyncio.CancelledError:
-                pass
-
-
-async def _session(port: int, body):
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
-        await sdk.add_any_connection(f"udpin://0.0.0.0:{port}")
-        system = await sdk.first_autopilot(timeout_s=30.0)
-        assert system is not None, "MAVSDK found no autopilot"
-        tel, action = TelemetryAsync(system), ActionAsync(system)
-
-        async def ready():
-            h = await tel.health()
-            return h.is_global_position_ok and h.is_home_position_ok and h.is_armable and not await tel.armed()
-
-        await until(ready, WAIT_S, "health: position, home, armable, disarmed")
-        sticks = Sticks(system)
-        await sticks.start()
-        try:
-            result = await body(system, tel, action, sticks)
-            await action.land()
-
-            async def disarmed():
-                return not await tel.armed()
-
-            await until(disarmed, WAIT_S, "disarmed after the landing")  # sticks keep coming: no RC loss
-            return result
-        finally:
-            await sticks.stop()
-
-
-async def _mode(tel, mode) -> None:
-    async def in_mode():
-        return await tel.flight_mode() == mode
-
-    await until(in_mode, WAIT_S, f"flight mode {mode}")
-
-
-async def _altitude_above(tel, alt_m: float) -> None:
-    async def high():
-        return (await tel.position()).relative_altitude_m > alt_m
-
-    await until(high, WAIT_S, f"relative altitude above {alt_m:g} m")
-
-
-def test_mavsdk_manual_control_flies_posctl_and_altctl(free, inst):
-    """MAVSDK's ManualControl plugin (``start_position_control``, ``start_altitude_control``,
-    ``set_manual_control_input`` streamed at 25 Hz of wall time) flies the stack.  The sticks reach the vehicle
-    when the wall clock says (one message per ~0.8 simulated seconds on a quiet machine, many more on a loaded
-    one), so only what a held stick brings about at last is asserted, each within a wall-clock safety net:
-    POSCTL with the throttle up takes off; full forward reaches 0.8 MPC_VEL_MANUAL forward; centred sticks
-    stop it; ALTCTL's forward stick accelerates it forward and the back stick stops it.  The figures of the
-    same flights are the stepped tests' above."""
-    truth = free.truth
-
-    def fwd_speed(yaw: float) -> float:
-        return _fwd_side(truth.latest().vel_ned_m_s, yaw)[0]
-
-    async def speed_until(predicate, what: str) -> None:
-        async def ok():
-            return predicate()
-
-        await until(ok, WAIT_S, what, period_s=0.005)
-
-    async def body(system, tel, action, sticks):
-        await sticks.mc.start_position_control()  # disarmed: accepted, acts once armed
-        await _mode(tel, FlightMode.POSCTL)
-        await sticks.move((0.0, 0.0, 0.8, 0.0))  # throttle up: climb from the ground
-        await action.arm()
-        await _altitude_above(tel, 4.0)
-        await sticks.move(CENTRED)
-        await sim_sleep(truth, 2.0)
-        w, x, y, z = truth.latest_state.attitude_quaternion
-        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-        await sticks.move((1.0, 0.0, 0.5, 0.0))  # full forward
-        await speed_until(lambda: fwd_speed(yaw) > 0.8 * MPC_VEL_MANUAL, "POSCTL: forward at the stick's speed")
-        await sticks.move(CENTRED)
-        await speed_until(lambda: math.hypot(*truth.latest().vel_ned_m_s[:2]) < 0.1, "POSCTL: stopped, centred")
-
-        await sticks.mc.start_altitude_control()
-        await _mode(tel, FlightMode.ALTCTL)
-        v0 = fwd_speed(yaw)
-        await sticks.move((0.4, 0.0, 0.5, 0.0))  # forward
-        await speed_until(lambda: fwd_speed(yaw) > v0 + ONSET_M_S, "ALTCTL: accelerated forward")
-        await sticks.move((-0.4, 0.0, 0.5, 0.0))  # back
-        await speed_until(lambda: fwd_speed(yaw) < ONSET_M_S, "ALTCTL: stopped by the back stick")
-        await sticks.move(CENTRED)
-
-    asyncio.run(_session(ports.api_port(inst), body))
-    free.client.idle()  # the stack's check_alive: both processes still up

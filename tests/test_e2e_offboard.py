@@ -46,7 +46,6 @@ from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
 
 from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
-    SteppedFlight,
     latlon,
     record_figure,
     sim_sleep,
@@ -108,10 +107,6 @@ def send_local(client, frame: int, mask: int, pos, yaw: float = 0.0, vel=(0.0, 0
     )
 
 
-def mode_is(f: SteppedFlight, name: str) -> None:
-    f.until(lambda: f.client.mode_name() == name, 5.0, f"mode {name}")
-
-
 def test_velocity_setpoints_fly_a_circle(f):
     """Velocity setpoints (SET_POSITION_TARGET_LOCAL_NED, as MAVSDK's set_velocity_ned sends them) turned
     round a circle for one period, one every SETPOINT_EVERY_S of simulated time: the vehicle flies them at
@@ -139,7 +134,7 @@ def test_velocity_setpoints_fly_a_circle(f):
         "circle_mean_speed_error_m_s", abs(float(np.mean(speeds)) - CIRCLE_SPEED), 0.15 * CIRCLE_SPEED, unit="m/s"
     )
     record_figure("circle_course_turned_error_deg", abs(turned - expected), 30.0, unit="deg")  # went round
-    mode_is(f, "LOITER")
+    f.mode_is("LOITER")
 
 
 def test_body_offset_ned_target_moves_the_vehicle_relative_to_itself(f):

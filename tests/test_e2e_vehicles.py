@@ -15,44 +15,22 @@ tests/conftest.py).
 
 from __future__ import annotations
 
-import contextlib
 import math
 
 import numpy as np
 import pytest
 
-from gcs.client import VehicleClient, mavlink
-from gcs.launcher import Stack
-from gcs.launcher.sim_stepper import SimStepper
-from gcs.sim_client import SimClient
-from mavsim_core import ports
+from gcs.client import mavlink
 
 from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
-    START_HOLD_MS,
-    WAIT_S,
     Recorder,
     SteppedFlight,
     record_figure,
-    sim_seed,
+    stepped_flight,
 )
 
 pytestmark = pytest.mark.e2e
 ALT_M = 5.0
-
-
-@contextlib.contextmanager
-def stepped_flight(inst: int, vehicle: str, sim_args: tuple[str, ...] = ()):
-    """A :class:`SteppedFlight` of ``vehicle`` on instance ``inst`` (as ``stepped_flight_fixture``, which
-    flies only the default vehicle); ``sim_args``: more ``sitl`` arguments (``--scenario``, ``--param``)."""
-    args = [*sim_args, "--param", f"SIM_HOLD_MS={START_HOLD_MS}"]
-    with (
-        SimClient(ports.sim_component_port(inst)) as truth,
-        Stack(inst, "max", vehicle=vehicle, extra_sitl_args=args, seed=sim_seed()) as stack,
-        VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
-    ):
-        stepper = SimStepper(client, truth, timeout_s=WAIT_S)
-        stepper.start()
-        yield SteppedFlight(client, truth, stepper)
 
 
 def hold_errors(f: SteppedFlight, point: np.ndarray, seconds: float) -> np.ndarray:

@@ -15,15 +15,13 @@ bias walk, GPS at 5 Hz with 120 ms latency and a wandering error) flying:
 4. land and disarm.
 
 Reproducible (the default): the simulator starts held (``SIM_HOLD_MS`` = :data:`START_HOLD_MS`) and the
-whole flight is driven through holds (:class:`gcs.launcher.sim_stepper.SimStepper`): every command and
-wind parameter is sent while the simulation holds, every condition (ready to arm, take-off done, back,
-landed) is read at a hold every 0.1 s of simulated time (0.5 s while waiting to be ready to arm) within a
-limit of simulated seconds (``*_SIM_S``), and the settles, hovers and the step's window are flown in
-slices of ``SLICE_S`` (1 s) of simulated time, their samples those up to the hold.  The same seed then
-gives the same figures to the last digit, whatever the machine's load; wall seconds (``WAIT_S``) only
-bound each wait.  A campaign's ``[sim_params] SIM_HOLD_MS = 0`` runs the simulator free instead: the
-flight then acts when the telemetry arrives, the same phases and limits in wall seconds (``WAIT_S``),
-and its figures depend on the machine's load.
+flight is driven through holds (:class:`gcs.launcher.sim_stepper.SimStepper`): commands and wind go while
+held, conditions (ready, take-off done, back, landed) are read at a hold every 0.1 s of simulated time
+(0.5 s while getting ready) within ``*_SIM_S`` simulated seconds, and the settles, hovers and the step's
+window fly in ``SLICE_S`` (1 s) slices, their samples those up to the hold.  The same seed gives the same
+figures to the last digit, whatever the machine's load; wall seconds (``WAIT_S``) only bound each wait.
+``[sim_params] SIM_HOLD_MS = 0`` runs the simulator free: the flight acts when the telemetry arrives,
+with the same phases and limits in wall seconds, and its figures depend on the machine's load.
 
 Errors are truth (the simulator's LOCAL_POSITION_NED, NED metres from the start point) minus the
 setpoint; ``*_ctrl_*`` is the flight controller's own tracking, its estimate minus its setpoint (its

@@ -33,10 +33,11 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from ..client import VehicleClient
 from ..errors import GcsTimeout
-from ..sim_client import SimClient
+from ..sim_client import SimClient, SimParamError
 
 HOLD_PARAM = "SIM_HOLD_MS"
 CHECK_EVERY_S = 0.1  # default slice: the conditions' resolution in simulated time
+HEARTBEAT_CHECK_S = 0.25  # wall seconds: how often a slice's wait looks whether the ground station's HEARTBEAT is due
 
 
 class SimTimeout(GcsTimeout):
@@ -85,9 +86,21 @@ class SimStepper:
         hold_ms = self.time_ms + max(1, round(sim_s * 1000))
         self.truth.set(HOLD_PARAM, hold_ms, timeout_s=self.timeout_s)
         self.slices += 1
-        self.time_ms = self.truth.wait_held(hold_ms, self.timeout_s)
+        self.time_ms = self._wait_held(hold_ms)
         t = self.time_ms
         self.client.wait_until(lambda: self.vehicle_held_ms >= t, self.timeout_s, f"the vehicle held at t = {t} ms")
+
+    def _wait_held(self, hold_ms: int) -> int:
+        """Until the simulator holds at ``hold_ms``; the ground station's HEARTBEAT keeps going meanwhile (a long
+        slice on a loaded machine lasts wall seconds: the vehicle would take the silence for a lost data link)."""
+        deadline = time.monotonic() + self.timeout_s
+        while True:
+            try:
+                return self.truth.wait_held(hold_ms, min(HEARTBEAT_CHECK_S, max(0.0, deadline - time.monotonic())))
+            except SimParamError:
+                if time.monotonic() >= deadline:
+                    raise
+                self.client.keep_alive()
 
     def run_until(
         self, predicate: Callable[[], object], max_sim_s: float, what: str, check_every_s: float = CHECK_EVERY_S
