@@ -17,6 +17,7 @@ Usage:
     python benchmarks/flake_hunt.py --runs 20 --parallel 2                       # the whole e2e set
     python benchmarks/flake_hunt.py --runs 20 --seeds tests/test_e2e_failure_detection.py
     python benchmarks/flake_hunt.py --runs 5 --load 1 -k drifting tests/test_e2e_failure_detection.py
+    python benchmarks/flake_hunt.py --report /tmp/hunt --markdown   # the tables of a kept --out directory
 """
 
 from __future__ import annotations
@@ -61,6 +62,13 @@ def run_once(k: int, args, out: Path) -> tuple[int, float, str]:
     return done.returncode, time.monotonic() - t0, lines[-1] if lines else done.stderr[-300:]
 
 
+def node_id(classname: str, name: str) -> str:
+    """The node id of a JUnit case: ``tests.test_x.TestY``, ``test_z`` -> ``tests/test_x.py::TestY::test_z``."""
+    parts = classname.split(".")
+    module = max((i for i, p in enumerate(parts) if p.startswith("test_")), default=len(parts) - 1)
+    return "::".join(["/".join(parts[: module + 1]) + ".py", *parts[module + 1 :], name])
+
+
 def read_results(out: Path, runs: int):
     """Per test node id: (passed, failed, [distinct first lines of failures], [wall seconds])."""
     tests: dict[str, dict] = defaultdict(lambda: {"passed": 0, "failed": 0, "why": [], "times": []})
@@ -69,7 +77,7 @@ def read_results(out: Path, runs: int):
         if not path.exists():
             continue
         for case in ET.parse(path).getroot().iter("testcase"):
-            node = f"{case.get('classname', '').replace('.', '/')}.py::{case.get('name')}"
+            node = node_id(case.get("classname", ""), case.get("name", ""))
             t = tests[node]
             bad = [c for c in case if c.tag in ("failure", "error")]
             if any(c.tag == "skipped" for c in case):
@@ -164,7 +172,12 @@ def main() -> int:
     ap.add_argument("--first-seed", type=int, default=1, help="the seed of run 0 with --seeds")
     ap.add_argument("--out", type=Path, default=None, help="keep each run's JUnit XML and figures here")
     ap.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
+    ap.add_argument("--report", type=Path, default=None, help="run nothing: the tables of a kept --out DIR")
     args = ap.parse_args()
+    if args.report is not None:
+        runs = len(list(args.report.glob("run-*.xml")))
+        print(report(read_results(args.report, runs), read_figures(args.report, runs), runs, args.markdown))
+        return 0
     out = args.out or Path(tempfile.mkdtemp(prefix="flake-hunt-"))
     out.mkdir(parents=True, exist_ok=True)
     import multiprocessing
