@@ -77,7 +77,8 @@ def test_a_stuck_barometer_is_found_and_the_height_held_on_gps(flight):
     try:
         f.text_seen(n, "Barometer failed: stale data", 2.0)
         f.wait(8.0)
-        record_figure("baro_stuck_vertical_m", vertical_excursion(f, hold), 0.5, unit="m")
+        # 0.04-0.55 m over 26 seeds (docs/testing.md): the GPS height's noise, flown on
+        record_figure("baro_stuck_vertical_m", vertical_excursion(f, hold), 0.7, unit="m")
         assert not baro_healthy(f)
     finally:
         f.set_sim("SIM_BARO_STUCK", 0)
@@ -100,7 +101,9 @@ def test_a_drifting_barometer_is_found_and_the_height_held_on_gps(flight):
         print(f"barometer drifting {DRIFT_M_S} m/s: {texts}; sank at most {sink:.2f} m, now {now:+.2f} m")
         assert any("Barometer failed: inconsistent with GPS height" in t for t in texts), texts
         assert not baro_healthy(f), "SYS_STATUS still says the barometer is healthy"
-        record_figure("baro_drift_sink_m", sink, 1.5, unit="m")
+        # 1.15-1.73 m over 26 seeds (docs/testing.md): the gate (5 SD, ~1.3 m) and the climb back; the old
+        # silent sink went to the ground (5 m)
+        record_figure("baro_drift_sink_m", sink, 2.2, unit="m")
         record_figure("baro_drift_offset_after_m", abs(now), 0.5, unit="m")
         assert f.client.mode_name() == "LOITER" and f.client.armed()
     finally:
@@ -120,6 +123,7 @@ def test_a_motor_lost_in_a_hover_is_reported_at_once_and_the_wreck_disarmed(flig
     client = f.client
     assert client.param_get("CBRK_FLIGHTTERM") == 121212
     hold = f.take_off(ALT_M)
+    print(f"hovering at {hold.pos_ned_m[2]:+.2f} m (down, truth), {client.relative_alt_m():.2f} m up (estimate)")
     n = len(client.statustexts)
     with Recorder(client, ("HEARTBEAT",)) as rec:
         t0 = f.set_sim("SIM_ENGINE_FAIL", 1)

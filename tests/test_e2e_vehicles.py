@@ -129,7 +129,8 @@ def test_hexacopter_survives_a_motor_losing_most_of_its_thrust(firefly):
     f.set_sim("SIM_ENGINE_FAIL", 1)
     err = hold_errors(f, point, 10.0)
     record_figure("firefly_weak_motor_max_horizontal_m", float(np.hypot(err[:, 0], err[:, 1]).max()), 1.0, unit="m")
-    record_figure("firefly_weak_motor_max_vertical_m", float(np.abs(err[:, 2]).max()), 0.5, unit="m")
+    # 0.36-0.43 m over 7 seeds (docs/testing.md): limit 1.25 x the worst and more
+    record_figure("firefly_weak_motor_max_vertical_m", float(np.abs(err[:, 2]).max()), 0.6, unit="m")
     yaw_change = abs(math.remainder(f.client.latest("ATTITUDE").yaw - yaw0, 2 * math.pi))
     record_figure("firefly_weak_motor_heading_change_deg", math.degrees(yaw_change), 10.0, unit="deg")
     f.land()
