@@ -149,6 +149,15 @@ def truth_yaw(truth) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+def startup_params_args(params: dict[str, float] | None, tmp_path_factory) -> list[str]:
+    """``autopilot --params FILE`` arguments applying ``params`` at start-up (a file in pytest's temp dir)."""
+    if not params:
+        return []
+    path = tmp_path_factory.mktemp("startup-params") / "startup.params"
+    path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
+    return ["--params", str(path)]
+
+
 def truth_and_stack_fixtures(params: dict[str, float] | None = None):
     """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at full speed)
     fixtures on the module's free instance (the ``inst`` fixture of conftest.py): ``truth, stack =
@@ -166,11 +175,7 @@ def truth_and_stack_fixtures(params: dict[str, float] | None = None):
 
     @pytest.fixture(scope="module")
     def stack(inst, truth, tmp_path_factory):
-        args: list[str] = []
-        if params:
-            path = tmp_path_factory.mktemp("startup-params") / "startup.params"
-            path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
-            args = ["--params", str(path)]
+        args = startup_params_args(params, tmp_path_factory)
         with Stack(instance=inst, speed="max", extra_autopilot_args=args) as s:
             yield s
 
@@ -365,11 +370,7 @@ def stepped_flight_fixture(
 
     @pytest.fixture(scope=scope)
     def flight(request, free_instance, tmp_path_factory):
-        fc_args: list[str] = []
-        if params:
-            path = tmp_path_factory.mktemp("startup-params") / "startup.params"
-            path.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
-            fc_args = ["--params", str(path)]
+        fc_args = startup_params_args(params, tmp_path_factory)
         sim_args = [a for name, value in (sim_params or {}).items() for a in ("--param", f"{name}={value:g}")]
         instance = request.getfixturevalue("inst") if scope == "module" else free_instance()  # a module's: ``inst``
         with stepped_flight(instance, vehicle, sim_args, fc_args) as f:
