@@ -70,6 +70,15 @@ def build_parser() -> argparse.ArgumentParser:
         "that cannot be created stops the start (exit 1)",
     )
     p.add_argument("--no-log", action="store_true", help="write no flight logs")
+    p.add_argument(
+        "--input-clock",
+        choices=("sim+wall", "sim"),
+        default="sim+wall",
+        help="when an input from outside (sticks, offboard setpoints, a follow target, the ground station's "
+        "HEARTBEAT) counts as lost: 'sim+wall' (default) once silent in simulated and in wall time, for clients "
+        "that send on the wall clock while the simulation runs faster; 'sim' on simulated time alone, as PX4 in "
+        "lockstep, for a client that acts in simulated time (a script stepping a held simulator)",
+    )
     return p
 
 
@@ -188,6 +197,7 @@ def _start(args: argparse.Namespace, parts: list) -> tuple:
     if saver is not None:
         parts.append(saver)
     fc = FlightController(spec, params, sysid=args.sysid)
+    fc.commander.inputs.on_wall_clock = args.input_clock == "sim+wall"
     from pymavlink.dialects.v20.common import MAV_SEVERITY_CRITICAL
 
     for text in warnings:  # to the ground stations (STATUSTEXT) once the link runs

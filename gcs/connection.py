@@ -269,12 +269,16 @@ class Connection:
         self._send_gcs_heartbeat_if_due()
 
     def _send_gcs_heartbeat_if_due(self) -> None:
-        now = time.monotonic()
-        if now - self._last_gcs_heartbeat >= self.heartbeat_period_s:
-            self._last_gcs_heartbeat = now
-            self.conn.mav.heartbeat_send(
-                mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE
-            )
+        if time.monotonic() - self._last_gcs_heartbeat >= self.heartbeat_period_s:
+            self.send_heartbeat()
+
+    def send_heartbeat(self) -> None:
+        """Send the ground station's HEARTBEAT now (a client keeping its own clock: a simulated second,
+        :class:`gcs.launcher.sim_stepper.SimStepper`); the wall-clock period restarts from here."""
+        self._last_gcs_heartbeat = time.monotonic()
+        self.conn.mav.heartbeat_send(
+            mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE
+        )
 
     def _timeout(self, timeout_s: float | None) -> float:
         """``timeout_s``, or the connection's default timeout if None (wall seconds)."""

@@ -227,13 +227,15 @@ class SteppedFlight:
     (:class:`gcs.launcher.sim_stepper.SimTimeout`); wall time only bounds each slice (a dead process).
     """
 
-    def __init__(self, client: VehicleClient, truth, stepper, stack=None) -> None:
+    def __init__(self, client: VehicleClient, truth, stepper, stack=None, then_free: bool = False) -> None:
         self.client, self.truth, self.step, self.stack = client, truth, stepper, stack
+        self.then_free = then_free  # the flight controller ages inputs on both clocks (stepped_flight)
         self.free = False  # the hold lifted for good (:meth:`run_free`)
 
     def run_free(self) -> None:
         """Lift the hold for good: the simulation runs on at full speed, for the tests of a file that come after
         its stepped flights and drive clients in wall time (MAVSDK, the ``gcs`` command line)."""
+        assert self.then_free, "a stack that runs free later is started with then_free (its inputs' clock)"
         self.step.release(run_free=True)
         self.free = True
 
@@ -253,12 +255,10 @@ class SteppedFlight:
         self._check_held()
         self.step.advance(seconds)
 
-    def until(self, predicate, max_s: float, what: str, every_s: float = 0.1, paced: bool = False, lead_s: float = 0.0):
+    def until(self, predicate, max_s: float, what: str, every_s: float = 0.1, paced: bool = False):
         """Advance until ``predicate()``; its value.  ``paced``: the simulation never ahead of the wall clock (from
-        the call, the wall clock ``lead_s`` ahead), for what the flight controller judges on both clocks: an input
-        is lost only once it is silent in simulated *and* wall time (``autopilot.topics.input_age_s``), so slices
-        flown faster than real time would make the moment of a loss depend on the machine; paced, the simulated
-        clock is the later and decides."""
+        the call), for a client inside the flight that sends on the wall clock (a ``gcs fly`` process's sticks):
+        each of its messages then arrives within its period of simulated time too."""
         self._check_held()
         if paced:
             wall0, sim0, ready = time.monotonic(), self.now_s, predicate
@@ -266,7 +266,7 @@ class SteppedFlight:
             def predicate():
                 value = ready()
                 if not value:
-                    time.sleep(max(0.0, wall0 + lead_s + (self.now_s - sim0) - time.monotonic()))
+                    time.sleep(max(0.0, wall0 + (self.now_s - sim0) - time.monotonic()))
                 return value
 
         return self.step.run_until(predicate, max_s, what, check_every_s=every_s)
@@ -275,11 +275,10 @@ class SteppedFlight:
         """Until the vehicle reports mode ``name`` (PX4's name: LOITER, OFFBOARD, POSCTL ...)."""
         self.until(lambda: self.client.mode_name() == name, max_s, f"mode {name}")
 
-    def text_seen(self, index: int, fragment: str, max_s: float = 5.0, every_s: float = 0.1, **pacing) -> None:
-        """Until a STATUSTEXT containing ``fragment`` has come (after the first ``index``); ``pacing``: ``paced``,
-        ``lead_s`` of :meth:`until`."""
+    def text_seen(self, index: int, fragment: str, max_s: float = 5.0, every_s: float = 0.1) -> None:
+        """Until a STATUSTEXT containing ``fragment`` has come (after the first ``index``)."""
         seen = lambda: any(fragment in t for t in texts_since(self.client, index))  # noqa: E731
-        self.until(seen, max_s, f"a STATUSTEXT with {fragment!r}", every_s, **pacing)
+        self.until(seen, max_s, f"a STATUSTEXT with {fragment!r}", every_s)
 
     def truth_now(self):
         """The true vehicle at the current hold (arrived before the simulator's "held" report)."""
@@ -337,24 +336,32 @@ def sim_seed() -> int | None:
 
 @contextlib.contextmanager
 def stepped_flight(
-    inst: int, vehicle: str = "quad_x", sim_args: Sequence[str] = (), fc_args: Sequence[str] = ()
+    inst: int,
+    vehicle: str = "quad_x",
+    sim_args: Sequence[str] = (),
+    fc_args: Sequence[str] = (),
+    then_free: bool = False,
 ) -> Iterator[SteppedFlight]:
     """A :class:`SteppedFlight` of ``vehicle`` on instance ``inst``: both processes at full speed, the simulator
     held from :data:`START_HOLD_MS`; ``sim_args``, ``fc_args``: more ``sitl`` (``--scenario``, ``--param``) and
-    ``autopilot`` (``--params``) arguments."""
+    ``autopilot`` (``--params``) arguments.  The flight controller ages the test's inputs (sticks, setpoints,
+    targets, HEARTBEATs) on simulated time alone (``--input-clock sim``): when one is lost is the same in every
+    run.  ``then_free``: the file lifts the hold later (:meth:`SteppedFlight.run_free`) for clients that send on
+    the wall clock, so the flight controller keeps its default (an input is lost once silent on both clocks)."""
     from gcs.launcher import Stack
     from gcs.launcher.sim_stepper import SimStepper
     from gcs.sim_client import SimClient
 
     args = [*sim_args, "--param", f"SIM_HOLD_MS={START_HOLD_MS}"]
+    clock = [] if then_free else ["--input-clock", "sim"]
     with (
         SimClient(ports.sim_component_port(inst)) as truth,
-        Stack(inst, "max", vehicle, args, fc_args, seed=sim_seed()) as stack,
+        Stack(inst, "max", vehicle, args, [*fc_args, *clock], seed=sim_seed()) as stack,
         VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         stepper = SimStepper(client, truth, timeout_s=WAIT_S)
         stepper.start()
-        yield SteppedFlight(client, truth, stepper, stack)
+        yield SteppedFlight(client, truth, stepper, stack, then_free)
 
 
 def stepped_flight_fixture(
@@ -362,10 +369,12 @@ def stepped_flight_fixture(
     sim_params: dict[str, float] | None = None,
     vehicle: str = "quad_x",
     scope: str = "module",
+    then_free: bool = False,
 ):
     """A ``flight`` fixture (:class:`SteppedFlight`, :func:`stepped_flight`) for a module, on its instance
     (``inst``), or for a class (``scope``), on a free instance of its own; ``params``: flight-controller
-    parameters at start-up (``autopilot --params``), ``sim_params``: the simulator's (``sitl --param``)."""
+    parameters at start-up (``autopilot --params``), ``sim_params``: the simulator's (``sitl --param``);
+    ``then_free``: see :func:`stepped_flight`."""
     import pytest
 
     @pytest.fixture(scope=scope)
@@ -373,7 +382,7 @@ def stepped_flight_fixture(
         fc_args = startup_params_args(params, tmp_path_factory)
         sim_args = [a for name, value in (sim_params or {}).items() for a in ("--param", f"{name}={value:g}")]
         instance = request.getfixturevalue("inst") if scope == "module" else free_instance()  # a module's: ``inst``
-        with stepped_flight(instance, vehicle, sim_args, fc_args) as f:
+        with stepped_flight(instance, vehicle, sim_args, fc_args, then_free) as f:
             yield f
 
     return flight

@@ -47,6 +47,7 @@ BAD = {
     "autopilot-missing-params-file": ("autopilot", "-i {i} --no-log --params {tmp}/missing.params", 1, "--params"),
     "autopilot-sysid-too-big": ("autopilot", "-i {i} --sysid 256", 2, "--sysid"),
     "autopilot-port-zero": ("autopilot", "-i {i} --gcs-port 0", 2, "--gcs-port"),
+    "autopilot-unknown-input-clock": ("autopilot", "-i {i} --input-clock wall", 2, "--input-clock"),
     "autopilot-state-dir-is-a-file": ("autopilot", "-i {i} --no-log --state-dir {tmp}/a_file", 1, "--state-dir"),
     "autopilot-log-dir-not-creatable": ("autopilot", "-i {i} --log-dir {tmp}/a_file/logs", 1, "--log-dir"),
     "autopilot-port-in-use": ("autopilot", "-i {i} --no-log", 1, "UDP 0.0.0.0:{gcs_local_port}"),

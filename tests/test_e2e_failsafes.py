@@ -8,22 +8,17 @@ SIM_BAT_DRAIN / SIM_BAT_MIN_PCT and the sensor faults).  A user's checks: the ST
 the HEARTBEAT's system_status, and where the vehicle truly went.
 
 One stack, flown in simulated time (``stepped_flight_fixture``, tests/e2e_flight_helpers.py): every
-command, stick and fault comes between two steps, so every figure is the same in every run; wall-clock
-timeouts are safety nets only.  The flight controller counts the data link
-or the sticks lost once they are silent on both clocks, simulated and wall (``input_age_s`` in
-autopilot/topics.py: a client on the wall clock is not lost because the simulation outran it; that is
-unit-tested in tests/test_failsafes.py): so each test falls silent while the simulator holds, stays
-so for longer than the time-out on the wall clock, and the loss then comes after the time-out of
-simulated time, the same in every run.  (The data link failsafe acts only in its own test: the client
-sends its HEARTBEATs on the wall clock and none while the simulator runs to its next hold, so a long
-step on a loaded machine may look like a loss.)  One flight after another, each landed and disarmed before the
-next take-off; the battery last (the pack stays drained).
+command, stick and fault comes between two steps, and the flight controller ages the test's inputs on
+simulated time alone (``autopilot --input-clock sim``; the default, both clocks, is unit-tested in
+tests/test_failsafes.py), so every figure, the moment of a loss too, is the same in every run; wall-clock
+timeouts are safety nets only.  The stepper sends the ground station's HEARTBEAT once a simulated second
+(``gcs/launcher/sim_stepper.py``); an infinite ``heartbeat_period_s`` silences it.  One flight after
+another, each landed and disarmed before the next take-off; the battery last (the pack stays drained).
 """
 
 from __future__ import annotations
 
 import math
-import time
 
 import pytest
 
@@ -53,19 +48,6 @@ def landed(f: SteppedFlight, max_s: float = 60.0) -> None:
     f.until(f.client.landed_and_disarmed, max_s, "landed and disarmed", every_s=0.5)
 
 
-def silent_while_held(wall_s: float) -> None:
-    """Let ``wall_s`` wall seconds pass in a hold: an input the test stopped is then silent on the wall clock
-    too, so its loss comes once it is silent for the time-out of simulated time (the module docstring)."""
-    time.sleep(wall_s)
-
-
-def gcs_heartbeat(f: SteppedFlight) -> None:
-    """One GCS HEARTBEAT now, in the hold (the client's own come every wall second, at any simulated time)."""
-    f.client.conn.mav.heartbeat_send(
-        mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE
-    )
-
-
 def sticks(f: SteppedFlight, sim_s: float, throttle: int = 500) -> None:
     """Centred sticks (MANUAL_CONTROL) every 0.05 s of simulated time for ``sim_s`` seconds, as a joystick."""
     for _ in range(round(sim_s / 0.05)):
@@ -86,9 +68,8 @@ def test_data_link_loss_returns_and_lands_and_the_regain_is_reported(flight):
         n = len(client.statustexts)
         with Recorder(client, ("HEARTBEAT",)) as rec:
             client.heartbeat_period_s = math.inf  # the ground station falls silent (it still listens) ...
-            gcs_heartbeat(f)  # ... after this one
+            client.send_heartbeat()  # ... after this one
             t_silent = f.now_s
-            silent_while_held(DL_LOSS_T + 0.5)
             text_seen(f, n, "Data link lost: returning", DL_LOSS_T + 1.0)
             lost_after = f.now_s - t_silent
             assert lost_after > DL_LOSS_T, f"lost after {lost_after:.1f} s of silence"
@@ -96,7 +77,7 @@ def test_data_link_loss_returns_and_lands_and_the_regain_is_reported(flight):
             f.until(lambda: client.mode_name() == "RTL", 1.0, "mode RTL")
             f.until(lambda: mavlink.MAV_STATE_CRITICAL in system_states(rec), 2.0, "MAV_STATE_CRITICAL")
             client.heartbeat_period_s = 1.0
-            gcs_heartbeat(f)
+            client.send_heartbeat()
             text_seen(f, n, "Data link regained", 1.0)
             landed(f)
         assert sum("Data link lost" in t for t in texts_since(client, n)) == 1
@@ -117,8 +98,7 @@ def test_manual_control_loss_lands(flight):
     n = len(client.statustexts)
     assert client.mode_name() == "POSCTL"
     point = f.truth_now()
-    # the sticks stop: COM_RC_LOSS_T on both clocks
-    silent_while_held(RC_LOSS_T + 0.2)
+    # the sticks stop: lost after COM_RC_LOSS_T of simulated time
     text_seen(f, n, "Manual control lost: landing", RC_LOSS_T + 1.0)
     assert client.mode_name() in ("LAND", "POSCTL")  # the mode change follows in the next HEARTBEAT
     f.until(lambda: client.mode_name() == "LAND", 1.0, "mode LAND")

@@ -63,7 +63,7 @@ DISARM_DELAY_S = 3.0  # COM_DISARM_LAND at start-up (default 2 s): the landed ve
 # --------------------------------------------------------------------------- fixtures
 
 # One stack, held from its start and flown in simulated time; its client on the ground-station port.
-flight = stepped_flight_fixture(params={"COM_DISARM_LAND": DISARM_DELAY_S})
+flight = stepped_flight_fixture(params={"COM_DISARM_LAND": DISARM_DELAY_S}, then_free=True)
 
 
 @pytest.fixture(scope="module")

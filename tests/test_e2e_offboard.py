@@ -64,7 +64,7 @@ VELOCITY_NE = (1.2, -1.6)  # MAVSDK's velocity leg, m/s north and east: 2 m/s to
 ROLL_DEG, PITCH_DEG = 10.0, -6.0  # the attitude step
 GLOBAL_NE = (-3.0, 2.0)  # the set_position_global point, m north and east of the simulator's home
 
-flight = stepped_flight_fixture()  # one stack, held from its start; its client on the ground-station port
+flight = stepped_flight_fixture(then_free=True)  # one stack, held from its start; its client on the ground-station port
 
 
 @pytest.fixture

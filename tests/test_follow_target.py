@@ -320,3 +320,20 @@ def test_ugv_message_fields():
     msg = follow_target_message(UgvTruth(1_234_000, np.zeros(3), np.zeros(3), math.pi), ORIGIN)
     assert msg.timestamp == 1234 and msg.alt == pytest.approx(ORIGIN[2])
     assert msg.attitude_q[0] == pytest.approx(0.0, abs=1e-9) and msg.attitude_q[3] == pytest.approx(1.0)
+
+
+def test_a_sender_silent_in_simulated_time_is_replaced_at_once_when_inputs_age_on_the_simulated_clock():
+    """The stale ground station that a stepped flight left behind (issue 33): 30 simulated seconds silent but
+    only 1 wall second.  On both clocks (the default) it still holds the target; with ``--input-clock sim``
+    (``on_wall_clock`` False) the ground vehicle takes it over at once."""
+
+    def fix(t_s: float, wall_s: float, source: tuple[int, int]) -> FollowTargetFix:
+        return FollowTargetFix(round(t_s * 1e6), wall_s, source, 47.0, 8.0, 500.0, np.zeros(3))
+
+    both, sim_only = ExternalInputs(), ExternalInputs()
+    sim_only.on_wall_clock = False
+    for inputs in (both, sim_only):
+        assert inputs.on_follow_target(fix(10.0, 100.0, (245, 190)))
+    assert not both.on_follow_target(fix(40.0, 101.0, (1, 52)))
+    assert sim_only.on_follow_target(fix(40.0, 101.0, (1, 52)))
+    assert sim_only.follow_target.source == (1, 52)

@@ -10,7 +10,9 @@ station's HEARTBEAT last arrived (the data-link-loss failsafe), and the latest F
 (FOLLOW_TARGET: :mod:`autopilot.mavlink.follow_target_input`); the commander's mode tasks and
 failsafes read it.  Every arrival carries its
 simulated time (µs) and wall-clock time (s, time.monotonic): ages are
-:func:`autopilot.topics.input_age_s` of both.
+:func:`autopilot.topics.input_age_s` of both, or of the simulated time alone when ``on_wall_clock`` is
+False (``autopilot --input-clock sim``: the clients act in simulated time, as a script stepping a held
+simulator does, and nothing depends on the machine's speed).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ class ExternalInputs:
         self.offboard: OffboardSetpoint | None = None
         self.gcs_heartbeat: tuple[int, float] | None = None  # (sim µs, wall s) of the latest
         self.follow_target: FollowTargetFix | None = None  # the latest from the sender being followed
+        self.on_wall_clock = True  # False: ages on simulated time alone (the module docstring)
 
     def on_manual(self, sticks: ManualInput) -> None:
         self.manual = sticks
@@ -42,7 +45,8 @@ class ExternalInputs:
         (on both clocks): the first sender heard keeps the target until it goes silent.  Whether it was kept."""
         cur = self.follow_target
         if cur is not None and fix.source != cur.source:
-            age = input_age_s(cur.received_us, cur.received_wall_s, fix.received_us, fix.received_wall_s)
+            wall_s = fix.received_wall_s if self.on_wall_clock else None
+            age = input_age_s(cur.received_us, cur.received_wall_s, fix.received_us, wall_s)
             if age <= TARGET_TIMEOUT_S:
                 return False
         self.follow_target = fix

@@ -19,6 +19,10 @@ What a condition may read, all fixed by the seed and the hold times:
   entered before this client listened, is met with two round trips instead (TIMESYNC, then REQUEST_MESSAGE
   HEARTBEAT: the second answer leaves after everything the first one's link iteration sent).
 
+The ground station's HEARTBEAT goes out once a simulated second, from a hold (an advance is cut into holds at
+most a second apart): a flight controller that ages its inputs on simulated time alone (``autopilot
+--input-clock sim``) then hears the link the same way in every run, however many wall seconds a slice takes.
+
 The simulated time of the run is the hold time (:attr:`SimStepper.time_s`), not the telemetry's.  Wall
 time only bounds each wait (``timeout_s``, a safety net); a condition not met within ``max_sim_s`` of
 simulated time raises :class:`SimTimeout`, the same in every run.
@@ -26,6 +30,7 @@ simulated time raises :class:`SimTimeout`, the same in every run.
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Callable
 
@@ -37,6 +42,7 @@ from ..sim_client import SimClient, SimParamError
 
 HOLD_PARAM = "SIM_HOLD_MS"
 CHECK_EVERY_S = 0.1  # default slice: the conditions' resolution in simulated time
+HEARTBEAT_EVERY_MS = 1000  # the longest hold-to-hold step of an advance: a HEARTBEAT may be due at each hold
 HEARTBEAT_CHECK_S = 0.25  # wall seconds: how often a slice's wait looks whether the ground station's HEARTBEAT is due
 
 
@@ -60,6 +66,7 @@ class SimStepper:
         self.slices = 0  # advances made
         self.vehicle_held_ms = -1  # the flight controller's latest "held at" report
         self._token = 0
+        self._heartbeat_ms = -math.inf  # the hold time of the latest HEARTBEAT sent (_heartbeat_if_due)
         client.add_listener(self._on_message)
         self._listening = True
 
@@ -82,13 +89,26 @@ class SimStepper:
         self._sync_vehicle()
 
     def advance(self, sim_s: float) -> None:
-        """Move the hold ``sim_s`` seconds of simulated time on and wait until the simulator holds there."""
-        hold_ms = self.time_ms + max(1, round(sim_s * 1000))
-        self.truth.set(HOLD_PARAM, hold_ms, timeout_s=self.timeout_s)
-        self.slices += 1
-        self.time_ms = self._wait_held(hold_ms)
-        t = self.time_ms
-        self.client.wait_until(lambda: self.vehicle_held_ms >= t, self.timeout_s, f"the vehicle held at t = {t} ms")
+        """Move the hold ``sim_s`` seconds of simulated time on and wait until the simulator holds there; in
+        holds at most one ground-station HEARTBEAT period apart, each sending the HEARTBEAT that is due."""
+        end_ms = self.time_ms + max(1, round(sim_s * 1000))
+        while self.time_ms < end_ms:
+            self._heartbeat_if_due()
+            hold_ms = min(end_ms, self.time_ms + HEARTBEAT_EVERY_MS)
+            self.truth.set(HOLD_PARAM, hold_ms, timeout_s=self.timeout_s)
+            self.slices += 1
+            self.time_ms = self._wait_held(hold_ms)
+            t = self.time_ms
+            self.client.wait_until(lambda: self.vehicle_held_ms >= t, self.timeout_s, f"the vehicle held at t = {t} ms")
+
+    def _heartbeat_if_due(self) -> None:
+        """The ground station's HEARTBEAT once a simulated second (its period, unless infinite: a ground station
+        that falls silent), sent while held: a flight controller ageing its inputs on simulated time alone
+        (``autopilot --input-clock sim``) hears the same link in every run, however long a slice lasts."""
+        period_ms = self.client.heartbeat_period_s * 1000
+        if math.isfinite(period_ms) and self.time_ms - self._heartbeat_ms >= period_ms:
+            self._heartbeat_ms = self.time_ms
+            self.client.send_heartbeat()
 
     def _wait_held(self, hold_ms: int) -> int:
         """Until the simulator holds at ``hold_ms``; the ground station's HEARTBEAT keeps going meanwhile (a long
