@@ -26,9 +26,11 @@ figures are the same in every run.  (On both clocks, the default for clients on 
 station stayed "the sender followed" for 3 *wall* seconds after its last target, about 30 simulated ones, and
 3's UGV was refused or followed late in some runs: a CI run once saw it 2.9 m behind.)  The simulator sends the
 UGV's FOLLOW_TARGET over UDP just before a step's sensors (TCP), so the same step reads it in every run
-(``sitl/lockstep.py``).  A user's checks, by the simulator's truth (NED metres from the simulator's home): the horizontal
-distance to the target within FLW_TGT_DST +- 1 m and the height within FLW_TGT_HT +- 1 m once settled, the
-mode, the STATUSTEXTs.  Durations are simulated seconds; wall-clock timeouts are safety nets.
+(``sitl/lockstep.py``).
+
+A user's checks, by the simulator's truth (NED metres from the simulator's home): the horizontal distance
+to the target within FLW_TGT_DST +- 1 m and the height within FLW_TGT_HT +- 1 m once settled, the mode, the
+STATUSTEXTs.  Durations are simulated seconds; wall-clock timeouts are safety nets.
 """
 
 from __future__ import annotations
