@@ -323,18 +323,24 @@ class Connection:
         )
         return self.sim_time_s()
 
-    def reason_since(self, texts_before: int, grace_s: float = 0.5) -> str | None:
-        """The latest STATUSTEXT after the first ``texts_before``, waiting ``grace_s`` wall s if none yet.
+    def reason_since(self, texts_before: int, grace_s: float = 0.5, about: str | None = None) -> str | None:
+        """The latest STATUSTEXT after the first ``texts_before`` (containing ``about``, when given: the name of
+        the parameter refused), waiting ``grace_s`` wall s if none yet.
 
         A vehicle refusing a command or a parameter says why in a STATUSTEXT that
-        may arrive just after the answer.
+        may arrive just after the answer; another that comes meanwhile ("Home set") is not the reason.
         """
-        if len(self.statustexts) == texts_before:
+
+        def latest() -> str | None:
+            texts = [t.text for t in self.statustexts[texts_before:] if about is None or about in t.text]
+            return texts[-1] if texts else None
+
+        if latest() is None:
             try:
-                self.wait_until(lambda: len(self.statustexts) > texts_before, grace_s, "a reason", describe=False)
+                self.wait_until(lambda: latest() is not None, grace_s, "a reason", describe=False)
             except GcsTimeout:
                 return None
-        return self.statustexts[-1].text
+        return latest()
 
     # ----------------------------------------------------------------- what has arrived
 

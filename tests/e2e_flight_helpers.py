@@ -16,6 +16,11 @@ from gcs.client import VehicleClient, mavlink
 from mavsim_core import ports
 
 WAIT_S = 90.0  # wall seconds before giving up on any one step (a noisy 2-core machine)
+# The real-time factor of a stack driven by a client that acts in wall time (MAVSDK, MAVProxy, the ``gcs`` command
+# line, a lossy link): such a test waits on its client, not on the simulation, so a stack at full speed would burn
+# a core making simulated time nobody reads (the suite is bound by CPU: docs/testing.md), and a client's stall of
+# a second is 5 simulated seconds, not 25.  Flights that assert a figure are stepped instead (SteppedFlight).
+CLIENT_SPEED = 5
 ON_GROUND, IN_AIR, LANDING = (
     mavlink.MAV_LANDED_STATE_ON_GROUND,
     mavlink.MAV_LANDED_STATE_IN_AIR,
@@ -159,7 +164,7 @@ def startup_params_args(params: dict[str, float] | None, tmp_path_factory) -> li
 
 
 def truth_and_stack_fixtures(params: dict[str, float] | None = None):
-    """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at full speed)
+    """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at CLIENT_SPEED)
     fixtures on the module's free instance (the ``inst`` fixture of conftest.py): ``truth, stack =
     truth_and_stack_fixtures()`` in a test file; ``params``: flight-controller parameters applied at
     start-up (``autopilot --params``)."""
@@ -176,7 +181,7 @@ def truth_and_stack_fixtures(params: dict[str, float] | None = None):
     @pytest.fixture(scope="module")
     def stack(inst, truth, tmp_path_factory):
         args = startup_params_args(params, tmp_path_factory)
-        with Stack(instance=inst, speed="max", extra_autopilot_args=args) as s:
+        with Stack(instance=inst, speed=CLIENT_SPEED, extra_autopilot_args=args) as s:
             yield s
 
     return truth, stack

@@ -26,7 +26,7 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from e2e_flight_helpers import horizontal, latlon  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, horizontal, latlon  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 WAIT_S = 120.0  # wall-clock safety net of each wait
@@ -42,7 +42,7 @@ def vehicle(inst):
     """(client, truth) of one stack; pre-flight auto-disarm off, so slow steps on a busy machine cannot
     disarm the vehicle between commands."""
     with (
-        Stack(instance=inst, speed="max") as stack,
+        Stack(instance=inst, speed=CLIENT_SPEED) as stack,
         SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):

@@ -32,7 +32,7 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from e2e_flight_helpers import Recorder  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, Recorder  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 WAIT_S = 120.0  # wall-clock safety net of each wait
@@ -62,7 +62,7 @@ def drain_acks(sock: socket.socket, parser: mavlink.MAVLink, acks: list) -> None
 
 def test_fuzzing_both_ports_while_hovering_changes_nothing(inst):
     with (
-        Stack(instance=inst, speed="max") as stack,
+        Stack(instance=inst, speed=CLIENT_SPEED) as stack,
         SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):

@@ -31,7 +31,7 @@ from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack
 from mavsim_core import ports
 
-from e2e_flight_helpers import WAIT_S  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, WAIT_S  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 ROOT = Path(__file__).resolve().parent.parent
@@ -104,7 +104,7 @@ def stack(inst, tmp_path_factory):
     startup.write_text("COM_DISARM_PRFLT -1\n")
     with Stack(
         instance=inst,
-        speed="max",
+        speed=CLIENT_SPEED,
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--params", str(startup)],
         flight_logs=False,

@@ -34,7 +34,7 @@ from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from gcs.launcher import Stack  # noqa: E402
 
-from e2e_flight_helpers import until, wait_armable  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, until, wait_armable  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 WAIT_S = 180.0  # wall-clock safety net of each wait
@@ -49,7 +49,7 @@ TOPICS = {  # what Flight Review's and PlotJuggler's usual plots read
 
 @pytest.fixture(scope="module")
 def stack(inst):
-    with Stack(instance=inst, speed="max") as s:
+    with Stack(instance=inst, speed=CLIENT_SPEED) as s:
         yield s
 
 

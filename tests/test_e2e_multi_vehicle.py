@@ -26,7 +26,7 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
-from e2e_flight_helpers import until, wait_armable  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, until, wait_armable  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,7 +42,7 @@ def fleet(free_instance):
         out = {}
         for n in numbers:
             truth = es.enter_context(SimClient(ports.sim_component_port(n)))
-            stack = es.enter_context(Stack(instance=n, speed="max", gcs_port=shared_gcs_port, flight_logs=False))
+            stack = es.enter_context(Stack(instance=n, speed=CLIENT_SPEED, gcs_port=shared_gcs_port, flight_logs=False))
             out[n] = (stack, truth)
         yield out
 

@@ -26,7 +26,7 @@ from gcs.sim_client import SimClient
 from mavsim_core import ports
 from mavsim_core.geodesy import geodetic_to_ned
 
-from e2e_flight_helpers import sim_ms, until, wait_armable  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, sim_ms, until, wait_armable  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 COUNT = 3
@@ -53,7 +53,7 @@ def world(free_instance):
     with ExitStack() as es:
         truths = [es.enter_context(SimClient(ports.sim_component_port(first + k))) for k in range(COUNT)]
         stack = es.enter_context(
-            MultiStack(first, speed="max", count=COUNT, gcs_port=ports.own_gcs_port(first), flight_logs=False)
+            MultiStack(first, speed=CLIENT_SPEED, count=COUNT, gcs_port=ports.own_gcs_port(first), flight_logs=False)
         )
         yield stack, truths
 

@@ -32,7 +32,7 @@ from gcs.launcher import Stack
 from gcs.plugins.param import decode_param_value, param_id_text
 from params.param_file import QGC, read_param_file
 
-from e2e_flight_helpers import WAIT_S, texts_since  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import CLIENT_SPEED, WAIT_S, texts_since  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 
@@ -58,7 +58,7 @@ def state_dir(tmp_path_factory) -> Path:
 def stack(inst, state_dir):
     with Stack(
         instance=inst,
-        speed="max",
+        speed=CLIENT_SPEED,
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir)],
         flight_logs=False,

@@ -49,6 +49,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 from mavsim_core import ports
 
+from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
 from e2e_params_clients import WAIT_S, MavproxySession, mavsdk_params  # tests/e2e_params_clients.py
 
 pytestmark = pytest.mark.e2e
@@ -76,7 +77,7 @@ def stack(inst, state_dir):
     startup.write_text(STARTUP_PARAMS)
     with Stack(
         instance=inst,
-        speed="max",
+        speed=CLIENT_SPEED,
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir), "--params", str(startup)],
     ) as s:

@@ -39,6 +39,7 @@ from gcs.launcher import Stack  # noqa: E402
 from gcs.signing_cli import has_signature  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
+from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
 from e2e_params_clients import MavproxySession  # tests/e2e_params_clients.py (MAVProxy: tests/mavproxy_env.py)
 
 pytestmark = pytest.mark.e2e
@@ -58,7 +59,7 @@ def state_dir(tmp_path_factory):
 def stack(inst, state_dir):
     with Stack(
         instance=inst,
-        speed="max",
+        speed=CLIENT_SPEED,
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir)],
     ) as s:

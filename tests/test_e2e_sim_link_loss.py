@@ -36,6 +36,8 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 
+from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
+
 pytestmark = pytest.mark.e2e
 WAIT_S = 120.0  # wall-clock safety net of each wait (a loaded 2-core machine)
 ALT_M = 2.5  # MIS_TAKEOFF_ALT's default: NAV_TAKEOFF without an altitude
@@ -164,7 +166,7 @@ def sim_sleep(truth: SimClient, seconds: float) -> None:
 
 @pytest.fixture(scope="module")
 def sim_restart_stack(inst):
-    with Stack(instance=inst, speed="max") as stack:
+    with Stack(instance=inst, speed=CLIENT_SPEED) as stack:
         gcs = GcsWatch(stack.gcs_url, stack.sysid)
         try:
             yield stack, gcs
@@ -260,7 +262,7 @@ def test_a_silent_client_on_the_simulator_port_is_dropped(sim_restart_stack):
 
 
 def test_flight_controller_restarted_in_the_air_sets_home_only_at_rest(free_instance):
-    with Stack(instance=free_instance(), speed="max") as stack:
+    with Stack(instance=free_instance(), speed=CLIENT_SPEED) as stack:
         gcs = GcsWatch(stack.gcs_url, stack.sysid)
         truth = SimClient(ports.sim_component_port(stack.instance))
         try:

@@ -23,6 +23,8 @@ from gcs.launcher import Stack
 from gcs.sim_client import SimClient, SimParamError
 from mavsim_core import ports
 
+from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
+
 pytestmark = pytest.mark.e2e
 
 
@@ -47,7 +49,7 @@ def _ugv(inst: int, seconds_of_sim: float = 0.0):
 
 def test_ugv_is_driven_by_keys_set_by_parameters_and_refuses_a_restart_parameter(inst):
     args = ["--param", "SIM_UGV_EN=1", "--param", "SIM_UGV_X=3", "--param", "SIM_UGV_PATH=0"]
-    with Stack(instance=inst, speed="max", extra_sitl_args=args, flight_logs=False):
+    with Stack(instance=inst, speed=CLIENT_SPEED, extra_sitl_args=args, flight_logs=False):
         parked, _ = _ugv(inst)
         assert parked.pos_ned_m[0] == pytest.approx(3.0, abs=0.05) and abs(parked.pos_ned_m[1]) < 0.05
         assert parked.pos_ned_m[2] == pytest.approx(-0.3, abs=0.05)  # the deck's top, 0.3 m up

@@ -27,6 +27,8 @@ from gcs.client import VehicleClient
 from gcs.launcher import Stack
 from mavsim_core import geodesy, ports
 
+from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
+
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 EXAMPLES = ROOT / "examples"
@@ -82,7 +84,7 @@ def test_relative_links_point_to_files_that_exist(page):
 
 @pytest.fixture(scope="module")
 def stack(free_instance, tmp_path_factory):
-    with Stack(instance=free_instance(), speed="max", log_dir=tmp_path_factory.mktemp("examples_stack")) as s:
+    with Stack(instance=free_instance(), speed=CLIENT_SPEED, log_dir=tmp_path_factory.mktemp("examples_stack")) as s:
         yield s
 
 

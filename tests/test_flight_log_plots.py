@@ -30,6 +30,7 @@ from mavsim_core.npy_log import NpyLogWriter  # noqa: E402
 from mavsim_core.quaternion import from_euler  # noqa: E402
 from sitl.truth_log import truth_log_fields  # noqa: E402
 
+from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
 from flight_log_helpers import EPOCH0_US, make_mav, read_tlog  # tests/flight_log_helpers.py
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -175,7 +176,9 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path, free_insta
 
     wait_s, alt_m = 90.0, 3.0
     logs = tmp_path / "logs"
-    with Stack(instance=free_instance(), speed="max", log_dir=logs, extra_sitl_args=["--truth-port", "0"]) as stack:
+    with Stack(
+        instance=free_instance(), speed=CLIENT_SPEED, log_dir=logs, extra_sitl_args=["--truth-port", "0"]
+    ) as stack:
         with VehicleClient(stack.api_url, timeout_s=wait_s, idle=stack.check_alive) as c:
             c.wait_until(c.prearm_ok, wait_s, "ready to arm")
             home = c.wait_home(wait_s)

@@ -154,10 +154,10 @@ class Param:
         others = []
 
         def answers(m) -> bool:
-            """The echo of this set, or a refusal: another value with the vehicle's reason (a STATUSTEXT in the
-            same datagram).  Another value without a reason is a late answer to an earlier request (another
-            station's change, a read) unless it comes twice."""
-            if matches(m) or len(link.statustexts) > texts_before:
+            """The echo of this set, or a refusal: another value with the vehicle's reason (a STATUSTEXT naming
+            the parameter, in the same datagram).  Another value without a reason is a late answer to an earlier
+            request (another station's change, a read) unless it comes twice."""
+            if matches(m) or any(name in t.text for t in link.statustexts[texts_before:]):
                 return True
             others.append(m)
             return len(others) >= 2
@@ -172,7 +172,7 @@ class Param:
         )
         got = decode_param_value(msg)
         if not matches(msg):
-            reason = link.reason_since(texts_before)
+            reason = link.reason_since(texts_before, about=name)
             because = f" ({reason})" if reason else ""
             kept = param_file.format_value(got, param_type if param_encoding.is_integer_type(param_type) else None)
             raise ParamRefused(f"{name} not set to {value!r}: vehicle kept {kept}{because}")
