@@ -99,6 +99,13 @@ def make_harness():
         h.close()
 
 
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject.toml's addopts): one worker more than the machine has cores.  The e2e files whose
+    client acts in wall time run their stack at CLIENT_SPEED (tests/e2e_flight_helpers.py) and leave part of a
+    core idle while they wait on the client; the extra worker's file uses it (docs/testing.md, "Time")."""
+    return (os.cpu_count() or 1) + 1
+
+
 # ---------------------------------------------------------------------------------------------
 # A failed e2e test prints the tails of both processes' logs and each link's last messages
 # (tests/e2e_diagnostics.py), so a CI failure can be read without re-running it.

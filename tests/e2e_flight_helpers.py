@@ -361,7 +361,7 @@ def stepped_flight(
     clock = [] if then_free else ["--input-clock", "sim"]
     with (
         SimClient(ports.sim_component_port(inst)) as truth,
-        Stack(inst, "max", vehicle, args, [*fc_args, *clock], seed=sim_seed()) as stack,
+        Stack(inst, "max", vehicle, args, [*fc_args, *clock], seed=sim_seed(), flight_logs=False) as stack,
         VehicleClient(stack.gcs_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):
         stepper = SimStepper(client, truth, timeout_s=WAIT_S)
