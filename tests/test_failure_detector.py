@@ -136,6 +136,28 @@ def test_a_motor_lost_without_a_flip_is_reported_after_a_second_and_disarmed_sti
     assert b.texts().count(LOST) == 1 and b.telemetry().system_status == EMERGENCY  # until the next arming
 
 
+def test_a_fall_too_short_for_the_check_ends_stuck_on_the_ground_and_that_is_reported_and_disarmed():
+    """A fall from 2.5 m whose lean passed 45 deg for a moment (the timer starts again) lands before the 1 s of
+    the check: on the ground, upright, a motor at its limit and the position controller asking for a climb, it
+    is a thrust loss too (seed 111 of the end-to-end motor loss: the motors ran on at full throttle)."""
+    b = motor_out()
+    b.lost = True
+    b.cmd.vel_sp_down_m_s = -3.0  # the position controller asks to climb back (as it does in a fall)
+    b.run(0.8)
+    b.roll = math.radians(50.0)
+    b.run(0.1)
+    b.roll = 0.0
+    b.run(0.5)
+    assert b.pos[2] == 0.0 and not any("Critical failure" in t for t in b.texts()), b.texts()
+    assert b.cmd.status.armed and b.cmd.status.in_air  # (the land detector waits for low thrust)
+    b.run(1.0)
+    stuck = "Critical failure detected (thrust loss, likely motor 1): on the ground at full throttle"
+    assert b.texts().count(stuck) == 1 and b.cmd.status.armed
+    b.run(1.05)
+    assert not b.cmd.status.armed
+    assert b.texts()[-2:] == ["Crash detected: disarming", "Disarmed (crash detected)"]
+
+
 def test_a_vehicle_that_lost_thrust_but_holds_its_height_is_reported_and_not_disarmed_in_the_air():
     b = motor_out()
     b.lost, b.sink_m_s = True, 0.5
@@ -164,7 +186,7 @@ def test_no_thrust_loss_while_climbing_holding_tilted_short_unsaturated_in_acro_
     b.run(2.0)
     b.sink_m_s = 0.0
     b.run(2.0)
-    b.sink_m_s, b.roll = 1.0, math.radians(35.0)  # sinking but tilted beyond 30 deg: the attitude checks' case
+    b.sink_m_s, b.roll = 1.0, math.radians(50.0)  # sinking but tilted beyond 45 deg: the attitude checks' case
     b.run(1.5)
     b.sink_m_s, b.roll = 0.4, math.radians(22.0)  # braking at 4 m/s^2 with a motor at its limit: manoeuvring
     b.run(1.5)

@@ -163,15 +163,16 @@ def check_failures(c: Commander, now_us: int, actuators: ActuatorStatus = NO_ACT
     thrust = fd.thrust
     vel_down = float(est.vel_ned_m_s[2])
     outputs, throttle = actuators.motor_outputs, actuators.throttle_frac
-    if thrust.update(now_us, checking, tilt, vel_down, outputs, throttle, c.vel_sp_down_m_s):
+    above_m = c.land_detector.ground_down_m - float(est.pos_ned_m[2])  # above where it was armed
+    if thrust.update(now_us, checking, tilt, vel_down, outputs, throttle, c.vel_sp_down_m_s, above_m):
         which = f", likely motor {thrust.motor}" if thrust.motor else ""
-        c.say(S.MAV_SEVERITY_CRITICAL, f"Critical failure detected (thrust loss{which}): descending at full throttle")
+        where = "on the ground at full throttle" if thrust.stuck else "descending at full throttle"
+        c.say(S.MAV_SEVERITY_CRITICAL, f"Critical failure detected (thrust loss{which}): {where}")
     c.failsafe.critical_failure = c.armed and (fd.roll_failed or fd.pitch_failed or thrust.lost)
     if not c.armed or int(c.params.get("FS_CRASH_CHECK")) != 1:
         return
     grounded = False  # (only after a thrust loss: before one, its timer is never running)
     if thrust.lost:
-        above_m = c.land_detector.ground_down_m - float(est.pos_ned_m[2])
         get = c.params.get
         grounded = thrust.grounded(
             now_us, above_m, est.vel_ned_m_s, est.accel_ned_m_s2, get("LNDMC_Z_VEL_MAX"), get("LNDMC_XY_VEL_MAX")

@@ -6,7 +6,11 @@ The attitude checks of :mod:`.failure_detector` (FD_FAIL_R/FD_FAIL_P) never see 
 looks where ArduPilot's Copter does (``thrust_loss_check``, "Potential Thrust Loss (N)"): while armed
 and in the air, in a mode that controls the attitude, for ``TRIGGER_S`` (1 s) without a break:
 
-* the attitude is under control: tilt below ``MAX_TILT_DEG`` (ArduPilot: attitude error under 30 deg);
+* the attitude is under control: tilt below ``MAX_TILT_DEG``, 45 deg (ArduPilot: attitude error under 30 deg;
+  here the tilt, bounded by PX4's default MPC_TILTMAX_AIR, for a quadrotor falling with a motor lost leans
+  past 30 deg within its first second with some sensor noise: simulator seed 111 reached 38 deg at 5 m/s down,
+  and the check's timer, started again at 30 deg, never ran out before the impact; beyond 45 deg, up to the
+  60 deg of FD_FAIL_R/FD_FAIL_P, the vehicle is flipping, not flying);
 * the motors are at their limit: one output at ``SATURATED`` or more (ArduPilot: throttle at 90 % or
   the mixer's upper throttle limit reached) and the throttle at ``MIN_THROTTLE`` or more (25 %: not a
   limit that a low commanded throttle causes);
@@ -24,6 +28,16 @@ and in the air, in a mode that controls the attitude, for ``TRIGGER_S`` (1 s) wi
   the sign, and a commanded descent while yawing meets that: a MAVSDK go-to sent at the end of a
   take-off, 90 deg of yaw on the way down at 1.1 m/s, was reported as a thrust loss and landed.  A lost
   motor sinks against the setpoint, which then asks for a climb.
+
+A fall from a low hover can still end before that second has passed without a break (one output dipping
+under its limit, the lean passing 45 deg for a moment): the vehicle then sits upright on the ground with a
+motor at its limit, the position controller asking for a climb and the land detector never landing it
+(it waits for low thrust), its motors at full throttle on a wreck.  So the check also counts a vehicle
+*stuck*: level, within ``GROUND_BAND_M`` of the height it was armed at, still (vertical speed under
+``LEVEL_SINK_M_S``), a motor at its limit and the throttle at ``MIN_THROTTLE`` or more, while asked to
+climb faster than ``LEVEL_SINK_M_S``, for ``TRIGGER_S``: reported as a thrust loss "on the ground at full
+throttle" (:attr:`ThrustLossCheck.stuck`), and disarmed by the crash check's ground test ``GROUND_S``
+after it began.  A take-off climbs and a landing asks to descend, so neither meets it.
 
 The likely motor is the one with the highest output low-passed over ``OUTPUT_TAU_S`` (0.5 s), as
 ArduPilot's ``AP_MotorsMatrix::check_for_failed_motor``: the controllers ask the motor that gives
@@ -47,7 +61,7 @@ import math
 import numpy as np
 
 TRIGGER_S = 1.0  # ArduPilot's THRUST_LOSS_CHECK_TRIGGER_SEC
-MAX_TILT_DEG = 30.0  # ArduPilot's CRASH_CHECK_ANGLE_DEVIATION_DEG (attitude still controlled)
+MAX_TILT_DEG = 45.0  # attitude still controlled: PX4's MPC_TILTMAX_AIR default (the module docstring)
 LEVEL_DEG = 15.0  # ArduPilot's lean limit of its thrust-loss check: leaning more is a manoeuvre ...
 MANOEUVRE_SINK_M_S = 0.5  # ... and counts only when sinking faster than this
 LEVEL_SINK_M_S = 0.2  # level: sinking faster than this (a height controller's small dip is not a loss)
@@ -64,6 +78,7 @@ class ThrustLossCheck:
 
     def __init__(self) -> None:
         self.lost = False  # a thrust loss was found in this arming (cleared by :meth:`reset`)
+        self.stuck = False  # ... found on the ground, stuck at full throttle (the module docstring)
         self.motor = 0  # the likely motor (1-based; 0 before any output was seen)
         self._since_us: int | None = None  # the conditions have held since
         self._still_since_us: int | None = None  # on the ground and still since (after a loss)
@@ -83,21 +98,31 @@ class ThrustLossCheck:
         outputs: tuple[float, ...],
         throttle: float,
         vel_sp_down_m_s: float = math.nan,
+        height_above_arming_m: float = math.inf,
     ) -> bool:
         """One step; ``checking``: armed, in the air and the attitude controlled; ``vel_sp_down_m_s``: the
-        position controller's vertical velocity setpoint (NaN: none).  True once, at the loss."""
+        position controller's vertical velocity setpoint (NaN: none); ``height_above_arming_m``: the estimate's
+        height above where it was armed (the stuck case).  True once, at the loss."""
         self._filter(now_us, outputs)
         asked_down = vel_sp_down_m_s if math.isfinite(vel_sp_down_m_s) else 0.0
-        losing = (
+        at_limit = (
             checking
             and tilt_rad < math.radians(MAX_TILT_DEG)
             and bool(outputs)
             and max(outputs) >= SATURATED
             and throttle >= MIN_THROTTLE
-            and vel_down_m_s > (LEVEL_SINK_M_S if tilt_rad < math.radians(LEVEL_DEG) else MANOEUVRE_SINK_M_S)
+        )
+        sinking = (
+            vel_down_m_s > (LEVEL_SINK_M_S if tilt_rad < math.radians(LEVEL_DEG) else MANOEUVRE_SINK_M_S)
             and vel_down_m_s - asked_down > LEVEL_SINK_M_S
         )
-        if not losing:
+        stuck = (
+            tilt_rad < math.radians(LEVEL_DEG)
+            and height_above_arming_m < GROUND_BAND_M
+            and abs(vel_down_m_s) < LEVEL_SINK_M_S
+            and asked_down < -LEVEL_SINK_M_S
+        )
+        if not (at_limit and (sinking or stuck)):
             self._since_us = None
             return False
         if self._since_us is None:
@@ -105,6 +130,8 @@ class ThrustLossCheck:
         if self.lost or now_us - self._since_us < TRIGGER_S * 1e6:
             return False
         self.lost = True
+        if stuck:  # still on the ground since the conditions began: the crash check's timer with them
+            self.stuck, self._still_since_us = True, self._since_us
         if self._filtered is not None:
             self.motor = int(np.argmax(self._filtered)) + 1
         return True
