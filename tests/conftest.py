@@ -121,21 +121,6 @@ def pytest_configure(config):
         prepare_in_background()  # MAVProxy's environment made beside the unit tests (tests/mavproxy_env.py)
 
 
-# The longest files first, so that no worker is left with one at the end while the others idle (xdist's
-# loadfile hands the files out in this order): the campaign files (the longest tests), then the other e2e
-# files, then the unit tests, which fill the end.  A file's own tests keep their order (stepped flights).
-LONGEST_FILES = ("test_e2e_campaign.py", "test_e2e_campaign_kinds.py", "test_e2e_multi_vehicle.py")
-
-
-def pytest_collection_modifyitems(config, items):
-    e2e_files = {item.path for item in items if item.get_closest_marker("e2e") is not None}
-
-    def rank(item) -> int:
-        return 0 if item.path.name in LONGEST_FILES else 1 if item.path in e2e_files else 2
-
-    items[:] = sorted(items, key=rank)  # stable: each file's tests in their order
-
-
 def pytest_runtest_setup(item):
     import e2e_diagnostics
 

@@ -178,15 +178,10 @@ def test_mission_as_the_upstream_example_returns_home_and_lands(stack, truth, in
                 if p.current == p.total:
                     return
 
-        async def track():
-            while True:
-                seen["track"].append(truth.latest().pos_ned_m[:2])
-                await asyncio.sleep(0.002)
-
-        tracker = asyncio.ensure_future(track())
+        t0_ms = truth.latest().time_ms  # the track from the simulator's truth at 50 Hz, whenever it was read
         await progress()
         await landed_and_disarmed(drone)
-        tracker.cancel()
+        seen["track"] = [s.pos_ned_m[:2] for s in truth.since(t0_ms)]
         seen["end"] = truth.latest().pos_ned_m
 
     run(flight())
