@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
+import uuid
 from pathlib import Path
 
 import pytest
 
+from gcs.launcher import instance_pool
 from mavsim_core import ports as port_scheme
 
 from instances import BENCHMARKS, PEOPLE, POOL, collisions, lease, ports
@@ -71,7 +74,7 @@ def test_a_lease_skips_an_instance_whose_port_is_taken():
             other.release()
 
 
-def test_a_released_lease_is_reused():
+def test_a_released_lease_is_reused(private_locks):
     first = lease()
     n = first.number
     first.release()
@@ -82,9 +85,20 @@ def test_a_released_lease_is_reused():
         again.release()
 
 
+@pytest.fixture
+def private_locks(monkeypatch) -> str:
+    """Locks in a namespace of this test's own: another run's leases (a second suite on the machine) cannot
+    take a number this test has just released before it looks again."""
+    namespace = f"{instance_pool.LOCK_NAMESPACE}-test-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    monkeypatch.setattr(instance_pool, "LOCK_NAMESPACE", namespace)
+    return namespace
+
+
 CHILD = """
 import sys
 sys.path.insert(0, sys.argv[1])
+from gcs.launcher import instance_pool
+instance_pool.LOCK_NAMESPACE = sys.argv[3]
 from instances import lease
 try:
     lease([int(sys.argv[2])])
@@ -97,11 +111,11 @@ sys.stdin.read()  # hold the lease until the parent closes stdin or kills this p
 """
 
 
-def test_the_lock_is_per_process_and_dies_with_it():
+def test_the_lock_is_per_process_and_dies_with_it(private_locks):
     """Another process cannot take an instance this one holds; what it holds is free once it is killed."""
     mine = lease()
     child = subprocess.Popen(
-        [sys.executable, "-c", CHILD, str(TESTS), str(mine.number)],
+        [sys.executable, "-c", CHILD, str(TESTS), str(mine.number), private_locks],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -116,6 +130,6 @@ def test_the_lock_is_per_process_and_dies_with_it():
         child.kill()
         child.wait(timeout=30)
         mine.release()
-    freed = lease([theirs])
-    freed.release()
-    assert freed.number == theirs
+    freed = instance_pool._lock(theirs)  # its lock (whether its ports are free is another test's)
+    assert freed is not None, f"instance {theirs} still locked after its holder was killed"
+    freed.close()
