@@ -151,8 +151,7 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                     recorder.on_step(imu)
                 # While the simulator steps its physics: the outer loops, and in another
                 # period the ground-station link (both 50 Hz), so the two never add up.
-                # The input-loss timers also measure the clients' clock, unless they act in simulated time
-                fc.wall_s = wall_s if fc.commander.inputs.on_wall_clock else None  # (--input-clock sim)
+                fc.wall_s = wall_s  # the input-loss timers also measure the clients' clock (but --input-clock sim)
                 fc.after_step()
                 if (now_us // LOCKSTEP_DT_US) % LINK_EVERY == LINK_PHASE:
                     link.update(now_us)

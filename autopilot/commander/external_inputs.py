@@ -45,26 +45,31 @@ class ExternalInputs:
         (on both clocks): the first sender heard keeps the target until it goes silent.  Whether it was kept."""
         cur = self.follow_target
         if cur is not None and fix.source != cur.source:
-            wall_s = fix.received_wall_s if self.on_wall_clock else None
-            age = input_age_s(cur.received_us, cur.received_wall_s, fix.received_us, wall_s)
-            if age <= TARGET_TIMEOUT_S:
+            if (
+                self._age(cur.received_us, cur.received_wall_s, fix.received_us, fix.received_wall_s)
+                <= TARGET_TIMEOUT_S
+            ):
                 return False
         self.follow_target = fix
         return True
 
     # -- ages (s); None when the input never arrived
+    def _age(self, received_us: int, received_wall_s: float, now_us: int, wall_s: float | None) -> float:
+        """:func:`~autopilot.topics.input_age_s`, on simulated time alone unless ``on_wall_clock``."""
+        return input_age_s(received_us, received_wall_s, now_us, wall_s if self.on_wall_clock else None)
+
     def manual_age_s(self, now_us: int, wall_s: float | None) -> float | None:
         m = self.manual
-        return None if m is None else input_age_s(m.received_us, m.received_wall_s, now_us, wall_s)
+        return None if m is None else self._age(m.received_us, m.received_wall_s, now_us, wall_s)
 
     def offboard_age_s(self, now_us: int, wall_s: float | None) -> float | None:
         o = self.offboard
-        return None if o is None else input_age_s(o.received_us, o.received_wall_s, now_us, wall_s)
+        return None if o is None else self._age(o.received_us, o.received_wall_s, now_us, wall_s)
 
     def gcs_age_s(self, now_us: int, wall_s: float | None) -> float | None:
         h = self.gcs_heartbeat
-        return None if h is None else input_age_s(h[0], h[1], now_us, wall_s)
+        return None if h is None else self._age(h[0], h[1], now_us, wall_s)
 
     def follow_target_age_s(self, now_us: int, wall_s: float | None) -> float | None:
         f = self.follow_target
-        return None if f is None else input_age_s(f.received_us, f.received_wall_s, now_us, wall_s)
+        return None if f is None else self._age(f.received_us, f.received_wall_s, now_us, wall_s)

@@ -112,17 +112,19 @@ class ThrustLossCheck:
             and max(outputs) >= SATURATED
             and throttle >= MIN_THROTTLE
         )
-        sinking = (
-            vel_down_m_s > (LEVEL_SINK_M_S if tilt_rad < math.radians(LEVEL_DEG) else MANOEUVRE_SINK_M_S)
-            and vel_down_m_s - asked_down > LEVEL_SINK_M_S
-        )
-        stuck = (
-            tilt_rad < math.radians(LEVEL_DEG)
-            and height_above_arming_m < GROUND_BAND_M
-            and abs(vel_down_m_s) < LEVEL_SINK_M_S
-            and asked_down < -LEVEL_SINK_M_S
-        )
-        if not (at_limit and (sinking or stuck)):
+        sinking = stuck = False
+        if at_limit:  # (most steps: not at the limit, nothing more to look at)
+            sinking = (
+                vel_down_m_s > (LEVEL_SINK_M_S if tilt_rad < math.radians(LEVEL_DEG) else MANOEUVRE_SINK_M_S)
+                and vel_down_m_s - asked_down > LEVEL_SINK_M_S
+            )
+            stuck = (
+                tilt_rad < math.radians(LEVEL_DEG)
+                and height_above_arming_m < GROUND_BAND_M
+                and abs(vel_down_m_s) < LEVEL_SINK_M_S
+                and asked_down < -LEVEL_SINK_M_S
+            )
+        if not (sinking or stuck):
             self._since_us = None
             return False
         if self._since_us is None:
