@@ -4,8 +4,12 @@ Above MPC_LAND_ALT1 over home the descent speed is the larger of MPC_LAND_SPEED 
 MPC_Z_VEL_MAX_DN, below it MPC_LAND_SPEED (PX4's two-stage descent).  The descent speed
 setpoint starts from the vehicle's own vertical speed at the first update and changes at
 most MPC_ACC_DOWN_MAX per second, so the thrust never steps.  Without a horizontal
-position (GPS lost) north/east are not controlled: the horizontal velocity setpoint is
-zero on the inertial estimate and the height is the barometer's (PX4's descend).
+position (GPS lost) north/east are not controlled: the vehicle is held level (a horizontal
+acceleration setpoint of zero, no velocity loop) and the height is the barometer's, as PX4's
+Descend flies.  A velocity held at zero on the unaided inertial estimate would chase that
+estimate's drift: after a few seconds of dead reckoning it is wrong by tenths of a metre per second,
+and on touchdown, pushed by the legs' contact, the vehicle tilted to "stop" a motion it did not
+have and skipped along the ground instead of landing.
 
 The land never reports ``done``: touchdown is the land detector's call
 (:mod:`autopilot.navigation.land_detector`), and the commander ends the task then.
@@ -22,6 +26,9 @@ from autopilot.control import gains_from_params
 from autopilot.navigation.flight_task import PositionSetpoint, defined_in
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import VehicleEstimate
+
+_NO_POSITION = np.array([math.nan, math.nan, math.nan])
+_LEVEL = np.array([0.0, 0.0, math.nan])  # m/s^2 NED: none horizontally, the vertical velocity loop's own
 
 P_LAND_SPEED = param("MPC_LAND_SPEED", 0.7, 0.2, 2.0, "m/s", "Landing descent speed (final phase)")
 P_ACC_DOWN_MAX = param(
@@ -89,8 +96,8 @@ class LandTask:
         step = self.params.get("MPC_ACC_DOWN_MAX") * dt
         self._speed += min(max(want - self._speed, -step), step)
         speed = self._speed
-        if not est.position_valid:
-            return PositionSetpoint(np.array([math.nan, math.nan, math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)
+        if not est.position_valid:  # level: no horizontal acceleration asked, the velocity left alone
+            return PositionSetpoint(_NO_POSITION, np.array([math.nan, math.nan, speed]), self.yaw_rad, _LEVEL)
         return PositionSetpoint(np.array([self.ne[0], self.ne[1], math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)
 
     @property
