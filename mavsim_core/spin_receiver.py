@@ -20,6 +20,14 @@ yields the core between tries (``sched_yield``: another stack's process runs fir
 back to 100 us when fewer than 80 % of recent spins caught the data: the landing benchmark then
 ran 3.3-3.6x (49e60b3, before all this: 3.4-3.8x in the same session) and the flight benchmark
 28-32x.
+
+Where more stacks than cores share the machine (the test suite: three workers' stacks on two cores),
+no spin at all does more simulated seconds per CPU second: ``MAVSIM_LOCKSTEP_SPIN_US`` (microseconds,
+read when a receiver is made, so a stack's children inherit it) sets the budget, 0 turns the spin off.
+Measured 2026-12-01 (N stacks idling on the ground at ``--speed max`` together, 15-20 wall s each,
+simulated seconds per CPU second of the stacks' processes): one stack 6.4-6.6 with the spin, 7.3-7.8
+without (but 15 % slower in wall time: the spin is for one flight on an idle machine); two stacks
+7.0 against 8.0; three 5.7-6.1 against 6.3-7.0.
 """
 
 from __future__ import annotations
@@ -29,11 +37,28 @@ import os
 import select
 import socket
 import time
+from typing import Mapping
 
-SPIN_BUDGET_S = 0.0003  # s
+SPIN_BUDGET_S = 0.0003  # s, unless MAVSIM_LOCKSTEP_SPIN_US says otherwise
+SPIN_ENV = "MAVSIM_LOCKSTEP_SPIN_US"
 SHORT_SPIN_S = 0.0001  # s, while fewer than HIT_RATE_FOR_LONG_SPIN of the spins catch the data
 HIT_RATE_FOR_LONG_SPIN = 0.8
 HIT_RATE_GAIN = 0.05
+
+
+def spin_budget_from_env(environ: Mapping[str, str] = os.environ) -> float:
+    """The spin budget, s: ``MAVSIM_LOCKSTEP_SPIN_US`` (microseconds, >= 0) if set, else SPIN_BUDGET_S.
+    A value that is not a number, or negative, is a ValueError naming the variable."""
+    text = environ.get(SPIN_ENV)
+    if text is None or not text.strip():
+        return SPIN_BUDGET_S
+    try:
+        micros = float(text)
+    except ValueError:
+        raise ValueError(f"{SPIN_ENV}={text!r}: not a number of microseconds") from None
+    if not math.isfinite(micros) or micros < 0:
+        raise ValueError(f"{SPIN_ENV}={text!r}: must be a finite number of microseconds >= 0")
+    return micros * 1e-6
 
 
 class SpinReceiver:
@@ -44,10 +69,11 @@ class SpinReceiver:
     MSG_DONTWAIT read wait up to the timeout first, which turned the spin into a sleep).
     """
 
-    def __init__(self, sock: socket.socket, spin_budget_s: float = SPIN_BUDGET_S) -> None:
+    def __init__(self, sock: socket.socket, spin_budget_s: float | None = None) -> None:
+        """``spin_budget_s``: None for :func:`spin_budget_from_env`; 0 never spins."""
         self.sock = sock
-        self.budget = spin_budget_s
-        self._spin = True
+        self.budget = spin_budget_from_env() if spin_budget_s is None else spin_budget_s
+        self._spin = self.budget > 0
         self._hits = 1.0  # running share of spins that caught the data (HIT_RATE_GAIN per receive)
         self._poll = select.poll()
         self._poll.register(sock, select.POLLIN)
@@ -56,6 +82,8 @@ class SpinReceiver:
     def spin_budget_s(self) -> float:
         """How long the next receive spins (if it spins at all): the budget, or SHORT_SPIN_S while few spins
         catch the data."""
+        if self.budget <= 0:
+            return 0.0
         return self.budget if self._hits >= HIT_RATE_FOR_LONG_SPIN else SHORT_SPIN_S
 
     def recv(self, bufsize: int = 65536, timeout_s: float | None = None) -> bytes:
@@ -79,5 +107,5 @@ class SpinReceiver:
         if not self._poll.poll(wait_ms):
             raise TimeoutError("timed out")  # socket.timeout is TimeoutError
         data = self.sock.recv(bufsize)  # readable (or closed: b"", or an error raised)
-        self._spin = time.perf_counter() - start < self.budget * 2
+        self._spin = self.budget > 0 and time.perf_counter() - start < self.budget * 2
         return data

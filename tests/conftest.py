@@ -9,6 +9,10 @@ from __future__ import annotations
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # camera tests render headless (before anything imports MuJoCo)
+# The stacks the tests start (and their children) wait for their lockstep peer without spinning: the suite runs
+# more stacks than the machine has cores, where a spin only takes a core from another stack's process
+# (mavsim_core/spin_receiver.py; docs/testing.md, "Time").  A person's own setting is kept.
+os.environ.setdefault("MAVSIM_LOCKSTEP_SPIN_US", "0")
 
 import pytest  # noqa: E402
 

@@ -163,11 +163,12 @@ def startup_params_args(params: dict[str, float] | None, tmp_path_factory) -> li
     return ["--params", str(path)]
 
 
-def truth_and_stack_fixtures(params: dict[str, float] | None = None):
+def truth_and_stack_fixtures(params: dict[str, float] | None = None, flight_logs: bool = False):
     """Module-scoped ``truth`` (the simulator's truth port) and ``stack`` (both processes at CLIENT_SPEED)
     fixtures on the module's free instance (the ``inst`` fixture of conftest.py): ``truth, stack =
     truth_and_stack_fixtures()`` in a test file; ``params``: flight-controller parameters applied at
-    start-up (``autopilot --params``)."""
+    start-up (``autopilot --params``); ``flight_logs``: the stack writes its flight logs (.ulg, .tlog,
+    .truth.npy), for a file that reads them (off, they cost the stack 5-8 % of its CPU in flight)."""
     import pytest
 
     from gcs.launcher import Stack
@@ -181,7 +182,7 @@ def truth_and_stack_fixtures(params: dict[str, float] | None = None):
     @pytest.fixture(scope="module")
     def stack(inst, truth, tmp_path_factory):
         args = startup_params_args(params, tmp_path_factory)
-        with Stack(instance=inst, speed=CLIENT_SPEED, extra_autopilot_args=args) as s:
+        with Stack(instance=inst, speed=CLIENT_SPEED, extra_autopilot_args=args, flight_logs=flight_logs) as s:
             yield s
 
     return truth, stack

@@ -42,7 +42,7 @@ def vehicle(inst):
     """(client, truth) of one stack; pre-flight auto-disarm off, so slow steps on a busy machine cannot
     disarm the vehicle between commands."""
     with (
-        Stack(instance=inst, speed=CLIENT_SPEED) as stack,
+        Stack(instance=inst, speed=CLIENT_SPEED, flight_logs=False) as stack,
         SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):

@@ -45,7 +45,7 @@ from e2e_flight_helpers import (
 )  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
-truth, stack = truth_and_stack_fixtures()
+truth, stack = truth_and_stack_fixtures(flight_logs=True)  # a test reads them
 ALT_M = 5.0
 
 

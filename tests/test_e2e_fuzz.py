@@ -62,7 +62,7 @@ def drain_acks(sock: socket.socket, parser: mavlink.MAVLink, acks: list) -> None
 
 def test_fuzzing_both_ports_while_hovering_changes_nothing(inst):
     with (
-        Stack(instance=inst, speed=CLIENT_SPEED) as stack,
+        Stack(instance=inst, speed=CLIENT_SPEED, flight_logs=False) as stack,
         SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):

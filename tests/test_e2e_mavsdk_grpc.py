@@ -38,7 +38,7 @@ from e2e_flight_helpers import latlon, sim_sleep, truth_and_stack_fixtures, trut
 
 # (the package's own start-up of mavsdk_server uses importlib.resources.path, deprecated: not ours to mend)
 pytestmark = [pytest.mark.e2e, pytest.mark.filterwarnings("ignore:path is deprecated:DeprecationWarning")]
-truth, stack = truth_and_stack_fixtures()
+truth, stack = truth_and_stack_fixtures(flight_logs=True)  # a test reads them
 
 GRPC_BASE = 50100  # mavsdk_server's gRPC port: this plus the stack's instance number
 WAIT_S = 180.0  # wall seconds for one whole flight (a loaded 2-core machine)

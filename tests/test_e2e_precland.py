@@ -36,7 +36,12 @@ WAIT_S = 180.0
 def _fly(setup: LandingSetup, inst: int):
     with (
         Stack(
-            instance=inst, speed="max", vehicle=setup.vehicle, seed=setup.seed, extra_sitl_args=setup.sim_args()
+            instance=inst,
+            speed="max",
+            vehicle=setup.vehicle,
+            seed=setup.seed,
+            extra_sitl_args=setup.sim_args(),
+            flight_logs=False,
         ) as stack,
         SimClient(ports.sim_component_port(inst)) as truth,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
@@ -80,6 +85,7 @@ def test_target_lost_then_search_then_ordinary_landing(free_instance, tmp_path):
             seed=5,
             extra_sitl_args=setup.sim_args(),  # held from the start (deterministic): flown by hand through holds
             extra_autopilot_args=["--params", str(params)],
+            flight_logs=False,
         ) as stack,
         VehicleClient(stack.api_url, timeout_s=WAIT_S, idle=stack.check_alive) as client,
     ):

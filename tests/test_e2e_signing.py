@@ -62,6 +62,7 @@ def stack(inst, state_dir):
         speed=CLIENT_SPEED,
         extra_sitl_args=["--truth-port", "0"],
         extra_autopilot_args=["--state-dir", str(state_dir)],
+        flight_logs=False,
     ) as s:
         yield s
 

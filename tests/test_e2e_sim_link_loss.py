@@ -166,7 +166,7 @@ def sim_sleep(truth: SimClient, seconds: float) -> None:
 
 @pytest.fixture(scope="module")
 def sim_restart_stack(inst):
-    with Stack(instance=inst, speed=CLIENT_SPEED) as stack:
+    with Stack(instance=inst, speed=CLIENT_SPEED, flight_logs=False) as stack:
         gcs = GcsWatch(stack.gcs_url, stack.sysid)
         try:
             yield stack, gcs
@@ -262,7 +262,7 @@ def test_a_silent_client_on_the_simulator_port_is_dropped(sim_restart_stack):
 
 
 def test_flight_controller_restarted_in_the_air_sets_home_only_at_rest(free_instance):
-    with Stack(instance=free_instance(), speed=CLIENT_SPEED) as stack:
+    with Stack(instance=free_instance(), speed=CLIENT_SPEED, flight_logs=False) as stack:
         gcs = GcsWatch(stack.gcs_url, stack.sysid)
         truth = SimClient(ports.sim_component_port(stack.instance))
         try:
