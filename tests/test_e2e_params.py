@@ -327,6 +327,20 @@ def test_mavsdk_param_plugin_sets_and_gets_int_and_float(stack, client):
     assert client.param_get("SYS_AUTOSTART") == 4001 and client.param_get("MPC_XY_P") == pytest.approx(XY_P)
 
 
+def shown_once_settled(session: MavproxySession, name: str, wanted: str) -> str:
+    """What MAVProxy's ``param show NAME`` prints once it shows ``wanted`` (compared as floats), or the last
+    value it showed after WAIT_S wall seconds.  MAVProxy shows its own copy, updated when the vehicle's
+    PARAM_VALUE echo reaches it; on a loaded machine our client can read the new value first, so the first
+    ``show`` after the set may still print the old one (0.825 once, beside a second suite)."""
+    deadline = time.monotonic() + WAIT_S
+    while True:
+        session.send(f"param show {name}")
+        shown = session.expect(rf"^(?:\S+> )*{name}\s+([-+0-9.eE]+)").group(1)
+        if float(shown) == pytest.approx(float(wanted)) or time.monotonic() > deadline:
+            return shown
+        time.sleep(0.2)
+
+
 def test_mavproxy_param_set_and_show(stack, client):
     session = MavproxySession(fc_gcs_url(stack))
     try:
@@ -334,12 +348,10 @@ def test_mavproxy_param_set_and_show(stack, client):
         assert count == len(client.param_list())
         session.send("param set MPC_XY_P 1.3")
         wait_for(lambda: client.param_get("MPC_XY_P") == pytest.approx(1.3), what="MAVProxy's set")
-        session.send("param show MPC_XY_P")
-        assert float(session.expect(r"^(?:\S+> )*MPC_XY_P\s+([-+0-9.eE]+)").group(1)) == pytest.approx(1.3)
+        assert float(shown_once_settled(session, "MPC_XY_P", "1.3")) == pytest.approx(1.3)
         session.send("param set SYS_AUTOSTART 4006")
         wait_for(lambda: client.param_get("SYS_AUTOSTART") == 4006, what="MAVProxy's set")
-        session.send("param show SYS_AUTOSTART")
-        assert session.expect(r"^(?:\S+> )*SYS_AUTOSTART\s+([-+0-9.eE]+)").group(1) == "4006"  # byte-wise integer
+        assert shown_once_settled(session, "SYS_AUTOSTART", "4006") == "4006"  # byte-wise integer
         session.send("param set MPC_XY_P 7")  # refused: the vehicle's reason is shown
         session.expect(r"MPC_XY_P: 7 outside range \[0, 2\]")
         assert client.param_get("MPC_XY_P") == pytest.approx(1.3)

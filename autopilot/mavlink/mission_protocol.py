@@ -37,7 +37,10 @@ from mavsim_core.mission_items import MissionItem
 from mavsim_core.mission_messages import item_from_message, item_message
 
 RETRY_S = 0.25  # wall seconds without the requested item before the request is sent again
-MAX_RETRIES = 8  # for one item; then the upload ends with MAV_MISSION_OPERATION_CANCELLED (about 2 s of silence)
+# For one item; then the upload ends with MAV_MISSION_OPERATION_CANCELLED: 5 s of silence, as PX4's mission manager
+# (its protocol timeout 5 s, its retry 250 ms).  It was 8 (2 s): a ground station on a loaded machine, behind a
+# lossy link, stalled that long and lost an upload PX4 would have finished (tests/test_e2e_mission_clients.py).
+MAX_RETRIES = 20
 PLAN_TYPES = (mi.MISSION, mi.FENCE, mi.RALLY)
 
 
