@@ -17,11 +17,13 @@ Usage:
     python benchmarks/flake_hunt.py --runs 20 --parallel 2                       # the whole e2e set
     python benchmarks/flake_hunt.py --runs 20 --seeds tests/test_e2e_failure_detection.py
     python benchmarks/flake_hunt.py --runs 5 --load 1 -k drifting tests/test_e2e_failure_detection.py
+    python benchmarks/flake_hunt.py --runs 4 --parallel 2 --seeds --out /work/hunt   # 4 more runs in a kept DIR
     python benchmarks/flake_hunt.py --report /tmp/hunt --markdown   # the tables of a kept --out directory
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import statistics
@@ -44,12 +46,28 @@ def _spin() -> None:  # a load process: one core busy until killed
         pass
 
 
+def commit() -> str:
+    """The commit the runs test, as ``git describe --always --dirty`` prints it ("unknown" outside a clone)."""
+    done = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True, text=True)
+    return done.stdout.strip() or "unknown"
+
+
+def run_indices(out: Path) -> list[int]:
+    """The run numbers already in ``out`` (from its ``run-K.xml`` files), sorted."""
+    found = []
+    for path in out.glob("run-*.xml"):
+        with contextlib.suppress(ValueError):
+            found.append(int(path.stem.removeprefix("run-")))
+    return sorted(found)
+
+
 def run_once(k: int, args, out: Path) -> tuple[int, float, str]:
-    """Run pytest once (run ``k``); (exit status, wall seconds, the summary line)."""
+    """Run pytest once (run ``k``); (exit status, wall seconds, the summary line).  Writes ``run-K.json``."""
     env = dict(os.environ)
     env["E2E_FIGURES"] = str(out / f"figures-{k}.jsonl")
-    if args.seeds:
-        env["E2E_SEED"] = str(args.first_seed + k)
+    seed = args.first_seed + k if args.seeds else None
+    if seed is not None:
+        env["E2E_SEED"] = str(seed)
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--junitxml={out / f'run-{k}.xml'}"]
     if args.jobs is not None:
         cmd += ["-n", str(args.jobs)]
@@ -58,8 +76,12 @@ def run_once(k: int, args, out: Path) -> tuple[int, float, str]:
     cmd += args.tests or ["-m", "e2e", "tests"]
     t0 = time.monotonic()
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    wall = time.monotonic() - t0
     lines = [ln for ln in done.stdout.splitlines() if ln.strip()]
-    return done.returncode, time.monotonic() - t0, lines[-1] if lines else done.stderr[-300:]
+    summary = lines[-1] if lines else done.stderr[-300:]
+    meta = {"run": k, "commit": args.commit, "seed": seed, "exit": done.returncode, "wall_s": round(wall, 1)}
+    (out / f"run-{k}.json").write_text(json.dumps({**meta, "summary": summary}) + "\n")
+    return done.returncode, wall, summary
 
 
 def node_id(classname: str, name: str) -> str:
@@ -69,10 +91,10 @@ def node_id(classname: str, name: str) -> str:
     return "::".join(["/".join(parts[: module + 1]) + ".py", *parts[module + 1 :], name])
 
 
-def read_results(out: Path, runs: int):
+def read_results(out: Path, runs: list[int]):
     """Per test node id: (passed, failed, [distinct first lines of failures], [wall seconds])."""
     tests: dict[str, dict] = defaultdict(lambda: {"passed": 0, "failed": 0, "why": [], "times": []})
-    for k in range(runs):
+    for k in runs:
         path = out / f"run-{k}.xml"
         if not path.exists():
             continue
@@ -93,10 +115,10 @@ def read_results(out: Path, runs: int):
     return tests
 
 
-def read_figures(out: Path, runs: int):
+def read_figures(out: Path, runs: list[int]):
     """Per (test, figure name): the values over the runs, the limit, below-or-above, unit."""
     figures: dict[tuple[str, str], dict] = {}
-    for k in range(runs):
+    for k in runs:
         path = out / f"figures-{k}.jsonl"
         if not path.exists():
             continue
@@ -118,7 +140,17 @@ def margin(entry) -> float:
     return (limit - worst) / abs(limit) if entry["below"] else (worst - limit) / abs(limit)
 
 
-def report(tests, figures, runs: int, markdown: bool) -> str:
+def read_meta(out: Path, runs: list[int]) -> list[dict]:
+    """Each run's ``run-K.json`` (commit, seed, exit, wall time); runs of an older hunt without one are left out."""
+    metas = []
+    for k in runs:
+        path = out / f"run-{k}.json"
+        with contextlib.suppress(OSError, json.JSONDecodeError):
+            metas.append(json.loads(path.read_text()))
+    return metas
+
+
+def report(tests, figures, runs: int, markdown: bool, metas: list[dict] | None = None) -> str:
     out: list[str] = []
     bar = "|" if markdown else " "
     failing = {n: t for n, t in tests.items() if t["failed"]}
@@ -127,6 +159,12 @@ def report(tests, figures, runs: int, markdown: bool) -> str:
         f"{len(tests)} tests, {runs} runs: {total_failures} failures in {len(failing)} tests"
         + ("" if not failing else ": " + ", ".join(sorted(failing)))
     )
+    by_commit: dict[str, list[int]] = defaultdict(list)
+    for m in metas or []:
+        by_commit[m.get("commit", "unknown")].append(m["run"])
+    for c, ks in sorted(by_commit.items()):
+        walls = [m["wall_s"] for m in metas or [] if m.get("commit", "unknown") == c]
+        out.append(f"commit {c}: runs {', '.join(map(str, sorted(ks)))} (wall {min(walls):.0f}-{max(walls):.0f} s)")
     out.append("")
     head = ["test", "passed", "failed", "wall s (median, max)"]
     if markdown:
@@ -175,11 +213,22 @@ def main() -> int:
     ap.add_argument("--report", type=Path, default=None, help="run nothing: the tables of a kept --out DIR")
     args = ap.parse_args()
     if args.report is not None:
-        runs = len(list(args.report.glob("run-*.xml")))
-        print(report(read_results(args.report, runs), read_figures(args.report, runs), runs, args.markdown))
+        ks = run_indices(args.report)
+        tables = report(
+            read_results(args.report, ks),
+            read_figures(args.report, ks),
+            len(ks),
+            args.markdown,
+            read_meta(args.report, ks),
+        )
+        print(tables)
         return 0
     out = args.out or Path(tempfile.mkdtemp(prefix="flake-hunt-"))
     out.mkdir(parents=True, exist_ok=True)
+    args.commit = commit()
+    before = run_indices(out)
+    first = before[-1] + 1 if before else 0
+    new = list(range(first, first + args.runs))
     import multiprocessing
 
     spinners = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(args.load)]
@@ -188,17 +237,18 @@ def main() -> int:
     t0 = time.monotonic()
     try:
         with ThreadPoolExecutor(max(1, args.parallel)) as pool:
-            futures = [pool.submit(run_once, k, args, out) for k in range(args.runs)]
-            for k, fut in enumerate(futures):
+            futures = [pool.submit(run_once, k, args, out) for k in new]
+            for k, fut in zip(new, futures):
                 status, wall, summary = fut.result()
                 print(f"run {k}: exit {status} in {wall:.0f} s: {summary}", file=sys.stderr, flush=True)
     finally:
         for p in spinners:
             p.terminate()
     print(f"{args.runs} runs, {args.parallel} at a time, {args.load} load processes: {time.monotonic() - t0:.0f} s")
-    print(f"(JUnit XML and figures in {out})")
-    tests, figures = read_results(out, args.runs), read_figures(out, args.runs)
-    print(report(tests, figures, args.runs, args.markdown))
+    print(f"(JUnit XML and figures in {out}; runs {new[0]}-{new[-1]} of commit {args.commit})")
+    ks = run_indices(out)
+    tests, figures = read_results(out, ks), read_figures(out, ks)
+    print(report(tests, figures, len(ks), args.markdown, read_meta(out, ks)))
     return 1 if any(t["failed"] for t in tests.values()) else 0
 
 
