@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -35,17 +35,47 @@ class Rotor:
     spin_ccw: int  # +1 counter-clockwise seen from above, -1 clockwise
 
 
+CAMERA_MOUNTS = ("fixed", "gimbal")
+
+
+@dataclass(frozen=True)
+class GimbalSpec:
+    """The camera's 3-axis gimbal ([gimbal] of the vehicle file): yaw, roll and pitch joints from the frame
+    out (as most drone gimbals), their pivot at the camera's ``position_frd_m``.
+
+    Angles follow PX4's gimbal convention (FRD, degrees): pitch 0 looks forward, -90 straight down; roll
+    positive right side down; yaw positive to the right.  ``*_range_deg`` are the joints' limits (relative to
+    the frame), ``max_rate_deg_s`` the fastest a joint's setpoint moves, ``time_constant_s`` the motors'
+    first-order response, ``neutral_pitch_deg`` where the camera looks when nobody points it (earth-framed).
+    """
+
+    roll_range_deg: tuple[float, float] = (-40.0, 40.0)
+    pitch_range_deg: tuple[float, float] = (-120.0, 30.0)
+    yaw_range_deg: tuple[float, float] = (-160.0, 160.0)
+    max_rate_deg_s: float = 180.0
+    time_constant_s: float = 0.02
+    neutral_pitch_deg: float = -90.0
+
+
 @dataclass(frozen=True)
 class CameraSpec:
-    """The downward camera ([camera] of the vehicle file): rate (Hz of simulated time; 0 = no
-    camera), image size (px), horizontal field of view (deg) and the optical centre in body FRD
-    (m).  It looks straight down, the top of the image towards the nose."""
+    """The camera ([camera] of the vehicle file): rate (Hz of simulated time; 0 = no camera), image size
+    (px), horizontal field of view (deg) and the optical centre in body FRD (m).  ``mount`` "fixed": it looks
+    straight down, the top of the image towards the nose ([F 2.3]'s camera); "gimbal": it hangs on the
+    vehicle's [gimbal] (``gimbal``), which holds it pointed (down unless told otherwise) whatever the tilt."""
 
     rate_hz: float = 0.0
     width_px: int = 640
     height_px: int = 480
     hfov_deg: float = 53.13
     position_frd_m: tuple[float, float, float] = (0.0, 0.0, 0.1)
+    mount: str = "fixed"
+    gimbal: GimbalSpec = GimbalSpec()
+
+    @property
+    def gimballed(self) -> bool:
+        """True when the camera hangs on a gimbal (and there is a camera)."""
+        return self.rate_hz > 0 and self.mount == "gimbal"
 
 
 @dataclass(frozen=True)
@@ -72,6 +102,12 @@ class VehicleSpec:
     battery_capacity_mah: float
     battery_resistance_ohm: float
     camera: CameraSpec = CameraSpec()
+
+    def with_camera_mount(self, mount: str) -> VehicleSpec:
+        """This vehicle with its camera on ``mount`` ("fixed" or "gimbal"); the same spec if it has no camera."""
+        if mount not in CAMERA_MOUNTS:
+            raise VehicleFileError(f"camera mount must be one of {', '.join(CAMERA_MOUNTS)}, is {mount!r}")
+        return replace(self, camera=replace(self.camera, mount=mount))
 
     @property
     def mass_kg(self) -> float:
@@ -139,19 +175,54 @@ def _num(table: dict, key: str, where: str, positive: bool = True) -> float:
     return v
 
 
-def _camera(table: object, where: str) -> CameraSpec:
-    """[camera]: absent means no camera."""
+def _range(table: dict, key: str, where: str, lo: float, hi: float) -> tuple[float, float]:
+    """A joint range [min, max] in degrees, inside [lo, hi] and holding zero."""
+    a, b = _vec(table, key, 2, where)
+    if not lo <= a <= 0.0 <= b <= hi or a == b:
+        raise VehicleFileError(f"{where}: '{key}' must be [min, max] with {lo:g} <= min <= 0 <= max <= {hi:g}")
+    return a, b
+
+
+def _gimbal(table: object, where: str) -> GimbalSpec:
+    """[gimbal]: absent means the defaults of :class:`GimbalSpec`."""
+    if table is None:
+        return GimbalSpec()
+    if not isinstance(table, dict):
+        raise VehicleFileError(f"{where}: [gimbal] must be a table")
+    w = f"{where} [gimbal]"
+    g = GimbalSpec(
+        roll_range_deg=_range(table, "roll_range_deg", w, -90.0, 90.0),
+        pitch_range_deg=_range(table, "pitch_range_deg", w, -180.0, 90.0),
+        yaw_range_deg=_range(table, "yaw_range_deg", w, -180.0, 180.0),
+        max_rate_deg_s=_num(table, "max_rate_deg_s", w),
+        time_constant_s=_num(table, "time_constant_s", w),
+        neutral_pitch_deg=_num(table, "neutral_pitch_deg", w, positive=False),
+    )
+    if not g.pitch_range_deg[0] <= g.neutral_pitch_deg <= g.pitch_range_deg[1]:
+        raise VehicleFileError(f"{w}: 'neutral_pitch_deg' must lie inside pitch_range_deg")
+    if g.time_constant_s > 1.0:
+        raise VehicleFileError(f"{w}: 'time_constant_s' must be <= 1 s, is {g.time_constant_s}")
+    return g
+
+
+def _camera(table: object, gimbal: object, where: str) -> CameraSpec:
+    """[camera] (absent: no camera) and the [gimbal] it may hang on."""
     if table is None:
         return CameraSpec()
     if not isinstance(table, dict):
         raise VehicleFileError(f"{where}: [camera] must be a table")
     w = f"{where} [camera]"
+    mount = table.get("mount", "fixed")
+    if mount not in CAMERA_MOUNTS:
+        raise VehicleFileError(f"{w}: 'mount' must be one of {', '.join(CAMERA_MOUNTS)}, is {mount!r}")
     cam = CameraSpec(
         rate_hz=_num(table, "rate_hz", w, positive=False),
         width_px=int(_num(table, "width_px", w)),
         height_px=int(_num(table, "height_px", w)),
         hfov_deg=_num(table, "hfov_deg", w),
         position_frd_m=_vec(table, "position_frd_m", 3, w),
+        mount=mount,
+        gimbal=_gimbal(gimbal, where),
     )
     if not 0.0 <= cam.rate_hz <= 100.0 or not 1.0 <= cam.hfov_deg <= 170.0:
         raise VehicleFileError(f"{w}: rate_hz must be 0..100 and hfov_deg 1..170")
@@ -221,7 +292,7 @@ def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
         battery_cells=int(_num(batt, "cells", where)),
         battery_capacity_mah=_num(batt, "capacity_mah", where),
         battery_resistance_ohm=_num(batt, "internal_resistance_ohm", where),
-        camera=_camera(data.get("camera"), where),
+        camera=_camera(data.get("camera"), data.get("gimbal"), where),
     )
     if spec.hover_thrust_fraction >= 0.9:
         raise VehicleFileError(

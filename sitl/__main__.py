@@ -267,6 +267,7 @@ def _start(args: argparse.Namespace):
     from params.vehicle import load_vehicle
 
     spec = load_vehicle(args.vehicle)  # checked by argparse already
+    spec = spec.with_camera_mount(camera.mount_name(spec.camera.mount))  # SIM_CAM_MOUNT (read at start)
     for option, path in (("--log-dir", args.log_dir), ("--save-frames", args.save_frames)):
         if path:
             make_dir(option, path)

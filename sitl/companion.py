@@ -36,7 +36,9 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from params.vehicle import CameraSpec
 from sitl.camera import DownwardCamera
+from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
+from sitl.model import GIMBAL_JOINTS
 from sitl.sim_settings import CameraSettings
 from vision.camera_model import pinhole
 from vision.detector import MarkerDetector
@@ -97,6 +99,10 @@ class LockstepCompanion:
         self._seed = seed
         self._ready = threading.Event()
         self._error: BaseException | None = None
+        # A gimballed camera: its encoders' qpos addresses (the mount's rotation is read from them at each capture)
+        self._gimbal_qadr = (
+            [int(model.jnt_qposadr[model.joint(name).id]) for name, _ in GIMBAL_JOINTS] if camera.gimballed else None
+        )
         self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
         self._thread.start()
 
@@ -185,6 +191,7 @@ class LockstepCompanion:
             return b""
         st.detections += 1
         st.max_range_m = max(st.max_range_m, det.distance_m)
+        mount = self._mount_at_capture(mount, data)
         q_ned_frd = _attitude(data)
         err = float(np.linalg.norm(target_offset(det, mount, q_ned_frd).frd_m - self._truth_frd(data)))
         st.pose_err_sum_m += err
@@ -193,6 +200,15 @@ class LockstepCompanion:
         packed = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) % 256
         return packed
+
+    def _mount_at_capture(self, fixed: CameraMount, data: mujoco.MjData) -> CameraMount:
+        """The camera's mount at the frame's capture: the fixed one, or on a gimbal the rotation its encoders
+        read in the state copy the frame was rendered from (a gimbal reports its angles at a high rate, and the
+        companion stamps them as it stamps the frame)."""
+        if self._gimbal_qadr is None:
+            return fixed
+        joints = tuple(float(data.qpos[a]) for a in self._gimbal_qadr)
+        return CameraMount(fixed.position_frd_m, np.array(camera_to_body(joints)))  # type: ignore[arg-type]
 
     def _truth_frd(self, data: mujoco.MjData) -> np.ndarray:
         """The marker's centre from the vehicle's centre of mass along body FRD axes, from the state copy."""

@@ -148,7 +148,7 @@ class HoverDynamics:
     def __init__(self, spec: VehicleSpec, include_aero: bool = False, model: mujoco.MjModel | None = None) -> None:
         self.spec = spec
         self.include_aero = include_aero
-        self.model = build_model(spec) if model is None else model
+        self.model = build_model(spec.with_camera_mount("fixed")) if model is None else model
         self.data = mujoco.MjData(self.model)
         self.body_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "vehicle")
         if self.model.nq != 7 or self.model.nv != 6:
@@ -227,7 +227,7 @@ def linearize_hover(
     :class:`sitl.aerodynamics.Aerodynamics` in still air.  ``eps`` is one step for every
     state and input, or a pair (state steps (12,), input steps (4,)); by default 1e-6 in
     SI units for the state and 1e-6 of m g (N) and m g l (N m) for the inputs.
-    ``model`` defaults to ``build_model(spec)``, the simulator's model; pass another
+    ``model`` defaults to the simulator's model of the airframe (its camera fixed: no gimbal joints); pass another
     MjModel of the same vehicle (one free-joint body "vehicle", one actuator per rotor)
     only to linearise a variant of it.
     """

@@ -64,15 +64,18 @@ def _vehicle_parts(k: int, place: Placement) -> tuple[str, list[str], list[str]]
         )
     sites = [f'<site name="{n("imu")}" pos="0 0 0" size="0.01"/>']
     cam = spec.camera
-    if cam.rate_hz > 0:
-        # MuJoCo's camera looks along its -z with image x right and y up: y = body forward (FLU +x),
-        # z = body up, so it looks down with the top of the image towards the nose.
-        fovy = math.degrees(2 * math.atan(math.tan(math.radians(cam.hfov_deg) / 2) * cam.height_px / cam.width_px))
-        sites.append(
-            f'<camera name="{n("downward")}" pos="{_v(frd_to_flu(cam.position_frd_m))}" xyaxes="0 -1 0 1 0 0" '
-            f'fovy="{fovy:.6g}"/>'
-        )
     actuators = []
+    if cam.rate_hz > 0:
+        fovy = math.degrees(2 * math.atan(math.tan(math.radians(cam.hfov_deg) / 2) * cam.height_px / cam.width_px))
+        if cam.gimballed:
+            sites.append(_gimbal_body(k, cam, fovy))
+        else:
+            # MuJoCo's camera looks along its -z with image x right and y up: y = body forward (FLU +x),
+            # z = body up, so it looks down with the top of the image towards the nose.
+            sites.append(
+                f'<camera name="{n("downward")}" pos="{_v(frd_to_flu(cam.position_frd_m))}" xyaxes="0 -1 0 1 0 0" '
+                f'fovy="{fovy:.6g}"/>'
+            )
     for i, r in enumerate(spec.rotors):
         p = frd_to_flu(r.position_frd_m)
         colour = "0.1 0.6 0.1 0.6" if r.spin_ccw > 0 else "0.1 0.1 0.7 0.6"
@@ -85,6 +88,8 @@ def _vehicle_parts(k: int, place: Placement) -> tuple[str, list[str], list[str]]
             f'<general name="{n(f"rotor{i + 1}")}" site="{n(f"rotor{i + 1}")}" ctrllimited="false" '
             f'gear="0 0 1 0 0 {-r.spin_ccw * spec.k_moment:.6g}"/>'
         )
+    if cam.gimballed:  # after the rotors: each vehicle's rotor actuators stay contiguous
+        actuators += _gimbal_actuators(k, cam.gimbal)
     e, north = place.offset_en_m
     body = f"""<body name="{n("vehicle")}" pos="{e:.6g} {north:.6g} {foot_depth_m + 0.001:.4f}" \
 quat="0.70710678 0 0 0.70710678">
@@ -96,6 +101,48 @@ quat="0.70710678 0 0 0.70710678">
     imu = n("imu")
     sensors = [f'<accelerometer name="{n("accel")}" site="{imu}"/>', f'<gyro name="{n("gyro")}" site="{imu}"/>']
     return body, actuators, sensors
+
+
+# The gimbal's joints from the frame out: (name, hinge axis in body FLU for a positive angle about FRD's x, y or z).
+GIMBAL_JOINTS = (("gimbal_yaw", "0 0 -1"), ("gimbal_roll", "1 0 0"), ("gimbal_pitch", "0 -1 0"))
+# Each gimbal link: nearly massless (the vehicle file's mass already holds the camera), with the motor's reflected
+# inertia as joint armature; the position servo's gain and damping put its own response at ~100 rad/s, well inside
+# what a 4 ms step integrates, so the vehicle file's time constant (the servo input's filter) sets the response.
+GIMBAL_LINK_MASS_KG = 1e-5
+GIMBAL_ARMATURE_KG_M2 = 1e-5
+GIMBAL_KP_NM_RAD = 0.1
+GIMBAL_KV_NM_S_RAD = 2e-3
+
+
+def _gimbal_body(k: int, cam, fovy_deg: float) -> str:
+    """The 3-axis gimbal under vehicle ``k`` (yaw, roll, pitch links from the frame out, pivot at the camera's
+    position) carrying the ``downward`` camera.  At zero angles the camera looks forward along body x, image top
+    up (PX4's pitch 0); a pitch of -90 deg looks straight down with the top of the image towards the nose."""
+    n, g = partial(part_name, k), cam.gimbal
+    ranges = {"gimbal_yaw": g.yaw_range_deg, "gimbal_roll": g.roll_range_deg, "gimbal_pitch": g.pitch_range_deg}
+    inertial = f'<inertial pos="0 0 0" mass="{GIMBAL_LINK_MASS_KG:g}" diaginertia="1e-9 1e-9 1e-9"/>'
+    # MuJoCo's camera looks along its -z, image x right and y up: x = body right (FLU -y), y = body up.
+    camera = f'<camera name="{n("downward")}" pos="0 0 0" xyaxes="0 -1 0 0 0 1" fovy="{fovy_deg:.6g}"/>'
+    look = '<geom type="box" size="0.02 0.015 0.015" contype="0" conaffinity="0" mass="0" rgba="0.1 0.1 0.1 1"/>'
+    inner = f"{look}{camera}"
+    for name, axis in reversed(GIMBAL_JOINTS):
+        lo, hi = ranges[name]
+        joint = (
+            f'<joint name="{n(name)}" type="hinge" axis="{axis}" limited="true" range="{lo:g} {hi:g}" '
+            f'armature="{GIMBAL_ARMATURE_KG_M2:g}"/>'
+        )
+        pos = f' pos="{_v(frd_to_flu(cam.position_frd_m))}"' if name == "gimbal_yaw" else ""
+        inner = f'<body name="{n(name)}"{pos}>{joint}{inertial}{inner}</body>'
+    return inner
+
+
+def _gimbal_actuators(k: int, g) -> list[str]:
+    """Position servos of the gimbal's joints (setpoint in rad, through the first-order filter ``timeconst``)."""
+    return [
+        f'<position name="{part_name(k, name)}" joint="{part_name(k, name)}" kp="{GIMBAL_KP_NM_RAD:g}" '
+        f'kv="{GIMBAL_KV_NM_S_RAD:g}" timeconst="{g.time_constant_s:g}"/>'
+        for name, _ in GIMBAL_JOINTS
+    ]
 
 
 def build_world_mjcf(vehicles: Sequence[Placement], ugv: UgvMjcf | None = None) -> str:

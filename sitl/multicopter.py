@@ -20,6 +20,7 @@ from mavsim_core.constants import GRAVITY_M_S2
 from params.vehicle import VehicleSpec
 from sitl.aerodynamics import Aerodynamics
 from sitl.battery import Battery
+from sitl.gimbal import Gimbal
 from sitl.model import part_name
 from sitl.rotors import RotorModel
 from sitl.sensors import SensorSuite
@@ -96,6 +97,7 @@ class Multicopter:
         # Independent random streams: changing one model's draws never changes another's.
         self.wind = WindModel(wind, seed=seed * 7919 + 1)  # the turbulence this vehicle meets
         self.sensors = SensorSuite(*home, seed=seed, settings=sensors)
+        self.gimbal = Gimbal(model, k, spec.camera.gimbal) if spec.camera.gimballed else None  # the camera's
         self.wind_enu = (0.0, 0.0, 0.0)
         self._failure: tuple | None = None  # (motor, efficiency) last applied to the rotors' efficiency list
         self._failure_list: list[float] | None = None

@@ -298,6 +298,20 @@ class CameraSettings:
     )
     noise_grey: float = sim_param("SIM_CAM_NOISE", 2.0, 0.0, 50.0, "grey", "Pixel noise, standard deviation (0-255)")
     fail: int = sim_param("SIM_CAM_FAIL", 0, 0, 1, "", "1: the camera delivers no frames", ParamType.INT32)
+    mount: int = sim_param(
+        "SIM_CAM_MOUNT",
+        0,
+        0,
+        2,
+        "",
+        "Camera mount: 0 the vehicle file's, 1 fixed looking down, 2 on the gimbal (read at start)",
+        ParamType.INT32,
+        True,
+    )
+
+    def mount_name(self, vehicle_file_mount: str) -> str:
+        """The camera mount to build ("fixed" or "gimbal"): SIM_CAM_MOUNT's, or the vehicle file's when it is 0."""
+        return {1: "fixed", 2: "gimbal"}.get(int(self.mount), vehicle_file_mount)
 
 
 def param_fields(settings) -> list:

@@ -87,6 +87,8 @@ class World:
         ]
         for v in self.vehicles:
             v.bind(self.data)  # its views of the world's arrays (v.ctrl ...)
+            if v.gimbal is not None:  # the camera where it looks before the vehicle settles (not the servos' zero)
+                v.gimbal.place(self.data, v.sensor_truth(self.data).r_ned_frd)
         self._settle()
         origin = self.vehicles[0].start_xy_enu  # the UGV's settings are NED from vehicle 0's start
         self.ugv = UgvDriver(self.model, self.data, self.ugv_settings, origin, seed) if ugv_start else None
@@ -110,6 +112,9 @@ class World:
             v.apply_motor_failure()
         if self.ugv is not None:
             self.ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
+        for v in vehicles:
+            if v.gimbal is not None:  # the gimbal's own controller, on the airframe's attitude now
+                v.gimbal.step(d, v.sensor_truth(d).r_ned_frd, LOCKSTEP_DT_S)
         for _ in range(self.substeps):
             for v, c in zip(vehicles, cmds):
                 v.ctrl[:] = v.rotors.step(c, PHYSICS_DT_S)  # a list of thrusts (N) into the vehicle's d.ctrl slice

@@ -46,9 +46,10 @@ def test_two_vehicles_build_into_one_model_side_by_side(quad):
     xml = build_world_mjcf(spread(quad, 2))
     assert 'name="vehicle"' in xml and f'name="{part_name(1, "vehicle")}"' in xml
     world = World(spread(quad, 2), HOME, seed=5)
-    assert world.model.nu == 2 * len(quad.rotors) and world.model.nsensor == 4
+    gimbal = 3 if quad.camera.gimballed else 0  # each vehicle's gimbal servos follow its rotors
+    assert world.model.nu == 2 * (len(quad.rotors) + gimbal) and world.model.nsensor == 4
     v0, v1 = world.vehicles
-    assert (v0.ctrl0, v0.ctrl1, v1.ctrl0) == (0, 4, 4)
+    assert (v0.ctrl0, v0.ctrl1, v1.ctrl0) == (0, 4, 4 + gimbal)
     east_m = v1.start_xy_enu[0] - v0.start_xy_enu[0]
     assert east_m == pytest.approx(3.0, abs=1e-3)  # 3 m East, on their legs
     for k in (0, 1):  # each vehicle's truth from its own start point
