@@ -31,13 +31,35 @@ Rows = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float
 
 @dataclass(frozen=True, slots=True)
 class GimbalSetpoint:
-    """The camera's wanted attitude (rad): roll and pitch in the earth frame, yaw relative to the vehicle's
-    heading (``yaw_earth`` False) or from North (True).  PX4's signs: pitch down negative, yaw right positive."""
+    """The camera's wanted attitude: ``rows`` takes the gimbal frame to the earth frame (NED) when ``yaw_earth``,
+    else to the vehicle's heading frame (NED turned by the vehicle's yaw: roll and pitch still to the horizon,
+    yaw relative to the nose), as GIMBAL_DEVICE_SET_ATTITUDE's quaternion with or without YAW_LOCK.  A rotation,
+    not Euler angles: looking straight down, roll and yaw are one rotation and angles would not say which."""
 
-    roll_rad: float = 0.0
-    pitch_rad: float = -math.pi / 2
-    yaw_rad: float = 0.0
+    rows: Rows
     yaw_earth: bool = False
+
+    @staticmethod
+    def from_angles(roll_rad: float, pitch_rad: float, yaw_rad: float, yaw_earth: bool = False) -> GimbalSetpoint:
+        """From ZYX Euler angles (rad; PX4's signs: pitch down negative, yaw right positive)."""
+        return GimbalSetpoint(earth_rotation(roll_rad, pitch_rad, yaw_rad), yaw_earth)
+
+    @staticmethod
+    def from_quaternion(q_wxyz, yaw_earth: bool = False) -> GimbalSetpoint:
+        """From a (w, x, y, z) quaternion (normalised here); ValueError if it is not finite or zero."""
+        w, x, y, z = (float(c) for c in q_wxyz)
+        n = math.sqrt(w * w + x * x + y * y + z * z)
+        if not math.isfinite(n) or n < 1e-6:
+            raise ValueError("gimbal attitude: the quaternion is not finite or zero")
+        w, x, y, z = w / n, x / n, y / n, z / n
+        return GimbalSetpoint(
+            (
+                (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
+                (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
+                (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)),
+            ),
+            yaw_earth,
+        )
 
 
 def body_yaw_rad(r_ned_frd: Rows) -> float:
@@ -91,8 +113,14 @@ def wanted_joint_angles(r_ned_frd: Rows, sp: GimbalSetpoint) -> tuple[float, flo
     only five elements are needed, each a dot product of a column of R_nb with one of R_ng (written out: this
     runs every lockstep period)."""
     (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = r_ned_frd
-    yaw = sp.yaw_rad if sp.yaw_earth else math.atan2(a10, a00) + sp.yaw_rad
-    (g00, g01, g02), (g10, g11, g12), (g20, g21, g22) = earth_rotation(sp.roll_rad, sp.pitch_rad, yaw)
+    (g00, g01, g02), (g10, g11, g12), (g20, g21, g22) = sp.rows
+    if not sp.yaw_earth:  # R_ng = Rz(heading) R_sp
+        h = math.atan2(a10, a00)
+        c, s = math.cos(h), math.sin(h)
+        g00, g01, g02, g10, g11, g12 = (
+            c * g00 - s * g10, c * g01 - s * g11, c * g02 - s * g12,
+            s * g00 + c * g10, s * g01 + c * g11, s * g02 + c * g12,
+        )  # fmt: skip
     b01 = a00 * g01 + a10 * g11 + a20 * g21
     b11 = a01 * g01 + a11 * g11 + a21 * g21
     b20 = a02 * g00 + a12 * g10 + a22 * g20
@@ -144,7 +172,7 @@ class Gimbal:
             (rad(lo), rad(hi)) for lo, hi in (spec.yaw_range_deg, spec.roll_range_deg, spec.pitch_range_deg)
         )
         self.max_rate_rad_s = rad(spec.max_rate_deg_s)
-        self.neutral = GimbalSetpoint(pitch_rad=rad(spec.neutral_pitch_deg))
+        self.neutral = GimbalSetpoint.from_angles(0.0, rad(spec.neutral_pitch_deg), 0.0)
         self.setpoint: GimbalSetpoint | None = None
         self.command = (0.0, 0.0, rad(spec.neutral_pitch_deg))  # the servos' setpoint (yaw, roll, pitch), rad
         self.at_limit = False  # the latest wanted attitude needed a joint beyond its range

@@ -36,6 +36,7 @@ from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
 from sitl.battery import cell_ocv_v
+from sitl.gimbal_link import GimbalDeviceLink
 from sitl.gps import GpsReading, course_over_ground_deg
 from sitl.hold import HOLD_PARAM, SimHold
 from sitl.link_params import LinkParams
@@ -110,6 +111,8 @@ class LockstepServer:
         )
         self._said_no_ugv = False
         self.companion = None  # sitl.companion.LockstepCompanion: camera + vision, when the world has the UGV
+        gimbal = sim.vehicle.gimbal  # the camera's gimbal: driven and reported on this link (sitl/gimbal_link.py)
+        self.gimbal_link = GimbalDeviceLink(gimbal) if gimbal is not None else None
         self.params.started = True  # start-only parameters (SIM_UGV_EN) are refused from now on
         self.events = EventSchedule(events)
         # SIM_* parameters set by the flight controller on the TCP link (its failure injection)
@@ -205,6 +208,8 @@ class LockstepServer:
             out += self._battery_status()
         if self.companion is not None:  # LANDING_TARGET whose simulated latency has passed
             out += self.companion.step(sim.data, time_us)
+        if self.gimbal_link is not None:  # GIMBAL_DEVICE_ATTITUDE_STATUS at 50 Hz
+            out += self.gimbal_link.status(time_us, sim.data, t.r_ned_frd, self.mav)
         if self.ugv_radio is not None and time_us % TRUTH_PERIOD_US == 0:
             # The UGV's FOLLOW_TARGET (UDP) before the sensors (TCP): on loopback it is in the flight controller's
             # socket when the HIL_SENSOR starting its step arrives, so the same step reads it in every run.
@@ -361,6 +366,8 @@ class LockstepServer:
                     mode, controls = values[_MODE_AT], values[_CONTROLS_AT : _CONTROLS_AT + min(n, 16)]
                 elif msg.get_type() == "HIL_ACTUATOR_CONTROLS":  # (pymavlink's parser, after damaged bytes)
                     mode, controls = msg.mode, msg.controls[:n]
+                elif self.gimbal_link is not None and self.gimbal_link.handle(msg):  # the gimbal's setpoint
+                    continue
                 else:  # between two steps: SIM_* parameter requests
                     replies = self.link_params.handle(msg)
                     if replies:

@@ -78,12 +78,13 @@ def test_joint_angles_put_the_camera_where_it_was_told_to_look():
     for _ in range(200):
         roll, pitch, yaw = RNG.uniform(-0.5, 0.5), RNG.uniform(-0.5, 0.5), RNG.uniform(-math.pi, math.pi)
         r_nb = rows(to_matrix(from_euler(roll, pitch, yaw)))
-        sp = GimbalSetpoint(
-            RNG.uniform(-0.2, 0.2), RNG.uniform(-1.6, 0.3), RNG.uniform(-1.0, 1.0), bool(RNG.integers(2))
-        )
+        sp_roll, sp_pitch, sp_yaw = RNG.uniform(-0.2, 0.2), RNG.uniform(-1.6, 0.3), RNG.uniform(-1.0, 1.0)
+        earth = bool(RNG.integers(2))
+        sp = GimbalSetpoint.from_angles(sp_roll, sp_pitch, sp_yaw, earth)
+        assert np.allclose(GimbalSetpoint.from_quaternion(from_euler(sp_roll, sp_pitch, sp_yaw), earth).rows, sp.rows)
         joints = wanted_joint_angles(r_nb, sp)
-        heading = sp.yaw_rad if sp.yaw_earth else math.atan2(r_nb[1][0], r_nb[0][0]) + sp.yaw_rad
-        want = earth_rotation(sp.roll_rad, sp.pitch_rad, heading)
+        heading = sp_yaw if earth else math.atan2(r_nb[1][0], r_nb[0][0]) + sp_yaw
+        want = earth_rotation(sp_roll, sp_pitch, heading)
         assert np.allclose(camera_attitude(r_nb, joints), want, atol=1e-9)
         assert np.allclose(joint_angles_for(joint_rotation(*joints)), joints, atol=1e-9)
     # a level vehicle, nobody pointing: the joints' neutral is the fixed camera's rotation
@@ -163,3 +164,50 @@ def test_a_marker_seen_through_the_gimbal_is_where_the_truth_has_it():
     assert np.linalg.norm(seen[:2] - truth[:2]) < 0.03 + 0.01 * 2.2
     fixed = target_offset(det, CameraMount(position_frd_m=spec.position_frd_m), q_now).ned_m
     assert np.linalg.norm(fixed[:2] - truth[:2]) > 0.5  # taken for a body-fixed camera: 20 deg of roll off
+
+
+def _set_attitude(q, flags: int = 0):
+    from pymavlink.dialects.v20 import common as mavlink
+
+    return mavlink.MAVLink_gimbal_device_set_attitude_message(1, 154, flags, list(q), math.nan, math.nan, math.nan)
+
+
+def _status(link, sim, mav):
+    """Step to the next status time and decode the GIMBAL_DEVICE_ATTITUDE_STATUS the link sends."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    while True:
+        sim.step(np.zeros(4))
+        out = link.status(sim.time_us, sim.data, sim.vehicle.sensor_truth(sim.data).r_ned_frd, mav)
+        if out:
+            return mavlink.MAVLink(None).parse_buffer(out)[0]
+
+
+def test_the_simulator_link_points_the_gimbal_and_reports_what_its_encoders_say():
+    """GIMBAL_DEVICE_SET_ATTITUDE in (a yaw locked to the earth, then back to neutral), the status out: the
+    attitude it holds, in the frame its flags say; a quaternion that is no rotation is refused, nothing moves."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    from sitl.gimbal_link import GimbalDeviceLink
+
+    sim = _airborne(QUAD, 10.0, 5.0, 40.0)
+    link, mav = GimbalDeviceLink(sim.vehicle.gimbal), mavlink.MAVLink(None, 1, 200)
+    want = from_euler(0.0, math.radians(-60.0), math.radians(90.0))  # 60 deg down, facing East
+    assert link.handle(_set_attitude(want, mavlink.GIMBAL_DEVICE_FLAGS_YAW_LOCK))
+    for _ in range(40):  # 0.8 s
+        st = _status(link, sim, mav)
+    assert st.flags & mavlink.GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME
+    err = to_matrix(np.array(st.q)).T @ to_matrix(want)
+    assert math.degrees(math.acos(min(1.0, (np.trace(err) - 1) / 2))) < 0.3
+    assert st.failure_flags == 0 and st.delta_yaw == pytest.approx(math.radians(40.0), abs=0.02)
+    held = sim.vehicle.gimbal.setpoint
+    assert link.handle(_set_attitude((0.0, 0.0, 0.0, 0.0))) and link.refused == 1
+    assert link.handle(_set_attitude((math.nan,) * 4))  # rates only: kept
+    assert sim.vehicle.gimbal.setpoint is held
+    assert link.handle(_set_attitude((1.0, 0.0, 0.0, 0.0), mavlink.GIMBAL_DEVICE_FLAGS_NEUTRAL))
+    for _ in range(40):
+        st = _status(link, sim, mav)
+    assert st.flags & mavlink.GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME  # the neutral: down, facing the nose
+    down = to_matrix(np.array(st.q)) @ np.array([1.0, 0.0, 0.0])  # the optical axis, heading frame
+    assert down[2] == pytest.approx(1.0, abs=1e-4)
+    assert not link.handle(mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3))  # not the device's
