@@ -15,6 +15,7 @@ started and a run cut off mid-flight are resumed alike, by their missing row.)
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import os
 import shutil
@@ -23,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import pytest
 
@@ -71,12 +73,15 @@ def differences(a: list[dict], b: list[dict]) -> list[tuple[str, str, str, str]]
     ]
 
 
-def start_local_ray(ray, temp_dir: str, attempts: int = 3) -> None:
+def start_local_ray(ray, temp_dir: str, attempts: int = 5, pause_s: float = 10.0) -> None:
     """``ray.init`` of a local instance, started again if its start-up times out.  Ray waits a fixed 30 wall
     seconds for its raylet to register (ray/_private/node.py), which a machine running two suites at once did
-    not give it (CI, 2026-12-01: "The current node timed out during startup", in both suites); what the test
-    asserts of the campaign does not depend on how long Ray took to start."""
+    not give it (CI, 2026-12-01: "The current node timed out during startup", in both suites; the flake hunt,
+    2026-12-02: three attempts in a row).  A failed attempt's processes are killed (left running, they slowed
+    the next attempt down), and the next one waits ``pause_s`` and starts in a directory of its own.  What the
+    test asserts of the campaign does not depend on how long Ray took to start."""
     for attempt in range(1, attempts + 1):
+        session_dir = os.path.join(temp_dir, f"try{attempt}")
         try:
             ray.init(
                 address="local",
@@ -84,13 +89,24 @@ def start_local_ray(ray, temp_dir: str, attempts: int = 3) -> None:
                 include_dashboard=False,
                 log_to_driver=False,
                 logging_level="warning",
-                _temp_dir=temp_dir,
+                _temp_dir=session_dir,
             )
             return
         except Exception as exc:  # Ray raises a bare Exception for this
             if "timed out during startup" not in str(exc) or attempt == attempts:
                 raise
             ray.shutdown()
+            kill_processes_mentioning(session_dir)
+            time.sleep(pause_s)
+
+
+def kill_processes_mentioning(text: str) -> None:
+    """Kill every process whose command line holds ``text`` (a failed Ray start's GCS server, raylet, workers;
+    Linux's /proc)."""
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        with contextlib.suppress(OSError, ValueError):
+            if text.encode() in cmdline.read_bytes():
+                os.kill(int(cmdline.parent.name), signal.SIGKILL)
 
 
 def test_pool_interrupted_and_resumed_gives_the_results_of_ray(tmp_path):
