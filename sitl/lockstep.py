@@ -35,15 +35,14 @@ from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.sim_api_codec import MessageLayout, StreamParser
 from mavsim_core.spin_receiver import SpinReceiver
-from sitl.battery import cell_ocv_v
 from sitl.gimbal_link import GimbalDeviceLink
-from sitl.gps import GpsReading, course_over_ground_deg
 from sitl.hold import HOLD_PARAM, SimHold
 from sitl.link_params import LinkParams
 from sitl.param_server import SIM_COMPID, SIM_SYSID, UGV_COMPID, SimParamServer
 from sitl.peer_accept import accept_peer, listen
 from sitl.scenario import EventSchedule, ScenarioEvent
 from sitl.sensor_faults import hil_sensor_fields, pressure_altitude_m
+from sitl.sensor_messages import battery_status_message, hil_gps_message
 from sitl.sim_params import SimParameters, format_value
 from sitl.simulation import LOCKSTEP_DT_S, SensorTruth, Simulation, Truth
 from sitl.ugv_world import ugv_truth_messages
@@ -111,7 +110,8 @@ class LockstepServer:
         )
         self._said_no_ugv = False
         self.companion = None  # sitl.companion.LockstepCompanion: camera + vision, when the world has the UGV
-        gimbal = sim.vehicle.gimbal  # the camera's gimbal: driven and reported on this link (sitl/gimbal_link.py)
+        # The camera's gimbal, when the vehicle has one: driven and reported on this link (sitl/gimbal_link.py)
+        gimbal = getattr(getattr(sim, "vehicle", None), "gimbal", None)
         self.gimbal_link = GimbalDeviceLink(gimbal) if gimbal is not None else None
         self.params.started = True  # start-only parameters (SIM_UGV_EN) are refused from now on
         self.events = EventSchedule(events)
@@ -203,9 +203,9 @@ class LockstepServer:
         # state it describes (SIM_GPS_LAG_MS); it is sent stamped with the current time.
         fix = sensors.gps(time_us, t.pos_ned_m, t.vel_ned_m_s)
         if fix is not None:
-            out += self._hil_gps(time_us, fix)
+            out += self._pack(hil_gps_message(time_us, fix))
         if time_us % BATTERY_PERIOD_US == 0:
-            out += self._battery_status()
+            out += self._pack(battery_status_message(sim.battery, sim.motor_settings.battery_empty))
         if self.companion is not None:  # LANDING_TARGET whose simulated latency has passed
             out += self.companion.step(sim.data, time_us)
         if self.gimbal_link is not None:  # GIMBAL_DEVICE_ATTITUDE_STATUS at 50 Hz
@@ -241,50 +241,6 @@ class LockstepServer:
             self.truth_log.record(time_us, t, self.armed, self.motor_commands, self.sim.ugv_truth())
         if time_us % TRUTH_PERIOD_US == 0:
             self._every_truth_period(time_us, t)
-
-    def _hil_gps(self, time_us: int, fix: GpsReading) -> bytes:
-        """HIL_GPS for a fix, stamped ``time_us``: degE7, mm, cm, cm/s (NED), course in cdeg."""
-        v = fix.vel_ned_m_s
-        return self._pack(
-            mavlink.MAVLink_hil_gps_message(
-                time_us,
-                fix.fix_type,
-                round(fix.lat_deg * 1e7),
-                round(fix.lon_deg * 1e7),
-                round(fix.alt_amsl_m * 1000),
-                round(fix.eph_m * 100),
-                round(fix.epv_m * 100),
-                round(math.hypot(v[0], v[1]) * 100),
-                round(v[0] * 100),
-                round(v[1] * 100),
-                round(v[2] * 100),
-                round(course_over_ground_deg(v) * 100) % 36000,
-                fix.satellites,
-                0,
-                0,
-            )
-        )
-
-    def _battery_status(self) -> bytes:
-        """BATTERY_STATUS of the simulated pack: cell voltages in mV, current in cA, consumed mAh, percent left."""
-        b = self.sim.battery
-        cell_v, remaining = b.voltage_v / b.cells, b.remaining_frac
-        if self.sim.motor_settings.battery_empty:  # the monitor reads an empty pack (PX4's battery failure)
-            cell_v, remaining = cell_ocv_v(0.0), 0.0
-        cells = [min(65534, round(cell_v * 1000))] * b.cells + [65535] * (10 - b.cells)
-        return self._pack(
-            mavlink.MAVLink_battery_status_message(
-                0,
-                mavlink.MAV_BATTERY_FUNCTION_ALL,
-                mavlink.MAV_BATTERY_TYPE_LIPO,
-                32767,
-                cells,
-                round(b.current_a * 100),
-                round(b.consumed_mah),
-                -1,
-                round(remaining * 100),
-            )
-        )
 
     def _every_truth_period(self, time_us: int, t: SensorTruth | None = None) -> None:
         """50 Hz of simulated time: scenario events, ground truth, parameter service.  ``t``: the period's sensor
