@@ -304,7 +304,7 @@ class CameraSettings:
         0,
         2,
         "",
-        "Camera mount: 0 the vehicle file's, 1 fixed looking down, 2 on the gimbal (read at start)",
+        "Camera mount: 0 the vehicle file's (with the UGV; fixed without), 1 fixed, 2 gimbal (read at start)",
         ParamType.INT32,
         True,
     )
