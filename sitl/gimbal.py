@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import mujoco
 
+from mavsim_core import quaternion
 from params.vehicle import GimbalSpec
 from sitl.model import GIMBAL_JOINTS, part_name
 
@@ -51,15 +52,7 @@ class GimbalSetpoint:
         n = math.sqrt(w * w + x * x + y * y + z * z)
         if not math.isfinite(n) or n < 1e-6:
             raise ValueError("gimbal attitude: the quaternion is not finite or zero")
-        w, x, y, z = w / n, x / n, y / n, z / n
-        return GimbalSetpoint(
-            (
-                (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
-                (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
-                (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)),
-            ),
-            yaw_earth,
-        )
+        return GimbalSetpoint(_rows(quaternion.to_matrix((w / n, x / n, y / n, z / n))), yaw_earth)
 
 
 def body_yaw_rad(r_ned_frd: Rows) -> float:
@@ -69,18 +62,18 @@ def body_yaw_rad(r_ned_frd: Rows) -> float:
 
 def earth_rotation(roll: float, pitch: float, yaw: float) -> Rows:
     """Rz(yaw) Ry(pitch) Rx(roll) as rows: the gimbal frame -> NED for ZYX Euler angles (rad)."""
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(roll),
-        math.sin(roll),
-        math.cos(pitch),
-        math.sin(pitch),
-        math.cos(yaw),
-        math.sin(yaw),
-    )
-    return (
-        (cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
-        (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
-        (-sp, cp * sr, cp * cr),
+    return _rows(quaternion.to_matrix(quaternion.from_euler(roll, pitch, yaw)))
+
+
+def _rows(m) -> Rows:
+    """A 3x3 array as a tuple of float rows."""
+    return tuple(tuple(float(x) for x in r) for r in m)  # type: ignore[return-value]
+
+
+def _mul(a: Rows, b: Rows) -> Rows:
+    """a b for 3x3 matrices given as rows."""
+    return tuple(  # type: ignore[return-value]
+        tuple(sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)) for i in range(3)
     )
 
 
@@ -131,10 +124,7 @@ def wanted_joint_angles(r_ned_frd: Rows, sp: GimbalSetpoint) -> tuple[float, flo
 
 def camera_attitude(r_ned_frd: Rows, joints: tuple[float, float, float]) -> Rows:
     """The gimbal frame -> NED (rows) of a vehicle attitude and joint angles (yaw, roll, pitch; rad)."""
-    r_bg = joint_rotation(*joints)
-    return tuple(  # type: ignore[return-value]
-        tuple(sum(r_ned_frd[i][k] * r_bg[k][j] for k in range(3)) for j in range(3)) for i in range(3)
-    )
+    return _mul(r_ned_frd, joint_rotation(*joints))
 
 
 # OpenCV's camera frame (x image right, y image down, z optical axis) -> the gimbal frame (x optical axis, y right,
@@ -146,10 +136,7 @@ def camera_to_body(joints: tuple[float, float, float]) -> Rows:
     """OpenCV's camera frame -> body FRD (rows) for the gimbal's joint angles (yaw, roll, pitch; rad): what the
     vision companion's :class:`vision.landing_target.CameraMount` takes.  At (0, 0, -90 deg) it is the fixed
     downward camera's rotation."""
-    r_bg, c = joint_rotation(*joints), GIMBAL_FROM_CAMERA
-    return tuple(  # type: ignore[return-value]
-        tuple(sum(r_bg[i][k] * c[k][j] for k in range(3)) for j in range(3)) for i in range(3)
-    )
+    return _mul(joint_rotation(*joints), GIMBAL_FROM_CAMERA)
 
 
 class Gimbal:
