@@ -24,6 +24,8 @@ import pytest
 
 from gcs.client import VehicleClient, mavlink
 from gcs.launcher import Stack, demo
+from gcs.sim_client import SimClient
+from mavsim_core import ports
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -38,13 +40,16 @@ pytestmark = pytest.mark.e2e
 def test_arming_denied_until_estimate_ready_then_accepted(free_instance):
     """Real time, armed at the first heartbeat: denied with a reason; once ready, accepted.
 
-    The estimator needs a few simulated seconds; at speed 1 those are wall seconds, far more than
-    a command's round trip, so both early attempts (the client's and the CLI's) come first.  On a busy
-    machine the simulation can fall behind real time, never run ahead of it, and the one figure, the
-    simulated time the estimator needed, is counted on the simulator's clock.
+    The stack starts held at t = 0.1 s (``SIM_HOLD_MS``): the estimator cannot become ready, however long
+    the client and the CLI take to start on a busy machine (a flake hunt saw the CLI's arm arrive after the
+    estimate was ready at speed 1 alone), so both early attempts are refused in every run.  The hold is
+    then lifted and the stack runs in real time; the one figure, the simulated time the estimator needed,
+    is counted on the simulator's clock.
     """
-    stack = Stack(instance=free_instance(), speed=1)  # a real-time stack, started and stopped
-    with stack:
+    inst = free_instance()
+    held = ["--param", "SIM_HOLD_MS=100"]  # held until both early attempts are refused
+    stack = Stack(instance=inst, speed=1, extra_sitl_args=held)  # a real-time stack, started and stopped
+    with stack, SimClient(ports.sim_component_port(inst)) as truth:
         # The CLI on the ground-station port, started at once: it arms at its first heartbeat too.
         cli = subprocess.Popen(
             [
@@ -77,6 +82,7 @@ def test_arming_denied_until_estimate_ready_then_accepted(free_instance):
                 assert cli.returncode == 1, out + err
                 assert "arm refused: DENIED" in err and "Arming denied: " in err
 
+                truth.set("SIM_HOLD_MS", 0, timeout_s=WAIT_S)  # lift the hold: the stack runs in real time from here
                 c.wait_until(c.prearm_ok, WAIT_S, "the pre-arm checks to pass")
                 assert c.sim_time_s() > 1.0  # the estimator needed simulated time
                 arm(c)

@@ -226,7 +226,17 @@ async def _velocity_leg(offboard, truth) -> tuple[list[float], list[float]]:
 
 
 async def _attitude_step(offboard, truth) -> list[tuple[float, float]]:
+    """The attitude step's settled second.  The settling counts from the truth showing the step under way
+    (half the commanded roll), not from the call's return: on a busy machine the truth's UDP stream lags the
+    vehicle and the setpoint reaches it late, so 0.6 s from the latest truth sample could still be before the
+    step began (a flake hunt saw a 12.5 deg roll error that way)."""
     await offboard.set_attitude(Attitude(ROLL_DEG, PITCH_DEG, 0.0, 0.5))
+
+    async def rolling():
+        s = truth.latest_state
+        return s is not None and truth_euler_deg(s)[0] > ROLL_DEG / 2
+
+    await until(rolling, WAIT_S, f"the truth's roll past {ROLL_DEG / 2:g} deg", period_s=0.005)
     t0 = await sim_sleep(truth, 0.6)  # the step settles
     t1 = await sim_sleep(truth, 1.0)
     states = [truth.state_at(t) for t in range(t0, t1, 20)]
