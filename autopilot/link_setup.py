@@ -55,3 +55,18 @@ def add_link_services(
     key_file = signing_file(args.state_dir, fc.spec.name, args.instance) if args.state_dir else None
     what = f"{fc.spec.name} instance {args.instance}"
     link.add_service(SigningService(link.endpoints, link.sysid, link.compid, link.send_statustext, key_file, what=what))
+
+    from autopilot.mavlink.gimbal_manager import GimbalManager
+
+    # Gimbal protocol v2: the gimbal manager, its device on the simulator link (advertised once it reports).
+    def broadcast_as(msg, compid: int) -> None:
+        for ep in link.endpoints:
+            ep.send_as(msg, compid)
+
+    gimbal = GimbalManager(
+        fc.params, lambda: fc.commander.status, sim.queue, broadcast_as, link.send_statustext,
+        lambda: link.command_source, (link.sysid, link.compid),
+    )  # fmt: skip
+    link.add_service(gimbal)
+    link.requestable.update(gimbal.requestable())
+    sim.device_handlers.update(gimbal.device_handlers())

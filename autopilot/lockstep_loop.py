@@ -163,6 +163,8 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 fc.commander.set_battery(battery_from_msg(m))
             elif t == "LANDING_TARGET":  # the simulated companion computer's (sitl/companion.py)
                 fc.on_landing_target(m, m.get_srcSystem())
+            elif t in sim.device_handlers:  # the gimbal device's status (autopilot/mavlink/gimbal_manager.py)
+                sim.device_handlers[t](m)
             elif t == "HEARTBEAT":  # the simulator holds (sitl/hold.py): alive, no step until its sensors come
                 entering = not watch.held
                 if watch.on_held(time.monotonic()):

@@ -15,7 +15,7 @@ from autopilot import flight_controller, flight_recorder, landing_target_input
 from autopilot.commander import commander, failsafes, failure_detector, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mag_fusion, mahony, position_kf
-from autopilot.mavlink import failure_injection
+from autopilot.mavlink import failure_injection, gimbal_control
 from autopilot.navigation import (
     follow_target,
     geofence,
@@ -65,6 +65,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     landing_target_input.PARAMS,
     flight_recorder.PARAMS,
     failure_injection.PARAMS,
+    gimbal_control.PARAMS,
     autotune.PARAMS,
 )
 

@@ -70,6 +70,7 @@ class SimClient:
         self.sim_addr: tuple[str, int] | None = None
         self.positions: dict[int, TruthSample] = {}
         self.latest_state = None  # HIL_STATE_QUATERNION
+        self.gimbal_truth = None  # GIMBAL_DEVICE_ATTITUDE_STATUS: the camera's attitude -> NED (a gimballed camera)
         self.states: dict[int, object] = {}  # HIL_STATE_QUATERNION by simulated time, ms
         self.lock = threading.Lock()
         self.param_values: queue.Queue = queue.Queue()
@@ -96,6 +97,9 @@ class SimClient:
             for msg in msgs:
                 if msg.get_srcComponent() == UGV_COMPONENT_ID:
                     self._on_ugv(msg)
+                    continue
+                if msg.get_type() == "GIMBAL_DEVICE_ATTITUDE_STATUS":  # the camera's true attitude (earth frame)
+                    self.gimbal_truth = msg
                     continue
                 if msg.get_srcComponent() != SIM_COMPONENT_ID:
                     continue

@@ -14,6 +14,9 @@ GIMBAL_DEVICE_ATTITUDE_STATUS (#285): ``q`` the camera's attitude from the encod
 frame its flags say (YAW_IN_VEHICLE_FRAME unless the setpoint locks yaw to the earth), ``angular_velocity_*``
 its rate (rad/s, the difference of two reports), ``delta_yaw`` the vehicle's heading (rad), ``failure_flags``
 the AT_*_LIMIT bits while a wanted attitude is beyond a joint's range.  Frames NED/FRD, radians.
+
+GIMBAL_DEVICE_INFORMATION (#283), once a second of simulated time with a status: the joints' ranges (rad; roll,
+pitch, yaw as the joints', which they are near level) and capability flags, for the manager's limits.
 """
 
 from __future__ import annotations
@@ -27,6 +30,17 @@ from mavsim_core import quaternion
 from sitl.gimbal import Gimbal, GimbalSetpoint, Rows, body_yaw_rad, camera_attitude
 
 STATUS_PERIOD_US = 20_000  # 50 Hz of simulated time
+INFORMATION_PERIOD_US = 1_000_000  # GIMBAL_DEVICE_INFORMATION at 1 Hz
+_CAP_FLAGS = (
+    mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_NEUTRAL
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_AXIS
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_ROLL_LOCK
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_AXIS
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_PITCH_LOCK
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_AXIS
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_FOLLOW
+    | mavlink.GIMBAL_DEVICE_CAP_FLAGS_HAS_YAW_LOCK
+)
 _EARTH_YAW = mavlink.GIMBAL_DEVICE_FLAGS_YAW_LOCK | mavlink.GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME
 _TO_NEUTRAL = mavlink.GIMBAL_DEVICE_FLAGS_RETRACT | mavlink.GIMBAL_DEVICE_FLAGS_NEUTRAL
 _LIMIT_FLAGS = (
@@ -92,7 +106,27 @@ class GimbalDeviceLink:
         )
         data_out = msg.pack(mav)
         mav.seq = (mav.seq + 1) % 256
+        if time_us % INFORMATION_PERIOD_US == 0:
+            data_out = self.information(time_us, mav) + data_out
         return data_out
+
+    def information(self, time_us: int, mav: mavlink.MAVLink) -> bytes:
+        """GIMBAL_DEVICE_INFORMATION packed: the joints' ranges (rad) and what the device can do."""
+        (ylo, yhi), (rlo, rhi), (plo, phi) = self.gimbal.limits
+        msg = mavlink.MAVLink_gimbal_device_information_message(
+            time_us // 1000, b"mavsim", b"sim gimbal", b"", 0, 0, 0, _CAP_FLAGS, 0, rlo, rhi, plo, phi, ylo, yhi, 0
+        )
+        data = msg.pack(mav)
+        mav.seq = (mav.seq + 1) % 256
+        return data
+
+    def earth_attitude(self, data, r_ned_frd: Rows) -> mavlink.MAVLink_message:
+        """The camera's true attitude (gimbal frame -> NED, from the joints and the airframe) as a
+        GIMBAL_DEVICE_ATTITUDE_STATUS in the earth frame: what the simulator's truth port reports."""
+        q = [float(x) for x in quaternion.from_matrix(np.array(camera_attitude(r_ned_frd, self.gimbal.joints(data))))]
+        nan = math.nan
+        flags = _EARTH_YAW | mavlink.GIMBAL_DEVICE_FLAGS_ROLL_LOCK | mavlink.GIMBAL_DEVICE_FLAGS_PITCH_LOCK
+        return mavlink.MAVLink_gimbal_device_attitude_status_message(0, 0, 0, flags, q, nan, nan, nan, 0, nan, nan, 0)
 
     def _rate(self, time_us: int, q: tuple) -> tuple[float, float, float]:
         """The camera's angular rate (rad/s, its own axes) from the previous report's attitude to this one."""

@@ -295,6 +295,9 @@ class LockstepServer:
         ugv = self.sim.ugv_truth()
         if ugv is not None:  # the ground vehicle, as its own component (UGV_COMPID)
             server.send(server.encode(ugv_truth_messages(ugv), compid=UGV_COMPID))
+        if self.gimbal_link is not None:  # the camera's attitude from the joints, in the earth frame (tests' truth)
+            truth_q = self.gimbal_link.earth_attitude(self.sim.data, self.sim.sensor_truth().r_ned_frd)
+            server.send(server.encode([truth_q], compid=mavlink.MAV_COMP_ID_GIMBAL))
 
     def _on_manual_control(self, msg) -> None:
         """MANUAL_CONTROL to the simulator's component: the UGV's joystick ([F 2.2]); x forward, r yaw."""

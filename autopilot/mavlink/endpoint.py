@@ -134,6 +134,15 @@ class LinkEndpoint(UdpEndpoint):
         self.write(data)
         return data
 
+    def send_as(self, msg: mavlink.MAVLink_message, compid: int) -> None:
+        """Send ``msg`` as component ``compid`` of this system (a device the flight controller speaks for, as
+        PX4 forwards a MAVLink gimbal's messages), the endpoint's own component restored after."""
+        own, self.mav.srcComponent = self.mav.srcComponent, compid
+        try:
+            self.mav.send(msg)
+        finally:
+            self.mav.srcComponent = own
+
     def send_payload(self, layout: MessageLayout, payload: bytes) -> None:
         """Send the message whose MAVLink 2 payload (trailing zeros trimmed) ``layout`` packed already, e.g. for
         another endpoint: the bytes :meth:`send` writes for that message, framed with this endpoint's sequence

@@ -139,6 +139,7 @@ class GcsLink:
         # Messages a service sends on MAV_CMD_REQUEST_MESSAGE (message id -> send(endpoint) -> MAV_RESULT),
         # before the streamed ones: e.g. COMPONENT_METADATA (autopilot/mavlink/component_metadata.py).
         self.requestable: dict[int, Callable[[LinkEndpoint], int]] = {}
+        self.command_source: tuple[int, int] = (0, 0)  # (sysid, compid) of the command being run, for services
         self.add_service(MessageRequests(self))  # GET_MESSAGE_INTERVAL and the old one-message requests
 
     def _message_handlers(self) -> dict[str, Handler]:
@@ -332,6 +333,7 @@ class GcsLink:
         if earlier is not None:  # a copy of a command carried out, its ACK lost: that answer again, nothing else
             self._ack(ep, msg, command, earlier)
             return
+        self.command_source = sender
         try:
             service = self._service_commands.get(command)
             if service is not None:

@@ -85,6 +85,9 @@ class SimLink:
         self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
         self.pending: list = []  # received during a request(), for the next receive()
         self.closed = False  # the simulator closed the link (seen by a request()): receive() says so next
+        self.outbox: list[bytes] = []  # queued messages (queue()), sent just before the next actuator controls
+        # Messages of devices on this link (the gimbal's), by type: read by the lockstep loop (link_setup.py)
+        self.device_handlers: dict[str, Callable[[mavlink.MAVLink_message], None]] = {}
 
     def connect(self, retry_s: float = 0.2, on_wait=None, handshake_timeout_s: float | None = None) -> None:
         """Connect and send a HEARTBEAT, retrying until the simulator listens; on_wait() is called between
@@ -180,10 +183,20 @@ class SimLink:
             return None
         return self.parser.parse(data)
 
+    def queue(self, msg: mavlink.MAVLink_message) -> None:
+        """Send ``msg`` with the next actuator controls, just before them: the simulator reads it in the same
+        wait for actuators, so it acts from the same step in every run (a gimbal setpoint)."""
+        self.outbox.append(msg.pack(self.mav))
+        self.mav.seq = (self.mav.seq + 1) % 256
+
     def send_actuators(self, time_us: int, commands: np.ndarray, armed: bool) -> None:
+        """HIL_ACTUATOR_CONTROLS for ``time_us``, after what :meth:`queue` holds."""
         controls = [0.0] * 16
         controls[: len(commands)] = commands.tolist()
-        self.sock.sendall(_ACTUATORS.encode(self.mav, (time_us, controls, _ARMED if armed else 0, 0)))
+        data = _ACTUATORS.encode(self.mav, (time_us, controls, _ARMED if armed else 0, 0))
+        if self.outbox:
+            data, self.outbox = b"".join(self.outbox) + data, []
+        self.sock.sendall(data)
 
     def request(
         self, msg: mavlink.MAVLink_message, answer: Callable[[mavlink.MAVLink_message], bool], timeout_s: float
