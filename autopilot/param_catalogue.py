@@ -29,6 +29,7 @@ from autopilot.navigation import (
     offboard,
     orbit,
     precland,
+    precland_gimbal,
     rtl,
     takeoff,
 )
@@ -59,6 +60,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     manual_modes.PARAMS,
     offboard.PARAMS,
     precland.PARAMS,
+    precland_gimbal.PARAMS,
     orbit.PARAMS,
     follow_target.PARAMS,
     landing_target_estimator.PARAMS,

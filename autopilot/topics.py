@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from autopilot.control.gimbal_pointing import NO_GIMBAL_REQUEST, GimbalRequest
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
@@ -222,6 +223,7 @@ class CommanderStatus:
     position_setpoint_ned_m: np.ndarray | None  # the active flight task's, None when not flying one
     mission: MissionStatus = NO_MISSION_STATUS
     failsafe: FailsafeStatus = NO_FAILSAFE
+    gimbal_request: GimbalRequest = NO_GIMBAL_REQUEST  # the flight controller's own use of the gimbal
 
 
 @dataclass(frozen=True, slots=True)

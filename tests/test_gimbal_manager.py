@@ -10,10 +10,16 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.control.gimbal_pointing import CameraAttitude, attitude_from_quaternion, look_along, look_at
+from autopilot.control.gimbal_pointing import (
+    NO_GIMBAL_REQUEST,
+    CameraAttitude,
+    attitude_from_quaternion,
+    look_along,
+    look_at,
+)
 from autopilot.mavlink.command_fields import FieldError
 from autopilot.mavlink.gimbal_control import GimbalControl, resolve_control_id
-from autopilot.mavlink.gimbal_manager import GimbalManager
+from autopilot.mavlink.gimbal_manager import DEVICE_TIMEOUT_US, GimbalManager
 from autopilot.param_catalogue import default_store
 from autopilot.topics import LandedState
 
@@ -67,9 +73,20 @@ def test_quaternion_round_trip():
     assert attitude_from_quaternion([NAN] * 4, False) is None
 
 
+class Estimate:
+    """The estimate the manager reads: a valid position (NED m) from an origin at 47 N, 8 E, 400 m AMSL."""
+
+    position_valid = True
+    origin_lat_deg, origin_lon_deg, origin_alt_amsl_m = 47.0, 8.0, 400.0
+    yaw_rad = 0.0
+
+    def __init__(self, pos_ned_m) -> None:
+        self.pos_ned_m = pos_ned_m
+
+
 class Status:
-    def __init__(self, landed=LandedState.IN_AIR, estimate=None, home=None):
-        self.landed_state, self.estimate, self.home = landed, estimate, home
+    def __init__(self, landed=LandedState.IN_AIR, estimate=None, home=None, request=NO_GIMBAL_REQUEST):
+        self.landed_state, self.estimate, self.home, self.gimbal_request = landed, estimate, home, request
 
 
 class Harness:
@@ -167,13 +184,7 @@ def test_roi_points_from_the_estimated_position_and_none_returns_to_neutral():
     h = Harness()
     h.report()
 
-    class Est:
-        position_valid = True
-        origin_lat_deg, origin_lon_deg, origin_alt_amsl_m = 47.0, 8.0, 400.0
-        pos_ned_m = np.array([0.0, 0.0, -20.0])  # 20 m up over the origin
-        yaw_rad = 0.0
-
-    h.status = Status(estimate=Est())
+    h.status = Status(estimate=Estimate(np.array([0.0, 0.0, -20.0])))  # 20 m up over the origin
     lat = 47.0 + math.degrees(20.0 / 6378137.0)  # 20 m north, on the ground
     assert (
         h.command(mavlink.MAV_CMD_DO_SET_ROI_LOCATION, 0, NAN, NAN, NAN, lat, 8.0, 400.0) == mavlink.MAV_RESULT_ACCEPTED
@@ -194,3 +205,40 @@ def test_point_along_for_the_precision_landing():
     h.m.update(0)
     att = attitude_from_quaternion(h.device[-1].q, False)
     assert att.pitch_rad == pytest.approx(-math.pi / 2)
+
+
+def test_a_silent_device_is_lost_after_the_timeout_and_found_again_when_it_reports():
+    h = Harness()
+    h.report()
+    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
+    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -45, 30)
+    h.m.update(0)
+    n = len(h.device)
+    h.m.update(DEVICE_TIMEOUT_US)  # silent for exactly the timeout: still there
+    assert h.m.advertised and not any("lost" in t for t in h.texts)
+    h.m.update(DEVICE_TIMEOUT_US + 20_000)
+    assert not h.m.advertised and h.m.information() is None
+    assert "Gimbal device lost" in h.texts[-1]
+    assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -10, 0) == mavlink.MAV_RESULT_UNSUPPORTED
+    h.sent.clear()
+    h.m.update(DEVICE_TIMEOUT_US + 400_000)
+    assert h.sent == [] and len(h.device) == n  # nothing advertised, relayed or sent while it is away
+    h.report()  # it returns: advertised again, its control and setpoint kept, the setpoint sent again
+    h.m.update(DEVICE_TIMEOUT_US + 420_000)
+    assert h.m.advertised and h.m.control.primary == GCS
+    att = attitude_from_quaternion(h.device[-1].q, False)
+    assert len(h.device) == n + 1 and (att.pitch_rad, att.yaw_rad) == pytest.approx((rad(-45), rad(30)))
+
+
+def test_roi_altitude_is_amsl_whatever_the_frame_as_px4_reads_it():
+    """MAVSDK's set_roi_location sends its AMSL altitude in a MAV_FRAME_GLOBAL_RELATIVE_ALT COMMAND_INT."""
+    h = Harness()
+    h.report()
+
+    h.status = Status(estimate=Estimate(np.array([0.0, 0.0, 0.0])))
+    lat = 47.0 + math.degrees(10.0 / 6378137.0)  # 10 m north, 10 m below
+    roi = h.m.commands()[mavlink.MAV_CMD_DO_SET_ROI_LOCATION]
+    params = (0, NAN, NAN, NAN, lat, 8.0, 390.0)
+    assert roi(None, params, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) == mavlink.MAV_RESULT_ACCEPTED
+    h.m.update(0)
+    assert attitude_from_quaternion(h.device[-1].q, True).pitch_rad == pytest.approx(rad(-45), abs=1e-4)

@@ -142,6 +142,7 @@ class Commander(FlightCommands, VehicleCommands):
             position_setpoint_ned_m=getattr(self.setpoint, "pos_ned_m", None),
             mission=self.plans.status(mode),  # (the previous records again while nothing in them changed)
             failsafe=failsafes.status(self, warning),
+            gimbal_request=precision_landing.gimbal_request(self.task, self.est, self.params),
         )
 
     def _publish(self) -> None:

@@ -1,4 +1,5 @@
-"""The commander's side of AUTO.PRECLAND: run the task, report its phases, cut the motors when docked.
+"""The commander's side of AUTO.PRECLAND: run the task, report its phases, cut the motors when docked, and
+decide where the camera gimbal points (:func:`gimbal_request`, applied by the gimbal manager).
 
 The task (:class:`autopilot.navigation.precland.PrecLandTask`) flies the phases; here its phase
 changes become STATUSTEXTs ("Precland: tracking (...)"), a required landing that found no
@@ -13,7 +14,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
+from autopilot.control.gimbal_pointing import GimbalRequest
 from autopilot.navigation.precland import PrecLandPhase, PrecLandTask
+from autopilot.navigation.precland_gimbal import landing_gimbal_request
+from autopilot.parameters import ParameterStore
 from autopilot.topics import VehicleEstimate
 
 if TYPE_CHECKING:
@@ -43,3 +47,15 @@ def velocity_over_ground_below(task: object, est: VehicleEstimate) -> np.ndarray
     if isinstance(task, PrecLandTask) and task.phase in (PrecLandPhase.DOCKING, PrecLandPhase.DONE):
         return est.vel_ned_m_s - task.target_velocity_ned_m_s
     return est.vel_ned_m_s
+
+
+def gimbal_request(task: object, est: VehicleEstimate | None, params: ParameterStore) -> GimbalRequest:
+    """The camera gimbal's request of the flight task ``task`` (:mod:`autopilot.navigation.precland_gimbal`):
+    a precision landing's, nothing (RELEASE) for any other task or none."""
+    landing = task if isinstance(task, PrecLandTask) else None
+    return landing_gimbal_request(
+        bool(int(params.get("PLD_GIMB_POINT"))),
+        None if landing is None else landing.phase,
+        None if landing is None else landing.target_pos_ned_m,
+        None if est is None else est.pos_ned_m,
+    )

@@ -1,9 +1,10 @@
 """Where the camera gimbal points: a camera attitude, the angle limits it must respect, a direction to look along.
 
-Pure geometry for the gimbal manager (:mod:`autopilot.mavlink.gimbal_manager`) and, later, the precision
-landing: no I/O, no clock.  Angles as gimbal protocol v2 and PX4 use them (radians): roll right positive, pitch
-up positive (straight down is -pi/2), yaw right positive, ZYX Euler order.  Roll and pitch are always to the
-horizon; yaw is either relative to the vehicle's heading (follow) or from North (lock, ``yaw_earth``).
+Pure geometry for the gimbal manager (:mod:`autopilot.mavlink.gimbal_manager`) and the precision landing's
+request (:class:`GimbalRequest`, carried in the commander's status): no I/O, no clock.  Angles as gimbal protocol
+v2 and PX4 use them (radians): roll right positive, pitch up positive (straight down is -pi/2), yaw right positive,
+ZYX Euler order.  Roll and pitch are always to the horizon; yaw is either relative to the vehicle's heading
+(follow) or from North (lock, ``yaw_earth``).
 Directions are NED metres or unit vectors.
 """
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import IntEnum
 
 from mavsim_core import quaternion
 
@@ -121,3 +123,25 @@ def look_along(direction_ned: Vec3) -> CameraAttitude:
 def look_at(vehicle_pos_ned_m: Vec3, target_pos_ned_m: Vec3) -> CameraAttitude:
     """The camera attitude from a vehicle position toward a target position (both NED m, one origin)."""
     return look_along(tuple(t - v for t, v in zip(target_pos_ned_m, vehicle_pos_ned_m)))  # type: ignore[arg-type]
+
+
+class GimbalAim(IntEnum):
+    """What the flight controller's own use of the camera gimbal asks (:class:`GimbalRequest`)."""
+
+    RELEASE = 0  # nothing: the gimbal is its clients' (control back to whoever held it before)
+    DOWN = 1  # straight down, the top of the image toward the nose
+    ALONG = 2  # along ``GimbalRequest.direction_ned``
+
+
+@dataclass(frozen=True, slots=True)
+class GimbalRequest:
+    """The commander's decision for the camera gimbal (a precision landing points it at the target estimate,
+    :mod:`autopilot.navigation.precland_gimbal`), applied by the gimbal manager
+    (:mod:`autopilot.mavlink.gimbal_manager`).  ``direction_ned``: where the optical axis should point, NED
+    (any length, from the vehicle), read only for ALONG."""
+
+    aim: GimbalAim = GimbalAim.RELEASE
+    direction_ned: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+
+NO_GIMBAL_REQUEST = GimbalRequest()

@@ -1,6 +1,7 @@
-"""The gimbal manager's commands (:mod:`autopilot.mavlink.gimbal_manager`): each decodes MAVLink's fields and units
-(degrees, NaN = not given, the COMMAND_INT frame's altitude) and acts on the manager; a refusal raises FieldError
-(DENIED with a STATUSTEXT by the manager).  The manager runs them only once its device has reported.
+"""The gimbal manager's commands and messages (:mod:`autopilot.mavlink.gimbal_manager`): each decodes MAVLink's
+fields and units (degrees, NaN = not given) and acts on the manager.  A command's refusal raises FieldError (DENIED
+with a STATUSTEXT by the manager), which runs them only once its device has reported; a message's refusal (no
+ACK) is said once per client and kind until control changes.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.control.gimbal_pointing import CameraAttitude
+from autopilot.control.gimbal_pointing import CameraAttitude, attitude_from_quaternion
 from autopilot.mavlink import command_fields as f
 from autopilot.mavlink.command_fields import FieldError
 from autopilot.mavlink.gimbal_control import Roi
@@ -55,19 +56,15 @@ def configure(m: GimbalManager, p: tuple, frame: int) -> int:
     names = ("param1 (primary sysid)", "param2 (primary compid)", "param3 (secondary sysid)",
              "param4 (secondary compid)")  # fmt: skip
     values = tuple(f.whole(v, n, -3, 255, nan=-1) for v, n in zip(p[:4], names))
-    new = m.control.configured(values, m.command_source(), m.own)  # type: ignore[arg-type]
-    if new != m.control:
-        m.control, m.status_changed = new, True
-        m.told.clear()
+    m.set_control(m.control.configured(values, m.command_source(), m.own))  # type: ignore[arg-type]
     return mavlink.MAV_RESULT_ACCEPTED
 
 
 def roi_location(m: GimbalManager, p: tuple, frame: int) -> int:
-    """param1 gimbal device id, param5/6 lat/lon deg, param7 altitude (AMSL, or above home by the
-    COMMAND_INT frame)."""
+    """param1 gimbal device id, param5/6 lat/lon deg, param7 altitude AMSL m whatever the COMMAND_INT frame, as
+    PX4's navigator reads it (MAVSDK's Gimbal.set_roi_location sends AMSL in a MAV_FRAME_GLOBAL_RELATIVE_ALT
+    COMMAND_INT; QGroundControl sends AMSL in MAV_FRAME_GLOBAL)."""
     check_device(m, p[0], "param1 (gimbal device id)")
-    home = m.vehicle_status().home
-    p = f.to_amsl(p, frame, home.alt_amsl_m if home is not None else None)
     where = f.lat_lon(p[4], p[5])
     alt = f.optional(p[6], "param7 (altitude)")
     if where is None or alt is None:
@@ -90,4 +87,56 @@ TABLE: dict[int, tuple[Callable[..., int], str]] = {
     mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE: (configure, "Gimbal configure"),
     mavlink.MAV_CMD_DO_SET_ROI_LOCATION: (roi_location, "ROI location"),
     mavlink.MAV_CMD_DO_SET_ROI_NONE: (roi_none, "ROI none"),
+}
+
+
+# --------------------------------------------------------------------------- messages (no ACK)
+
+
+def _message(m: GimbalManager, msg, name: str, att: CameraAttitude | None, rates: tuple[float, float] | None) -> None:
+    sender = (msg.get_srcSystem(), msg.get_srcComponent())
+    if not m.advertised or int(msg.gimbal_device_id) not in (0, m.device_compid):
+        return
+    why = m.point(sender, att, rates)
+    if why is not None:  # a stream of them says it once per client and kind until control changes
+        m.tell_once(sender, "control" if not m.allows(sender) else "refused", f"{name} ignored: {why}")
+
+
+def set_attitude(m: GimbalManager, ep, msg) -> None:
+    """GIMBAL_MANAGER_SET_ATTITUDE: ``q`` (NaN: rates only, angular_velocity_y/z rad/s), flags."""
+    flags = int(msg.flags)
+    att = attitude_from_quaternion(msg.q, bool(flags & _YAW_EARTH))
+    if flags & _TO_NEUTRAL:
+        return _message(m, msg, "Gimbal set attitude", None, None)
+    rates = (float(msg.angular_velocity_y), float(msg.angular_velocity_z)) if att is None else None
+    _message(m, msg, "Gimbal set attitude", att, rates)
+
+
+def set_pitchyaw(m: GimbalManager, ep, msg) -> None:
+    """GIMBAL_MANAGER_SET_PITCHYAW: pitch, yaw rad (NaN: rates pitch_rate, yaw_rate rad/s), flags."""
+    _pitch_yaw(m, msg, "Gimbal set pitch/yaw", float(msg.pitch), float(msg.yaw), 1.0, 1.0)
+
+
+def set_manual_control(m: GimbalManager, ep, msg) -> None:
+    """GIMBAL_MANAGER_SET_MANUAL_CONTROL: pitch, yaw rad, or rates -1..1 of MNT_RATE_PITCH/YAW."""
+    scale_p = math.radians(float(m.params.get("MNT_RATE_PITCH")))
+    scale_y = math.radians(float(m.params.get("MNT_RATE_YAW")))
+    _pitch_yaw(m, msg, "Gimbal manual control", float(msg.pitch), float(msg.yaw), scale_p, scale_y)
+
+
+def _pitch_yaw(m: GimbalManager, msg, name: str, pitch: float, yaw: float, scale_p: float, scale_y: float) -> None:
+    flags = int(msg.flags)
+    if flags & _TO_NEUTRAL:
+        return _message(m, msg, name, None, None)
+    if math.isfinite(pitch) and math.isfinite(yaw):
+        return _message(m, msg, name, CameraAttitude(0.0, pitch, yaw, bool(flags & _YAW_EARTH)), None)
+    rates = (float(msg.pitch_rate) * scale_p, float(msg.yaw_rate) * scale_y)
+    _message(m, msg, name, None, rates)
+
+
+# message type -> handler(manager, endpoint, message)
+MESSAGES: dict[str, Callable[..., None]] = {
+    "GIMBAL_MANAGER_SET_ATTITUDE": set_attitude,
+    "GIMBAL_MANAGER_SET_PITCHYAW": set_pitchyaw,
+    "GIMBAL_MANAGER_SET_MANUAL_CONTROL": set_manual_control,
 }

@@ -8,7 +8,12 @@ MAV_COMP_ID_GIMBAL, as PX4's simulated gimbal), which is also the manager's ``gi
 
 * Advertised only once the device has reported (its status came): before that, and with MNT_MODE_IN not 0 or 4
   or MNT_MODE_OUT not 2, every gimbal command is MAV_RESULT_UNSUPPORTED and REQUEST_MESSAGE of a gimbal message
-  too, as PX4 without a gimbal.
+  too, as PX4 without a gimbal.  MNT_MODE_IN 4 / MNT_MODE_OUT 2 are the defaults here as in PX4's gimbal SITL
+  airframe (4019_gz_x500_gimbal); PX4's own defaults are -1 (disabled) and 0 (AUX).
+* A device silent for DEVICE_TIMEOUT_US of simulated time (no GIMBAL_DEVICE_ATTITUDE_STATUS; it sends 50 Hz) is
+  lost: a STATUSTEXT says so and the manager is no longer advertised (commands UNSUPPORTED again) until it
+  reports again; who is in control and the setpoint are kept, and the setpoint is sent again when it returns.
+  (PX4's gimbal module keeps a device once found; the timeout is this project's choice, 3 s.)
 * GIMBAL_MANAGER_INFORMATION on request: PX4's capability flags and PX4's manager range (pitch -90..90 deg, yaw
   -180..180 deg) narrowed to the device's reported range.  GIMBAL_MANAGER_STATUS at 5 Hz (the spec's "low
   regular rate") and at once when who is in control changes.  The device's status is relayed at 10 Hz and its
@@ -29,9 +34,14 @@ MAV_COMP_ID_GIMBAL, as PX4's simulated gimbal), which is also the manager's ``gi
 * What the manager decides reaches the device as GIMBAL_DEVICE_SET_ATTITUDE, queued on the simulator link and
   sent just before the next HIL_ACTUATOR_CONTROLS, so the simulator applies it at the same step in every run.
 
-For the precision landing (later): :meth:`GimbalManager.point_along` (a NED direction, e.g. toward the target
-estimate, straight down without one) and :meth:`GimbalManager.neutral`; they act whoever is in control, as the
-autopilot's own use of its gimbal.
+The flight controller's own use (a precision landing, :mod:`autopilot.navigation.precland_gimbal`): the
+commander's status carries a :class:`autopilot.topics.GimbalRequest`, applied here in :meth:`GimbalManager.
+_apply_request` each update.  While it asks DOWN or ALONG a direction, the autopilot itself is the primary
+controller (GIMBAL_MANAGER_STATUS shows it; other clients are DENIED as usual) and the camera is pointed
+(:meth:`GimbalManager.point_along`, held in range, sent again once it moved RESEND_ANGLE_RAD); when it asks
+RELEASE again, the controllers and the setpoint (attitude, ROI or rates) held before come back.  A client that
+takes control during the landing (CONFIGURE, as PX4 lets any client) keeps it: the autopilot stops pointing and
+restores nothing.
 
 Frames NED/FRD, radians inside; degrees only in MAV_CMD parameters.  Time is the link's simulated time.
 """
@@ -39,12 +49,13 @@ Frames NED/FRD, radians inside; degrees only in MAV_CMD parameters.  Time is the
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from autopilot.control.gimbal_pointing import AngleLimits, CameraAttitude, attitude_from_quaternion, look_along
+from autopilot.control.gimbal_pointing import AngleLimits, CameraAttitude, GimbalAim, GimbalRequest, look_along
 from autopilot.mavlink import command_fields as f
 from autopilot.mavlink import gimbal_commands
 from autopilot.mavlink.command_fields import FieldError
@@ -69,13 +80,22 @@ if TYPE_CHECKING:
 
 STATUS_PERIOD_US = 200_000  # GIMBAL_MANAGER_STATUS at 5 Hz (and on change)
 RELAY_PERIOD_US = 100_000  # the device's GIMBAL_DEVICE_ATTITUDE_STATUS relayed at 10 Hz
+DEVICE_TIMEOUT_US = 3_000_000  # a device without status for this long (simulated time) is lost
 RESEND_ANGLE_RAD = math.radians(0.05)  # an ROI or rate setpoint is sent again once it moved this much
-_TO_NEUTRAL = mavlink.GIMBAL_MANAGER_FLAGS_RETRACT | mavlink.GIMBAL_MANAGER_FLAGS_NEUTRAL
-_YAW_EARTH = mavlink.GIMBAL_MANAGER_FLAGS_YAW_LOCK | mavlink.GIMBAL_MANAGER_FLAGS_YAW_IN_EARTH_FRAME
 Say = Callable[[int, str], None]  # (MAV_SEVERITY, text): a STATUSTEXT to the ground stations
 
 
 # --------------------------------------------------------------------------- the manager
+
+
+@dataclass(frozen=True, slots=True)
+class _Held:
+    """What the autopilot's own use of the gimbal took over: the controllers and the setpoint they had set."""
+
+    control: GimbalControl
+    target: CameraAttitude | None
+    roi: Roi | None
+    rates: tuple[float, float] | None
 
 
 class GimbalManager:
@@ -110,10 +130,13 @@ class GimbalManager:
         self.sent: CameraAttitude | None = None
         self._dirty = False  # a setpoint to send to the device
         self._fresh_status = self._fresh_information = False
+        self._heard = False  # a device status came since the last update
+        self._heard_us: int | None = None  # link time of the update that saw the device's latest status
         self._last_update_us: int | None = None
         self._next_status_us = self._next_relay_us = 0
         self.status_changed = False
         self.told: set[tuple[Source, str]] = set()  # (client, what) already said, until control changes
+        self.before_autopilot: _Held | None = None  # what the autopilot's own use took over, given back after
 
     # ------------------------------------------------------------------ the device (simulator link)
 
@@ -129,7 +152,7 @@ class GimbalManager:
         MNT_MAV_COMPID, whose gimbal_device_id field is then 0 (the spec: set only when the device shares the
         manager's component)."""
         msg.gimbal_device_id = 0
-        self.device_status, self._fresh_status = msg, True
+        self.device_status, self._fresh_status, self._heard = msg, True, True
 
     def on_device_information(self, msg) -> None:
         """The device's ranges (from the simulator link)."""
@@ -150,12 +173,37 @@ class GimbalManager:
     def device_compid(self) -> int:
         return int(self.params.get("MNT_MAV_COMPID"))
 
-    # ------------------------------------------------------------------ for the precision landing (later)
+    # ------------------------------------------------------------------ the autopilot's own use
 
     def point_along(self, direction_ned) -> None:
-        """Point the camera along a NED direction (the autopilot's own use: whoever is in control)."""
+        """Point the camera along a NED direction (the autopilot's own use: whoever is in control), held inside
+        the range, sent to the device once it moved more than RESEND_ANGLE_RAD."""
         self.roi, self.rates_rad_s = None, None
-        self._set_target(look_along(direction_ned))
+        self._set_if_moved(self._limits().clamped(look_along(direction_ned), self._vehicle_yaw_rad()))
+
+    def _apply_request(self, request: GimbalRequest) -> None:
+        """The commander's request (see the module docstring): take over, point, give back."""
+        held = self.before_autopilot
+        if request.aim is GimbalAim.RELEASE:
+            if held is not None:
+                self.before_autopilot = None
+                if self.control.primary == self.own:  # still the autopilot's: back to who held it before
+                    self.set_control(held.control)
+                    self.target, self.roi, self.rates_rad_s, self._dirty = held.target, held.roi, held.rates, True
+                    self.sent = None
+            return
+        if held is None:
+            self.before_autopilot = _Held(self.control, self.target, self.roi, self.rates_rad_s)
+            self.set_control(GimbalControl(self.own, self.control.secondary))
+        elif self.control.primary != self.own:  # a client took control during the landing: it keeps it
+            return
+        self.point_along(request.direction_ned if request.aim is GimbalAim.ALONG else (0.0, 0.0, 1.0))
+
+    def set_control(self, control: GimbalControl) -> None:
+        """Who is in control now (GIMBAL_MANAGER_STATUS goes at once on a change; what was said is forgotten)."""
+        if control != self.control:
+            self.control, self.status_changed = control, True
+            self.told.clear()
 
     def neutral(self) -> None:
         """Back to the device's neutral (straight down for the landing camera)."""
@@ -165,11 +213,7 @@ class GimbalManager:
     # ------------------------------------------------------------------ LinkService
 
     def handlers(self) -> dict[str, Handler]:
-        return {
-            "GIMBAL_MANAGER_SET_ATTITUDE": self._on_set_attitude,
-            "GIMBAL_MANAGER_SET_PITCHYAW": self._on_set_pitchyaw,
-            "GIMBAL_MANAGER_SET_MANUAL_CONTROL": self._on_set_manual_control,
-        }
+        return {name: partial(handler, self) for name, handler in gimbal_commands.MESSAGES.items()}
 
     def commands(self) -> dict[int, ServiceCommand]:
         return {
@@ -194,8 +238,10 @@ class GimbalManager:
         manager's status and the device's relayed."""
         dt_s = 0.0 if self._last_update_us is None else max(0.0, (now_us - self._last_update_us) * 1e-6)
         self._last_update_us = now_us
+        self._watch_device(now_us)
         if not self.advertised:
             return
+        self._apply_request(self.vehicle_status().gimbal_request)
         if self.roi is not None:
             self._follow_roi()
         elif self.rates_rad_s is not None and dt_s > 0:
@@ -213,6 +259,19 @@ class GimbalManager:
         if self.status_changed or now_us >= self._next_status_us:
             self.status_changed, self._next_status_us = False, now_us + STATUS_PERIOD_US
             self._broadcast(self.manager_status(), self.own[1])
+
+    def _watch_device(self, now_us: int) -> None:
+        """The device heard from at ``now_us``, or lost after DEVICE_TIMEOUT_US of silence (see the module
+        docstring)."""
+        if self._heard:
+            self._heard, self._heard_us = False, now_us
+            return
+        if self.device_status is None or self._heard_us is None or now_us - self._heard_us <= DEVICE_TIMEOUT_US:
+            return
+        self.device_status = self.device_information = self.device_range = None
+        self._fresh_status = self._fresh_information = False
+        self._dirty = True  # the setpoint goes again to a device that returns
+        self._say(mavlink.MAV_SEVERITY_WARNING, f"Gimbal device lost: no status for {DEVICE_TIMEOUT_US / 1e6:g} s")
 
     # ------------------------------------------------------------------ messages out
 
@@ -317,48 +376,10 @@ class GimbalManager:
         else:
             self.target = att
 
-    def _tell_once(self, sender: Source, what: str, text: str) -> None:
+    def tell_once(self, sender: Source, what: str, text: str) -> None:
         if (sender, what) not in self.told:
             self.told.add((sender, what))
             self._say(mavlink.MAV_SEVERITY_WARNING, text)
-
-    # ------------------------------------------------------------------ messages in
-
-    def _message(self, msg, name: str, att: CameraAttitude | None, rates: tuple[float, float] | None) -> None:
-        sender = (msg.get_srcSystem(), msg.get_srcComponent())
-        if not self.advertised or int(msg.gimbal_device_id) not in (0, self.device_compid):
-            return
-        why = self.point(sender, att, rates)
-        if why is not None:  # a stream of them says it once per client and kind until control changes
-            self._tell_once(sender, "control" if not self.allows(sender) else "refused", f"{name} ignored: {why}")
-
-    def _on_set_attitude(self, ep: LinkEndpoint, msg) -> None:
-        """GIMBAL_MANAGER_SET_ATTITUDE: ``q`` (NaN: rates only, angular_velocity_y/z rad/s), flags."""
-        flags = int(msg.flags)
-        att = attitude_from_quaternion(msg.q, bool(flags & _YAW_EARTH))
-        if flags & _TO_NEUTRAL:
-            return self._message(msg, "Gimbal set attitude", None, None)
-        rates = (float(msg.angular_velocity_y), float(msg.angular_velocity_z)) if att is None else None
-        self._message(msg, "Gimbal set attitude", att, rates)
-
-    def _on_set_pitchyaw(self, ep: LinkEndpoint, msg) -> None:
-        """GIMBAL_MANAGER_SET_PITCHYAW: pitch, yaw rad (NaN: rates pitch_rate, yaw_rate rad/s), flags."""
-        self._pitch_yaw(msg, "Gimbal set pitch/yaw", float(msg.pitch), float(msg.yaw), 1.0, 1.0)
-
-    def _on_set_manual_control(self, ep: LinkEndpoint, msg) -> None:
-        """GIMBAL_MANAGER_SET_MANUAL_CONTROL: pitch, yaw rad, or rates -1..1 of MNT_RATE_PITCH/YAW."""
-        scale_p = math.radians(float(self.params.get("MNT_RATE_PITCH")))
-        scale_y = math.radians(float(self.params.get("MNT_RATE_YAW")))
-        self._pitch_yaw(msg, "Gimbal manual control", float(msg.pitch), float(msg.yaw), scale_p, scale_y)
-
-    def _pitch_yaw(self, msg, name: str, pitch: float, yaw: float, scale_p: float, scale_y: float) -> None:
-        flags = int(msg.flags)
-        if flags & _TO_NEUTRAL:
-            return self._message(msg, name, None, None)
-        if math.isfinite(pitch) and math.isfinite(yaw):
-            return self._message(msg, name, CameraAttitude(0.0, pitch, yaw, bool(flags & _YAW_EARTH)), None)
-        rates = (float(msg.pitch_rate) * scale_p, float(msg.yaw_rate) * scale_y)
-        self._message(msg, name, None, rates)
 
     # ------------------------------------------------------------------ commands
 

@@ -193,6 +193,12 @@ class PrecLandTask:
         return self._failed
 
     @property
+    def target_pos_ned_m(self) -> np.ndarray | None:
+        """The target's estimated position now (m NED; measured, or predicted on while unseen), None before
+        it was seen."""
+        return None if self._tgt_pos is None else self._tgt_pos.copy()
+
+    @property
     def target_velocity_ned_m_s(self) -> np.ndarray:
         """The target's latest velocity over the ground (m/s NED; zero before it is seen)."""
         return self._tgt_vel.copy()
