@@ -49,6 +49,11 @@ from sitl.ugv_world import ugv_truth_messages
 
 TRUTH_PERIOD_US = 20_000  # 50 Hz: ground truth, parameter service, scenario events
 BATTERY_PERIOD_US = 200_000  # 5 Hz
+# A paced run (``speed``) steps on until it is this far ahead of the wall clock, then sleeps it off: steps in
+# bursts, not a sleep every step.  Idling on the ground, both processes' CPU per wall second at 5x fell from
+# 0.48 to 0.39 s (1 ms before), at 1x from 0.17 to 0.11 s; a ground station's command waits at most this
+# much longer for its answer (the flight controller serves its link between steps).
+PACE_AHEAD_S = 0.02
 _HIL_SENSOR = MessageLayout(mavlink.MAVLink_hil_sensor_message)
 _HIL_STATE_QUATERNION = MessageLayout(mavlink.MAVLink_hil_state_quaternion_message)
 _LOCAL_POSITION_NED = MessageLayout(mavlink.MAVLink_local_position_ned_message)
@@ -362,5 +367,5 @@ class LockstepServer:
             self.steps += 1
             if self.speed is not None:
                 ahead = (self.sim.time_us - sim0) / 1e6 / self.speed - (time.monotonic() - wall0)
-                if ahead > 0.001:
+                if ahead > PACE_AHEAD_S:
                     time.sleep(ahead)

@@ -20,7 +20,7 @@ import sys
 import time
 from typing import Sequence
 
-from sitl.lockstep import LockstepServer
+from sitl.lockstep import PACE_AHEAD_S, LockstepServer
 from sitl.simulation import World
 
 
@@ -99,5 +99,5 @@ class WorldLockstep:
                 server.steps += 1
             if self.speed is not None:
                 ahead = (self.world.time_us - sim0) / 1e6 / self.speed - (time.monotonic() - wall0)
-                if ahead > 0.001:
+                if ahead > PACE_AHEAD_S:
                     time.sleep(ahead)
