@@ -70,3 +70,4 @@ def add_link_services(
     link.add_service(gimbal)
     link.requestable.update(gimbal.requestable())
     sim.device_handlers.update(gimbal.device_handlers())
+    sim.device_steps.append(gimbal.control_step)

@@ -154,6 +154,8 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 fc.wall_s = wall_s  # the input-loss timers also measure the clients' clock (but --input-clock sim)
                 fc.after_step()
                 if (now_us // LOCKSTEP_DT_US) % LINK_EVERY == LINK_PHASE:
+                    for device_step in sim.device_steps:  # the gimbal manager's setpoints (link_setup.py)
+                        device_step(now_us)
                     link.update(now_us)
                 else:
                     link.poll(now_us)  # requests are answered within a step, streams stay at 50 Hz

@@ -115,6 +115,11 @@ class Harness:
             )
         )
 
+    def tick(self, now_us: int) -> None:
+        """One scheduled link step: the device's, then the link's update (as autopilot/lockstep_loop.py runs them)."""
+        self.m.control_step(now_us)
+        self.m.update(now_us)
+
     def command(self, cmd: int, *p: float, source=GCS) -> int:
         self.source = source
         params = tuple(list(p) + [NAN] * (7 - len(p)))
@@ -125,7 +130,7 @@ def test_without_a_device_every_gimbal_command_is_unsupported_and_nothing_is_adv
     h = Harness()
     assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190) == mavlink.MAV_RESULT_UNSUPPORTED
     assert h.m.information() is None
-    h.m.update(1_000_000)
+    h.tick(1_000_000)
     assert h.sent == [] and h.device == []
 
 
@@ -137,7 +142,7 @@ def test_information_status_and_relay_fields():
     assert (info.pitch_min, info.pitch_max) == pytest.approx((rad(-90), rad(30)))  # PX4's range and the device's
     assert (info.yaw_min, info.yaw_max) == pytest.approx((rad(-160), rad(160)))
     assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1) == mavlink.MAV_RESULT_ACCEPTED
-    h.m.update(0)
+    h.tick(0)
     kinds = {(m.get_type(), c) for m, c in h.sent}
     assert ("GIMBAL_DEVICE_ATTITUDE_STATUS", 154) in kinds and ("GIMBAL_MANAGER_STATUS", 1) in kinds
     relayed = next(m for m, c in h.sent if m.get_type() == "GIMBAL_DEVICE_ATTITUDE_STATUS")
@@ -154,7 +159,7 @@ def test_pitchyaw_in_control_in_range_reaches_the_device_others_are_denied_witho
     assert "not in control" in h.texts[-1]
     h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
     assert h.command(pitchyaw, -45, 30) == mavlink.MAV_RESULT_ACCEPTED
-    h.m.update(0)
+    h.tick(0)
     sp = h.device[-1]
     assert sp.get_type() == "GIMBAL_DEVICE_SET_ATTITUDE" and sp.flags & mavlink.GIMBAL_DEVICE_FLAGS_YAW_IN_VEHICLE_FRAME
     att = attitude_from_quaternion(sp.q, False)
@@ -164,7 +169,7 @@ def test_pitchyaw_in_control_in_range_reaches_the_device_others_are_denied_witho
     assert "pitch 60.0 deg outside" in h.texts[-1]
     assert h.command(pitchyaw, -10, 0, source=OTHER) == mavlink.MAV_RESULT_DENIED
     assert h.command(pitchyaw, -10, NAN) == mavlink.MAV_RESULT_DENIED  # pitch without yaw
-    h.m.update(20_000)
+    h.tick(20_000)
     assert len(h.device) == n  # nothing sent: the gimbal holds
 
 
@@ -176,7 +181,7 @@ def test_messages_from_a_client_not_in_control_are_ignored_with_one_statustext()
     for _ in range(3):
         h.m.handlers()["GIMBAL_MANAGER_SET_PITCHYAW"](None, msg)
     assert len([t for t in h.texts if "not in control" in t]) == 1
-    h.m.update(0)
+    h.tick(0)
     assert h.device == []
 
 
@@ -189,12 +194,12 @@ def test_roi_points_from_the_estimated_position_and_none_returns_to_neutral():
     assert (
         h.command(mavlink.MAV_CMD_DO_SET_ROI_LOCATION, 0, NAN, NAN, NAN, lat, 8.0, 400.0) == mavlink.MAV_RESULT_ACCEPTED
     )
-    h.m.update(0)
+    h.tick(0)
     att = attitude_from_quaternion(h.device[-1].q, True)
     assert att.pitch_rad == pytest.approx(rad(-45), abs=1e-4) and att.yaw_rad == pytest.approx(0.0, abs=1e-4)
     assert h.device[-1].flags & mavlink.GIMBAL_DEVICE_FLAGS_YAW_IN_EARTH_FRAME
     assert h.command(mavlink.MAV_CMD_DO_SET_ROI_NONE, 0) == mavlink.MAV_RESULT_ACCEPTED
-    h.m.update(20_000)
+    h.tick(20_000)
     assert h.device[-1].flags & mavlink.GIMBAL_DEVICE_FLAGS_NEUTRAL
 
 
@@ -202,7 +207,7 @@ def test_point_along_for_the_precision_landing():
     h = Harness()
     h.report()
     h.m.point_along((0.0, 0.0, 1.0))
-    h.m.update(0)
+    h.tick(0)
     att = attitude_from_quaternion(h.device[-1].q, False)
     assert att.pitch_rad == pytest.approx(-math.pi / 2)
 
@@ -212,19 +217,19 @@ def test_a_silent_device_is_lost_after_the_timeout_and_found_again_when_it_repor
     h.report()
     h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
     h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -45, 30)
-    h.m.update(0)
+    h.tick(0)
     n = len(h.device)
-    h.m.update(DEVICE_TIMEOUT_US)  # silent for exactly the timeout: still there
+    h.tick(DEVICE_TIMEOUT_US)  # silent for exactly the timeout: still there
     assert h.m.advertised and not any("lost" in t for t in h.texts)
-    h.m.update(DEVICE_TIMEOUT_US + 20_000)
+    h.tick(DEVICE_TIMEOUT_US + 20_000)
     assert not h.m.advertised and h.m.information() is None
     assert "Gimbal device lost" in h.texts[-1]
     assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -10, 0) == mavlink.MAV_RESULT_UNSUPPORTED
     h.sent.clear()
-    h.m.update(DEVICE_TIMEOUT_US + 400_000)
+    h.tick(DEVICE_TIMEOUT_US + 400_000)
     assert h.sent == [] and len(h.device) == n  # nothing advertised, relayed or sent while it is away
     h.report()  # it returns: advertised again, its control and setpoint kept, the setpoint sent again
-    h.m.update(DEVICE_TIMEOUT_US + 420_000)
+    h.tick(DEVICE_TIMEOUT_US + 420_000)
     assert h.m.advertised and h.m.control.primary == GCS
     att = attitude_from_quaternion(h.device[-1].q, False)
     assert len(h.device) == n + 1 and (att.pitch_rad, att.yaw_rad) == pytest.approx((rad(-45), rad(30)))
@@ -240,5 +245,5 @@ def test_roi_altitude_is_amsl_whatever_the_frame_as_px4_reads_it():
     roi = h.m.commands()[mavlink.MAV_CMD_DO_SET_ROI_LOCATION]
     params = (0, NAN, NAN, NAN, lat, 8.0, 390.0)
     assert roi(None, params, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) == mavlink.MAV_RESULT_ACCEPTED
-    h.m.update(0)
+    h.tick(0)
     assert attitude_from_quaternion(h.device[-1].q, True).pitch_rad == pytest.approx(rad(-45), abs=1e-4)

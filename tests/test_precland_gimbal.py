@@ -48,9 +48,9 @@ def test_the_manager_takes_over_for_the_landing_and_gives_control_and_setpoint_b
     h.report()
     h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
     h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -30, 20)
-    h.m.update(0)
+    h.tick(0)
     h.status = Status(request=ALONG)  # the landing starts
-    h.m.update(20_000)
+    h.tick(20_000)
     assert h.m.control.primary == OWN
     status = [m for m, c in h.sent if m.get_type() == "GIMBAL_MANAGER_STATUS"][-1]
     assert (status.primary_control_sysid, status.primary_control_compid) == OWN
@@ -60,13 +60,13 @@ def test_the_manager_takes_over_for_the_landing_and_gives_control_and_setpoint_b
     assert att.pitch_rad == pytest.approx(-math.atan2(3.0, math.sqrt(5.0)))
     assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, 0, 0) == mavlink.MAV_RESULT_DENIED
     n = len(h.device)
-    h.m.update(40_000)  # the same request: nothing sent again
+    h.tick(40_000)  # the same request: nothing sent again
     assert len(h.device) == n
     h.status = Status(request=DOWN)
-    h.m.update(60_000)
+    h.tick(60_000)
     assert attitude_from_quaternion(h.device[-1].q, False).pitch_rad == pytest.approx(-math.pi / 2)
     h.status = Status()  # the landing ended: the client's control and its pitch -30, yaw 20 come back
-    h.m.update(80_000)
+    h.tick(80_000)
     assert h.m.control.primary == GCS
     back = attitude_from_quaternion(h.device[-1].q, False)
     assert (back.pitch_rad, back.yaw_rad) == pytest.approx((math.radians(-30), math.radians(20)))
@@ -76,10 +76,10 @@ def test_without_a_controller_before_the_landing_nobody_holds_it_after():
     h = Harness()
     h.report()
     h.status = Status(request=DOWN)
-    h.m.update(0)
+    h.tick(0)
     assert h.m.control.primary == OWN
     h.status = Status()
-    h.m.update(20_000)
+    h.tick(20_000)
     assert h.m.control.primary == (0, 0)
     assert h.device[-1].flags & mavlink.GIMBAL_DEVICE_FLAGS_NEUTRAL  # back to the neutral it had
 
@@ -88,12 +88,12 @@ def test_a_client_taking_control_during_the_landing_keeps_it():
     h = Harness()
     h.report()
     h.status = Status(request=ALONG)
-    h.m.update(0)
+    h.tick(0)
     h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
     assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -10, 0) == mavlink.MAV_RESULT_ACCEPTED
-    h.m.update(20_000)
+    h.tick(20_000)
     assert attitude_from_quaternion(h.device[-1].q, False).pitch_rad == pytest.approx(math.radians(-10))
     h.status = Status()
-    h.m.update(40_000)
+    h.tick(40_000)
     assert h.m.control.primary == GCS
     assert attitude_from_quaternion(h.device[-1].q, False).pitch_rad == pytest.approx(math.radians(-10))

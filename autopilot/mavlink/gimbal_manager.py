@@ -36,7 +36,7 @@ MAV_COMP_ID_GIMBAL, as PX4's simulated gimbal), which is also the manager's ``gi
 
 The flight controller's own use (a precision landing, :mod:`autopilot.navigation.precland_gimbal`): the
 commander's status carries a :class:`autopilot.topics.GimbalRequest`, applied here in :meth:`GimbalManager.
-_apply_request` each update.  While it asks DOWN or ALONG a direction, the autopilot itself is the primary
+_apply_request` at each of the link's scheduled steps (:meth:`GimbalManager.control_step`).  While it asks DOWN or ALONG a direction, the autopilot itself is the primary
 controller (GIMBAL_MANAGER_STATUS shows it; other clients are DENIED as usual) and the camera is pointed
 (:meth:`GimbalManager.point_along`, held in range, sent again once it moved RESEND_ANGLE_RAD); when it asks
 RELEASE again, the controllers and the setpoint (attitude, ROI or rates) held before come back.  A client that
@@ -233,9 +233,12 @@ class GimbalManager:
             ),
         }
 
-    def update(self, now_us: int) -> None:
-        """Every link update: rates and the ROI moved into the setpoint, the setpoint to the device, the
-        manager's status and the device's relayed."""
+    def control_step(self, now_us: int) -> None:
+        """At the link's scheduled steps only (the lockstep loop calls it, ``SimLink.device_steps``): the
+        commander's request applied, rates and the ROI moved into the setpoint, the setpoint to the device.
+        Not in :meth:`update`, which also runs when a ground station's message arrives (``GcsLink.poll``): at a
+        step that depends on the wall clock, so a precision landing's pointing, and with it the frames the
+        camera takes, would differ from run to run on a busy machine."""
         dt_s = 0.0 if self._last_update_us is None else max(0.0, (now_us - self._last_update_us) * 1e-6)
         self._last_update_us = now_us
         self._watch_device(now_us)
@@ -250,6 +253,11 @@ class GimbalManager:
             self._dirty = False
             self.sent = self.target
             self._to_device(device_setpoint(self.target, self.own[0], self.device_compid))
+
+    def update(self, now_us: int) -> None:
+        """Every link update (and poll): the manager's status and the device's relayed."""
+        if not self.advertised:
+            return
         if self._fresh_status and now_us >= self._next_relay_us:
             self._fresh_status, self._next_relay_us = False, now_us + RELAY_PERIOD_US
             self._broadcast(self.device_status, self.device_compid)

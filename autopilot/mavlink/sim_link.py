@@ -88,6 +88,9 @@ class SimLink:
         self.outbox: list[bytes] = []  # queued messages (queue()), sent just before the next actuator controls
         # Messages of devices on this link (the gimbal's), by type: read by the lockstep loop (link_setup.py)
         self.device_handlers: dict[str, Callable[[mavlink.MAVLink_message], None]] = {}
+        # What drives those devices, called with the simulated time (µs) at the ground-station link's scheduled
+        # steps only (autopilot/lockstep_loop.py), so what it queues for them is the same in every run
+        self.device_steps: list[Callable[[int], None]] = []
 
     def connect(self, retry_s: float = 0.2, on_wait=None, handshake_timeout_s: float | None = None) -> None:
         """Connect and send a HEARTBEAT, retrying until the simulator listens; on_wait() is called between
