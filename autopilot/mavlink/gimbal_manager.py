@@ -36,8 +36,9 @@ MAV_COMP_ID_GIMBAL, as PX4's simulated gimbal), which is also the manager's ``gi
 
 The flight controller's own use (a precision landing, :mod:`autopilot.navigation.precland_gimbal`): the
 commander's status carries a :class:`autopilot.topics.GimbalRequest`, applied here in :meth:`GimbalManager.
-_apply_request` at each of the link's scheduled steps (:meth:`GimbalManager.control_step`).  While it asks DOWN or ALONG a direction, the autopilot itself is the primary
-controller (GIMBAL_MANAGER_STATUS shows it; other clients are DENIED as usual) and the camera is pointed
+_apply_request` at each of the link's scheduled steps (:meth:`GimbalManager.control_step`, never from a
+poll: the same steps in every run).  While it asks DOWN or ALONG a direction, the autopilot itself is the
+primary controller (GIMBAL_MANAGER_STATUS shows it; other clients are DENIED as usual) and the camera is pointed
 (:meth:`GimbalManager.point_along`, held in range, sent again once it moved RESEND_ANGLE_RAD); when it asks
 RELEASE again, the controllers and the setpoint (attitude, ROI or rates) held before come back.  A client that
 takes control during the landing (CONFIGURE, as PX4 lets any client) keeps it: the autopilot stops pointing and
