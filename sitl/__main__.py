@@ -172,6 +172,8 @@ def configure(
     scenario = load_scenario(args.scenario, params) if args.scenario else None
     if scenario is not None:
         params.set_many(scenario.parameters)
+        if scenario.pad is not None:
+            settings[3].nested_pad = scenario.pad
     params.set_many(dict(args.param))  # later --param of the same name wins
     return settings, scenario
 
@@ -185,7 +187,13 @@ def _companion(sim, camera: CameraSettings, args: argparse.Namespace):
 
     save = Path(args.save_frames) if args.save_frames else None
     return LockstepCompanion(
-        sim.model, sim.spec.camera, camera, seed=args.seed, save_dir=save, sysid=ports.system_id(args.instance)
+        sim.model,
+        sim.spec.camera,
+        camera,
+        seed=args.seed,
+        save_dir=save,
+        sysid=ports.system_id(args.instance),
+        pad=sim.ugv_settings.pad(),
     )
 
 

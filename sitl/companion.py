@@ -17,6 +17,11 @@ centre from the vehicle's centre of mass along body FRD axes, m; angle_x/angle_y
 filled too; ``time_usec`` = capture time, the lockstep clock) from the vehicle's system
 (1) as MAV_COMP_ID_ONBOARD_COMPUTER (191), as a companion computer wired to the flight
 controller would.  With no marker in view nothing is sent.
+
+The pad (:mod:`vision.pad`, ``SIM_PAD_LAYOUT``) may have several markers: the detector uses every one it sees
+(one pose from all their corners) and the message is the pad's centre whichever they were.  Which markers were
+used, how often and from how near and far is counted per marker (:class:`MarkerUse`) and said in the camera line
+the companion prints when it closes (the simulator's log).
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ import sys
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -41,11 +46,29 @@ from sitl.marker_view import MarkerView, deck_centre_enu
 from sitl.model import GIMBAL_JOINTS
 from sitl.sim_settings import CameraSettings
 from vision.camera_model import pinhole
-from vision.detector import MarkerDetector
+from vision.detector import MarkerDetection, MarkerDetector, expected_normal_cam
 from vision.landing_target import CameraMount, landing_target_message, target_offset
+from vision.pad import NESTED_PAD, PadLayout
 
 COMPANION_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER  # 191
 IN_FLIGHT = 3  # state copies: captures that may wait for their release at once (latency / period + 1)
+
+
+@dataclass
+class MarkerUse:
+    """One marker's part in the detections: the frames whose pose it was used in, those in which it was the pad's
+    only marker seen, and the nearest and farthest distance (camera to the pad's centre, m) it was used from."""
+
+    frames: int = 0
+    alone: int = 0
+    nearest_m: float = math.inf
+    farthest_m: float = 0.0
+
+    def add(self, distance_m: float, alone: bool) -> None:
+        self.frames += 1
+        self.alone += int(alone)
+        self.nearest_m = min(self.nearest_m, distance_m)
+        self.farthest_m = max(self.farthest_m, distance_m)
 
 
 @dataclass
@@ -59,6 +82,21 @@ class CompanionStats:
     waited_s: float = 0.0  # the lockstep loop waiting for the worker (wall seconds)
     pose_err_sum_m: float = 0.0  # the detections' marker position against the truth the frame was rendered from
     pose_err_max_m: float = 0.0
+    markers: dict[int, MarkerUse] = field(default_factory=dict)  # marker id -> its use, in the order first used
+
+    def count_markers(self, detection: MarkerDetection) -> None:
+        """Which of the pad's markers ``detection`` was computed from."""
+        for marker_id in detection.marker_ids:
+            use = self.markers.setdefault(marker_id, MarkerUse())
+            use.add(detection.distance_m, alone=len(detection.marker_ids) == 1)
+
+    def markers_line(self) -> str:
+        """ "markers used: id 76 in 120 frames (0.95-3.41 m, alone in 40), ..." (distances to the pad's centre)."""
+        uses = (
+            f"id {i} in {u.frames} frames ({u.nearest_m:.2f}-{u.farthest_m:.2f} m, alone in {u.alone})"
+            for i, u in sorted(self.markers.items())
+        )
+        return "markers used: " + (", ".join(uses) or "none")
 
     def line(self) -> str:
         n = max(self.frames, 1)
@@ -69,7 +107,8 @@ class CompanionStats:
             f"{1e3 * self.render_s / max(n - self.not_rendered, 1):.1f} ms render + "
             f"{1e3 * self.detect_s / max(n - self.not_rendered, 1):.1f} ms detect; "
             f"the simulator waited {self.waited_s:.2f} s for it; marker position error against the truth "
-            f"{100 * self.pose_err_sum_m / max(self.detections, 1):.1f} cm mean, {100 * self.pose_err_max_m:.1f} cm max"
+            f"{100 * self.pose_err_sum_m / max(self.detections, 1):.1f} cm mean, "
+            f"{100 * self.pose_err_max_m:.1f} cm max; {self.markers_line()}"
         )
 
 
@@ -85,8 +124,9 @@ class LockstepCompanion:
         sysid: int = 1,
         save_dir: Path | None = None,
         save_every: int = 10,
+        pad: PadLayout = NESTED_PAD,
     ) -> None:
-        self.model, self.spec, self.settings = model, camera, settings
+        self.model, self.spec, self.settings, self.pad = model, camera, settings, pad
         self.period_us = round(1e6 / camera.rate_hz)
         self.next_capture_us = 0
         self.mav = mavlink.MAVLink(None, sysid, COMPANION_COMPID)
@@ -147,11 +187,13 @@ class LockstepCompanion:
         try:
             camera = DownwardCamera(self.model, self.spec, self._seed)
             spec = self.spec
-            detector = MarkerDetector(pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)))
+            detector = MarkerDetector(
+                pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad
+            )
         except BaseException as exc:  # reported to the main thread at the first release
             camera, detector, self._error = None, None, exc
         mount = CameraMount(position_frd_m=self.spec.position_frd_m)
-        view = MarkerView(self.model, "downward", detector.camera) if detector is not None else None
+        view = MarkerView(self.model, "downward", detector.camera, self.pad) if detector is not None else None
         while (job := self._jobs.get()) is not None:
             time_us, copy, noise, answer = job
             if camera is None or detector is None:
@@ -181,8 +223,10 @@ class LockstepCompanion:
             st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
             return b""
         frame = camera.capture(data, noise)
+        mount = self._mount_at_capture(mount, data)
+        q_ned_frd = _attitude(data)
         t0 = time.perf_counter()
-        det = detector.detect(frame)
+        det = detector.detect(frame, expected_normal_cam(mount.rotation_frd_cam, q_ned_frd))
         st.detect_s += time.perf_counter() - t0
         st.frames, st.render_s = camera.frames, camera.render_s
         if self.save_dir is not None and st.frames % self.save_every == 1:
@@ -191,8 +235,7 @@ class LockstepCompanion:
             return b""
         st.detections += 1
         st.max_range_m = max(st.max_range_m, det.distance_m)
-        mount = self._mount_at_capture(mount, data)
-        q_ned_frd = _attitude(data)
+        st.count_markers(det)
         err = float(np.linalg.norm(target_offset(det, mount, q_ned_frd).frd_m - self._truth_frd(data)))
         st.pose_err_sum_m += err
         st.pose_err_max_m = max(st.pose_err_max_m, err)

@@ -1,11 +1,11 @@
-"""Whether the landing pad's marker can be in the downward camera's frame: a cheap geometric test that lets
-the lockstep companion (:mod:`sitl.companion`) skip rendering a frame that cannot show it.
+"""Whether any of the landing pad's markers can be in the downward camera's frame: a cheap geometric test that lets
+the lockstep companion (:mod:`sitl.companion`) skip rendering a frame that cannot show one.
 
-The marker (a MARKER_SIZE_M square at the deck's centre) lies inside a sphere of radius
-MARKER_SIZE_M / sqrt(2) around that centre.  The test is conservative: it says "out of view" only when
-the whole sphere projects outside the image by more than MARGIN_PX, or lies behind the camera.  A frame
-it skips is one in which the detector could not have found the marker: ArUco finds only a marker whose
-four corners are all inside the image.  Rendering is most of the camera's cost (a frame ~9 ms, the
+Each marker of the pad (:mod:`vision.pad`: a square of side s at its offset on the deck, the pad frame being the
+UGV's body frame) lies inside a sphere of radius s / sqrt(2) around its centre.  The test is conservative: it says
+"out of view" only when every marker's sphere projects outside the image by more than MARGIN_PX, or lies behind
+the camera.  A frame it skips is one in which the detector could not have found a marker: ArUco finds only a
+marker whose four corners are all inside the image.  Rendering is most of the camera's cost (a frame ~9 ms, the
 detection ~1 ms, two stacks on two cores), and in a landing most frames show no marker.
 
 Frames: MuJoCo's world (ENU, m); MuJoCo's camera frame (x right, y up, looking along -z); pixels as
@@ -20,8 +20,9 @@ import math
 import mujoco
 import numpy as np
 
-from sitl.ugv import MARKER_SIZE_M, UgvGeometry
+from sitl.ugv import UgvGeometry
 from vision.camera_model import CameraModel
+from vision.pad import PadLayout
 
 MARGIN_PX = 8.0  # the sphere's image must miss the frame by more than this to count as out of view
 
@@ -35,20 +36,33 @@ def deck_centre_enu(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
 
 
 class MarkerView:
-    """The view test for the camera ``camera_name`` of ``model`` with intrinsics ``camera`` (its pinhole)."""
+    """The view test for the camera ``camera_name`` of ``model`` with intrinsics ``camera`` (its pinhole), for the
+    markers of ``pad``."""
 
-    def __init__(self, model: mujoco.MjModel, camera_name: str, camera: CameraModel) -> None:
+    def __init__(self, model: mujoco.MjModel, camera_name: str, camera: CameraModel, pad: PadLayout) -> None:
         self.model = model
         self.camera_id = model.camera(camera_name).id
         self.cam = camera
-        self.radius_m = MARKER_SIZE_M / math.sqrt(2.0)
+        self._ugv = model.body("ugv").id
+        # each marker's centre on the deck (the UGV's body frame, FLU m) and its bounding sphere's radius (m)
+        self._centres_flu_m = [np.array((m.x_m, m.y_m, 0.0)) for m in pad.markers]
+        self._radii_m = [m.size_m / math.sqrt(2.0) for m in pad.markers]
 
     def out_of_view(self, data: mujoco.MjData) -> bool:
-        """True if no part of the marker can be in the frame rendered from ``data``."""
-        c = deck_centre_enu(self.model, data)
+        """True if no part of any marker can be in the frame rendered from ``data``."""
+        deck = deck_centre_enu(self.model, data)
+        ugv_rot = data.xmat[self._ugv].reshape(3, 3)
         rot = data.cam_xmat[self.camera_id].reshape(3, 3)
-        x, y_up, z_back = (rot.T @ (c - data.cam_xpos[self.camera_id])).tolist()
-        depth, r = -z_back, self.radius_m
+        eye = data.cam_xpos[self.camera_id]
+        return all(
+            self._sphere_out_of_view(rot.T @ (deck + ugv_rot @ c - eye), r)
+            for c, r in zip(self._centres_flu_m, self._radii_m)
+        )
+
+    def _sphere_out_of_view(self, centre_cam_m: np.ndarray, r: float) -> bool:
+        """A sphere of radius ``r`` (m) at ``centre_cam_m`` (MuJoCo's camera frame, m) wholly outside the image."""
+        x, y_up, z_back = centre_cam_m.tolist()
+        depth = -z_back
         if depth - r <= 1e-3:  # reaching the camera's plane: out only when wholly behind it
             return depth + r < 0.0
         k = self.cam

@@ -22,6 +22,7 @@ from mavsim_core.frames import frd_to_flu
 from params.vehicle import VehicleSpec
 from sitl.ugv import UgvMjcf, ugv_mjcf
 from sitl.ugv_paths import Pose2
+from vision.pad import NESTED_PAD, PadLayout
 
 # One physics step per lockstep period (250 Hz).  MuJoCo's default contact time constant
 # (0.02 s) needs a step of at most 0.01 s; rotor lag is integrated exactly (sitl.rotors).
@@ -192,11 +193,13 @@ def build_model(spec: VehicleSpec, ugv_start: Pose2 | None = None) -> mujoco.MjM
     return build_world_model([Placement(spec)], ugv_start)
 
 
-def build_world_model(vehicles: Sequence[Placement], ugv_start: Pose2 | None = None) -> mujoco.MjModel:
+def build_world_model(
+    vehicles: Sequence[Placement], ugv_start: Pose2 | None = None, pad: PadLayout = NESTED_PAD
+) -> mujoco.MjModel:
     """Compile the MJCF and set each vehicle's inertia to its file's exactly.
 
     ``ugv_start`` (NED m from vehicle 0's spot, yaw rad; None, the default, leaves it out) adds the ground
-    vehicle (:mod:`sitl.ugv`) there.
+    vehicle (:mod:`sitl.ugv`) there, the landing pad ``pad`` (:mod:`vision.pad`) on its deck.
 
     [F]'s Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
     inequality I_xx + I_yy >= I_zz that every real mass distribution satisfies, and MuJoCo's
@@ -204,7 +207,7 @@ def build_world_model(vehicles: Sequence[Placement], ugv_start: Pose2 | None = N
     and the file's values are written into ``body_inertia`` afterwards: the rigid-body
     equations ([F eq. 4.5]) use J as given, which is what [F] specifies.
     """
-    ugv = ugv_mjcf(ugv_start) if ugv_start is not None else None
+    ugv = ugv_mjcf(ugv_start, pad=pad) if ugv_start is not None else None
     xml = build_world_mjcf(vehicles, ugv)
     if any(_unbalanced(v.spec.inertia_kg_m2) for v in vehicles):
         xml = xml.replace("<option ", '<compiler balanceinertia="true"/>\n  <option ', 1)

@@ -11,9 +11,16 @@ A scenario is a TOML file (``params/scenarios/NAME.toml``, or any path)::
     at_s = 20.0
     set = { SIM_ENGINE_FAIL = 1, SIM_ENGINE_MUL = 0.0 }
 
+    [pad]                   # the nested landing pad on the UGV's deck instead of vision.pad.NESTED_PAD,
+    markers = [             # id (DICT_ARUCO_ORIGINAL), side (m), centre (m, x the UGV's forward, y its left)
+        { id = 76, size_m = 0.333, x_m = -0.30, y_m = 0.0 },
+        { id = 42, size_m = 0.125, x_m = 0.0, y_m = 0.0 },
+    ]
+
 Every name and value is checked against :class:`sitl.sim_params.SimParameters`
-when the file is loaded, so a bad file fails at start-up with
-:class:`ScenarioError` naming the file, the key and the reason, never in flight.
+when the file is loaded, and the pad against the deck (:func:`vision.pad.check_pad`: markers
+that overlap, with their white borders, or do not fit on the deck are refused), so a bad file
+fails at start-up with :class:`ScenarioError` naming the file, the key and the reason, never in flight.
 
 :class:`EventSchedule` hands out the events as simulated time passes; the process
 loop (``sitl.lockstep``) asks it once per 50 Hz period.  No sockets, no clocks.
@@ -29,9 +36,12 @@ from pathlib import Path
 import params as params_package
 from sitl.sim_params import SimParamError, SimParameters
 from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, UgvSettings, WindSettings
+from sitl.ugv import UgvGeometry
+from vision.pad import PadLayout, PadLayoutError, PadMarker, check_pad
 
 SCENARIO_DIR = Path(params_package.__file__).resolve().parent / "scenarios"  # shipped as package data
-_TOP_KEYS = ("description", "parameters", "events")
+_TOP_KEYS = ("description", "parameters", "events", "pad")
+_PAD_MARKER_KEYS = ("id", "size_m", "x_m", "y_m")  # x_m, y_m: 0 when left out
 _EVENT_KEYS = ("at_s", "set")
 
 
@@ -60,6 +70,7 @@ class Scenario:
     description: str
     parameters: dict[str, int | float]  # applied at start-up, in file order
     events: tuple[ScenarioEvent, ...]  # sorted by time (file order among equal times)
+    pad: PadLayout | None = None  # the [pad] table's markers: the nested pad (None: the default one)
 
 
 def list_scenarios() -> list[str]:
@@ -111,12 +122,7 @@ def load_scenario(name_or_path: str | Path, params: SimParameters | None = None)
         where = f"events[{i}]"
         if not isinstance(ev, dict):
             raise ScenarioError(path, where, "must be a table with at_s and set")
-        for key in ev:
-            if key not in _EVENT_KEYS:
-                raise ScenarioError(path, f"{where}.{key}", f"unknown key (expected {', '.join(_EVENT_KEYS)})")
-        for key in _EVENT_KEYS:
-            if key not in ev:
-                raise ScenarioError(path, where, f"missing {key}")
+        _check_keys(path, where, ev, _EVENT_KEYS, required=_EVENT_KEYS)
         at_s = ev["at_s"]
         if isinstance(at_s, bool) or not isinstance(at_s, (int, float)) or not math.isfinite(at_s) or at_s < 0:
             raise ScenarioError(path, f"{where}.at_s", f"must be a number of seconds >= 0, not {at_s!r}")
@@ -125,7 +131,45 @@ def load_scenario(name_or_path: str | Path, params: SimParameters | None = None)
             raise ScenarioError(path, f"{where}.set", "sets no parameter")
         events.append(ScenarioEvent(round(at_s * 1e6), values))
     events.sort(key=lambda e: e.at_us)  # stable: file order among equal times
-    return Scenario(path.stem, path, description, parameters, tuple(events))
+    pad = _check_pad(path, doc["pad"]) if "pad" in doc else None
+    return Scenario(path.stem, path, description, parameters, tuple(events), pad)
+
+
+def _check_keys(path: Path, where: str, table: dict, known: tuple[str, ...], required: tuple[str, ...]) -> None:
+    """:class:`ScenarioError` for the first key of ``table`` (the table at ``where``) not in ``known``, or else
+    the first of ``required`` it lacks."""
+    for key in table:
+        if key not in known:
+            raise ScenarioError(path, f"{where}.{key}", f"unknown key (expected {', '.join(known)})")
+    for key in required:
+        if key not in table:
+            raise ScenarioError(path, where, f"missing {key}")
+
+
+def _check_pad(path: Path, table: object) -> PadLayout:
+    """The ``[pad]`` table as a :class:`PadLayout` that fits on the UGV's deck, or :class:`ScenarioError`."""
+    if not isinstance(table, dict) or set(table) != {"markers"} or not isinstance(table["markers"], list):
+        raise ScenarioError(path, "pad", "must be a table with one key, markers = [{ id, size_m, x_m, y_m }, ...]")
+    markers = []
+    for i, raw in enumerate(table["markers"]):
+        where = f"pad.markers[{i}]"
+        if not isinstance(raw, dict):
+            raise ScenarioError(path, where, "must be a table { id, size_m, x_m, y_m }")
+        _check_keys(path, where, raw, _PAD_MARKER_KEYS, required=("id", "size_m"))
+        marker_id = raw["id"]
+        if isinstance(marker_id, bool) or not isinstance(marker_id, int):
+            raise ScenarioError(path, f"{where}.id", f"must be an integer, not {marker_id!r}")
+        numbers = []
+        for key in ("size_m", "x_m", "y_m"):
+            value = raw.get(key, 0.0)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ScenarioError(path, f"{where}.{key}", f"must be a number of metres, not {value!r}")
+            numbers.append(float(value))
+        markers.append(PadMarker(marker_id, *numbers))
+    try:
+        return check_pad(PadLayout(tuple(markers)), UgvGeometry.deck_side_m)
+    except PadLayoutError as e:
+        raise ScenarioError(path, e.key, e.reason) from None
 
 
 def _check_values(path: Path, where: str, table: object, params: SimParameters) -> dict[str, int | float]:

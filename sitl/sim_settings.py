@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass, field, fields
 
 from mavsim_core.param_types import ParamType
+from vision.pad import NESTED_PAD, SINGLE_PAD, PadLayout
 
 
 def sim_param(
@@ -244,6 +245,7 @@ class MotorSettings:
 
 
 PATH_STOP, PATH_LINE, PATH_CIRCLE, PATH_FIGURE8, PATH_RANDOM, PATH_MANUAL = range(6)
+PAD_NESTED, PAD_SINGLE = range(2)  # SIM_PAD_LAYOUT
 
 
 @dataclass
@@ -275,6 +277,18 @@ class UgvSettings:
         ParamType.INT32,
     )  # fmt: skip
     follow_rate_hz: float = sim_param("SIM_UGV_FLW_HZ", 5.0, 1.0, 50.0, "Hz", "Rate of the UGV's FOLLOW_TARGET")
+    # The landing pad on the deck (vision.pad; drawn when the world is built, so read at start).
+    pad_layout: int = sim_param(
+        "SIM_PAD_LAYOUT", PAD_NESTED, PAD_NESTED, PAD_SINGLE, "",
+        "Landing pad on the UGV's deck: 0 nested (a scenario's [pad] markers, or four large markers around a "
+        "small one), 1 the single seed marker (id 76, 0.333 m) (read at start)",
+        ParamType.INT32, True,
+    )  # fmt: skip
+    nested_pad: PadLayout = NESTED_PAD  # the nested pad's markers: a scenario file's [pad] table (sitl.scenario)
+
+    def pad(self) -> PadLayout:
+        """The pad on the deck: SIM_PAD_LAYOUT's choice (the pad frame is the UGV's body frame, x forward, y left)."""
+        return SINGLE_PAD if int(self.pad_layout) == PAD_SINGLE else self.nested_pad
 
     def start_pose(self):
         """The start pose as :class:`sitl.ugv_paths.Pose2` (NED m, yaw rad)."""

@@ -69,7 +69,7 @@ class World:
         self.ugv_settings = ugv if ugv is not None else UgvSettings()
         self.wind_settings = wind if wind is not None else WindSettings()
         ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
-        self.model = build_world_model(placements, ugv_start=ugv_start)
+        self.model = build_world_model(placements, ugv_start=ugv_start, pad=self.ugv_settings.pad())
         self.data = mujoco.MjData(self.model)
         self.vehicles = [
             Multicopter(

@@ -3,10 +3,11 @@
 MuJoCo's frames (ENU world, FLU body) as in :mod:`sitl.model`; the pose and velocity this
 module reports are NED (m, m/s, rad), converted only through :mod:`mavsim_core.frames`.
 Two driven wheels on hinge joints (``velocity`` actuators, rad/s), a passive ball caster,
-real contact with the ground, and a flat deck on top textured with ArUco marker id 76 of
-``DICT_ARUCO_ORIGINAL``, 0.333 m wide, centred with a white border.  The texture is drawn
-with OpenCV when the MJCF is built and encoded as PNG, handed to MuJoCo as an in-memory
-asset (``from_xml_string(xml, assets)``), so no file is left behind.
+real contact with the ground, and a flat deck on top textured with the landing pad's ArUco markers
+(:mod:`vision.pad`: by default four markers of ``DICT_ARUCO_ORIGINAL`` of the seed's 0.333 m around a small
+one at the deck's centre; the pad frame is the UGV's body frame, x forward, y left) on white.  The texture is
+drawn with OpenCV when the MJCF is built and encoded as PNG, handed to MuJoCo as an in-memory asset
+(``from_xml_string(xml, assets)``), so no file is left behind.
 
 Kinematics: v = r (w_l + w_r) / 2, yaw rate (FLU, positive left) = r (w_r - w_l) / b.
 """
@@ -24,10 +25,10 @@ from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 from mavsim_core.frames import enu_to_ned, ned_to_enu, quat_enu_flu_to_ned_frd, quat_ned_frd_to_enu_flu
 from mavsim_core.quaternion import to_euler
 from sitl.ugv_paths import PathTarget, Pose2, UgvLimits, UnicycleCommand, unicycle_command
+from vision.marker import MARKER_BITS, MARKER_SIZE_M, dictionary
+from vision.pad import NESTED_PAD, PadLayout
 
-MARKER_ID = 76
-MARKER_SIZE_M = 0.333
-MARKER_DICT = cv2.aruco.DICT_ARUCO_ORIGINAL
+TEXEL_M = MARKER_SIZE_M / ((MARKER_BITS + 2) * 16)  # the deck texture's pixel: the seed marker's cell / 16
 
 
 @dataclass(frozen=True)
@@ -49,23 +50,30 @@ class UgvGeometry:
         return self.wheel_radius_m + 0.05 + 2 * self.chassis_half_m[2] + 0.01
 
 
-def marker_png(cell_px: int = 16, deck_side_m: float = UgvGeometry.deck_side_m) -> tuple[bytes, float]:
-    """The deck texture as PNG bytes (marker id 76 centred on white) and the deck side (m).
+def pad_png(pad: PadLayout = NESTED_PAD, deck_side_m: float = UgvGeometry.deck_side_m) -> tuple[bytes, float]:
+    """The deck texture as PNG bytes (the pad's markers on white) and the deck side it covers (m).
 
-    The marker has 7 cells (5 data + border); with ``cell_px`` pixels per cell the image is
-    sized so that the marker is exactly 0.333 m of a deck of about ``deck_side_m``.
+    One texel is :data:`TEXEL_M` (the seed marker's cell is 16 texels, so it is drawn exactly as before the pad
+    had more markers); each marker is drawn ``round(size_m / TEXEL_M)`` texels wide at its offset rounded to a
+    texel (the default pad's markers are whole texels and cells: 112 and 42 texels, 0.33 m = 110.99 texels).
+    The image's right is the pad's +x (the UGV's forward), its top the pad's +y (the UGV's left).
     """
-    marker_px = 7 * cell_px
-    m_per_px = MARKER_SIZE_M / marker_px
-    side_px = int(round(deck_side_m / m_per_px / 2)) * 2 + marker_px % 2
+    seed_px = (MARKER_BITS + 2) * 16
+    side_px = int(round(deck_side_m / TEXEL_M / 2)) * 2 + seed_px % 2
     img = np.full((side_px, side_px), 255, np.uint8)
-    marker = cv2.aruco.generateImageMarker(cv2.aruco.getPredefinedDictionary(MARKER_DICT), MARKER_ID, marker_px)
-    o = (side_px - marker_px) // 2
-    img[o : o + marker_px, o : o + marker_px] = marker
+    for m in pad.markers:
+        px = int(round(m.size_m / TEXEL_M))
+        if px < MARKER_BITS + 2:
+            raise ValueError(f"marker {m.marker_id}: {m.size_m} m is less than a texel a cell on the deck")
+        left = int(round(side_px / 2 + m.x_m / TEXEL_M - px / 2))
+        top = int(round(side_px / 2 - m.y_m / TEXEL_M - px / 2))
+        if left < 0 or top < 0 or left + px > side_px or top + px > side_px:
+            raise ValueError(f"marker {m.marker_id} does not fit on the {deck_side_m:g} m deck")
+        img[top : top + px, left : left + px] = cv2.aruco.generateImageMarker(dictionary(), m.marker_id, px)
     ok, png = cv2.imencode(".png", cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
     if not ok:
         raise RuntimeError("OpenCV could not encode the deck texture as PNG")
-    return png.tobytes(), side_px * m_per_px
+    return png.tobytes(), side_px * TEXEL_M
 
 
 def _v(x) -> str:
@@ -86,10 +94,10 @@ class UgvMjcf:
     assets: dict[str, bytes]
 
 
-def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry()) -> UgvMjcf:
-    """The UGV's MJCF parts, its body ``ugv`` placed at ``start`` (NED m, yaw rad) on the ground."""
-    deck_png, white_png = "ugv_deck_marker76.png", "ugv_white.png"
-    deck_bytes, deck = marker_png(deck_side_m=geom.deck_side_m)
+def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry(), pad: PadLayout = NESTED_PAD) -> UgvMjcf:
+    """The UGV's MJCF parts, its body ``ugv`` at ``start`` (NED m, yaw rad) on the ground, ``pad`` on its deck."""
+    deck_png, white_png = "ugv_deck_pad.png", "ugv_white.png"
+    deck_bytes, deck = pad_png(pad, geom.deck_side_m)
     side_px = cv2.imdecode(np.frombuffer(deck_bytes, np.uint8), cv2.IMREAD_GRAYSCALE).shape[0]
     white = cv2.imencode(".png", np.full((side_px, side_px, 3), 255, np.uint8))[1].tobytes()  # cube faces: same size
     g, r = geom, geom.wheel_radius_m
@@ -134,9 +142,9 @@ def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry()) -> UgvMjcf:
     return UgvMjcf(asset, worldbody, actuator, {deck_png: deck_bytes, white_png: white})
 
 
-def build_ugv_world(start: Pose2) -> mujoco.MjModel:
+def build_ugv_world(start: Pose2, pad: PadLayout = NESTED_PAD) -> mujoco.MjModel:
     """A world with only the ground plane and the UGV (tests, tools); 4 ms step as :mod:`sitl.model`."""
-    parts = ugv_mjcf(start)
+    parts = ugv_mjcf(start, pad=pad)
     xml = f"""<mujoco model="ugv_world">
   <option timestep="{LOCKSTEP_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
   <visual><global offwidth="640" offheight="480"/><quality shadowsize="0" offsamples="0"/></visual>

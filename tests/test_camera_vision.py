@@ -35,7 +35,8 @@ def world():
     ugv = UgvSettings(enabled=1, north_m=3.0, east_m=1.0, yaw_deg=30.0, path=0)
     sim = Simulation(SPEC, (47.4, 8.5, 400.0), seed=1, ugv=ugv)
     cam = DownwardCamera(sim.model, SPEC.camera, seed=1)
-    det = MarkerDetector(pinhole(SPEC.camera.width_px, SPEC.camera.height_px, math.radians(SPEC.camera.hfov_deg)))
+    lens = pinhole(SPEC.camera.width_px, SPEC.camera.height_px, math.radians(SPEC.camera.hfov_deg))
+    det = MarkerDetector(lens, layout=ugv.pad())  # the default pad: nested
     yield sim, cam, det
     cam.close()
 
@@ -138,7 +139,7 @@ def test_standalone_vision_on_a_recorded_video_sends_landing_target(world, tmp_p
 def test_a_frame_the_view_test_skips_is_one_without_the_marker(world):
     """sitl.marker_view: "out of view" only where the rendered frame shows no marker; in view where it does."""
     sim, cam, det = world
-    view = MarkerView(sim.model, "downward", det.camera)
+    view = MarkerView(sim.model, "downward", det.camera, det.layout)
     rng = np.random.default_rng(3)
     outs = ins = 0
     for _ in range(60):

@@ -147,9 +147,9 @@ def test_a_marker_seen_through_the_gimbal_is_where_the_truth_has_it():
     spec = QUAD.camera
     cam = DownwardCamera(sim.model, spec, seed=1)
     try:
-        det = MarkerDetector(pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg))).detect(
-            cam.capture(sim.data, noise_grey=2.0)
-        )
+        det = MarkerDetector(
+            pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=ugv.pad()
+        ).detect(cam.capture(sim.data, noise_grey=2.0))
     finally:
         cam.close()
     assert det is not None

@@ -77,6 +77,19 @@ set = { SIM_ENGINE_FAIL = 4, SIM_ENGINE_MUL = 0.5 }
     assert sc.events[0].values == {"SIM_ENGINE_FAIL": 4, "SIM_ENGINE_MUL": 0.5}
 
 
+_PAD = "[pad]\nmarkers = [{}]\n"
+
+
+def test_a_pad_table_sets_the_nested_pad(tmp_path):
+    text = _PAD.format("{ id = 76, size_m = 0.333, x_m = 0.3 }, { id = 5, size_m = 0.1, y_m = -0.05 }")
+    sc = load_scenario(write(tmp_path, text))
+    assert sc.pad is not None and [(m.marker_id, m.size_m, m.x_m, m.y_m) for m in sc.pad.markers] == [
+        (76, 0.333, 0.3, 0.0),
+        (5, 0.1, 0.0, -0.05),
+    ]
+    assert load_scenario(write(tmp_path, "")).pad is None  # the default nested pad
+
+
 @pytest.mark.parametrize(
     "text, key, reason",
     [
@@ -95,6 +108,19 @@ set = { SIM_ENGINE_FAIL = 4, SIM_ENGINE_MUL = 0.5 }
         ("[[events]]\nat_s = 1\nset = {}\n", "events[0].set", "sets no parameter"),
         ("[[events]]\nat_s = 1\nwhen = 2\nset = { SIM_ENGINE_FAIL = 1 }\n", "events[0].when", "unknown key"),
         ("events = 3\n", "events", "array of tables"),
+        # the nested pad (vision.pad): markers that overlap or do not fit the deck, one line naming the key
+        (_PAD.format("{ id = 76, size_m = 0.333 }, { id = 42, size_m = 0.125 }"), "pad.markers[1]", "overlaps"),
+        (_PAD.format("{ id = 76, size_m = 0.333, x_m = 0.5 }"), "pad.markers[0]", "does not fit"),
+        (
+            _PAD.format("{ id = 76, size_m = 0.333 }, { id = 76, size_m = 0.1, x_m = 0.4 }"),
+            "pad.markers[1].id",
+            "twice",
+        ),
+        (_PAD.format("{ id = 76, size_m = -0.3 }"), "pad.markers[0].size_m", "> 0"),
+        (_PAD.format("{ id = 76, size_m = 0.3, z_m = 1 }"), "pad.markers[0].z_m", "unknown key"),
+        (_PAD.format("{ size_m = 0.3 }"), "pad.markers[0]", "missing id"),
+        (_PAD.format('{ id = 76, size_m = "big" }'), "pad.markers[0].size_m", "number of metres"),
+        ("[pad]\nlayout = 1\n", "pad", "markers = "),
     ],
 )
 def test_bad_files_name_file_key_and_reason(tmp_path, text, key, reason):

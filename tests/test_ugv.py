@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from sitl.ugv import MARKER_ID, Ugv, UgvGeometry, build_ugv_world
+from sitl.ugv import Ugv, UgvGeometry, build_ugv_world
 from sitl.ugv_paths import Pose2, UgvPath, circle, figure8, random_waypoints, straight_line
 
 DT = 0.004
@@ -110,13 +110,15 @@ RENDER_SCRIPT = """
 import sys, mujoco, cv2
 from sitl.ugv import build_ugv_world
 from sitl.ugv_paths import Pose2
-model = build_ugv_world(Pose2(3.0, -2.0, 0.4))
+from vision.pad import NESTED_PAD, SINGLE_PAD
+pad = {"nested": NESTED_PAD, "single": SINGLE_PAD}[sys.argv[2]]
+model = build_ugv_world(Pose2(3.0, -2.0, 0.4), pad=pad)
 data = mujoco.MjData(model)
 mujoco.mj_forward(model, data)
 renderer = mujoco.Renderer(model, 240, 320)
 cam = mujoco.MjvCamera()
 cam.lookat[:] = data.body("ugv").xpos + [0.0, 0.0, 0.15]
-cam.distance, cam.elevation, cam.azimuth = 1.5, -90.0, 90.0
+cam.distance, cam.elevation, cam.azimuth = 2.0, -90.0, 90.0
 renderer.update_scene(data, cam)
 for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX):
     renderer.scene.flags[flag] = 0
@@ -125,22 +127,34 @@ cv2.imwrite(sys.argv[1], renderer.render()[:, :, ::-1])
 """
 
 
-def test_deck_marker_decodes_as_id_76_from_above(tmp_path):
+@pytest.mark.parametrize("pad", ["nested", "single"])
+def test_deck_markers_decode_from_above_with_their_sizes_and_offsets(tmp_path, pad):
+    """The deck shows the pad's markers (vision.pad) at their true sizes, and their offsets along the UGV's axes."""
+    from vision.pad import NESTED_PAD, SINGLE_PAD
+
+    layout = {"nested": NESTED_PAD, "single": SINGLE_PAD}[pad]
     out = tmp_path / "deck.png"
     env = dict(os.environ, MUJOCO_GL="egl", PYOPENGL_PLATFORM="egl")
-    run = subprocess.run([sys.executable, "-c", RENDER_SCRIPT, str(out)], env=env, capture_output=True, text=True)
+    run = subprocess.run([sys.executable, "-c", RENDER_SCRIPT, str(out), pad], env=env, capture_output=True, text=True)
     assert run.returncode == 0, f"offscreen rendering with MUJOCO_GL=egl failed (is EGL available?):\n{run.stderr}"
     image = cv2.imread(str(out), cv2.IMREAD_GRAYSCALE)
     assert image.shape == (240, 320)
     detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_ARUCO_ORIGINAL))
     corners, ids, _ = detector.detectMarkers(image)
-    assert ids is not None and ids.ravel().tolist() == [MARKER_ID]
-    side_px = np.mean([np.linalg.norm(corners[0][0][i] - corners[0][0][(i + 1) % 4]) for i in range(4)])
-    # 0.333 m seen from 1.5 m above the point 0.15 m above the axle (the deck is 0.2 m above it),
-    # with MuJoCo's 45 deg vertical field of view: the texture has the marker's true size
+    assert ids is not None and sorted(ids.ravel().tolist()) == sorted(m.marker_id for m in layout.markers)
+    # seen from 2 m above the point 0.15 m above the axle (the deck is 0.2 m above it), with MuJoCo's 45 deg
+    # vertical field of view: the texture has the markers' true sizes and offsets
     deck_above_axle = UgvGeometry().deck_top_m - UgvGeometry().wheel_radius_m
-    expected = 0.333 / (2 * (1.5 - (deck_above_axle - 0.15)) * math.tan(math.radians(22.5))) * 240
-    assert side_px == pytest.approx(expected, rel=0.1)
+    px_per_m = 240 / (2 * (2.0 - (deck_above_axle - 0.15)) * math.tan(math.radians(22.5)))
+    seen = {i: c.reshape(4, 2) for c, i in zip(corners, ids.ravel().tolist())}
+    for m in layout.markers:
+        side_px = np.mean([np.linalg.norm(seen[m.marker_id][i] - seen[m.marker_id][(i + 1) % 4]) for i in range(4)])
+        assert side_px == pytest.approx(m.size_m * px_per_m, rel=0.1)
+    if pad == "nested":  # the four large markers around the small one at the centre, each at its offset
+        inner = seen[layout.markers[1].marker_id].mean(axis=0)
+        for m in layout.markers[:1] + layout.markers[2:]:
+            offset_px = np.linalg.norm(seen[m.marker_id].mean(axis=0) - inner)
+            assert offset_px == pytest.approx(math.hypot(m.x_m, m.y_m) * px_per_m, rel=0.1)
 
 
 def test_ugv_merges_into_the_multicopter_world_behind_a_switch():

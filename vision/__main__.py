@@ -1,9 +1,11 @@
 """``python -m vision``: the companion computer on real frames, sending LANDING_TARGET over UDP.
 
 Reads a video file (``--video``) or a camera (``--camera N``, OpenCV's device index), finds the
-ArUco marker (id 76 of DICT_ARUCO_ORIGINAL, 0.333 m, or ``--marker-id`` / ``--marker-size``) with
-the same code the simulator's companion runs (:mod:`vision.detector`), and sends each fix as
-LANDING_TARGET in the body form (MAV_FRAME_BODY_FRD: the marker's centre from the vehicle's
+landing pad's ArUco markers (``--pad``: nested, the default, ids 76, 151, 113 and 813 of DICT_ARUCO_ORIGINAL,
+0.333 m, around id 42, 0.125 m, at the centre (:mod:`vision.pad`); single, id 76 alone; or one marker of
+``--marker-id`` / ``--marker-size``) with
+the same code the simulator's companion runs (:mod:`vision.detector`, one pose from every marker seen), and sends
+each fix as LANDING_TARGET in the body form (MAV_FRAME_BODY_FRD: the pad's centre from the vehicle's
 reference point along body FRD axes, m; angle_x/angle_y/distance too) to the flight controller,
 from system ``--system`` (the vehicle's) as MAV_COMP_ID_ONBOARD_COMPUTER (191), with a HEARTBEAT
 (MAV_TYPE_ONBOARD_CONTROLLER) every second.  The camera looks straight down, the top of the image
@@ -81,11 +83,16 @@ def build_parser() -> argparse.ArgumentParser:
     add_instance_option(p, help="the vehicle's instance N (PX4's -i): system id 1+N, sends to UDP 14640+N")
     p.add_argument("--system", type=system_id, default=None, help="the vehicle's MAVLink system id (default 1+N)")
     p.add_argument(
-        "--marker-id", type=non_negative_int, default=None, help="the marker's id (default: the landing pad's, 76)"
-    )
+        "--pad", choices=("nested", "single"), default="nested",
+        help="the landing pad: nested (markers 76, 151, 113, 813 around 42, default) or single (the seed's 76)",
+    )  # fmt: skip
+    p.add_argument(
+        "--marker-id", type=non_negative_int, default=None,
+        help="a pad of one marker of this id instead (default: --pad's)",
+    )  # fmt: skip
     p.add_argument(
         "--marker-size", type=positive_number, default=None, metavar="M",
-        help="the marker's side, m (default: the landing pad's, 0.333)",
+        help="a pad of one marker of this side, m, instead (default: --pad's; 0.333 with --marker-id)",
     )  # fmt: skip
     p.add_argument("--save-annotated", metavar="DIR", help="write annotated frames here")
     p.add_argument("--max-frames", type=positive_int, default=None, metavar="N")

@@ -24,6 +24,7 @@ from vision.camera_model import CameraModel, load_calibration, pinhole
 from vision.detector import MarkerDetector
 from vision.landing_target import CameraMount, landing_target_message
 from vision.marker import MARKER_ID, MARKER_SIZE_M
+from vision.pad import NESTED_PAD, SINGLE_PAD, PadLayout, PadMarker
 
 STARTUP_ERRORS = (OSError, ValueError, cv2.error)
 
@@ -77,6 +78,14 @@ def _open_source(args: argparse.Namespace) -> tuple[cv2.VideoCapture, object]:
     return cap, frame
 
 
+def pad_of(args: argparse.Namespace) -> PadLayout:
+    """The pad to look for: one marker of ``--marker-id``/``--marker-size`` if either is given, else ``--pad``'s."""
+    if args.marker_id is None and args.marker_size is None:
+        return SINGLE_PAD if args.pad == "single" else NESTED_PAD
+    marker_id = MARKER_ID if args.marker_id is None else args.marker_id
+    return PadLayout((PadMarker(marker_id, MARKER_SIZE_M if args.marker_size is None else args.marker_size),))
+
+
 def start(args: argparse.Namespace) -> Companion:
     """Open everything before the first detection; OSError or ValueError naming the option when it cannot."""
     if args.calibration:
@@ -86,8 +95,7 @@ def start(args: argparse.Namespace) -> Companion:
     cap, frame = _open_source(args)
     try:
         camera = _camera_model(args, frame.shape[1], frame.shape[0])
-        marker_id = MARKER_ID if args.marker_id is None else args.marker_id
-        detector = MarkerDetector(camera, marker_id, MARKER_SIZE_M if args.marker_size is None else args.marker_size)
+        detector = MarkerDetector(camera, layout=pad_of(args))
     except BaseException:
         cap.release()
         raise
@@ -132,7 +140,7 @@ def run(c: Companion, args: argparse.Namespace) -> tuple[int, int]:
         c.sock.sendto(msg.pack(c.mav), c.dest)
         if not args.quiet:
             print(
-                f"t {t_s:7.3f} s  marker {det.marker_id}  distance {det.distance_m:.2f} m  "
+                f"t {t_s:7.3f} s  markers {'+'.join(map(str, det.marker_ids))}  distance {det.distance_m:.2f} m  "
                 f"body FRD {msg.x:+.2f} {msg.y:+.2f} {msg.z:+.2f} m",
                 flush=True,
             )
