@@ -141,7 +141,7 @@ def main() -> None:
     ap.add_argument("--max-height", type=float, default=4.0, help="the top of the last band (m above the deck)")
     ap.add_argument("--layouts", nargs="+", default=["single", "side", "board", "board+g"], help="layouts, +g: gravity")
     ap.add_argument("--jpeg", type=int, default=0, help="JPEG quality each frame passes through (0: none)")
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=1, help="seed of the random poses (the same poses for every layout)")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     bands = [b for b in BANDS if b[1] <= args.max_height + 1e-9]

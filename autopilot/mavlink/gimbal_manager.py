@@ -1,19 +1,14 @@
 """The gimbal manager of gimbal protocol v2, on the flight controller, as PX4's gimbal module runs it.
 
-The camera's gimbal is a MAVLink gimbal device on the simulator link (``sitl/gimbal_link.py``): it takes
-GIMBAL_DEVICE_SET_ATTITUDE and reports GIMBAL_DEVICE_ATTITUDE_STATUS (50 Hz) and GIMBAL_DEVICE_INFORMATION
-(1 Hz, its joints' ranges).  Ground stations never talk to it: they talk to this manager (the autopilot's
-component) and see the device as PX4 shows a MAVLink gimbal it forwards, component MNT_MAV_COMPID (154,
-MAV_COMP_ID_GIMBAL, as PX4's simulated gimbal), which is also the manager's ``gimbal_device_id``.
+The gimbal is a MAVLink gimbal device on the simulator link (``sitl/gimbal_link.py``: SET_ATTITUDE in, ATTITUDE_STATUS
+at 50 Hz and INFORMATION at 1 Hz out).  Ground stations talk to this manager and see the device as PX4 shows a
+MAVLink gimbal it forwards: component MNT_MAV_COMPID (154, MAV_COMP_ID_GIMBAL), the ``gimbal_device_id``.
 
-* Advertised only once the device has reported (its status came): before that, and with MNT_MODE_IN not 0 or 4
-  or MNT_MODE_OUT not 2, every gimbal command is MAV_RESULT_UNSUPPORTED and REQUEST_MESSAGE of a gimbal message
-  too, as PX4 without a gimbal.  MNT_MODE_IN 4 / MNT_MODE_OUT 2 are the defaults here as in PX4's gimbal SITL
-  airframe (4019_gz_x500_gimbal); PX4's own defaults are -1 (disabled) and 0 (AUX).
-* A device silent for DEVICE_TIMEOUT_US of simulated time (no GIMBAL_DEVICE_ATTITUDE_STATUS; it sends 50 Hz) is
-  lost: a STATUSTEXT says so and the manager is no longer advertised (commands UNSUPPORTED again) until it
-  reports again; who is in control and the setpoint are kept, and the setpoint is sent again when it returns.
-  (PX4's gimbal module keeps a device once found; the timeout is this project's choice, 3 s.)
+* Advertised once the device has reported; before, and with MNT_MODE_IN not 0 or 4 or MNT_MODE_OUT not 2, gimbal
+  commands and requests are UNSUPPORTED, as PX4 without a gimbal.  MNT_MODE_IN 4 / MNT_MODE_OUT 2 are the defaults
+  as in PX4's gimbal SITL airframe (4019_gz_x500_gimbal); PX4's own are -1 (disabled) and 0 (AUX).
+* A device silent for DEVICE_TIMEOUT_US of simulated time is lost (a STATUSTEXT; UNSUPPORTED again) until it
+  reports again, control and setpoint kept (PX4 keeps a device once found; the 3 s are this project's choice).
 * GIMBAL_MANAGER_INFORMATION on request: PX4's capability flags and PX4's manager range (pitch -90..90 deg, yaw
   -180..180 deg) narrowed to the device's reported range.  GIMBAL_MANAGER_STATUS at 5 Hz (the spec's "low
   regular rate") and at once when who is in control changes.  The device's status is relayed at 10 Hz and its
@@ -28,11 +23,10 @@ MAV_COMP_ID_GIMBAL, as PX4's simulated gimbal), which is also the manager's ``gi
   message ignored, with a STATUSTEXT naming the axis; the gimbal keeps what it held (no jump).  Rates (from
   SET_MANUAL_CONTROL, scaled by MNT_RATE_PITCH/YAW, or a rates-only SET_ATTITUDE / SET_PITCHYAW) are integrated
   here into an attitude held inside the range: the device takes attitudes only.
-* MAV_CMD_DO_SET_ROI_LOCATION points the camera at a global location from the vehicle's ESTIMATED position
-  (recomputed every link update while it lasts); MAV_CMD_DO_SET_ROI_NONE returns it to neutral.  As in PX4 the
-  ROI commands are taken from any client (they are the vehicle's region of interest, not a gimbal client's).
-* What the manager decides reaches the device as GIMBAL_DEVICE_SET_ATTITUDE, queued on the simulator link and
-  sent just before the next HIL_ACTUATOR_CONTROLS, so the simulator applies it at the same step in every run.
+* MAV_CMD_DO_SET_ROI_LOCATION points at a global location from the ESTIMATED position (recomputed at every
+  step); DO_SET_ROI_NONE: neutral.  As in PX4, ROI commands are taken from any client (the vehicle's ROI).
+* What the manager decides reaches the device as GIMBAL_DEVICE_SET_ATTITUDE, queued on the simulator link for
+  the next HIL_ACTUATOR_CONTROLS: the simulator applies it at the same step in every run.
 
 The flight controller's own use (a precision landing, :mod:`autopilot.navigation.precland_gimbal`): the
 commander's status carries a :class:`autopilot.topics.GimbalRequest`, applied here in :meth:`GimbalManager.
@@ -235,11 +229,9 @@ class GimbalManager:
         }
 
     def control_step(self, now_us: int) -> None:
-        """At the link's scheduled steps only (the lockstep loop calls it, ``SimLink.device_steps``): the
-        commander's request applied, rates and the ROI moved into the setpoint, the setpoint to the device.
-        Not in :meth:`update`, which also runs when a ground station's message arrives (``GcsLink.poll``): at a
-        step that depends on the wall clock, so a precision landing's pointing, and with it the frames the
-        camera takes, would differ from run to run on a busy machine."""
+        """At the link's scheduled steps only (``SimLink.device_steps``): the commander's request, rates and ROI
+        into the setpoint, the setpoint to the device.  Not in :meth:`update`, which also runs when a ground
+        station's datagram arrives (``GcsLink.poll``), at a step set by the wall clock."""
         dt_s = 0.0 if self._last_update_us is None else max(0.0, (now_us - self._last_update_us) * 1e-6)
         self._last_update_us = now_us
         self._watch_device(now_us)
