@@ -30,14 +30,15 @@ def test_the_table_per_cell(tmp_path):
     write(tmp_path / "r.csv", c, rows)
     stats = report.cells(report.load(tmp_path / "r.csv"))
     pad, line = stats
-    assert (pad.label, pad.runs, pad.successes, pad.infra_failed) == ("quad_x static pad calm", 3, 2, 1)
+    label = "quad_x static pad calm gimbal camera nested pad"
+    assert (pad.label, pad.runs, pad.successes, pad.infra_failed) == (label, 3, 2, 1)
     assert pad.ci95 == report.wilson(2, 3)
     assert pad.err_mean_m == pytest.approx(0.01)  # 0, 0.01, 0.02: the infra failure is no flight
     assert pad.err_max_m == pytest.approx(0.02)
     assert (line.runs, line.successes) == (4, 4)
     text = report.table(stats)
-    assert text.splitlines()[1].split()[:8] == ["quad_x", "static", "pad", "calm", "3", "2/3", "67%", "21-94%"]
-    assert "quad_x line 1 m/s calm" in text.splitlines()[2]
+    assert text.splitlines()[1].split()[:12] == label.split() + ["3", "2/3", "67%", "21-94%"]
+    assert "quad_x line 1 m/s calm gimbal camera nested pad" in text.splitlines()[2]
 
 
 def test_report_command_prints_the_table_and_writes_the_plots(tmp_path, capsys):
@@ -45,7 +46,7 @@ def test_report_command_prints_the_table_and_writes_the_plots(tmp_path, capsys):
     write(tmp_path / "r.csv", c, fake_rows(c, ["ok", "flight_failed", "ok", "ok"]))
     assert main(["report", str(tmp_path / "r.csv"), "--plots", str(tmp_path / "plots")]) == 0
     out = capsys.readouterr().out
-    assert "quad_x static pad calm" in out and "95% CI" in out
+    assert "quad_x static pad calm gimbal camera nested pad" in out and "95% CI" in out
     names = sorted(p.name for p in (tmp_path / "plots").iterdir())
     assert names == ["errors.png", "success_vs_speed.png", "success_vs_wind.png"]
     assert all((tmp_path / "plots" / n).stat().st_size > 5000 for n in names)
@@ -64,3 +65,36 @@ def test_report_of_a_file_that_is_not_results_fails_with_one_line(tmp_path, caps
     assert main(["report", str(tmp_path / "x.csv")]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"campaign: {tmp_path / 'x.csv'}: ") and err.count("\n") == 1
+
+
+def test_camera_and_pad_cells_each_have_their_line_and_their_plot_series(tmp_path, capsys):
+    c = spec.from_dict({**CAMPAIGN, "grid": {**CAMPAIGN["grid"], "camera": ["gimbal", "fixed"], "pad": ["single"]}})
+    write(tmp_path / "r.csv", c, fake_rows(c, ["ok", "ok", "flight_failed", "flight_failed"] * 2))
+    stats = report.cells(report.load(tmp_path / "r.csv"))
+    assert [(s.label, s.successes) for s in stats] == [
+        ("quad_x static pad calm gimbal camera single pad", 2),
+        ("quad_x static pad calm fixed camera single pad", 0),
+        ("quad_x line 1 m/s calm gimbal camera single pad", 2),
+        ("quad_x line 1 m/s calm fixed camera single pad", 0),
+    ]
+    from gcs.campaign.plots import _series
+
+    rows = [r for s in stats for r in s.rows]
+    assert _series(rows, ("vehicle",)) == ("vehicle", "camera", "pad")  # the gimbal's and the fixed camera's apart
+    assert main(["report", str(tmp_path / "r.csv"), "--plots", str(tmp_path / "plots")]) == 0
+    assert "fixed camera single pad" in capsys.readouterr().out
+
+
+def test_a_landing_results_file_from_before_the_camera_and_pad_axes_is_still_reported(tmp_path):
+    """Written without the camera and pad columns: still the landing kind's, its error and time columns found."""
+    c = spec.from_dict(CAMPAIGN)
+    write(tmp_path / "r.csv", c, fake_rows(c, ["ok", "ok", "ok", "ok"]))
+    lines = (tmp_path / "r.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    drop = [header.index("camera"), header.index("pad")]
+    old = "\n".join(",".join(f for k, f in enumerate(line.split(",")) if k not in drop) for line in lines) + "\n"
+    (tmp_path / "old.csv").write_text(old)
+    rows = report.load(tmp_path / "old.csv")
+    assert "camera" not in rows[0]
+    assert report.figure_columns(rows)[:2] == ("touchdown_error_m", "time_to_land_s")
+    assert report.cells(rows)[1].err_mean_m == pytest.approx(0.025)

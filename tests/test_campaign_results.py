@@ -82,6 +82,27 @@ def test_an_existing_file_needs_resume_and_another_campaigns_file_is_refused(tmp
         assert len(list(csv.reader(f))) == 2  # untouched
 
 
+def test_camera_and_pad_are_columns_and_part_of_the_results_identity(tmp_path):
+    """Each (camera, pad) its own cell, run ids and columns; a file of other camera or pad values is another's."""
+    grid = {**CAMPAIGN["grid"], "camera": ["gimbal", "fixed"], "pad": ["single"]}
+    c = spec.from_dict({**CAMPAIGN, "grid": grid})
+    path = tmp_path / "r.csv"
+    write(path, c, fake_rows(c, ["ok"] * 8))
+    back = read(path)
+    assert [(r["run_id"], r["camera"], r["pad"]) for r in back[:4]] == [
+        ("c000-r0000", "gimbal", "single"),
+        ("c000-r0001", "gimbal", "single"),
+        ("c001-r0000", "fixed", "single"),
+        ("c001-r0001", "fixed", "single"),
+    ]
+    assert back[2]["label"] == "quad_x static pad calm fixed camera single pad"
+    assert write(path, c, [], resume=True) == {r["run_id"] for r in back}  # resumed: all done
+    for other in ({"camera": ["fixed", "gimbal"]}, {"pad": ["nested"]}):  # other cells: another campaign
+        changed = spec.from_dict({**CAMPAIGN, "grid": {**grid, **other}})
+        with pytest.raises(ResultsError, match="another campaign file"):
+            write(path, changed, [], resume=True)
+
+
 def test_what_is_retried_and_what_is_a_result():
     """Machinery trouble, or a timeout before the vehicle armed, is retried; a refusal or a failure in flight is not."""
     from gcs.campaign.runs import FLIGHT_FAILED, INFRA_FAILED, TimeLimit, classify

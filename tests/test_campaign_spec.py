@@ -36,13 +36,54 @@ def campaign(text: str = GOOD, **top) -> spec.Campaign:
 def test_cells_follow_the_grid_and_the_static_pad_is_one_cell():
     labels = list(dict.fromkeys(r.label for r in plan.expand(campaign())))
     assert labels == [
-        "quad_x static pad calm",
-        "quad_x line 1 m/s calm",
-        "quad_x circle 1 m/s calm",
-        "quad_x static pad windy",
-        "quad_x line 1 m/s windy",
-        "quad_x circle 1 m/s windy",
+        "quad_x static pad calm gimbal camera nested pad",
+        "quad_x line 1 m/s calm gimbal camera nested pad",
+        "quad_x circle 1 m/s calm gimbal camera nested pad",
+        "quad_x static pad windy gimbal camera nested pad",
+        "quad_x line 1 m/s windy gimbal camera nested pad",
+        "quad_x circle 1 m/s windy gimbal camera nested pad",
     ]
+
+
+CAMERA_PAD = GOOD.replace(
+    'ugv_path = ["line", "circle"]', 'ugv_path = ["circle"]\ncamera = ["gimbal", "fixed"]\npad = ["nested", "single"]'
+)
+
+
+def test_camera_and_pad_are_the_innermost_axes_of_the_grid():
+    """A cell's gimbal and fixed-camera runs, nested and single pad, stand next to each other; each its own cell."""
+    runs = plan.expand(campaign(CAMERA_PAD))
+    labels = list(dict.fromkeys(r.label for r in runs))
+    assert labels[:5] == [
+        "quad_x static pad calm gimbal camera nested pad",
+        "quad_x static pad calm gimbal camera single pad",
+        "quad_x static pad calm fixed camera nested pad",
+        "quad_x static pad calm fixed camera single pad",
+        "quad_x circle 1 m/s calm gimbal camera nested pad",
+    ]
+    assert len(labels) == len({r.cell for r in runs}) == 16 and len(runs) == 16 * 3
+    assert len({r.run_id for r in runs}) == len(runs)
+    assert {(r.axes["camera"], r.axes["pad"]) for r in runs if r.cell == 3} == {("fixed", "single")}
+
+
+def test_without_camera_and_pad_the_cells_and_their_draws_are_as_before():
+    """The defaults (gimbal, nested) add no cell: a campaign file that names neither keeps its cells' numbers."""
+    runs = plan.expand(campaign())
+    assert {(r.axes["camera"], r.axes["pad"]) for r in runs} == {("gimbal", "nested")}
+    assert len(runs) == 6 * 3 and runs[4].run_id == "c001-r0001"
+
+
+@pytest.mark.parametrize("camera,pad,mount,layout", [("gimbal", "nested", 2, 0), ("fixed", "single", 1, 1)])
+def test_camera_and_pad_become_the_simulators_parameters(camera, pad, mount, layout):
+    from sitl.sim_settings import CameraSettings, UgvSettings
+    from vision.pad import SINGLE_PAD
+
+    run = next(r for r in plan.expand(campaign(CAMERA_PAD)) if (r.axes["camera"], r.axes["pad"]) == (camera, pad))
+    params = setup_for(run.axes, run.draws).sim_params()
+    assert (params["SIM_CAM_MOUNT"], params["SIM_PAD_LAYOUT"]) == (mount, layout)
+    # what the simulator makes of those values (sitl/sim_settings.py)
+    assert CameraSettings(mount=params["SIM_CAM_MOUNT"]).mount_name("neither") == camera
+    assert (UgvSettings(pad_layout=params["SIM_PAD_LAYOUT"]).pad() is SINGLE_PAD) == (pad == "single")
 
 
 def test_expansion_is_deterministic_and_independent_of_the_other_runs():
@@ -76,6 +117,11 @@ BROKEN = [
     ('kind = "landing"\n[grid]\nwind = ["gale"]\n', "key grid.wind: 'gale' is not one of"),
     ('kind = "landing"\n[grid]\nfault = ["motor"]\n', "key grid.fault: not an axis of kind 'landing'"),
     ('kind = "landing"\n[grid]\nvehicle = ["octo"]\n', "key grid.vehicle: unknown vehicle 'octo'"),
+    ('kind = "landing"\n[grid]\ncamera = ["pan"]\n', "key grid.camera: 'pan' is not one of 'gimbal', 'fixed'"),
+    ('kind = "landing"\n[grid]\ncamera = "fixed"\n', "key grid.camera: must be a non-empty list"),
+    ('kind = "landing"\n[grid]\npad = ["nested", "nested"]\n', "key grid.pad: lists a value twice"),
+    ('kind = "landing"\n[grid]\npad = [1]\n', "key grid.pad: 1 is not one of 'nested', 'single'"),
+    ('kind = "mission"\n[grid]\ncamera = ["fixed"]\n', "key grid.camera: not an axis of kind 'mission'"),
     ('kind = "landing"\n[random]\nsim_seed = [5, 1]\n', "key random.sim_seed: must have 0 <= low <= high"),
     ('kind = "landing"\nrecord = ["speed"]\n', "key record: 'speed' is not a figure"),
     ('kind = "landing"\n[fc_params]\npld_x = 1\n', "key fc_params.pld_x: not a parameter name"),

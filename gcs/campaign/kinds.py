@@ -22,12 +22,17 @@ Check = Callable[[Any], "str | None"]  # an axis value -> None if valid, else wh
 
 @dataclass(frozen=True)
 class Axis:
-    """One grid axis: its key under ``[grid]``, its default values and the check of one value."""
+    """One grid axis: its key under ``[grid]``, its default values and the check of one value.
+
+    ``required_in_results``: False for an axis added after results files were written, so that a file
+    without its column is still recognised as its kind's (:func:`kind_of_columns`).
+    """
 
     name: str
     default: tuple
     check: Check
     help: str
+    required_in_results: bool = True
 
 
 @dataclass(frozen=True)
@@ -89,7 +94,7 @@ def kind_of_columns(columns: list[str] | tuple[str, ...]) -> Kind | None:
     have = set(columns)
     for name in KINDS:
         kind = get_kind(name)
-        if {a.name for a in kind.axes} | {r.name for r in kind.ranges} <= have:
+        if {a.name for a in kind.axes if a.required_in_results} | {r.name for r in kind.ranges} <= have:
             return kind
     return None
 

@@ -2,7 +2,10 @@
 
 Grid axes: ``vehicle`` (a vehicle file name), ``ugv_speed_m_s`` (0: the static pad: one cell whatever
 the path), ``ugv_path`` (line, circle, figure8, random), ``wind`` (calm, or windy: 5 m/s from the
-West, 1 m/s turbulence, 2 m/s gusts).  Cells in the order vehicle, wind, speed, path.
+West, 1 m/s turbulence, 2 m/s gusts), ``camera`` (gimbal: the 3-axis gimbal, ``SIM_CAM_MOUNT`` 2; fixed:
+the seed's body-fixed camera, 1) and ``pad`` (nested: the nested marker pad, ``SIM_PAD_LAYOUT`` 0; single:
+the seed's single marker, 1).  Cells in the order vehicle, wind, speed, path, camera, pad (the last two
+innermost, so a cell's gimbal and fixed-camera runs stand next to each other in the report).
 
 Randomised per run (:mod:`.plan` draws them): the UGV's start pose (NED metres from the
 multicopter's start point, heading in degrees), the meeting point's offset from the UGV's path
@@ -17,12 +20,14 @@ import math
 import re
 from typing import Any
 
-from ..launcher.landing_run import LandingSetup, Pose2, fly_landing  # Pose2: the launcher's, from sitl
+from ..launcher.landing_run import CAMERA_MOUNT_CODES, PAD_LAYOUT_CODES, LandingSetup, Pose2, fly_landing
 from ..sim_client import SimClient
-from .kinds import Axis, Range, number_in, one_of, vehicle_name
+from .kinds import Axis, Range, grid_cells, number_in, one_of, vehicle_name
 from .plan import Run
 
 PATHS = ("line", "circle", "figure8", "random")
+CAMERAS = tuple(CAMERA_MOUNT_CODES)  # the grid's camera values (the first the default: the gimbal)
+PADS = tuple(PAD_LAYOUT_CODES)  # the grid's pad values (the first the default: the nested pad)
 FLIGHT_TIMEOUT_S = 240.0  # wall seconds of one wait inside the landing (arming, take-off, touchdown ...)
 CAMERA_LINE = re.compile(
     r"camera: (\d+) frames, (\d+) with the marker .*farthest ([\d.]+) m\).*error against the truth "
@@ -47,7 +52,7 @@ def camera_figures(sitl_log: str) -> dict[str, float]:
 
 
 def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: dict[str, float] | None = None):
-    """The :class:`LandingSetup` of one run: its cell's vehicle, UGV and wind, and its random draws."""
+    """The :class:`LandingSetup` of one run: its cell's vehicle, UGV, wind, camera and pad, and its random draws."""
     r, bearing = draws["meet_offset_m"], math.radians(draws["meet_bearing_deg"])
     return LandingSetup(
         vehicle=cell["vehicle"],
@@ -57,6 +62,8 @@ def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: d
         seed=int(draws["sim_seed"]),
         ugv_start=Pose2(draws["ugv_start_north_m"], draws["ugv_start_east_m"], math.radians(draws["ugv_heading_deg"])),
         meet_offset_m=(r * math.cos(bearing), r * math.sin(bearing)),
+        camera=cell["camera"],
+        pad=cell["pad"],
         extra_sim_params=dict(extra_sim_params or {}),
     )
 
@@ -70,6 +77,9 @@ class LandingKind:
         Axis("wind", ("calm", "windy"), one_of("calm", "windy"), "wind case"),
         Axis("ugv_speed_m_s", (0, 0.5, 1, 2, 3), number_in(0.0, 5.0), "UGV speed, m/s (0: static pad)"),
         Axis("ugv_path", PATHS, one_of(*PATHS), "UGV path (for speeds above 0)"),
+        # Added with issue 34: a results file written before them has no such column and is still a landing one.
+        Axis("camera", CAMERAS[:1], one_of(*CAMERAS), "camera mount (SIM_CAM_MOUNT)", required_in_results=False),
+        Axis("pad", PADS[:1], one_of(*PADS), "landing pad on the deck (SIM_PAD_LAYOUT)", required_in_results=False),
     )
     ranges = (
         Range("ugv_start_north_m", (3.5, 4.5), False, (-20.0, 20.0), "UGV start, m North of the multicopter"),
@@ -102,13 +112,15 @@ class LandingKind:
             for wind in grid["wind"]:
                 for speed in grid["ugv_speed_m_s"]:
                     for path in ("static",) if speed == 0 else grid["ugv_path"]:
-                        out.append({"vehicle": vehicle, "wind": wind, "ugv_speed_m_s": speed, "ugv_path": path})
+                        where = {"vehicle": vehicle, "wind": wind, "ugv_speed_m_s": speed, "ugv_path": path}
+                        out += [{**where, **c} for c in grid_cells(grid, ("camera", "pad"))]
         return out
 
     def label(self, cell: dict[str, Any]) -> str:
+        """e.g. ``quad_x figure8 2 m/s calm gimbal camera nested pad``."""
         speed = cell["ugv_speed_m_s"]
         where = "static pad" if speed == 0 else f"{cell['ugv_path']} {speed:g} m/s"
-        return f"{cell['vehicle']} {where} {cell['wind']}"
+        return f"{cell['vehicle']} {where} {cell['wind']} {cell['camera']} camera {cell['pad']} pad"
 
     def fly(self, run: Run, ctx) -> dict[str, Any]:
         """One landing on the run's own stack (``ctx``: :class:`gcs.campaign.runs.RunContext`)."""

@@ -1,6 +1,8 @@
 """The report's plots (PNG): the error distribution of every cell, success against UGV speed and
 against wind, each success rate with its 95 % Wilson interval as an error bar.  A plot whose axis the
-results do not have (no UGV speed in a hover/step campaign) is left out, and the report says so."""
+results do not have (no UGV speed in a hover/step campaign) is left out, and the report says so.  The
+landing's camera and pad axes, where the results have them, split the series (gimbal and fixed camera
+apart), never pooled into one rate."""
 
 from __future__ import annotations
 
@@ -89,6 +91,14 @@ def against_plot(rows: list[dict[str, Any]], axis: str, groups: tuple[str, ...],
     plt.close(fig)
 
 
+SERIES_SPLIT_BY = ("camera", "pad")  # axes that make series of their own in the success plots, where present
+
+
+def _series(rows: list[dict[str, Any]], groups: tuple[str, ...]) -> tuple[str, ...]:
+    """``groups`` and those of :data:`SERIES_SPLIT_BY` that the results have: the columns one series holds fixed."""
+    return groups + tuple(g for g in SERIES_SPLIT_BY if rows and g in rows[0])
+
+
 def write_plots(stats: list[CellStats], error_key: str | None, out: Path) -> tuple[list[Path], list[tuple[str, str]]]:
     """Every plot the results allow, into ``out``: their paths, and (name, why) of each plot left out."""
     out.mkdir(parents=True, exist_ok=True)
@@ -102,13 +112,14 @@ def write_plots(stats: list[CellStats], error_key: str | None, out: Path) -> tup
         skipped.append(("errors.png", "the results record no error figure of their kind"))
     if rows and "ugv_speed_m_s" in rows[0]:
         written.append(out / "success_vs_speed.png")
-        against_plot(rows, "ugv_speed_m_s", ("vehicle", "ugv_path", "wind"), written[-1], "UGV speed (m/s)")
+        groups = _series(rows, ("vehicle", "ugv_path", "wind"))
+        against_plot(rows, "ugv_speed_m_s", groups, written[-1], "UGV speed (m/s)")
     else:
         skipped.append(("success_vs_speed.png", "the results have no UGV speed axis (ugv_speed_m_s)"))
     wind = next((k for k in ("wind", "wind_m_s") if rows and k in rows[0]), None)
     if wind is not None:
         written.append(out / "success_vs_wind.png")
-        against_plot(rows, wind, ("vehicle",), written[-1], "wind" if wind == "wind" else "wind (m/s)")
+        against_plot(rows, wind, _series(rows, ("vehicle",)), written[-1], "wind" if wind == "wind" else "wind (m/s)")
     else:
         skipped.append(("success_vs_wind.png", "the results have no wind axis"))
     return written, skipped

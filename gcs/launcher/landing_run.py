@@ -44,6 +44,8 @@ from ..sim_client import SimClient
 from .sim_stepper import SimStepper, SimTimeout
 
 PATH_CODES = {"static": 0, "line": 1, "circle": 2, "figure8": 3, "random": 4}
+CAMERA_MOUNT_CODES = {"gimbal": 2, "fixed": 1}  # SIM_CAM_MOUNT: the 3-axis gimbal, the seed's body-fixed camera
+PAD_LAYOUT_CODES = {"nested": 0, "single": 1}  # SIM_PAD_LAYOUT: the nested pad, the seed's single marker
 PREP_ALT_M = 2.8  # PLD_PREP_ALT's default, [F 3]
 STAY_ON_DECK_S = 5.0
 ARRIVAL_RADIUS_M = 0.3
@@ -64,7 +66,9 @@ class LandingSetup:
 
     ``ugv_start``: the UGV's start pose (NED m from the multicopter's start point, yaw rad);
     ``meet_after_m``: how far along its path (m) the UGV passes under the meeting point;
-    ``meet_offset_m``: the meeting point's (north, east) offset from that point on the path (m).
+    ``meet_offset_m``: the meeting point's (north, east) offset from that point on the path (m);
+    ``camera``: ``"gimbal"`` or ``"fixed"`` (``SIM_CAM_MOUNT``; None: the vehicle file's ``[camera] mount``);
+    ``pad``: ``"nested"`` or ``"single"`` (``SIM_PAD_LAYOUT``; None: the simulator's default, nested).
     """
 
     vehicle: str = "quad_x"
@@ -77,6 +81,8 @@ class LandingSetup:
     meet_after_m: float = 3.0
     meet_offset_m: tuple[float, float] = (0.0, 0.0)
     mode: int = 2  # NAV_LAND param 2: 1 opportunistic, 2 required
+    camera: str | None = None
+    pad: str | None = None
     extra_sim_params: dict[str, float] = field(default_factory=dict)
     deterministic: bool = True  # start held and fly through holds: reproducible (see the module docstring)
 
@@ -99,6 +105,10 @@ class LandingSetup:
         }
         if self.deterministic:
             p["SIM_HOLD_MS"] = START_HOLD_MS
+        if self.camera is not None:
+            p["SIM_CAM_MOUNT"] = CAMERA_MOUNT_CODES[self.camera]
+        if self.pad is not None:
+            p["SIM_PAD_LAYOUT"] = PAD_LAYOUT_CODES[self.pad]
         if self.windy:
             p.update(WINDY)
         p.update(self.extra_sim_params)
