@@ -14,6 +14,7 @@ A simulator held at a simulated time (``SIM_HOLD_MS``, sitl/hold.py) says so wit
 from __future__ import annotations
 
 import queue
+import select
 import socket
 import threading
 import time
@@ -79,6 +80,7 @@ class SimClient:
         self._ugv_yaw = 0.0
         self._types: dict[str, int] = {}
         self.held_ms: int | None = None  # the latest "held at" report (SYSTEM_TIME), simulated ms
+        self._drained = 0  # how many times the reader found its socket empty after reading (caught_up)
         self._held = threading.Condition(self.lock)
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, name="sim-client", daemon=True)
@@ -86,6 +88,10 @@ class SimClient:
 
     def _run(self) -> None:
         while not self._stop.is_set():
+            if not select.select([self.sock], [], [], 0)[0]:  # nothing waiting: what has come is read
+                with self._held:
+                    self._drained += 1
+                    self._held.notify_all()
             try:
                 data, addr = self.sock.recvfrom(65536)
             except OSError:
@@ -173,6 +179,22 @@ class SimClient:
                     raise SimParamError(f"the simulator did not hold at t = {at_least_ms / 1000:g} s")
                 self._held.wait(remaining)
             return self.held_ms
+
+    def caught_up(self, timeout_s: float = 60.0) -> int:
+        """The latest truth time (simulated ms) once the reader has read everything that had arrived when this
+        was called.  On a loaded machine the reader can be seconds of simulated time behind what the simulator
+        sent (its socket holds them), so ``latest()`` is not "now": a wait of simulated time counted from it
+        could end before a command sent just now had any effect.  SimParamError after ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        with self._held:
+            seen = self._drained + 1  # (the next one may come from a look at the socket made before this call)
+            while self._drained <= seen:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise SimParamError("the truth reader did not catch up")
+                self._held.wait(remaining)
+        sample = self.latest()
+        return sample.time_ms if sample is not None else 0
 
     # -- parameters ----------------------------------------------------------------------
     def _send(self, msg) -> None:

@@ -138,8 +138,14 @@ def sim_ms(truth) -> int:
 
 
 async def sim_sleep(truth, seconds: float, timeout_s: float = 120.0) -> int:
-    """Wait ``seconds`` of simulated time (truth clock); the truth time at the end, ms."""
-    end = sim_ms(truth) + round(seconds * 1000)
+    """Wait ``seconds`` of simulated time (truth clock) from now; the truth time at the end, ms.  "Now" is the
+    truth once its reader has caught up (``SimClient.caught_up``): on a loaded machine its latest sample can be
+    seconds behind the vehicle, and a wait counted from it ended before a command just sent had any effect (a
+    flake hunt read a cruise speed of 0.006 m/s "8 s" into a 150 m leg)."""
+    import asyncio
+
+    start = await asyncio.get_running_loop().run_in_executor(None, truth.caught_up, timeout_s)
+    end = start + round(seconds * 1000)
 
     async def passed():
         return sim_ms(truth) >= end

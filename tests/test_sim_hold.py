@@ -157,3 +157,27 @@ def test_sim_link_watch_takes_held_heartbeats_for_alive_and_their_silence_for_lo
     assert not w.on_sensor(200_000, 14.0) and not w.held
     w.on_held(14.1)
     assert w.check(14.2, closed=True) and not w.held  # a closed link is lost, held or not
+
+
+def test_the_truth_reader_catches_up_before_a_wait_of_simulated_time_starts(free_instance):
+    """``SimClient.caught_up``: the latest truth once everything that had arrived is read, not the sample the
+    reader happened to be at (on a loaded machine seconds of simulated time behind: e2e_flight_helpers.sim_sleep
+    counts from it).  Truth queued in the socket while the reader is stopped, then one call: the last time."""
+    import socket
+
+    from mavsim_core import ports
+
+    port = ports.sim_component_port(free_instance())
+    with SimClient(port) as truth:
+        truth._stop.set()  # the reader stops after its current wait: the datagrams below queue in the socket
+        truth.thread.join(timeout=2)
+        mav = mavlink.MAVLink(None, 1, 51)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            for t_ms in range(0, 3000, 20):
+                packet = mavlink.MAVLink_local_position_ned_message(t_ms, 0, 0, -5, 0, 0, 0).pack(mav)
+                s.sendto(packet, ("127.0.0.1", port))
+        assert truth.latest() is None
+        truth._stop.clear()
+        truth.thread = threading.Thread(target=truth._run, daemon=True)
+        truth.thread.start()
+        assert truth.caught_up(timeout_s=10) == 2980
