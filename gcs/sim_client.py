@@ -196,6 +196,12 @@ class SimClient:
         sample = self.latest()
         return sample.time_ms if sample is not None else 0
 
+    def now(self, timeout_s: float = 60.0) -> TruthSample | None:
+        """The latest truth sample once the reader has caught up (:meth:`caught_up`): the state "now", after an
+        event a client saw (landed, disarmed), where ``latest()`` may still be from before it."""
+        self.caught_up(timeout_s)
+        return self.latest()
+
     # -- parameters ----------------------------------------------------------------------
     def _send(self, msg) -> None:
         if self.sim_addr is None:

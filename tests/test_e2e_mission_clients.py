@@ -77,7 +77,7 @@ def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
     assert float(listed[2].group(2)) == pytest.approx(latlon(12, 0)[0], abs=1e-7)
     for n, e in points:
         assert closest_approach(truth, start_ms, n, e) < 2.0, (n, e)
-    end = truth.latest().pos_ned_m
+    end = truth.now().pos_ned_m  # after the reader caught up: latest() may be from before the landing
     assert math.hypot(end[0] - 0, end[1] - 12) < 1.5 and abs(end[2]) < 0.5
 
 
@@ -122,7 +122,7 @@ def test_gcs_mission_plan_with_fence_and_rally_then_return_goes_to_the_rally_poi
     start_ms = truth.latest().time_ms
     vehicle.return_to_launch().check()
     vehicle.wait_until(lambda: not vehicle.armed(), 120, "landed after the return")
-    end = truth.latest().pos_ned_m
+    end = truth.now().pos_ned_m
     texts = [st.text for st in vehicle.statustexts[-15:]]
     assert math.hypot(end[0] - rally[0], end[1] - rally[1]) < 1.5, (end, texts)  # the rally point, not home
     assert closest_approach(truth, start_ms, 0, 0) > 10.0
