@@ -120,9 +120,11 @@ class GimbalDeviceLink:
         mav.seq = (mav.seq + 1) % 256
         return data
 
-    def earth_attitude(self, data, r_ned_frd: Rows) -> mavlink.MAVLink_message:
-        """The camera's true attitude (gimbal frame -> NED, from the joints and the airframe) as a
-        GIMBAL_DEVICE_ATTITUDE_STATUS in the earth frame: what the simulator's truth port reports."""
+    def earth_attitude(self, data, q_ned_frd) -> mavlink.MAVLink_message:
+        """The camera's true attitude (gimbal frame -> NED, from the joints and the airframe's attitude
+        ``q_ned_frd``, w x y z) as a GIMBAL_DEVICE_ATTITUDE_STATUS in the earth frame: what the truth port reports."""
+        m = quaternion.matrix_floats(*q_ned_frd)
+        r_ned_frd: Rows = (m[0:3], m[3:6], m[6:9])  # type: ignore[assignment]
         q = [float(x) for x in quaternion.from_matrix(np.array(camera_attitude(r_ned_frd, self.gimbal.joints(data))))]
         nan = math.nan
         flags = _EARTH_YAW | mavlink.GIMBAL_DEVICE_FLAGS_ROLL_LOCK | mavlink.GIMBAL_DEVICE_FLAGS_PITCH_LOCK

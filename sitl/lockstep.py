@@ -301,7 +301,7 @@ class LockstepServer:
         if ugv is not None:  # the ground vehicle, as its own component (UGV_COMPID)
             server.send(server.encode(ugv_truth_messages(ugv), compid=UGV_COMPID))
         if self.gimbal_link is not None:  # the camera's attitude from the joints, in the earth frame (tests' truth)
-            truth_q = self.gimbal_link.earth_attitude(self.sim.data, self.sim.sensor_truth().r_ned_frd)
+            truth_q = self.gimbal_link.earth_attitude(self.sim.data, q_ned_frd)
             server.send(server.encode([truth_q], compid=mavlink.MAV_COMP_ID_GIMBAL))
 
     def _on_manual_control(self, msg) -> None:

@@ -120,6 +120,11 @@ class Harness:
         self.m.control_step(now_us)
         self.m.update(now_us)
 
+    def gcs_points(self, pitch_deg: float, yaw_deg: float) -> int:
+        """The ground station takes control (CONFIGURE) and points the gimbal (PITCHYAW); the PITCHYAW's result."""
+        self.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, GCS[0], GCS[1], -1, -1)
+        return self.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, pitch_deg, yaw_deg)
+
     def command(self, cmd: int, *p: float, source=GCS) -> int:
         self.source = source
         params = tuple(list(p) + [NAN] * (7 - len(p)))
@@ -215,8 +220,7 @@ def test_point_along_for_the_precision_landing():
 def test_a_silent_device_is_lost_after_the_timeout_and_found_again_when_it_reports():
     h = Harness()
     h.report()
-    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
-    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -45, 30)
+    h.gcs_points(-45, 30)
     h.tick(0)
     n = len(h.device)
     h.tick(DEVICE_TIMEOUT_US)  # silent for exactly the timeout: still there

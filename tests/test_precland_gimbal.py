@@ -46,8 +46,7 @@ def test_landing_gimbal_request_table(enabled, phase, target, vehicle, expected)
 def test_the_manager_takes_over_for_the_landing_and_gives_control_and_setpoint_back():
     h = Harness()
     h.report()
-    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
-    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -30, 20)
+    h.gcs_points(-30, 20)
     h.tick(0)
     h.status = Status(request=ALONG)  # the landing starts
     h.tick(20_000)
@@ -89,8 +88,7 @@ def test_a_client_taking_control_during_the_landing_keeps_it():
     h.report()
     h.status = Status(request=ALONG)
     h.tick(0)
-    h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 245, 190, -1, -1)
-    assert h.command(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -10, 0) == mavlink.MAV_RESULT_ACCEPTED
+    assert h.gcs_points(-10, 0) == mavlink.MAV_RESULT_ACCEPTED
     h.tick(20_000)
     assert attitude_from_quaternion(h.device[-1].q, False).pitch_rad == pytest.approx(math.radians(-10))
     h.status = Status()
