@@ -104,7 +104,7 @@ def test_reposition_fields_while_hovering(vehicle):
     client.wait_until(lambda: client.takeoff_done(ALT_M), WAIT_S, "take-off")
     client.wait_until(lambda: client.mode_name() == "LOITER", WAIT_S, "holding")
     client.wait_sim_time(2.0)
-    hover = truth.latest().pos_ned_m
+    hover = truth.now().pos_ned_m
 
     lat, lon = latlon(hover[0] + 3.0, hover[1])
     alt = home.alt_amsl_m + ALT_M
@@ -127,7 +127,7 @@ def test_reposition_fields_while_hovering(vehicle):
     )
     assert result.result == DENIED, f"DO_REPOSITION (COMMAND_INT) altitude inf: {result.describe()}"
     client.wait_sim_time(3.0)
-    now = truth.latest().pos_ned_m
+    now = truth.now().pos_ned_m
     assert math.dist(now, hover) < HOVER_TOL_M, f"refused repositions moved the vehicle: {hover} -> {now}"
     assert client.armed() and client.mode_name() == "LOITER"
 
@@ -139,7 +139,7 @@ def test_reposition_fields_while_hovering(vehicle):
     assert result.result == ACCEPTED, result.describe()
     client.wait_until(lambda: client.arrived(hover[0] + 3.0, hover[1]), WAIT_S, "3 m north")
     client.wait_sim_time(2.0)
-    now = truth.latest().pos_ned_m
+    now = truth.now().pos_ned_m
     assert horizontal(now, (hover[0] + 3.0, hover[1])) < 0.5 and abs(-now[2] - (ALT_M + 1.0)) < 0.5, now
 
     command(client, mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, NAN, NAN, NAN, NAN).check()

@@ -74,7 +74,8 @@ def test_fuzzing_both_ports_while_hovering_changes_nothing(inst):
         client.wait_sim_time(2.0)
         before = param_values(client)
         real32 = [name for name, (_, kind) in before.items() if kind == mavlink.MAV_PARAM_TYPE_REAL32]
-        hover, start_ms = truth.latest().pos_ned_m, truth.latest().time_ms
+        start = truth.now()  # (caught up: latest() may be seconds of simulated time behind on a loaded machine)
+        hover, start_ms = start.pos_ned_m, start.time_ms
 
         fuzzer = Fuzzer(SEED, stack.sysid, real32)
         targets = [("127.0.0.1", ports.gcs_local_port(inst)), ("127.0.0.1", ports.api_local_port(inst))]
@@ -102,6 +103,7 @@ def test_fuzzing_both_ports_while_hovering_changes_nothing(inst):
             states = {
                 (m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED != 0, m.custom_mode) for m in rec.of("HEARTBEAT")
             }
+        truth.caught_up()  # the path up to now, not to where the reader had got
         path = truth.since(start_ms)
         worst = max(math.dist(s.pos_ned_m, hover) for s in path)
         after = param_values(client)

@@ -65,7 +65,7 @@ def sim_ms(truth) -> int:
 
 def sim_sleep(truth, seconds: float) -> int:
     """Wait ``seconds`` of simulated time; the truth time at the end, ms."""
-    end = sim_ms(truth) + round(seconds * 1000)
+    end = truth.caught_up() + round(seconds * 1000)  # from now, not from where the reader had got
     until(lambda: sim_ms(truth) >= end, f"{seconds:g} simulated seconds")
     return sim_ms(truth)
 
@@ -133,7 +133,7 @@ def test_a_stranger_cannot_stop_the_heartbeat_and_its_rates_stay_on_its_endpoint
 
     def attitudes_on_api(sim_s: float) -> int:
         api.settimeout(0.05)
-        n, end_ms = 0, sim_ms(truth) + round(sim_s * 1000)
+        n, end_ms = 0, truth.caught_up() + round(sim_s * 1000)
         api_parser = mavlink.MAVLink(None)
         api_parser.robust_parsing = True
         while sim_ms(truth) < end_ms:
@@ -148,9 +148,9 @@ def test_a_stranger_cannot_stop_the_heartbeat_and_its_rates_stay_on_its_endpoint
         assert stranger_command(mavlink.MAVLINK_MSG_ID_HEARTBEAT, -1) == mavlink.MAV_RESULT_DENIED
         assert stranger_command(mavlink.MAVLINK_MSG_ID_HEARTBEAT, 10_000_000) == mavlink.MAV_RESULT_DENIED
         assert stranger_command(mavlink.MAVLINK_MSG_ID_ATTITUDE, -1) == mavlink.MAV_RESULT_ACCEPTED  # its endpoint
-        beats_before, t0 = len(pilot.heartbeats), sim_ms(truth)
+        beats_before, t0 = len(pilot.heartbeats), truth.caught_up()
         on_api = attitudes_on_api(3.0)
-        seconds = (sim_ms(truth) - t0) / 1000
+        seconds = (truth.caught_up() - t0) / 1000
         assert len(pilot.heartbeats) - beats_before >= seconds - 1.5  # 1 Hz on, for the pilot on the same port
         assert on_api >= 15 * seconds  # ATTITUDE at its 20 Hz on the other endpoint
     finally:
@@ -164,7 +164,7 @@ def test_a_rate_gain_cannot_be_zeroed_in_flight(stack, truth, pilot):
     default = pilot.param_get("MC_ROLLRATE_P")
     assert default > 0.0  # the vehicle file's (design-gains)
     texts = len(pilot.texts)
-    t0 = sim_ms(truth)
+    t0 = truth.caught_up()
     assert pilot.param_set("MC_ROLLRATE_P", 0.0) == pytest.approx(default)  # refused: the old value echoed
     until(lambda: any("MC_ROLLRATE_P" in t and "refused" in t for t in pilot.texts[texts:]), "the refusal's STATUSTEXT")
     assert pilot.param_set("MC_ROLLRATE_P", default / 2) == pytest.approx(default / 2)  # the floor: accepted

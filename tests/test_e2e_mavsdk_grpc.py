@@ -92,10 +92,10 @@ def test_takeoff_and_land_as_the_upstream_example(stack, truth, inst):
         ground = truth.latest().pos_ned_m[2]  # NED: heights are up from here
         await drone.action.set_takeoff_altitude(ALT_M)
         await take_off(drone, truth, ALT_M - 0.3, 3.0)
-        heights.append(ground - truth.latest().pos_ned_m[2])
+        heights.append(ground - truth.now().pos_ned_m[2])
         await drone.action.land()
         await landed_and_disarmed(drone)
-        heights.append(ground - truth.latest().pos_ned_m[2])
+        heights.append(ground - truth.now().pos_ned_m[2])
 
     run(flight())
     stack.check_alive()
@@ -181,8 +181,8 @@ def test_mission_as_the_upstream_example_returns_home_and_lands(stack, truth, in
         t0_ms = truth.latest().time_ms  # the track from the simulator's truth at 50 Hz, whenever it was read
         await progress()
         await landed_and_disarmed(drone)
-        seen["track"] = [s.pos_ned_m[:2] for s in truth.since(t0_ms)]
         seen["end"] = truth.now().pos_ned_m  # after the reader caught up: latest() may be from before the landing
+        seen["track"] = [s.pos_ned_m[:2] for s in truth.since(t0_ms)]
 
     run(flight())
     stack.check_alive()
@@ -247,7 +247,7 @@ def test_goto_as_the_upstream_example(stack, truth, inst):
             break
         ground = truth.latest().pos_ned_m[2]
         await take_off(drone, truth, 2.0)
-        start = truth.latest().pos_ned_m
+        start = truth.now().pos_ned_m
         await drone.action.goto_location(*latlon(start[0] + 10.0, start[1]), absolute_altitude + ALT_M, 90.0)
 
         async def there():
@@ -347,7 +347,7 @@ def test_failure_injection_as_the_upstream_example_lands_on_losing_gps(stack, tr
         await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OK, 0)
         await landed_and_disarmed(drone)
         watcher.cancel()
-        seen["height"] = ground - truth.latest().pos_ned_m[2]
+        seen["height"] = ground - truth.now().pos_ned_m[2]
         await drone.param.set_param_int("SYS_FAILURE_EN", 0)
 
     run(flight())

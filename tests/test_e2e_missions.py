@@ -162,7 +162,7 @@ def test_mavsdk_raw_mission_with_do_jump_repeats_and_lands(stack, truth):
     # item 1 and 2 flown twice: 1, 2, (jump) 1, 2, 4, 5
     flown = [s for s in seen if s in (1, 2, 4, 5)]
     assert flown[:6] == [1, 2, 1, 2, 4, 5], seen
-    end = truth.latest()
+    end = truth.now()
     assert math.hypot(end.pos_ned_m[0] - 0, end.pos_ned_m[1] - 12) < 1.5
     assert abs(end.pos_ned_m[2]) < 0.5
 

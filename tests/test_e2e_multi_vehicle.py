@@ -96,7 +96,7 @@ def test_one_mavsdk_on_the_shared_port_flies_three_vehicles_and_gcs_lands_each(f
     seen = asyncio.run(_fly_all(fleet))
     assert seen == [ports.system_id(n) for n in numbers] == [n + 1 for n in numbers]
     for n, (_, truth) in fleet.items():
-        height = -truth.latest().pos_ned_m[2]
+        height = -truth.now().pos_ned_m[2]
         assert abs(height - heights[n]) < 0.5, (n, height)  # each at its own system's height
     # gcs on the same shared port, one vehicle at a time by its instance (system id 1+N)
     for k, n in enumerate(numbers):

@@ -158,7 +158,7 @@ def sim_sleep(truth: SimClient, seconds: float) -> None:
     while truth.latest() is None:
         assert time.monotonic() < deadline, "no truth from the simulator"
         time.sleep(0.01)
-    start = truth.latest().time_ms
+    start = truth.caught_up()  # from now, not from where the reader had got on a loaded machine
     while truth.latest().time_ms < start + seconds * 1000:
         assert time.monotonic() < deadline, f"{seconds} simulated seconds did not pass"
         time.sleep(0.01)
@@ -251,7 +251,7 @@ def test_a_silent_client_on_the_simulator_port_is_dropped(sim_restart_stack):
     try:
         truth.wait_connected(timeout_s=WAIT_S)
         stack.restart_autopilot()
-        start = truth.latest().time_ms
+        start = truth.caught_up()
         gcs.wait(lambda: truth.latest().time_ms > start + 2000, "the simulation to run on with the new FC")
         assert "dropped 127.0.0.1" in stack.tail("sitl", 200), stack.tail("sitl", 30)
         gcs.arm_when_ready()
