@@ -18,8 +18,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, cont2discrete
+from scipy.signal import cont2discrete
 
+from mavsim_core.butterworth import lowpass2
 from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.loop_design import LoopFilters, PidGains, RatePlant
 
@@ -88,7 +89,7 @@ def simulate_xy_step(
     b = np.zeros((5, 1))
     b[4, 0] = plant.effectiveness / tau
     ad, bd = _discrete(a, b, dt)
-    fb, fa = butter(2, filters.gyro_cutoff_hz, fs=filters.sample_hz)
+    fb, fa = lowpass2(filters.gyro_cutoff_hz, filters.sample_hz)
     a_d = dt / (dt + 1.0 / (2 * math.pi * filters.d_cutoff_hz))
     delay = [0.0] * max(round(plant.delay_s / dt), 0)
     every = round(filters.sample_hz / 50.0)

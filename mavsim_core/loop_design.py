@@ -37,7 +37,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, cont2discrete
+
+from mavsim_core.butterworth import lowpass2
 
 MIN_GAIN_MARGIN_DB = 6.0  # a design never goes below this gain margin
 RATE_ZETAS = (0.5, 0.7, 0.85, 1.0, 1.2, 1.4, 1.7, 2.0)  # dampings of the placed pair the design tries
@@ -98,6 +99,8 @@ def plant_response(plant: RatePlant, f_hz: np.ndarray, sample_hz: float) -> np.n
     tau = max(plant.motor_tau_s, 1e-6)
     a = np.array([[0.0, 1.0], [0.0, -1.0 / tau]])  # x = (rate, angular acceleration delivered)
     b = np.array([[0.0], [plant.effectiveness / tau]])
+    from scipy.signal import cont2discrete  # (here: importing scipy.signal costs every process 0.8 CPU s)
+
     ad, bd, cd, _, _ = cont2discrete((a, b, np.array([[1.0, 0.0]]), np.zeros((1, 1))), 1.0 / sample_hz, "zoh")
     z = _z(f_hz, sample_hz)
     # C (zI - A)^-1 B for a 2x2 A, written out: adj(zI - A) / det(zI - A).
@@ -111,7 +114,7 @@ def lowpass2_response(cutoff_hz: float, f_hz: np.ndarray, sample_hz: float) -> n
     """The gyro filter's response: scipy's 2nd-order Butterworth at ``sample_hz`` (1 when it is off)."""
     if cutoff_hz <= 0.0 or cutoff_hz >= 0.45 * sample_hz:
         return np.ones_like(f_hz, dtype=complex)
-    bb, aa = butter(2, cutoff_hz, fs=sample_hz)
+    bb, aa = lowpass2(cutoff_hz, sample_hz)
     zi = 1.0 / _z(f_hz, sample_hz)
     return (bb[0] + bb[1] * zi + bb[2] * zi**2) / (aa[0] + aa[1] * zi + aa[2] * zi**2)
 

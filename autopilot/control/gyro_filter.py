@@ -8,7 +8,7 @@ lag is also what a rate gain that is too high turns into a growing oscillation, 
 a real vehicle: without it the rate loop here is the motors' first-order lag alone
 and stays stable far beyond any sensible gain.
 
-The filter is designed with scipy (``scipy.signal.butter``) for the 250 Hz control
+The filter is designed as ``scipy.signal.butter`` designs it (mavsim_core/butterworth.py) for the 250 Hz control
 rate and run per axis on Python floats (three axes: cheaper than numpy calls).
 The estimators use the unfiltered gyro; only the rate controller sees this output.
 Rates in rad/s, FRD.
@@ -21,8 +21,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter
 
+from mavsim_core.butterworth import lowpass2
 from mavsim_core.constants import LOCKSTEP_DT_S
 
 CONTROL_RATE_HZ = 1.0 / LOCKSTEP_DT_S  # 250 Hz: one sample per lockstep period
@@ -53,7 +53,7 @@ class GyroFilter:
         self._coef: tuple[float, float, float, float, float] | None = None
         if cutoff_hz <= 0.0 or cutoff_hz >= 0.45 * self.fs:
             return
-        b, a = butter(2, cutoff_hz, fs=self.fs)
+        b, a = lowpass2(cutoff_hz, self.fs)
         self._coef = (float(b[0]), float(b[1]), float(b[2]), float(a[1]), float(a[2]))
 
     def apply(self, rate: np.ndarray | Sequence[float]) -> list[float]:

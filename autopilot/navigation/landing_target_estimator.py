@@ -17,12 +17,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 from autopilot.parameters import ParamDef, ParamType, param
 from autopilot.topics import LandingTargetEstimate, LandingTargetMeasurement
+
+if TYPE_CHECKING:
+    from filterpy.kalman import KalmanFilter
 
 CHI2_GATE_1DOF = 6.63  # 99 % of a chi-square with 1 degree of freedom
 # (ours) The filter restarts on the measurement after this many consecutive gate refusals: a model gone wrong
@@ -70,6 +73,10 @@ class LandingTargetSettings:
 
 
 def _axis_filter(pos: float, vel: float, s: LandingTargetSettings) -> KalmanFilter:
+    # filterpy is imported with the first target seen: its package imports scipy.stats, 0.7 s of CPU that
+    # every flight controller paid at start-up though most flights never see a landing target.
+    from filterpy.kalman import KalmanFilter
+
     kf = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
     kf.x = np.array([[pos], [vel]])
     kf.P = np.diag([s.pos_unc_in, s.vel_unc_in])
