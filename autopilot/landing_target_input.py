@@ -15,8 +15,10 @@ calls :meth:`record_state` every control step and :meth:`update` in its 50 Hz ou
   (``events``), never once per message.
 - The measurement, as old as its capture time, is moved on to now with the estimated relative
   velocity, then fused by the Kalman filter (:mod:`autopilot.navigation.landing_target_estimator`,
-  ``LTEST_*``), or, with ``PLD_PREDICTOR`` = 1, the target's track feeds the document's 4th-order
-  polynomial predictor (:mod:`autopilot.navigation.target_predictor`, [F 3]).
+  ``LTEST_*``), or, with ``PLD_DECK_MDL`` = 1 (the default), each fix, as the deck's position at its capture
+  time, feeds the turning-deck filter (:mod:`autopilot.navigation.deck_turn_filter`), whose deck is predicted to
+  now; with ``PLD_PREDICTOR`` = 1 the target's track feeds the document's 4th-order polynomial predictor
+  (:mod:`autopilot.navigation.target_predictor`, [F 3]).
 
 Frames: NED metres and m/s relative to the estimator origin; attitude (w, x, y, z) FRD -> NED.
 """
@@ -31,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from autopilot.mavlink.landing_target import LandingTargetRefusal, decode_landing_target
+from autopilot.navigation.deck_turn_filter import DeckTurnFilter
 from autopilot.navigation.landing_target_estimator import LandingTargetEstimator, LandingTargetSettings
 from autopilot.navigation.precland import LandingTargetInput as TargetForTask
 from autopilot.navigation.target_predictor import PolynomialTargetPredictor
@@ -47,7 +50,13 @@ PARAMS: tuple[ParamDef, ...] = (
         "Landing target predictor: 0 Kalman filter (LTEST_*), 1 4th-order polynomial of the track [F 3] (ours)",
         ParamType.INT32,
     ),
-)
+    param(
+        "PLD_DECK_MDL", 1, 0, 1, "",
+        "Landing deck model (Kalman predictor): 0 constant velocity relative to the vehicle (LTEST_*, PX4's), "
+        "1 a deck that turns (constant speed and turn rate, deck_turn_filter; ours)",
+        ParamType.INT32,
+    ),
+)  # fmt: skip
 
 HISTORY_US = 1_000_000  # attitude/position history kept for delayed measurements
 ACC_TAU_S = 0.3  # low-pass time constant of the target's acceleration (differenced velocity estimate)
@@ -61,6 +70,9 @@ class LandingTargetInput:
         self.own_sysid = own_sysid
         self.estimator = LandingTargetEstimator(LandingTargetSettings.from_params(params.get))
         self.predictor = PolynomialTargetPredictor()
+        self.deck = DeckTurnFilter()  # PLD_DECK_MDL 1: the deck's absolute motion, turning
+        self._deck_down_m: float | None = None  # the deck's latest measured down coordinate (m NED)
+        self._reset_count: int | None = None  # the estimator's position resets seen (the deck is moved with them)
         self._t: deque[int] = deque()
         self._state: deque[tuple[np.ndarray, np.ndarray, float]] = deque()  # q, position, height above ground
         self._pending: list[LandingTargetMeasurement] = []
@@ -124,7 +136,10 @@ class LandingTargetInput:
         self.estimator.set_settings(LandingTargetSettings.from_params(self.params.get))
         self.estimator.predict(now_us, est.accel_ned_m_s2)
         fresh = False
-        for meas in self._pending:
+        turning = int(self.params.get("PLD_DECK_MDL")) == 1
+        if turning:
+            fresh = self._fuse_deck(est)
+        for meas in [] if turning else self._pending:
             rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
             self.predictor.add_sample(meas.timestamp_us, rel + self._state_at(meas.timestamp_us)[1])
             # As old as its capture: the target where it was then (from the vehicle's position then),
@@ -140,18 +155,61 @@ class LandingTargetInput:
                 fresh = True
         self._pending.clear()
         e = self.estimator.estimate(now_us, est.vel_ned_m_s)
+        if turning:
+            e = self._deck_estimate(now_us, est)
         if int(self.params.get("PLD_PREDICTOR")) == 1:
             poly = self.predictor.predict(now_us, 0.0, est.pos_ned_m, est.vel_ned_m_s)
             e = poly if poly.valid else e  # the fit needs 100 samples first; the filter until then
         self.estimate = e
-        self._track_acceleration(now_us, e)
+        if turning:
+            deck = self.deck.state_at(now_us)
+            self.target_acc_ned_m_s2 = np.zeros(3) if deck is None else np.array([*deck.acc_ne_m_s2, 0.0])
+        else:
+            self._track_acceleration(now_us, e)
         if e is not None and e.valid and int(self.params.get("PLD_PREDICTOR")) == 1 and e.is_static is False:
             if e.rel_pos_var_m2 is not None and len(self.predictor._t_us) >= self.predictor.min_samples:
                 self.target_acc_ned_m_s2 = self.predictor.last_acc_ned_m_s2.copy()
         if not fresh or not e.valid or e.target_vel_ned_m_s is None:
             return None  # no new measurement: the task predicts the target on by itself
         # Stamped now: the estimate is already moved on to now (the task must not move it again).
-        return TargetForTask(now_us, e.rel_pos_ned_m, e.target_vel_ned_m_s, True, self.target_acc_ned_m_s2.copy())
+        deck = self.deck.state_at(now_us) if turning else None
+        return TargetForTask(
+            now_us, e.rel_pos_ned_m, e.target_vel_ned_m_s, True, self.target_acc_ned_m_s2.copy(),
+            None if deck is None else deck.turn_rad_s,
+        )  # fmt: skip
+
+    def _fuse_deck(self, est: VehicleEstimate) -> bool:
+        """PLD_DECK_MDL 1: each pending fix as the deck's absolute position at its capture time into the turn filter
+        (its variance from LTEST_MEAS_UNC by the range, as the constant-velocity filter's); True if one was taken."""
+        if self._reset_count is not None and est.reset_count != self._reset_count and est.reset_delta_ned_m is not None:
+            self.deck.shift(est.reset_delta_ned_m)
+            if self._deck_down_m is not None:
+                self._deck_down_m += float(est.reset_delta_ned_m[2])
+        self._reset_count = est.reset_count
+        taken = False
+        unc = float(self.params.get("LTEST_MEAS_UNC"))
+        for meas in self._pending:
+            rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
+            deck = rel + self._state_at(meas.timestamp_us)[1]
+            self.predictor.add_sample(meas.timestamp_us, deck)
+            var = meas.std_m**2 if math.isfinite(meas.std_m) else unc * max(float(rel[2]) ** 2, 1.0)
+            if meas.valid and self.deck.update(meas.timestamp_us, deck[:2], var):
+                taken = True
+                self.accepted += 1
+                self._deck_down_m = float(deck[2])
+        return taken
+
+    def _deck_estimate(self, now_us: int, est: VehicleEstimate) -> LandingTargetEstimate:
+        """The turn filter's deck, predicted to now, as the landing target's estimate relative to the vehicle."""
+        deck = self.deck.state_at(now_us)
+        if deck is None or self._deck_down_m is None:
+            zero = np.zeros(3)
+            return LandingTargetEstimate(now_us, zero, zero.copy(), False)
+        pos = np.array([*deck.pos_ne_m, self._deck_down_m])
+        vel = np.array([*deck.vel_ne_m_s, 0.0])
+        rel_vel = vel - np.asarray(est.vel_ned_m_s, dtype=float)
+        rel_vel[2] = 0.0
+        return LandingTargetEstimate(now_us, pos - est.pos_ned_m, rel_vel, True, False, vel, deck.pos_var_m2)
 
     def _track_acceleration(self, now_us: int, e: LandingTargetEstimate) -> None:
         """The target's acceleration: its velocity estimate differenced and low-passed (ACC_TAU_S)."""

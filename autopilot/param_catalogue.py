@@ -32,6 +32,7 @@ from autopilot.navigation import (
     precland_gimbal,
     rtl,
     takeoff,
+    view_limited_catchup,
 )
 from autopilot.parameters import FLIGHT_FLOORS, RULES, ParamDef, ParameterStore, definitions
 from autopilot.tuning import autotune
@@ -61,6 +62,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     offboard.PARAMS,
     precland.PARAMS,
     precland_gimbal.PARAMS,
+    view_limited_catchup.PARAMS,
     orbit.PARAMS,
     follow_target.PARAMS,
     landing_target_estimator.PARAMS,

@@ -117,3 +117,28 @@ def test_a_swinging_vehicle_over_a_still_target_leaks_no_tilt_into_the_estimate(
             if t > 2.0:
                 errors.append(lt.estimate.rel_pos_ned_m[:2] + pos[:2])
     assert len(errors) > 150 and float(np.abs(errors).max()) < 0.005
+
+
+@pytest.mark.parametrize("model, within_m", [(1, 0.15), (0, None)])
+def test_a_deck_on_a_2m_circle_at_2m_s_is_followed_by_the_turning_deck_model(model, within_m):
+    """LANDING_TARGET at 20 Hz, 50 ms late, of a deck on a 2 m circle at 2 m/s below a vehicle hovering 3 m up:
+    with PLD_DECK_MDL 1 (the default) the deck's velocity points along the circle (within 0.15 m/s) and its turn
+    rate reaches the task; PLD_DECK_MDL 0 (the constant-velocity Kalman) lags the turn by more than 0.3 m/s."""
+    params = default_store()
+    params.set("PLD_DECK_MDL", model)
+    lt = LandingTargetInput(params)
+    target = None
+    for t in range(0, 4_000_001, 20_000):
+        lt.record_state(t, np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, -3.0]), 3.0)
+        if t % 50_000 == 0 and t >= 50_000:
+            a = (t - 50_000) * 1e-6  # captured 50 ms ago: 1 rad/s clockwise about (0, 2)
+            lt.on_message(_body_msg(2.0 * math.sin(a), 2.0 * (1.0 - math.cos(a)), 3.0, t - 50_000), 1, t)
+        target = lt.update(t, _estimate(t)) or target
+    assert target is not None and target.timestamp_us == 4_000_000
+    truth = np.array([2.0 * math.cos(4.0), 2.0 * math.sin(4.0)])
+    err = float(np.linalg.norm(target.vel_ned_m_s[:2] - truth))
+    if within_m is not None:
+        assert err < within_m
+        assert target.turn_rad_s == pytest.approx(1.0, abs=0.1)
+    else:
+        assert err > 0.3 and target.turn_rad_s is None

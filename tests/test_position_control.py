@@ -80,3 +80,24 @@ def test_a_setpoints_band_keeps_a_chase_out_of_the_horizontal_integrator(params,
     assert chase_unbanded[0] > 0.0
     steady = integrated((0.0, 0.5 * band, 0.0), band)
     assert steady[0] == 0.0 and steady[1] > 0.0
+
+
+def test_a_setpoints_axis_cone_shortens_the_horizontal_thrust_and_holds_the_integrator(params, quad):
+    """A chase 1 m above a deck 0.4 m north, with a body-fixed camera's cone (36.85 - 8 deg around the line of sight,
+    view_limited_catchup): the position controller tilts north no more than the cone allows (7 deg, not 35), keeps
+    the vertical thrust, and reports the horizontal axes saturated (their integrators held)."""
+    from autopilot.control.thrust_cone import AxisCone
+
+    pc = make_position_control(params, quad)
+    cone = AxisCone((0.4, 0.0, 1.0), math.radians(36.85 - 8.0))
+    sp = PositionSetpoint(np.array([20.0, 0.0, -5.0]), np.zeros(3), 0.0, axis_cone=cone)
+    out = pc.control(np.array([0.0, 0.0, -5.0]), np.zeros(3), sp, 0.02)
+    t = out.thrust_ned_n
+    tilt = math.degrees(math.atan2(math.hypot(t[0], t[1]), -t[2]))
+    assert tilt == pytest.approx(36.85 - 8.0 - math.degrees(math.atan(0.4)), abs=0.1)
+    assert t[0] > 0.0 and out.saturated[:2] == (True, True)
+    free = make_position_control(params, quad).control(
+        np.array([0.0, 0.0, -5.0]), np.zeros(3), PositionSetpoint(sp.pos_ned_m, np.zeros(3), 0.0), 0.02
+    )
+    assert t[2] == pytest.approx(free.thrust_ned_n[2])  # the vertical thrust kept
+    assert math.degrees(math.atan2(math.hypot(*free.thrust_ned_n[:2]), -free.thrust_ned_n[2])) > 30.0

@@ -37,6 +37,10 @@ DOWN = GimbalRequest(GimbalAim.DOWN)
         (True, P.FALLBACK, DECK, HERE, DOWN),
         (True, P.DONE, DECK, HERE, NO_GIMBAL_REQUEST),  # docked, motors cut: given back
         (False, P.TRACKING, DECK, HERE, NO_GIMBAL_REQUEST),  # PLD_GIMB_POINT 0
+        # near straight down (issue 34 item 5): 0.37 m off at 1 m up (20 deg) is looked at straight down, so the
+        # camera's yaw does not chase the bearing round to its joint's stop; 0.6 m off (31 deg) along the line
+        (True, P.APPROACHING, np.array([-0.27, -0.26, 1.0]), np.zeros(3), DOWN),
+        (True, P.DOCKING, np.array([0.0, -0.6, 1.0]), np.zeros(3), GimbalRequest(GimbalAim.ALONG, (0.0, -0.6, 1.0))),
     ],
 )
 def test_landing_gimbal_request_table(enabled, phase, target, vehicle, expected):

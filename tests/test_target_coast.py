@@ -66,3 +66,19 @@ def test_a_slow_deck_moves_on_straight_whatever_the_rate():
     np.testing.assert_allclose(pos, np.ones(3) + fast)
     np.testing.assert_allclose(v, fast)
     assert coast(np.ones(3), fast, np.zeros(3), 0.0, 0.5)[0].tolist() == [1.0, 1.0, 1.0]
+
+
+def test_a_deck_models_turn_rate_is_used_instead_of_the_headings_within_the_dead_bands():
+    """PLD_DECK_MDL 1 hands the turn filter's rate on: used at once (no window of headings to wait for), still
+    zero inside the dead bands and held to MAX_TURN_RATE_RAD_S."""
+    from autopilot.navigation.target_coast import MAX_TURN_RATE_RAD_S
+
+    turn = TurnRate()
+    turn.add(0, np.array([2.0, 0.0, 0.0]), 1.0)
+    assert turn.rate() == 1.0
+    turn.add(50_000, np.array([2.0, 0.0, 0.0]), 0.05)  # 0.1 m/s^2 across a straight drive: its weave
+    assert turn.rate() == 0.0
+    turn.add(100_000, np.array([2.0, 0.0, 0.0]), -5.0)
+    assert turn.rate() == -MAX_TURN_RATE_RAD_S
+    turn.add(150_000, np.array([0.1, 0.0, 0.0]), 1.0)  # too slow to turn
+    assert turn.rate() == 0.0

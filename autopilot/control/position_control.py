@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.control.thrust_cone import AxisCone, horizontal_share
 from mavsim_core.constants import GRAVITY_M_S2
 from mavsim_core.floats import floats3
 
@@ -63,13 +64,16 @@ class PositionSetpoint:
 
     ``int_band_m_s``: the horizontal velocity integrator learns only while the horizontal velocity
     error is under this (m/s; inf, the default: always).  A chase of a moving target sets it, so that
-    the chase's transient is not stored and given back later as a slow lag behind the target."""
+    the chase's transient is not stored and given back later as a slow lag behind the target.
+    ``axis_cone``: the vehicle's down axis kept inside this cone by shortening the horizontal thrust (after the
+    tilt limit; :mod:`autopilot.control.thrust_cone`), e.g. so that a camera keeps the landing target in view."""
 
     pos_ned_m: np.ndarray
     vel_ned_m_s: np.ndarray
     yaw_rad: float
     acc_ned_m_s2: np.ndarray | None = None
     int_band_m_s: float = math.inf
+    axis_cone: AxisCone | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,6 +177,9 @@ class PositionControl:
             acc_sp = [a - d for a, d in zip(acc_sp, floats3(disturbance_ned_m_s2))]
 
         thrust, sat = self._thrust(acc_sp, vel_err)
+        if sp.axis_cone is not None and (k := horizontal_share((thrust[0], thrust[1], thrust[2]), sp.axis_cone)) < 1.0:
+            thrust[0], thrust[1] = thrust[0] * k, thrust[1] * k
+            sat[0] = sat[1] = True
         self._integrate(vel_err, acc_sp, sat, dt, sp.int_band_m_s)
         self.acc_sp = np.array(acc_sp)
         self.output = out = PositionControlOutput(

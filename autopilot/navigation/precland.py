@@ -4,7 +4,8 @@ Phases (:class:`PrecLandPhase`): PREPARATION hovers PLD_PREP_ALT (2.8 m, [F 3]) 
 ground until the target is seen; TRACKING flies the cubic spline of [F eq. 3.1] to the point
 PLD_TRK_ALT (1 m) above the target in td = horizontal error / PLD_TRK_SPD (1 m/s), re-planned
 each step on the target's latest position, plus the target's velocity (and, over a moving deck,
-its acceleration) as feed-forward;
+its acceleration) as feed-forward, the chase's tilt held where the camera still sees the target
+(:mod:`autopilot.navigation.view_limited_catchup`, PLD_VIEW_LIM);
 APPROACHING holds the point above the target until the horizontal error stays below
 PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S (and DOCKING returns to it when the error exceeds
 PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck (its acceleration within
@@ -31,6 +32,7 @@ from autopilot.navigation.cubic_spline import CubicSpline, duration_s
 from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.land import LandTask
 from autopilot.navigation.target_coast import TurnRate, coast
+from autopilot.navigation.view_limited_catchup import ViewLimits, view_cone
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import VehicleEstimate
 
@@ -102,6 +104,7 @@ class LandingTargetInput:
     vel_ned_m_s: np.ndarray
     valid: bool = True
     acc_ned_m_s2: np.ndarray | None = None  # the target's acceleration over the ground (a turning UGV)
+    turn_rad_s: float | None = None  # its turn rate (rad/s, clockwise from above) if the deck model has one
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,6 +162,7 @@ class PrecLandTask:
         self._tgt_acc = np.zeros(3)  # fed forward while tracking, approaching and docking
         self._dock_end_m = DOCK_HOVER_M  # the feet's height over the deck where the docking spline ends
         self._turn = TurnRate()  # the target's turn rate from its measured headings
+        self._view = ViewLimits.from_store(params)  # the chase keeps the marker in the camera's view
         self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
         self._fallback: LandTask | None = None
         self._last_us: int | None = None  # time of the previous update
@@ -230,7 +234,7 @@ class PrecLandTask:
                 acc = t.acc_ned_m_s2
                 acc = np.asarray(acc, float) if acc is not None and np.all(np.isfinite(acc)) else np.zeros(3)
                 age_s = (now_us - t.timestamp_us) * 1e-6
-                self._turn.add(t.timestamp_us, vel)
+                self._turn.add(t.timestamp_us, vel, t.turn_rad_s)
                 turn = self._turn.rate()
                 self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
                     est.pos_ned_m + rel, vel, acc, age_s, turn, _moving(vel)
@@ -363,12 +367,12 @@ class PrecLandTask:
         base = self._above_target(self.cfg.trk_alt_m)
         vel = self._tgt_vel.copy()
         acc = self._tgt_acc * _moving(self._tgt_vel)
-        band = CHASE_INT_BAND_M_S
+        band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc, band)
+            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc, band, cone)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(base, vel, self.yaw_rad, acc, band)
+            return PositionSetpoint(base, vel, self.yaw_rad, acc, band, cone)
         # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
         deck = self._above_target(
             self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M)
@@ -377,7 +381,8 @@ class PrecLandTask:
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
-            return PositionSetpoint(pos, vel + float(p.vel[0]) * down, self.yaw_rad, acc + float(p.acc[0]) * down, band)
+            v_sp, a_sp = vel + float(p.vel[0]) * down, acc + float(p.acc[0]) * down
+            return PositionSetpoint(pos, v_sp, self.yaw_rad, a_sp, band, cone)
         return PositionSetpoint(deck, vel, self.yaw_rad, None, band)  # DONE: the deck (motors are off)
 
 

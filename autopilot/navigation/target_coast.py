@@ -19,7 +19,7 @@ from collections import deque
 import numpy as np
 
 TURNING_FROM_M_S = 0.5  # slower than this over the ground: moved on straight
-MAX_TURN_RATE_RAD_S = 1.0  # a turn rate is held to this
+MAX_TURN_RATE_RAD_S = 1.5  # a turn rate is held to this (a 2 m circle at 2 m/s turns at 1 rad/s)
 TURN_WINDOW_S = 1.0  # the turn rate is the heading's change over this long
 TURN_DEAD_BAND_RAD_S = 0.2  # a slower turn is taken for a straight drive's weave and noise ...
 TURN_DEAD_BAND_M_S2 = 0.25  # ... and so is one whose acceleration across the track (rate x speed) is smaller
@@ -33,9 +33,13 @@ class TurnRate:
     def __init__(self) -> None:
         self._headings: deque[tuple[int, float]] = deque()  # (time us, unwrapped heading rad)
         self._speed = 0.0  # the latest measured speed over the ground, m/s
+        self._model_rad_s: float | None = None  # the deck model's own turn rate, when it has one
 
-    def add(self, t_us: int, vel_ned_m_s: np.ndarray) -> None:
-        """A measured velocity (m/s NED) at ``t_us``; a slow one (below TURNING_FROM_M_S) forgets the headings."""
+    def add(self, t_us: int, vel_ned_m_s: np.ndarray, model_rad_s: float | None = None) -> None:
+        """A measured velocity (m/s NED) at ``t_us``; a slow one (below TURNING_FROM_M_S) forgets the headings.
+        ``model_rad_s``: the turn rate of a deck model that estimates it (deck_turn_filter), used instead of the
+        headings' (still within the dead bands and MAX_TURN_RATE_RAD_S)."""
+        self._model_rad_s = model_rad_s if model_rad_s is not None and math.isfinite(model_rad_s) else None
         vx, vy = float(vel_ned_m_s[0]), float(vel_ned_m_s[1])
         if vx * vx + vy * vy < TURNING_FROM_M_S * TURNING_FROM_M_S or not (math.isfinite(vx) and math.isfinite(vy)):
             self._headings.clear()
@@ -54,13 +58,16 @@ class TurnRate:
         """The turn rate over the window (0 without half a window of headings, or inside the dead bands: a
         straight drive's heading noise and weave, extrapolated over 1.5 s blind at 3 m/s, put a landing 1-2 cm
         further off in the benchmark; a 2 m circle at 1 m/s turns at 0.5 rad/s, 0.5 m/s^2)."""
-        if len(self._headings) < 2:
+        if self._model_rad_s is not None and self._headings:
+            w = self._model_rad_s
+        elif len(self._headings) < 2:
             return 0.0
-        (t0, h0), (t1, h1) = self._headings[0], self._headings[-1]
-        span_s = (t1 - t0) * 1e-6
-        if span_s < 0.5 * TURN_WINDOW_S:
-            return 0.0
-        w = (h1 - h0) / span_s
+        else:
+            (t0, h0), (t1, h1) = self._headings[0], self._headings[-1]
+            span_s = (t1 - t0) * 1e-6
+            if span_s < 0.5 * TURN_WINDOW_S:
+                return 0.0
+            w = (h1 - h0) / span_s
         if abs(w) < TURN_DEAD_BAND_RAD_S or abs(w) * self._speed < TURN_DEAD_BAND_M_S2:
             return 0.0
         return max(-MAX_TURN_RATE_RAD_S, min(MAX_TURN_RATE_RAD_S, w))

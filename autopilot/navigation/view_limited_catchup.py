@@ -1,0 +1,72 @@
+"""How hard a precision landing may chase the deck: as hard as keeps the marker in the camera's view, not a fixed
+tilt cap (issue 34 item 5).
+
+Chasing a deck ahead, the vehicle tilts toward it and its down axis swings away from it: a body-fixed camera (PX4's
+and [F]'s) looks past the marker once the tilt plus the marker's angle off straight down exceeds the half field of
+view; a gimbal takes the tilt out up to its joints' reach, then the same happens.  :func:`view_cone` gives the cone
+the vehicle's down axis must stay in (around the line of sight to the target estimate, half-angle = the gimbal's
+reach + the camera's half field of view - a margin), which the position controller enforces by shortening the
+horizontal thrust (:mod:`autopilot.control.thrust_cone`); inside MPC_TILTMAX_AIR, which stays the airframe's limit.
+
+Frames and units: NED metres; the parameters in degrees, radians inside.  Pure.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from autopilot.control.thrust_cone import AxisCone
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
+
+PARAMS: tuple[ParamDef, ...] = (
+    param(
+        "PLD_VIEW_LIM", 1, 0, 1, "",
+        "Precision landing limits its chase to keep the marker in the camera's view: 1 on, 0 only MPC_TILTMAX_AIR",
+        ParamType.INT32,
+    ),
+    param("PLD_CAM_FOV", 73.7, 10.0, 170.0, "deg", "Landing camera's narrower field of view (full angle)"),
+    param(
+        "PLD_CAM_REACH", 45.0, 0.0, 90.0, "deg",
+        "How far the camera gimbal turns the camera from the body's down axis in any direction (its roll range); "
+        "0: a body-fixed downward camera",
+    ),
+    param("PLD_VIEW_MARG", 8.0, 0.0, 45.0, "deg", "The marker kept this far inside the edge of the view"),
+)  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class ViewLimits:
+    """The PARAMS' values (radians; ``enabled`` False: no cone)."""
+
+    enabled: bool = True
+    half_fov_rad: float = math.radians(73.7 / 2.0)
+    reach_rad: float = math.radians(45.0)
+    margin_rad: float = math.radians(8.0)
+
+    @staticmethod
+    def from_store(store: ParameterStore) -> ViewLimits:
+        return ViewLimits(
+            bool(int(store.get("PLD_VIEW_LIM"))),
+            math.radians(store.get("PLD_CAM_FOV") / 2.0),
+            math.radians(store.get("PLD_CAM_REACH")),
+            math.radians(store.get("PLD_VIEW_MARG")),
+        )
+
+    @property
+    def half_angle_rad(self) -> float:
+        """How far the down axis may be from the line of sight with the marker still in view (rad)."""
+        return self.reach_rad + self.half_fov_rad - self.margin_rad
+
+
+def view_cone(rel_target_ned_m: np.ndarray | None, limits: ViewLimits) -> AxisCone | None:
+    """The cone for the vehicle's down axis that keeps a target at ``rel_target_ned_m`` (target minus vehicle, NED m)
+    in view; None when off, without a target, or with the target not below the vehicle."""
+    if not limits.enabled or rel_target_ned_m is None:
+        return None
+    n, e, d = (float(c) for c in rel_target_ned_m)
+    if not (math.isfinite(n) and math.isfinite(e) and math.isfinite(d)) or d <= 0.0:
+        return None
+    return AxisCone((n, e, d), limits.half_angle_rad)
