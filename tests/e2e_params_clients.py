@@ -20,11 +20,11 @@ WAIT_S = 30.0  # wall seconds before giving up on one exchange (a busy 2-core ma
 
 
 async def mavsdk_params(port: int) -> dict:
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.param import ParamAsync
+    from mavsdk_session import ground_station
 
     seen = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
         system = await sdk.first_autopilot(timeout_s=WAIT_S)
         assert system is not None, "MAVSDK found no autopilot"

@@ -25,15 +25,15 @@ truth, stack = truth_and_stack_fixtures()
 
 
 async def _mavsdk_gps_loss(stack: Stack, truth: SimClient) -> dict:
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action import ActionAsync
     from mavsdk.asyncio.plugins.failure import FailureAsync, FailureError, FailureResult, FailureType, FailureUnit
     from mavsdk.asyncio.plugins.param import ParamAsync
     from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
     from mavsdk.plugins.telemetry import FlightMode
+    from mavsdk_session import ground_station
 
     out: dict = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"

@@ -42,12 +42,12 @@ import time
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.follow_me import Config, FollowMeAsync, TargetLocation  # noqa: E402
 from mavsdk.asyncio.plugins.param import ParamAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 from gcs.launcher import Stack  # noqa: E402
 from gcs.sim_client import SimClient  # noqa: E402
@@ -147,7 +147,7 @@ async def _drive_target(fm, truth) -> tuple[int, tuple[float, float]]:
 
 async def _mavsdk_flight(stack, truth) -> dict:
     out: dict = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"

@@ -23,10 +23,10 @@ import math
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.gimbal import GimbalAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.gimbal import ControlMode, GimbalMode, SendMode  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 mavsdk_grpc = pytest.importorskip("mavsdk_grpc", reason="mavsdk-grpc is in the test extras")
 
@@ -74,7 +74,7 @@ def truth_pitch_yaw_rel_deg(truth) -> tuple[float, float]:
 
 async def _native(stack, truth) -> dict:
     out: dict = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"

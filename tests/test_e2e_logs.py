@@ -24,11 +24,11 @@ import pytest
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
 pyulog = pytest.importorskip("pyulog", reason="pyulog is in the test extras: pip install '.[test]'")
 os.environ.setdefault("MAVLINK20", "1")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.log_files import LogFilesAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.log_files import LogFilesResult  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
@@ -78,7 +78,7 @@ async def _fly(system) -> None:
 
 
 async def _fly_and_download(stack, into: Path) -> dict:
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"

@@ -14,11 +14,11 @@ import math
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.manual_control import ManualControlAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 from e2e_flight_helpers import sim_sleep, truth_and_stack_fixtures, until  # noqa: E402  # tests/e2e_flight_helpers.py
 from test_e2e_manual_control import CENTRED, MPC_VEL_MANUAL, ONSET_M_S, _fwd_side  # noqa: E402
@@ -65,7 +65,7 @@ class Sticks:
 
 
 async def _session(port: int, body):
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"

@@ -196,15 +196,15 @@ def test_mavproxy_ftp_list_get_crc_and_a_refused_remove(stack, tmp_path):
 
 
 async def _mavsdk_files(stack, into) -> dict:
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.component_metadata import ComponentMetadataAsync
     from mavsdk.asyncio.plugins.ftp import FtpAsync
     from mavsdk.asyncio.plugins.param import ParamAsync
     from mavsdk.plugins.component_metadata import MetadataType
     from mavsdk.plugins.ftp import FtpError
+    from mavsdk_session import ground_station
 
     out: dict = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=WAIT_S)
         assert system is not None, "MAVSDK found no autopilot"

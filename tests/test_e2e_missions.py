@@ -16,7 +16,6 @@ import math
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.geofence import GeofenceAsync  # noqa: E402
 from mavsdk.asyncio.plugins.mission import MissionAsync  # noqa: E402
@@ -26,6 +25,7 @@ from mavsdk.plugins import geofence as gf  # noqa: E402
 from mavsdk.plugins import mission_raw as raw  # noqa: E402
 from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 from e2e_flight_helpers import closest_approach, latlon, truth_and_stack_fixtures, until  # tests/e2e_flight_helpers.py
 
@@ -44,7 +44,7 @@ def waypoint(north: float, east: float, alt: float, speed: float = NAN) -> Missi
 
 
 async def _session(stack, body):
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"

@@ -19,9 +19,9 @@ from pathlib import Path
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 from gcs.launcher import Stack
 from gcs.sim_client import SimClient
@@ -61,7 +61,7 @@ def shared_gcs_port(fleet) -> int:
 async def _fly_all(fleet) -> list[int]:
     """One MAVSDK on the shared port: wait for the three autopilots, take each off to its height."""
     numbers, heights = list(fleet), altitudes_m(fleet)
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{shared_gcs_port(fleet)}")
         wanted = {ports.system_id(n) for n in numbers}
 

@@ -17,9 +17,9 @@ from contextlib import ExitStack
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 from gcs.launcher.multi_stack import MultiStack
 from gcs.sim_client import SimClient
@@ -62,7 +62,7 @@ async def _fly(stack: MultiStack, truths: list) -> dict:
     """Arm, take off, hold, land, one MAVSDK on the shared port; what was seen on the way."""
     seen: dict = {"homes": {}, "held": {}, "landed": {}}
     wanted = [stack.sysid_of(k) for k in range(COUNT)]
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.gcs_port}")
 
         async def autopilots():

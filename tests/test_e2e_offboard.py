@@ -33,7 +33,6 @@ import pytest
 from gcs.client import mavlink
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-from mavsdk.asyncio import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.offboard import (  # noqa: E402
     Attitude,
@@ -44,6 +43,7 @@ from mavsdk.asyncio.plugins.offboard import (  # noqa: E402
 )
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
+from mavsdk_session import ground_station  # noqa: E402
 
 from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     latlon,
@@ -250,7 +250,7 @@ async def _texts(tel, into: list[str]) -> None:
 
 async def _flight(stack, truth) -> dict:
     out: dict = {}
-    async with Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION)) as sdk:
+    async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
