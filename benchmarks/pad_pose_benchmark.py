@@ -12,8 +12,9 @@ held to one thread, so that it is the work done, whatever else the machine runs;
 
 Layouts: single (the seed's marker 76, 0.333 m, at the centre), side (76 at 0.30 m behind the centre beside 42,
 0.125 m, at the centre: the first nested pad), board (vision.pad.NESTED_PAD, the default).  "+g" after a name
-gives the detector the expected pad normal from the vehicle's attitude (the simulated companion's way; without it,
-python -m vision's).  --jpeg Q passes every frame through JPEG at quality Q first, as a recorded video would.
+gives the detector the expected pad normal from the vehicle's attitude and one threshold window (``rendered``: the
+simulated companion's way; without it, python -m vision's).  --jpeg Q passes every frame through JPEG at quality
+Q first, as a recorded video would.
 
 Usage: ``python benchmarks/pad_pose_benchmark.py [--frames 40] [--layouts single side board board+g]``
 """
@@ -85,7 +86,7 @@ def measure(
     sim = Simulation(SPEC, (47.4, 8.5, 400.0), seed=1, ugv=ugv)
     cam = DownwardCamera(sim.model, SPEC.camera, seed=1)
     lens = pinhole(SPEC.camera.width_px, SPEC.camera.height_px, math.radians(SPEC.camera.hfov_deg))
-    det = MarkerDetector(lens, layout=layout)
+    det = MarkerDetector(lens, layout=layout, rendered=gravity)  # +g: the simulated companion's detector
     mount = CameraMount(position_frd_m=SPEC.camera.position_frd_m)
     deck = deck_centre_enu(sim.model, sim.data).copy()
     veh = sim.model.body("vehicle").id

@@ -188,7 +188,7 @@ class LockstepCompanion:
             camera = DownwardCamera(self.model, self.spec, self._seed)
             spec = self.spec
             detector = MarkerDetector(
-                pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad
+                pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad, rendered=True
             )
         except BaseException as exc:  # reported to the main thread at the first release
             camera, detector, self._error = None, None, exc
