@@ -126,6 +126,23 @@ BROKEN = [
     ('kind = "landing"\nrecord = ["speed"]\n', "key record: 'speed' is not a figure"),
     ('kind = "landing"\n[fc_params]\npld_x = 1\n', "key fc_params.pld_x: not a parameter name"),
     ('kind = "landing"\nwhat = 1\n', "key what: unknown"),
+    # a simulator parameter that a grid key or a draw sets for each run (it would override it silently)
+    (
+        'kind = "landing"\n[sim_params]\nSIM_CAM_MOUNT = 1\n',
+        "key sim_params.SIM_CAM_MOUNT: is set by the landing campaign's grid.camera",
+    ),
+    (
+        'kind = "landing"\n[sim_params]\nSIM_PAD_LAYOUT = 1\n',
+        "key sim_params.SIM_PAD_LAYOUT: is set by the landing campaign's grid.pad",
+    ),
+    (
+        'kind = "landing"\n[sim_params]\nSIM_WIND_SPD = 3\n',
+        "key sim_params.SIM_WIND_SPD: is set by the landing campaign's grid.wind",
+    ),
+    (
+        'kind = "landing"\n[sim_params]\nSIM_UGV_YAW = 3\n',
+        "key sim_params.SIM_UGV_YAW: is set by the landing campaign's random.ugv_heading_deg",
+    ),
     ('kind = "landing"\nruns = \n', "key (file): not valid TOML"),
     # the other kinds' axes (gcs/campaign/hover_step.py, mission_kind.py)
     ('kind = "hover_step"\n[grid]\nfault = ["motor1_150"]\n', "key grid.fault: 'motor1_150' is not 'none' nor"),

@@ -20,7 +20,7 @@ import math
 import re
 from typing import Any
 
-from ..launcher.landing_run import CAMERA_MOUNT_CODES, PAD_LAYOUT_CODES, LandingSetup, Pose2, fly_landing
+from ..launcher.landing_run import CAMERA_MOUNT_CODES, PAD_LAYOUT_CODES, WINDY, LandingSetup, Pose2, fly_landing
 from ..sim_client import SimClient
 from .kinds import Axis, Range, grid_cells, number_in, one_of, vehicle_name
 from .plan import Run
@@ -103,6 +103,16 @@ class LandingKind:
         "pose_err_max_cm",
         "phases",
     )
+    # The simulator parameters each run sets from its cell or its draws: [sim_params] may not set them (spec.py).
+    owned_sim_params = {
+        "SIM_CAM_MOUNT": "grid.camera",
+        "SIM_PAD_LAYOUT": "grid.pad",
+        "SIM_UGV_PATH": "grid.ugv_path",
+        "SIM_UGV_X": "random.ugv_start_north_m",
+        "SIM_UGV_Y": "random.ugv_start_east_m",
+        "SIM_UGV_YAW": "random.ugv_heading_deg",
+        **dict.fromkeys(WINDY, "grid.wind"),
+    }
     error_figure = "touchdown_error_m"
     time_figure = "time_to_land_s"
 

@@ -118,8 +118,19 @@ def from_dict(data: dict[str, Any], default_name: str = "campaign") -> Campaign:
         grid=_grid(_table(data, "grid"), kind),
         random=_random(_table(data, "random"), kind),
         fc_params=_params(_table(data, "fc_params"), "fc_params"),
-        sim_params=_params(_table(data, "sim_params"), "sim_params"),
+        sim_params=_sim_params(_table(data, "sim_params"), kind),
     )
+
+
+def _sim_params(table: dict, kind) -> dict[str, float]:
+    """``[sim_params]``, refusing one the kind sets from a grid key or a random draw (``kind.owned_sim_params``:
+    parameter -> that key): it would override the key silently, and the results would say what was not flown."""
+    params = _params(table, "sim_params")
+    for name in params:
+        owner = getattr(kind, "owned_sim_params", {}).get(name)
+        if owner is not None:
+            raise SpecError(f"sim_params.{name}", f"is set by the {kind.name} campaign's {owner}: use that key instead")
+    return params
 
 
 def _table(data: dict, key: str) -> dict:
