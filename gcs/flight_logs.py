@@ -35,6 +35,8 @@ from pymavlink import mavutil
 from mavsim_core.npy_log import read_npy_log
 from mavsim_core.px4_modes import custom_mode_to_name, decode_custom_mode, encode_custom_mode
 
+from .frame_log import frames_beside
+
 FC_SUFFIX, TRUTH_SUFFIX, TLOG_SUFFIX = ".fc.npy", ".truth.npy", ".tlog"
 VEHICLE_COMPID = 1  # the autopilot; its system id (1 + instance) is that of the first such message
 TRUTH_MATCH_S = 120.0  # a truth log's name time within this of the log's (wall clock at arming)
@@ -74,6 +76,7 @@ class FlightData:
     motors: Series | None = None  # motor_0 ... (0..1)
     modes: list[tuple[float, str]] = field(default_factory=list)  # (time, mode name) at each change
     landing: Series | None = None  # precision landing: tgt_n_m, tgt_e_m (target - vehicle), phase (code)
+    frames: Series | None = None  # camera frames beside the truth (gcs/frame_log.py): gimbal angles, markers used
     source: str = ""
     truth_source: str = ""
 
@@ -373,10 +376,15 @@ def load(log: Path, truth: Path | None = None, find: bool = True) -> FlightData:
         t_range = (min(float(s.t_s[0]) for s in series), max(float(s.t_s[-1]) for s in series))
         truth = find_truth(log, t_range)
     if truth is not None:
-        data.truth = load_truth_log(truth)
-        data.truth_source = truth.name
+        data.truth, data.truth_source = load_truth_log(truth), truth.name
+        data.frames = Series(*frames) if (frames := frames_beside(truth)) else None
         if series:  # only the flight's time span
             lo, hi = min(float(s.t_s[0]) for s in series), max(float(s.t_s[-1]) for s in series)
-            keep = (data.truth.t_s >= lo) & (data.truth.t_s <= hi)
-            data.truth = Series(data.truth.t_s[keep], {k: v[keep] for k, v in data.truth.cols.items()})
+            data.truth, data.frames = (_span(s, lo, hi) for s in (data.truth, data.frames))
     return data
+
+
+def _span(s: Series | None, lo: float, hi: float) -> Series | None:
+    """The samples of ``s`` from ``lo`` to ``hi`` (s)."""
+    keep = None if s is None else (s.t_s >= lo) & (s.t_s <= hi)
+    return None if s is None else Series(s.t_s[keep], {k: v[keep] for k, v in s.cols.items()})

@@ -355,6 +355,8 @@ def _attach(server, sim, k: int, args: argparse.Namespace) -> None:
         from sitl.truth_log import TruthRecorder
 
         server.truth_log = TruthRecorder(args.log_dir, len(sim.spec.rotors), instance, ugv=sim.ugv is not None)
+        if server.companion is not None:  # and each camera frame's record beside it (.frames.npy)
+            server.companion.on_frame = server.truth_log.record_frame
 
 
 if __name__ == "__main__":

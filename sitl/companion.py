@@ -21,7 +21,9 @@ controller would.  With no marker in view nothing is sent.
 The pad (:mod:`vision.pad`, ``SIM_PAD_LAYOUT``) may have several markers: the detector uses every one it sees
 (one pose from all their corners) and the message is the pad's centre whichever they were.  Which markers were
 used, how often and from how near and far is counted per marker (:class:`MarkerUse`) and said in the camera line
-the companion prints when it closes (the simulator's log).
+the companion prints when it closes (the simulator's log).  Each frame is also handed, in capture order and on
+the lockstep thread, to ``on_frame`` (a :class:`sitl.truth_log.CameraFrame`: capture time, the gimbal's joint
+angles, the markers used), which the simulator's ground-truth log records.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -45,6 +48,7 @@ from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
 from sitl.model import GIMBAL_JOINTS
 from sitl.sim_settings import CameraSettings
+from sitl.truth_log import CameraFrame
 from vision.camera_model import pinhole
 from vision.detector import MarkerDetection, MarkerDetector, expected_normal_cam
 from vision.landing_target import CameraMount, landing_target_message, target_offset
@@ -143,6 +147,7 @@ class LockstepCompanion:
         self._gimbal_qadr = (
             [int(model.jnt_qposadr[model.joint(name).id]) for name, _ in GIMBAL_JOINTS] if camera.gimballed else None
         )
+        self.on_frame: Callable[[CameraFrame], None] | None = None  # each frame's record, at its release
         self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
         self._thread.start()
 
@@ -161,9 +166,11 @@ class LockstepCompanion:
             self.stats.waited_s += time.perf_counter() - t0
             if isinstance(result, BaseException):
                 raise RuntimeError("vision companion failed") from result
-            copy, packed = result
+            copy, packed, frame = result
             self._free.append(copy)
             out += packed
+            if self.on_frame is not None:
+                self.on_frame(frame)
         return out
 
     def _capture(self, data: mujoco.MjData, time_us: int) -> None:
@@ -200,7 +207,7 @@ class LockstepCompanion:
                 answer.put(self._error)
                 continue
             try:
-                answer.put((copy, self._process(camera, detector, mount, view, copy, time_us, noise)))
+                answer.put((copy, *self._process(camera, detector, mount, view, copy, time_us, noise)))
             except BaseException as exc:
                 answer.put(exc)
         if camera is not None:
@@ -215,13 +222,17 @@ class LockstepCompanion:
         data: mujoco.MjData,
         time_us: int,
         noise: float,
-    ) -> bytes:
+    ) -> tuple[bytes, CameraFrame]:
+        """One frame: rendered (unless the marker is wholly out of view), the marker found, the message packed;
+        with the frame's record (:class:`CameraFrame`)."""
         st = self.stats
+        joints = self._joints(data)
+        rpy = None if joints is None else (joints[1], joints[2], joints[0])  # (yaw, roll, pitch) -> roll, pitch, yaw
         saved = self.save_dir is not None and (camera.frames + 1) % self.save_every == 1
         if view is not None and not saved and view.out_of_view(data):  # it could not show the marker
             camera.skip(noise)
             st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
-            return b""
+            return b"", CameraFrame(time_us, rpy, rendered=False)
         frame = camera.capture(data, noise)
         mount = self._mount_at_capture(mount, data)
         q_ned_frd = _attitude(data)
@@ -232,7 +243,7 @@ class LockstepCompanion:
         if self.save_dir is not None and st.frames % self.save_every == 1:
             self._save(frame, det, detector, time_us)
         if det is None:
-            return b""
+            return b"", CameraFrame(time_us, rpy, rendered=True)
         st.detections += 1
         st.max_range_m = max(st.max_range_m, det.distance_m)
         st.count_markers(det)
@@ -242,16 +253,23 @@ class LockstepCompanion:
         msg = landing_target_message(det, mount, q_ned_frd, time_us, frame=mavlink.MAV_FRAME_BODY_FRD)
         packed = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) % 256
-        return packed
+        return packed, CameraFrame(time_us, rpy, rendered=True, marker_ids=tuple(int(i) for i in det.marker_ids))
 
     def _mount_at_capture(self, fixed: CameraMount, data: mujoco.MjData) -> CameraMount:
         """The camera's mount at the frame's capture: the fixed one, or on a gimbal the rotation its encoders
-        read in the state copy the frame was rendered from (a gimbal reports its angles at a high rate, and the
-        companion stamps them as it stamps the frame)."""
-        if self._gimbal_qadr is None:
+        read in the state copy the frame was rendered from (:meth:`_joints`)."""
+        joints = self._joints(data)
+        if joints is None:
             return fixed
-        joints = tuple(float(data.qpos[a]) for a in self._gimbal_qadr)
         return CameraMount(fixed.position_frd_m, np.array(camera_to_body(joints)))  # type: ignore[arg-type]
+
+    def _joints(self, data: mujoco.MjData) -> tuple[float, float, float] | None:
+        """The gimbal's joint angles (yaw, roll, pitch; rad) in the state copy the frame is rendered from (a gimbal
+        reports its angles at a high rate, and the companion stamps them as it stamps the frame); None for a fixed
+        camera."""
+        if self._gimbal_qadr is None:
+            return None
+        return tuple(float(data.qpos[a]) for a in self._gimbal_qadr)  # type: ignore[return-value]
 
     def _truth_frd(self, data: mujoco.MjData) -> np.ndarray:
         """The marker's centre from the vehicle's centre of mass along body FRD axes, from the state copy."""

@@ -13,6 +13,14 @@ time_us, armed, pos_{n,e,d}_m, vel_{n,e,d}_m_s, roll_rad, pitch_rad, yaw_rad,
 rate_{p,q,r}_rad_s, motor_0 ... motor_{N-1} (the commands the simulator applied, 0..1);
 with the ground vehicle (``SIM_UGV_EN=1``) also ugv_{n,e,d}_m (the marker's centre on its deck),
 ugv_v{n,e}_m_s and ugv_yaw_rad.
+
+Beside it, with the vision companion (a world with the UGV), ``<same stem>.frames.npy``: one record per camera
+frame captured while the truth log is open (:class:`CameraFrame`, written when the companion releases the frame's
+result, in capture order).  Columns: time_us (the capture's simulated time), gimbal_{roll,pitch,yaw}_deg (the
+gimbal's joint angles at capture as its encoders read them, degrees; NaN for a fixed camera), rendered (0: the
+frame was not rendered, the pad wholly out of view), n_markers (how many of the pad's markers the detector used;
+0: no detection) and marker_0 ... marker_{MAX_FRAME_MARKERS-1} (their ids in the detector's order, -1 past
+n_markers).  Older flights have no such file; readers must do without it.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -27,6 +36,8 @@ from mavsim_core.log_naming import flight_stem
 from mavsim_core.npy_log import NpyLogWriter
 
 SUFFIX = ".truth.npy"
+FRAMES_SUFFIX = ".frames.npy"
+MAX_FRAME_MARKERS = 8  # marker id columns of a frame record (the nested pad has 5)
 POST_DISARM_S = 1.0
 
 _STATE_FIELDS = (
@@ -57,10 +68,38 @@ def truth_log_fields(n_motors: int, ugv: bool = False) -> list[tuple[str, str]]:
     )
 
 
+def frame_log_fields() -> list[tuple[str, str]]:
+    """The camera-frame log's columns (the module docstring)."""
+    return (
+        [("time_us", "q"), ("gimbal_roll_deg", "f"), ("gimbal_pitch_deg", "f"), ("gimbal_yaw_deg", "f")]
+        + [("rendered", "B"), ("n_markers", "B")]
+        + [(f"marker_{i}", "h") for i in range(MAX_FRAME_MARKERS)]
+    )
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """One camera frame as the companion saw it: its capture time (simulated us), the gimbal's joint angles then
+    (roll, pitch, yaw; rad; None for a fixed camera), whether it was rendered, and the ids of the pad's markers
+    the detector used (empty: no detection)."""
+
+    time_us: int
+    gimbal_rpy_rad: tuple[float, float, float] | None
+    rendered: bool
+    marker_ids: tuple[int, ...] = ()
+
+    def row(self) -> tuple:
+        """The values of a :func:`frame_log_fields` record."""
+        rpy = [math.degrees(a) for a in self.gimbal_rpy_rad] if self.gimbal_rpy_rad else [math.nan] * 3
+        ids = list(self.marker_ids[:MAX_FRAME_MARKERS])
+        return (self.time_us, *rpy, int(self.rendered), len(ids), *ids, *[-1] * (MAX_FRAME_MARKERS - len(ids)))
+
+
 class TruthRecorder:
     """Opens a truth log when the vehicle arms, closes it ``POST_DISARM_S`` after it disarms.
 
-    :meth:`record` takes the period's :class:`sitl.simulation.SensorTruth`; any I/O
+    :meth:`record` takes the period's :class:`sitl.simulation.SensorTruth`, :meth:`record_frame` a camera
+    frame (written to the ``.frames.npy`` beside the open truth log, created at its first frame); any I/O
     error switches logging off (reported once), never the simulation.
     """
 
@@ -72,6 +111,7 @@ class TruthRecorder:
         self.fields = truth_log_fields(n_motors, ugv)
         self.ugv = ugv
         self._w: NpyLogWriter | None = None
+        self._frames: NpyLogWriter | None = None
         self._close_at_us: int | None = None
         self.files: list[Path] = []
         self.disabled = False
@@ -83,7 +123,7 @@ class TruthRecorder:
         try:
             if armed and (self._w is None or self._close_at_us is not None):
                 self._close()
-                stem = flight_stem(self.log_dir, time.time(), self.instance, (SUFFIX,))
+                stem = flight_stem(self.log_dir, time.time(), self.instance, (SUFFIX, FRAMES_SUFFIX))
                 self._w = NpyLogWriter(self.log_dir / (stem + SUFFIX), self.fields)
                 self.files.append(self._w.path)
                 print(f"[sitl] logging ground truth to {self._w.path}", file=sys.stderr, flush=True)
@@ -112,11 +152,30 @@ class TruthRecorder:
             self.disabled = True
             print(f"[sitl] ground-truth logging stopped: {exc!r}", file=sys.stderr, flush=True)
 
+    def record_frame(self, frame: CameraFrame) -> None:
+        """A camera frame (the companion's :class:`CameraFrame`), kept only while the truth log is open."""
+        if self.disabled or self._w is None:
+            return
+        try:
+            if self._frames is None:
+                path = self._w.path.with_name(self._w.path.name[: -len(SUFFIX)] + FRAMES_SUFFIX)
+                self._frames = NpyLogWriter(path, frame_log_fields(), chunk_rows=30)
+                self.files.append(path)
+            self._frames.append(*frame.row())
+        except Exception as exc:
+            self.disabled = True
+            print(f"[sitl] ground-truth logging stopped: {exc!r}", file=sys.stderr, flush=True)
+
     def _close(self) -> None:
         w, self._w = self._w, None
+        frames, self._frames = self._frames, None
         self._close_at_us = None
-        if w is not None:
-            w.close()
+        try:
+            if w is not None:
+                w.close()
+        finally:
+            if frames is not None:
+                frames.close()
 
     def close(self) -> None:
         try:

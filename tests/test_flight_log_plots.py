@@ -28,7 +28,7 @@ from gcs.__main__ import main as gcs_main  # noqa: E402
 from mavsim_core import tlog  # noqa: E402
 from mavsim_core.npy_log import NpyLogWriter  # noqa: E402
 from mavsim_core.quaternion import from_euler  # noqa: E402
-from sitl.truth_log import truth_log_fields  # noqa: E402
+from sitl.truth_log import CameraFrame, frame_log_fields, truth_log_fields  # noqa: E402
 
 from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
 from flight_log_helpers import EPOCH0_US, make_mav, read_tlog  # tests/flight_log_helpers.py
@@ -113,6 +113,19 @@ def _check_pngs(out: Path) -> None:
         assert png.exists(), png
         data = png.read_bytes()
         assert data.startswith(PNG_MAGIC) and len(data) > 10_000, png
+
+
+def test_the_camera_frames_beside_the_truth_are_loaded_for_the_flights_span(tmp_path):
+    fc_path, _ = _synthetic_flight(tmp_path)
+    assert plot.load(fc_path).frames is None  # an older flight: no frame log
+    w = NpyLogWriter(tmp_path / "2026-01-02_03-04-05.frames.npy", frame_log_fields())
+    for t_us in range(19_000_000, 21_000_000, 100_000):  # past the control log's end (20 s) too
+        w.append(*CameraFrame(t_us, (0.0, -1.5, 0.1), True, (76, 42)).row())
+    w.close()
+    frames = plot.load(fc_path).frames
+    assert frames is not None and frames.t_s[0] == 19.0 and frames.t_s[-1] == pytest.approx(19.9)
+    assert frames.cols["gimbal_pitch_deg"][0] == pytest.approx(math.degrees(-1.5))
+    assert frames.cols["marker_1"][0] == 42 and frames.cols["n_markers"][0] == 2
 
 
 def test_gcs_plot_control_log_finds_truth_and_writes_pngs(tmp_path, capsys):

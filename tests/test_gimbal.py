@@ -166,6 +166,31 @@ def test_a_marker_seen_through_the_gimbal_is_where_the_truth_has_it():
     assert np.linalg.norm(fixed[:2] - truth[:2]) > 0.5  # taken for a body-fixed camera: 20 deg of roll off
 
 
+def test_the_companion_hands_each_frame_with_the_gimbals_angles_and_the_markers_used_to_on_frame():
+    """Rolled 20 deg over the deck, the gimbal holding the camera down: the frame's record (what the truth log's
+    .frames.npy keeps) carries the encoders' angles at capture as (roll, pitch, yaw) and the pad's markers used."""
+    ugv = UgvSettings(enabled=1, north_m=3.0, east_m=1.0, yaw_deg=30.0, path=0)
+    sim = Simulation(QUAD, HOME, seed=1, ugv=ugv)
+    v = sim.vehicle
+    sim.data.qpos[0:3] = [1.0 + v.start_xy_enu[0], 3.4 + v.start_xy_enu[1], 2.2]
+    sim.data.qpos[3:7] = quat_ned_frd_to_enu_flu(from_euler(math.radians(20.0), math.radians(-8.0), 0.1))
+    mujoco.mj_forward(sim.model, sim.data)
+    v.gimbal.place(sim.data, v.sensor_truth(sim.data).r_ned_frd)
+    mujoco.mj_forward(sim.model, sim.data)
+    yaw, roll, pitch = v.gimbal.joints(sim.data)
+    companion = LockstepCompanion(sim.model, QUAD.camera, CameraSettings(latency_ms=50), pad=ugv.pad())
+    frames = []
+    companion.on_frame = frames.append
+    try:
+        assert companion.step(sim.data, 0) == b"" and frames == []  # captured; released after the latency
+        assert companion.step(sim.data, 50_000) != b""
+    finally:
+        companion.close()
+    assert len(frames) == 1 and frames[0].time_us == 0 and frames[0].rendered
+    assert frames[0].gimbal_rpy_rad == pytest.approx((roll, pitch, yaw)) and abs(roll) > math.radians(15.0)
+    assert frames[0].marker_ids and set(frames[0].marker_ids) <= {m.marker_id for m in ugv.pad().markers}
+
+
 def _set_attitude(q, flags: int = 0):
     from pymavlink.dialects.v20 import common as mavlink
 
