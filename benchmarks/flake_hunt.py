@@ -65,6 +65,7 @@ def run_once(k: int, args, out: Path) -> tuple[int, float, str]:
     """Run pytest once (run ``k``); (exit status, wall seconds, the summary line).  Writes ``run-K.json``."""
     env = dict(os.environ)
     env["E2E_FIGURES"] = str(out / f"figures-{k}.jsonl")
+    env["E2E_DIAGNOSTICS"] = str(out / f"diagnostics-{k}.txt")  # a failed e2e test's log tails and last messages
     seed = args.first_seed + k if args.seeds else None
     if seed is not None:
         env["E2E_SEED"] = str(seed)

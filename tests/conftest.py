@@ -138,5 +138,7 @@ def pytest_runtest_makereport(item, call):
     if report.failed and item.get_closest_marker("e2e") is not None:
         import e2e_diagnostics
 
-        for title, text in e2e_diagnostics.sections():
+        sections = e2e_diagnostics.sections()
+        for title, text in sections:
             report.sections.append((title, text))
+        e2e_diagnostics.keep(report.nodeid, report.when, sections)  # the flake hunt's file (E2E_DIAGNOSTICS)

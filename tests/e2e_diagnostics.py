@@ -12,6 +12,7 @@ Nothing here changes what a test does: the stacks and links are the real ones, o
 
 from __future__ import annotations
 
+import os
 import time
 import weakref
 from collections import deque
@@ -69,6 +70,18 @@ def enter_module(name: str) -> None:
         _module = name
         _stacks.clear()
         _links.clear()
+
+
+def keep(nodeid: str, when: str, sections: list[tuple[str, str]]) -> None:
+    """Append a failed test's sections to the file ``E2E_DIAGNOSTICS`` names, if set (benchmarks/flake_hunt.py
+    sets one per run: its JUnit files hold only the assertion, not these sections)."""
+    path = os.environ.get("E2E_DIAGNOSTICS")
+    if not path:
+        return
+    with open(path, "a", encoding="utf-8") as f:
+        f.write(f"===== {nodeid} ({when})\n")
+        for title, text in sections:
+            f.write(f"----- {title}\n{text}\n")
 
 
 def sections() -> list[tuple[str, str]]:
