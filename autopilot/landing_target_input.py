@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from autopilot.mavlink.landing_target import LandingTargetRefusal, decode_landing_target
-from autopilot.navigation.deck_turn_filter import DeckTurnFilter
+from autopilot.navigation.deck_turn_filter import DeckState, DeckTurnFilter
 from autopilot.navigation.landing_target_estimator import LandingTargetEstimator, LandingTargetSettings
 from autopilot.navigation.precland import LandingTargetInput as TargetForTask
 from autopilot.navigation.target_predictor import PolynomialTargetPredictor
@@ -137,8 +137,10 @@ class LandingTargetInput:
         self.estimator.predict(now_us, est.accel_ned_m_s2)
         fresh = False
         turning = int(self.params.get("PLD_DECK_MDL")) == 1
+        deck = None  # the turn filter's deck predicted to now (PLD_DECK_MDL 1), once per update
         if turning:
             fresh = self._fuse_deck(est)
+            deck = self.deck.state_at(now_us)
         for meas in [] if turning else self._pending:
             rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
             self.predictor.add_sample(meas.timestamp_us, rel + self._state_at(meas.timestamp_us)[1])
@@ -154,15 +156,12 @@ class LandingTargetInput:
                 self.accepted += 1
                 fresh = True
         self._pending.clear()
-        e = self.estimator.estimate(now_us, est.vel_ned_m_s)
-        if turning:
-            e = self._deck_estimate(now_us, est)
+        e = self._deck_estimate(now_us, est, deck) if turning else self.estimator.estimate(now_us, est.vel_ned_m_s)
         if int(self.params.get("PLD_PREDICTOR")) == 1:
             poly = self.predictor.predict(now_us, 0.0, est.pos_ned_m, est.vel_ned_m_s)
             e = poly if poly.valid else e  # the fit needs 100 samples first; the filter until then
         self.estimate = e
         if turning:
-            deck = self.deck.state_at(now_us)
             self.target_acc_ned_m_s2 = np.zeros(3) if deck is None else np.array([*deck.acc_ne_m_s2, 0.0])
         else:
             self._track_acceleration(now_us, e)
@@ -172,7 +171,6 @@ class LandingTargetInput:
         if not fresh or not e.valid or e.target_vel_ned_m_s is None:
             return None  # no new measurement: the task predicts the target on by itself
         # Stamped now: the estimate is already moved on to now (the task must not move it again).
-        deck = self.deck.state_at(now_us) if turning else None
         return TargetForTask(
             now_us, e.rel_pos_ned_m, e.target_vel_ned_m_s, True, self.target_acc_ned_m_s2.copy(),
             None if deck is None else deck.turn_rad_s,
@@ -199,9 +197,8 @@ class LandingTargetInput:
                 self._deck_down_m = float(deck[2])
         return taken
 
-    def _deck_estimate(self, now_us: int, est: VehicleEstimate) -> LandingTargetEstimate:
-        """The turn filter's deck, predicted to now, as the landing target's estimate relative to the vehicle."""
-        deck = self.deck.state_at(now_us)
+    def _deck_estimate(self, now_us: int, est: VehicleEstimate, deck: DeckState | None) -> LandingTargetEstimate:
+        """The turn filter's deck predicted to now (``deck``), as the target's estimate relative to the vehicle."""
         if deck is None or self._deck_down_m is None:
             zero = np.zeros(3)
             return LandingTargetEstimate(now_us, zero, zero.copy(), False)

@@ -234,7 +234,7 @@ class LockstepCompanion:
             st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
             return b"", CameraFrame(time_us, rpy, rendered=False)
         frame = camera.capture(data, noise)
-        mount = self._mount_at_capture(mount, data)
+        mount = self._mount_at_capture(mount, joints)
         q_ned_frd = _attitude(data)
         t0 = time.perf_counter()
         det = detector.detect(frame, expected_normal_cam(mount.rotation_frd_cam, q_ned_frd))
@@ -255,10 +255,9 @@ class LockstepCompanion:
         self.mav.seq = (self.mav.seq + 1) % 256
         return packed, CameraFrame(time_us, rpy, rendered=True, marker_ids=tuple(int(i) for i in det.marker_ids))
 
-    def _mount_at_capture(self, fixed: CameraMount, data: mujoco.MjData) -> CameraMount:
+    def _mount_at_capture(self, fixed: CameraMount, joints: tuple[float, float, float] | None) -> CameraMount:
         """The camera's mount at the frame's capture: the fixed one, or on a gimbal the rotation its encoders
-        read in the state copy the frame was rendered from (:meth:`_joints`)."""
-        joints = self._joints(data)
+        read in the state copy the frame was rendered from (``joints``: :meth:`_joints`)."""
         if joints is None:
             return fixed
         return CameraMount(fixed.position_frd_m, np.array(camera_to_body(joints)))  # type: ignore[arg-type]

@@ -155,7 +155,9 @@ def test_a_marker_seen_through_the_gimbal_is_where_the_truth_has_it():
     assert det is not None
     companion = LockstepCompanion(sim.model, spec, CameraSettings())
     try:
-        mount = companion._mount_at_capture(CameraMount(position_frd_m=spec.position_frd_m), sim.data)
+        mount = companion._mount_at_capture(
+            CameraMount(position_frd_m=spec.position_frd_m), companion._joints(sim.data)
+        )
     finally:
         companion.close()
     q_now = quat_enu_flu_to_ned_frd(np.array(sim.data.qpos[3:7]))
