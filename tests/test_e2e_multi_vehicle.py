@@ -1,8 +1,8 @@
-"""Three instances side by side on one ground-station port, as PX4 SITL's multi-vehicle scheme.
+"""Two instances side by side on one ground-station port, as PX4 SITL's multi-vehicle scheme.
 
 Each instance N sends its ground-station link to the same UDP port (PX4: 14550; here the first
 instance's own port, so no test binds a port a person's QGroundControl may hold) with system id
-1+N.  One MAVSDK 4 listening there sees the three system ids and flies each to its own height;
+1+N.  One MAVSDK 4 listening there sees both system ids and flies each to its own height;
 the simulators' truth shows every vehicle at the height its own system was told, so no command
 reached the wrong vehicle.  Then ``gcs -i N land`` on the same shared port lands each one.
 """
@@ -35,9 +35,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def fleet(free_instance):
-    """Three stacks on free instances and their truth listeners: {instance: (stack, truth)}, in start order.
+    """Two stacks on free instances and their truth listeners: {instance: (stack, truth)}, in start order.
     Every instance's ground-station link goes to the first one's own port."""
-    numbers = sorted(free_instance() for _ in range(3))  # in order: the system ids MAVSDK lists are sorted
+    numbers = sorted(free_instance() for _ in range(2))  # in order: the system ids MAVSDK lists are sorted
     shared_gcs_port = ports.own_gcs_port(numbers[0])
     with ExitStack() as es:
         out = {}
@@ -59,7 +59,7 @@ def shared_gcs_port(fleet) -> int:
 
 
 async def _fly_all(fleet) -> list[int]:
-    """One MAVSDK on the shared port: wait for the three autopilots, take each off to its height."""
+    """One MAVSDK on the shared port: wait for both autopilots, take each off to its height."""
     numbers, heights = list(fleet), altitudes_m(fleet)
     async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{shared_gcs_port(fleet)}")
@@ -91,7 +91,7 @@ async def _fly_all(fleet) -> list[int]:
         return sorted(systems)
 
 
-def test_one_mavsdk_on_the_shared_port_flies_three_vehicles_and_gcs_lands_each(fleet):
+def test_one_mavsdk_on_the_shared_port_flies_two_vehicles_and_gcs_lands_each(fleet):
     numbers, heights = list(fleet), altitudes_m(fleet)
     seen = asyncio.run(_fly_all(fleet))
     assert seen == [ports.system_id(n) for n in numbers] == [n + 1 for n in numbers]

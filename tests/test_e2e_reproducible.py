@@ -3,12 +3,16 @@
 The same precision landing on the UGV driving a line at 1 m/s, same seeds, flown on two stacks at the same
 time (each its own simulator and flight controller, competing for this machine's two cores, so their wall
 timings differ): every field of the result but the wall time is identical to the last bit, and so is every
-ground-truth sample of the multicopter and of the UGV both received, touchdown included.
+ground-truth sample of the multicopter and of the UGV both received, touchdown included.  The landing itself
+is the suite's moving-deck precision landing (issue 13; test_e2e_precland.py has the static pad and the lost
+target): on the deck within 10 cm while it drives, the nested pad's inner marker seen alone below the outer's
+range.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import threading
 
 import pytest
@@ -19,13 +23,21 @@ from gcs.launcher.landing_run import LandingSetup, fly_landing
 from gcs.sim_client import SimClient
 from mavsim_core import ports
 from sitl.ugv_paths import Pose2
+from vision.pad import NESTED_PAD
 
-from e2e_flight_helpers import stepped_flight_fixture  # tests/e2e_flight_helpers.py
+from e2e_flight_helpers import record_figure, stepped_flight_fixture  # tests/e2e_flight_helpers.py
 
 pytestmark = pytest.mark.e2e
 
 WAIT_S = 240.0  # wall-clock safety net
 SETUP = LandingSetup(path="line", speed_m_s=1.0, ugv_start=Pose2(4.0, -1.0, math.pi / 2), seed=3)
+MARKER_USE = re.compile(r"id (\d+) in (\d+) frames \(([\d.]+)-([\d.]+) m, alone in (\d+)\)")
+
+
+def _markers_used(sitl_log: str) -> dict[int, tuple[int, float, float, int]]:
+    """The companion's camera line (sitl/companion.py): marker id -> (frames, nearest m, farthest m, frames alone)."""
+    line = next(x for x in sitl_log.splitlines() if "markers used:" in x)
+    return {int(i): (int(n), float(lo), float(hi), int(a)) for i, n, lo, hi, a in MARKER_USE.findall(line)}
 
 
 def _fly(inst: int, out: dict) -> None:
@@ -40,7 +52,9 @@ def _fly(inst: int, out: dict) -> None:
         ):
             result = fly_landing(client, truth, SETUP, timeout_s=WAIT_S)
             with truth.lock:
-                out[inst] = (result, dict(truth.positions), dict(truth.ugv))
+                positions, ugv = dict(truth.positions), dict(truth.ugv)
+        # the simulator has stopped: its companion's line is in its log
+        out[inst] = (result, positions, ugv, _markers_used(stack.log_path("sitl").read_text(errors="replace")))
     except BaseException as exc:  # noqa: BLE001 - reported by the test
         out[inst] = exc
 
@@ -55,9 +69,16 @@ def test_the_same_landing_on_two_stacks_gives_identical_results(free_instance):
         t.join(WAIT_S + 60)
     for inst in (a, b):
         assert not isinstance(out.get(inst), BaseException), out.get(inst)
-    (ra, pos_a, ugv_a), (rb, pos_b, ugv_b) = out[a], out[b]
+    (ra, pos_a, ugv_a, markers), (rb, pos_b, ugv_b, _) = out[a], out[b]
     assert ra.success, ra.reason
-    assert ra.touchdown_error_m < 0.10 and ra.ugv_speed_at_touchdown_m_s > 0.8  # on the moving deck
+    outer, inner = markers[NESTED_PAD.markers[0].marker_id], markers[NESTED_PAD.markers[1].marker_id]
+    print(f"markers used (frames, nearest m, farthest m, alone): outer {outer}, inner {inner}")
+    assert inner[1] < outer[1] and inner[3] > 0, "the inner marker, alone, nearer than the outer one was seen"
+    record_figure("precland_moving_touchdown_error_m", ra.touchdown_error_m, 0.10, unit="m")
+    # it landed on a moving deck
+    record_figure(
+        "precland_moving_ugv_speed_at_touchdown_m_s", ra.ugv_speed_at_touchdown_m_s, 0.8, below=False, unit="m/s"
+    )
     for name in ("success", "touchdown_error_m", "time_to_land_s", "ugv_speed_at_touchdown_m_s", "reason", "sim_s"):
         assert getattr(ra, name) == getattr(rb, name), name
     assert ra.phases == rb.phases
