@@ -216,9 +216,11 @@ def console_script(name: str) -> str:
 
 
 def logs_line(stack: Stack) -> str:
-    """Where the flight's logs went and the command that plots them, as the caller can type it."""
+    """Where the flight's logs went and the command that plots them, as the caller can type it (``.frames.npy``,
+    the camera's frames, only when the simulator wrote one: a flight with the camera)."""
     plot = f"{console_script('gcs')} plot {stack.log_dir}"
-    return f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy) in {stack.log_dir}; plot them: {plot}"
+    frames = ", .frames.npy" if any(Path(stack.log_dir).glob("*.frames.npy")) else ""
+    return f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy{frames}) in {stack.log_dir}; plot them: {plot}"
 
 
 def connection_help(stack: Stack) -> str:
