@@ -1,4 +1,4 @@
-"""``flight-demo``'s closing line names the logs the flight left: the camera's ``.frames.npy`` only when there is one."""
+"""``flight-demo``'s closing line names the logs the flight left: ``.frames.npy`` only when there is one."""
 
 from __future__ import annotations
 
