@@ -58,14 +58,15 @@ def add_link_services(
 
     from autopilot.mavlink.gimbal_manager import GimbalManager
 
-    # Gimbal protocol v2: the gimbal manager, its device on the simulator link (advertised once it reports).
+    # Gimbal protocol v2: the gimbal manager, its device on the simulator link (advertised once it reports); it
+    # publishes the device's reach to the commander (a precision landing's view cone, PLD_CAM_REACH -1).
     def broadcast_as(msg, compid: int) -> None:
         for ep in link.endpoints:
             ep.send_as(msg, compid)
 
     gimbal = GimbalManager(
         fc.params, lambda: fc.commander.status, sim.queue, broadcast_as, link.send_statustext,
-        lambda: link.command_source, (link.sysid, link.compid),
+        lambda: link.command_source, (link.sysid, link.compid), fc.commander.inputs.on_gimbal_reach,
     )  # fmt: skip
     link.add_service(gimbal)
     link.requestable.update(gimbal.requestable())

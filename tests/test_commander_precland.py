@@ -7,7 +7,10 @@ down = 0); commands go through the MAVLink command table as a ground station's w
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.navigation.precland import LandingTargetInput, PrecLandMode
@@ -85,3 +88,32 @@ def test_without_a_target_required_holds_and_reports_opportunistic_lands():
         failed = "Precision landing failed: no landing target, holding position" in texts
         assert failed is not lands
         assert (not b.cmd.status.armed) is lands  # opportunistic: landed and disarmed; required: holding
+
+
+def test_the_chase_cone_follows_the_gimbal_reach_the_gimbal_manager_publishes():
+    """PLD_CAM_REACH -1: the commander hands the reach in its inputs (ExternalInputs.on_gimbal_reach, the gimbal
+    manager's) to the landing at every update; without a device the cone is the body-fixed camera's."""
+    b = Bench()
+    b.fly_up()
+    pad = np.array([3.0, 0.0, 0.0])
+    assert b.command(mavlink.MAV_CMD_NAV_LAND, 0, 2) == ACCEPTED
+    fixed_rad = math.radians(73.7 / 2.0 - 8.0)  # half the narrow field less the margin
+
+    def half_angle_rad() -> float:
+        _fly_with_target(b, pad, 0.04)
+        assert b.cmd.setpoint.axis_cone is not None
+        return b.cmd.setpoint.axis_cone.half_angle_rad
+
+    _fly_with_target(b, pad, 0.5)
+    assert b.cmd.task.phase.value == "tracking"
+    assert half_angle_rad() == pytest.approx(fixed_rad)  # no gimbal device reports
+    b.cmd.inputs.on_gimbal_reach(math.radians(45.0))
+    assert half_angle_rad() == pytest.approx(fixed_rad + math.radians(45.0))
+    b.cmd.inputs.on_gimbal_reach(None)  # the device lost
+    assert half_angle_rad() == pytest.approx(fixed_rad)
+    b.params.set("PLD_CAM_REACH", 10.0)  # read when the landing starts: a new landing takes it
+    assert b.set_mode(Mode.AUTO_LOITER) == ACCEPTED
+    assert b.command(mavlink.MAV_CMD_NAV_LAND, 0, 2) == ACCEPTED
+    b.cmd.inputs.on_gimbal_reach(math.radians(45.0))
+    _fly_with_target(b, pad, 0.5)
+    assert half_angle_rad() == pytest.approx(fixed_rad + math.radians(10.0))  # the user's reach wins

@@ -18,7 +18,7 @@ from autopilot.control.gimbal_pointing import (
     look_at,
 )
 from autopilot.mavlink.command_fields import FieldError
-from autopilot.mavlink.gimbal_control import GimbalControl, resolve_control_id
+from autopilot.mavlink.gimbal_control import DeviceRange, GimbalControl, resolve_control_id
 from autopilot.mavlink.gimbal_manager import DEVICE_TIMEOUT_US, GimbalManager
 from autopilot.param_catalogue import default_store
 from autopilot.topics import LandedState
@@ -73,6 +73,14 @@ def test_quaternion_round_trip():
     assert attitude_from_quaternion([NAN] * 4, False) is None
 
 
+def device_information(roll_deg, pitch_deg, yaw_deg=(-160, 160)):
+    """GIMBAL_DEVICE_INFORMATION with these joint ranges (deg; NaN: unknown)."""
+    (r0, r1), (p0, p1), (y0, y1) = roll_deg, pitch_deg, yaw_deg
+    return mavlink.MAVLink_gimbal_device_information_message(
+        0, b"", b"", b"", 0, 0, 0, 0, 0, rad(r0), rad(r1), rad(p0), rad(p1), rad(y0), rad(y1), 0
+    )
+
+
 class Estimate:
     """The estimate the manager reads: a valid position (NED m) from an origin at 47 N, 8 E, 400 m AMSL."""
 
@@ -99,21 +107,19 @@ class Harness:
         self.sent: list = []
         self.texts: list[str] = []
         self.source = GCS
+        self.reaches: list[float | None] = []  # what the manager published to the commander, step by step
         self.m = GimbalManager(
             self.params, lambda: self.status, self.device.append, lambda msg, c: self.sent.append((msg, c)),
-            lambda sev, text: self.texts.append(text), lambda: self.source, OWN,
+            lambda sev, text: self.texts.append(text), lambda: self.source, OWN, self.reaches.append,
         )  # fmt: skip
 
-    def report(self) -> None:
+    def report(self, information: bool = True) -> None:
         q = [1.0, 0.0, 0.0, 0.0]
         self.m.on_device_status(
             mavlink.MAVLink_gimbal_device_attitude_status_message(0, 0, 0, 44, q, NAN, NAN, NAN, 0, 0.0, NAN, 1)
         )
-        self.m.on_device_information(
-            mavlink.MAVLink_gimbal_device_information_message(
-                0, b"", b"", b"", 0, 0, 0, 0, 0, rad(-45), rad(45), rad(-135), rad(30), rad(-160), rad(160), 0
-            )
-        )
+        if information:
+            self.m.on_device_information(device_information((-45, 45), (-135, 30)))
 
     def tick(self, now_us: int) -> None:
         """One scheduled link step: the device's, then the link's update (as autopilot/lockstep_loop.py runs them)."""
@@ -251,3 +257,42 @@ def test_roi_altitude_is_amsl_whatever_the_frame_as_px4_reads_it():
     assert roi(None, params, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) == mavlink.MAV_RESULT_ACCEPTED
     h.tick(0)
     assert attitude_from_quaternion(h.device[-1].q, True).pitch_rad == pytest.approx(rad(-45), abs=1e-4)
+
+
+@pytest.mark.parametrize(
+    "roll_deg, pitch_deg, reach_deg",
+    [
+        ((-45, 45), (-135, 30), 45),  # the vehicle files' gimbal: 45 every way (pitch 45 aft, 120 forward)
+        ((-40, 40), (-120, 30), 30),  # the pitch joint's 30 deg aft of straight down is the least
+        ((-20, 30), (-135, 30), 20),  # roll to the left
+        ((-60, 60), (-170, -10), 60),  # forward, pitch up to -10 deg: 80 either side of straight down
+        ((NAN, NAN), (NAN, NAN), 90),  # nothing known: no limit, held to 90
+        ((-45, 45), (-80, 30), 0),  # pitch cannot look straight down
+    ],
+)
+def test_the_devices_tilt_reach_is_its_least_from_straight_down(roll_deg, pitch_deg, reach_deg):
+    """How far the joints turn the camera from the body's down axis whatever the direction: the smallest of the roll
+    joint's reach either side of level and the pitch joint's either side of -90 deg (DeviceRange.tilt_reach_rad)."""
+    reach = DeviceRange.from_information(device_information(roll_deg, pitch_deg)).tilt_reach_rad
+    assert math.degrees(reach) == pytest.approx(reach_deg)
+
+
+def test_the_manager_publishes_the_devices_reach_at_each_step_and_none_without_a_device():
+    """What a precision landing's view cone takes with PLD_CAM_REACH -1 (autopilot/commander/external_inputs.py)."""
+    h = Harness()
+    h.tick(0)
+    assert h.reaches == [None]  # no device has reported
+    h.report(information=False)
+    h.tick(20_000)
+    assert h.m.advertised and h.reaches[-1] is None  # its range not known yet
+    h.report()
+    h.tick(40_000)
+    h.tick(60_000)
+    assert h.reaches[-2:] == [pytest.approx(rad(45))] * 2
+    h.tick(60_000 + DEVICE_TIMEOUT_US + 20_000)
+    assert not h.m.advertised and h.reaches[-1] is None  # lost
+    off = Harness()
+    off.params.set("MNT_MODE_OUT", 0)  # the manager off: the flight controller sees no gimbal
+    off.report()
+    off.tick(0)
+    assert off.reaches == [None]

@@ -1,5 +1,6 @@
 """The view-limited catch-up (autopilot/navigation/view_limited_catchup.py, autopilot/control/thrust_cone.py): the
-chase's horizontal thrust is shortened just enough that the marker stays inside the camera's view."""
+chase's horizontal thrust is shortened just enough that the marker stays inside the camera's view; the gimbal's
+reach is the gimbal device's unless PLD_CAM_REACH sets one."""
 
 from __future__ import annotations
 
@@ -10,10 +11,13 @@ import pytest
 
 from autopilot.control.thrust_cone import AxisCone, horizontal_share
 from autopilot.navigation.view_limited_catchup import ViewLimits, view_cone
+from autopilot.param_catalogue import default_store
+from autopilot.parameters import ParamError
 
 MASS_G_N = 1.4 * 9.81  # the quad_x's weight, N
 FIXED = ViewLimits(reach_rad=0.0)  # the seed's body-fixed downward camera, 73.7 deg narrow field, 8 deg margin
-GIMBAL = ViewLimits()  # the 3-axis gimbal: 45 deg of reach from the body's down axis
+GIMBAL = ViewLimits(reach_rad=math.radians(45.0))  # the 3-axis gimbal: 45 deg of reach from the body's down axis
+FIXED_HALF_DEG = 73.7 / 2.0 - 8.0  # the cone's half angle without a gimbal: half the narrow field less the margin
 
 
 def thrust_for(tilt_deg: float, azimuth_deg: float) -> tuple[float, float, float]:
@@ -75,3 +79,42 @@ def test_no_cone_when_off_or_without_a_target_below():
     assert view_cone(np.array([0.3, 0.0, -1.0]), GIMBAL) is None  # above the vehicle
     assert view_cone(np.array([math.nan, 0.0, 1.0]), GIMBAL) is None
     assert horizontal_share((1.0, 0.0, 5.0), AxisCone((0.0, 0.0, 1.0), 0.1)) == 1.0  # thrust downward: nothing
+
+
+def half_angle_deg(limits: ViewLimits) -> float:
+    """The cone's half angle (deg) for a deck 0.4 m ahead, 1 m below."""
+    cone = view_cone(np.array([0.4, 0.0, 1.0]), limits)
+    assert cone is not None
+    return math.degrees(cone.half_angle_rad)
+
+
+def test_by_default_the_reach_is_the_gimbal_devices_and_zero_without_one():
+    """PLD_CAM_REACH -1 (the default): the reach the gimbal manager publishes (rad from the body's down axis), held
+    to 0..90 deg; without a device (None: a fixed camera, a lost device, the manager off) the fixed camera's cone."""
+    store = default_store()
+    auto = ViewLimits.from_store(store)
+    assert store.get("PLD_CAM_REACH") == -1.0 and auto.reach_rad is None
+    assert half_angle_deg(auto) == pytest.approx(FIXED_HALF_DEG)  # no device has reported
+    gimbal = auto.with_device(math.radians(45.0))
+    assert half_angle_deg(gimbal) == pytest.approx(FIXED_HALF_DEG + 45.0)
+    assert half_angle_deg(gimbal.with_device(math.radians(30.0))) == pytest.approx(FIXED_HALF_DEG + 30.0)
+    assert half_angle_deg(gimbal.with_device(None)) == pytest.approx(FIXED_HALF_DEG)  # the device lost
+    assert auto.with_device(math.radians(120.0)).reach_in_use_rad == pytest.approx(math.pi / 2)
+    assert auto.with_device(-0.1).reach_in_use_rad == 0.0 and auto.with_device(math.nan).reach_in_use_rad == 0.0
+    assert gimbal.with_device(gimbal.device_reach_rad) is gimbal  # unchanged: the same limits
+
+
+@pytest.mark.parametrize("reach_deg", [0.0, 20.0, 90.0])
+def test_a_reach_the_user_sets_overrides_the_devices(reach_deg):
+    store = default_store()
+    store.set("PLD_CAM_REACH", reach_deg)
+    user = ViewLimits.from_store(store)
+    for device in (None, math.radians(45.0)):
+        assert half_angle_deg(user.with_device(device)) == pytest.approx(FIXED_HALF_DEG + reach_deg)
+
+
+@pytest.mark.parametrize("value", [-1.5, 90.5])
+def test_the_reach_keeps_its_range_check(value):
+    store = default_store()
+    with pytest.raises(ParamError, match="PLD_CAM_REACH"):
+        store.set("PLD_CAM_REACH", value)

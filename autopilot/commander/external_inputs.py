@@ -6,7 +6,9 @@ the latest offboard setpoint (:class:`~autopilot.topics.OffboardSetpoint`; OFFBO
 while it is recent, as in PX4: :func:`autopilot.navigation.offboard.offboard_refusal`), and when a ground
 station's HEARTBEAT last arrived (the data-link-loss failsafe), and the latest FOLLOW_TARGET
 (:class:`~autopilot.navigation.follow_target_estimator.FollowTargetFix`) of the sender being followed
-(:meth:`ExternalInputs.on_follow_target`).  The link writes into it through the vehicle interface
+(:meth:`ExternalInputs.on_follow_target`), and the reach of the camera gimbal device the flight controller's
+gimbal manager sees (:meth:`ExternalInputs.on_gimbal_reach`: a precision landing's view cone, PLD_CAM_REACH -1).
+The link writes into it through the vehicle interface
 (FOLLOW_TARGET: :mod:`autopilot.mavlink.follow_target_input`); the commander's mode tasks and
 failsafes read it.  Every arrival carries its
 simulated time (µs) and wall-clock time (s, time.monotonic): ages are
@@ -30,6 +32,9 @@ class ExternalInputs:
         self.gcs_heartbeat: tuple[int, float] | None = None  # (sim µs, wall s) of the latest
         self.follow_target: FollowTargetFix | None = None  # the latest from the sender being followed
         self.on_wall_clock = True  # False: ages on simulated time alone (the module docstring)
+        # How far the gimbal device turns the camera from the body's down axis (rad; None: no device reports),
+        # published by the gimbal manager at each of the simulator link's scheduled steps.
+        self.gimbal_reach_rad: float | None = None
 
     def on_manual(self, sticks: ManualInput) -> None:
         self.manual = sticks
@@ -39,6 +44,10 @@ class ExternalInputs:
 
     def on_gcs_heartbeat(self, now_us: int, wall_s: float) -> None:
         self.gcs_heartbeat = (now_us, wall_s)
+
+    def on_gimbal_reach(self, reach_rad: float | None) -> None:
+        """The gimbal device's reach now (rad from the body's down axis; None: no device reports, a fixed camera)."""
+        self.gimbal_reach_rad = reach_rad
 
     def on_follow_target(self, fix: FollowTargetFix) -> bool:
         """Keep ``fix`` if its sender is the one followed, or that one has been silent for TARGET_TIMEOUT_S

@@ -29,6 +29,7 @@ def step(commander: Commander, task: PrecLandTask, est: VehicleEstimate, now_us:
     """One update of the precision landing; the setpoint, or None once the motors are cut."""
     failed_before = task.failed
     task.on_deck = commander.land_detector.ground_contact or commander.contact_push
+    task.gimbal_reach_rad = commander.inputs.gimbal_reach_rad  # the view cone's reach when PLD_CAM_REACH is -1
     setpoint = task.update(est, now_us, commander.landing_target)
     for _t, text in task.events:
         commander.say(S.MAV_SEVERITY_INFO, text)

@@ -125,6 +125,23 @@ class DeviceRange:
             )
         )  # fmt: skip
 
+    @property
+    def tilt_reach_rad(self) -> float:
+        """How far the joints can turn the camera away from the body's down axis in every direction (rad, 0..pi/2):
+        the smallest of the roll joint's reach either side of level and the pitch joint's either side of straight
+        down (pitch -pi/2, PX4's convention; the landing camera's neutral).
+
+        Why the smallest, not the roll range alone: the vehicle tilts toward wherever the deck is, ahead, aside or
+        behind; looking down, a tilt to the side is taken out by the roll joint, a nose-down tilt by pitching up
+        toward ``pitch_max`` and a nose-up one by pitching down past -90 deg toward ``pitch_min`` (the vehicle
+        files' gimbal: -135 deg, 45 deg past, as its roll's +-45).  So the camera still looks down after any tilt
+        within the smallest of the four, which is what PLD_CAM_REACH means.  The yaw joint turns the camera about
+        the down axis and adds no reach.  An unknown joint range (NaN: no limit) leaves the others; a range that
+        does not contain level roll or straight-down pitch gives 0."""
+        lim, down = self.limits, -math.pi / 2
+        reach = min(-lim.roll_min_rad, lim.roll_max_rad, down - lim.pitch_min_rad, lim.pitch_max_rad - down)
+        return min(max(reach, 0.0), math.pi / 2)
+
 
 def manager_limits(device: DeviceRange | None, landed: bool, lnd_pitch_deg: tuple[float, float]) -> AngleLimits:
     """The angles the manager accepts: PX4's manager range, the device's range, and when landed

@@ -36,7 +36,7 @@ primary controller (GIMBAL_MANAGER_STATUS shows it; other clients are DENIED as 
 (:meth:`GimbalManager.point_along`, held in range, sent again once it moved RESEND_ANGLE_RAD); when it asks
 RELEASE again, the controllers and the setpoint (attitude, ROI or rates) held before come back.  A client that
 takes control during the landing (CONFIGURE, as PX4 lets any client) keeps it: the autopilot stops pointing and
-restores nothing.
+restores nothing.  At those steps the device's reach goes to the commander (``publish_reach``, PLD_CAM_REACH -1).
 
 Frames NED/FRD, radians inside; degrees only in MAV_CMD parameters.  Time is the link's simulated time.
 """
@@ -98,7 +98,8 @@ class GimbalManager:
 
     ``status()`` gives the commander's latest status (the estimate, home, landed state); ``to_device(msg)``
     queues a message for the simulator link; ``broadcast(msg, compid)`` sends on both ground-station endpoints
-    as component ``compid``; ``command_source()`` is the (sysid, compid) of the command being run.
+    as component ``compid``; ``command_source()`` is the (sysid, compid) of the command being run;
+    ``publish_reach(rad or None)`` takes the device's reach at each scheduled step (None: no device, range unknown).
     """
 
     def __init__(
@@ -110,11 +111,11 @@ class GimbalManager:
         say: Say,
         command_source: Callable[[], Source],
         own: Source,
+        publish_reach: Callable[[float | None], None] = lambda reach_rad: None,
     ) -> None:
         self.params = params
         self.vehicle_status, self._to_device, self._broadcast, self._say = status, to_device, broadcast, say
-        self.command_source = command_source
-        self.own = own
+        self.command_source, self.own, self.publish_reach = command_source, own, publish_reach
         self.control = GimbalControl()
         self.device_status = None  # the device's latest GIMBAL_DEVICE_ATTITUDE_STATUS
         self.device_information = None  # its latest GIMBAL_DEVICE_INFORMATION
@@ -235,6 +236,7 @@ class GimbalManager:
         dt_s = 0.0 if self._last_update_us is None else max(0.0, (now_us - self._last_update_us) * 1e-6)
         self._last_update_us = now_us
         self._watch_device(now_us)
+        self.publish_reach(self.device_range.tilt_reach_rad if self.advertised and self.device_range else None)
         if not self.advertised:
             return
         self._apply_request(self.vehicle_status().gimbal_request)
@@ -329,10 +331,8 @@ class GimbalManager:
         if not self.allows(sender):
             c = self.control.primary
             return f"{sender[0]}/{sender[1]} is not in control (primary: {c[0]}/{c[1]})"
-        if att is not None:
-            why = self._refusal(att)
-            if why is not None:
-                return why
+        if att is not None and (why := self._refusal(att)) is not None:
+            return why
         self.roi = None
         if rates is not None and att is None:
             if not all(math.isfinite(r) for r in rates):

@@ -5,7 +5,7 @@ ground until the target is seen; TRACKING flies the cubic spline of [F eq. 3.1] 
 PLD_TRK_ALT (1 m) above the target in td = horizontal error / PLD_TRK_SPD (1 m/s), re-planned
 each step on the target's latest position, plus the target's velocity (and, over a moving deck,
 its acceleration) as feed-forward, the chase's tilt held where the camera still sees the target
-(:mod:`autopilot.navigation.view_limited_catchup`, PLD_VIEW_LIM);
+(:mod:`autopilot.navigation.view_limited_catchup`, PLD_VIEW_LIM; ``gimbal_reach_rad``: the gimbal's reach);
 APPROACHING holds the point above the target until the horizontal error stays below
 PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S (and DOCKING returns to it when the error exceeds
 PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck (its acceleration within
@@ -164,6 +164,7 @@ class PrecLandTask:
         self._turn = TurnRate()  # the target's turn rate from its measured headings
         self._view = ViewLimits.from_store(params)  # the chase keeps the marker in the camera's view
         self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
+        self.gimbal_reach_rad: float | None = None  # ... and the gimbal device's reach (rad; None: no device)
         self._fallback: LandTask | None = None
         self._last_us: int | None = None  # time of the previous update
         self._used_us: int | None = None  # timestamp of the latest measurement taken
@@ -367,6 +368,7 @@ class PrecLandTask:
         base = self._above_target(self.cfg.trk_alt_m)
         vel = self._tgt_vel.copy()
         acc = self._tgt_acc * _moving(self._tgt_vel)
+        self._view = self._view.with_device(self.gimbal_reach_rad)  # (PLD_CAM_REACH -1: follows the device)
         band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
