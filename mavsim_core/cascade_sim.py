@@ -18,7 +18,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import cont2discrete
 
 from mavsim_core.butterworth import lowpass2
 from mavsim_core.constants import GRAVITY_M_S2
@@ -65,6 +64,8 @@ def step_metrics(t: np.ndarray, pos: np.ndarray, step_m: float, band_m: float = 
 
 
 def _discrete(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.signal import cont2discrete  # here: scipy.signal costs ~0.8 s of imports, and few callers need it
+
     ad, bd, _, _, _ = cont2discrete((a, b, np.eye(a.shape[0]), np.zeros((a.shape[0], 1))), dt, "zoh")
     return ad, bd[:, 0]
 

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from scipy.signal import butter
 
 from mavsim_core.butterworth import lowpass2
 
@@ -11,6 +10,8 @@ from mavsim_core.butterworth import lowpass2
     "cutoff_hz, sample_hz", [(30.0, 250.0), (40.0, 250.0), (1.0, 250.0), (110.0, 250.0), (5.0, 50.0)]
 )
 def test_the_coefficients_are_scipys(cutoff_hz, sample_hz):
+    from scipy.signal import butter  # here, not at collection: every xdist worker collects every file
+
     b, a = lowpass2(cutoff_hz, sample_hz)
     sb, sa = butter(2, cutoff_hz, fs=sample_hz)
     assert np.allclose(b, sb, rtol=1e-12, atol=1e-15) and np.allclose(a, sa, rtol=1e-12, atol=1e-15)

@@ -9,7 +9,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from mavsim_core import frames
 from mavsim_core import quaternion as quat
@@ -63,6 +62,8 @@ def test_quaternion_conversion_round_trip_and_rotates_vectors_consistently():
 
 
 def test_wxyz_xyzw_helpers_against_scipy():
+    from scipy.spatial.transform import Rotation  # here, not at collection: every xdist worker collects every file
+
     for q in random_quats(20, seed=2):
         xyzw = frames.wxyz_to_xyzw(q)
         assert xyzw == pytest.approx([q[1], q[2], q[3], q[0]])

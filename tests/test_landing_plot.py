@@ -7,20 +7,28 @@ import math
 from pathlib import Path
 from types import SimpleNamespace
 
-import matplotlib
 import numpy as np
 import pytest
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from gcs.flight_logs import FlightData, Series, load_truth_log  # noqa: E402
-from gcs.frame_log import frames_beside, frames_path, frames_using, marker_ids  # noqa: E402
-from gcs.plot_landing import fig_landing, has_landing  # noqa: E402
-from sitl.truth_log import MAX_FRAME_MARKERS, CameraFrame, TruthRecorder  # noqa: E402
+from gcs.flight_logs import FlightData, Series, load_truth_log
+from gcs.frame_log import frames_beside, frames_path, frames_using, marker_ids
+from gcs.plot_landing import fig_landing, has_landing
+from sitl.truth_log import MAX_FRAME_MARKERS, CameraFrame, TruthRecorder
 
 IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 GIMBAL_RPY_RAD = (math.radians(5.0), math.radians(-80.0), math.radians(12.5))
+
+
+@pytest.fixture
+def plt():
+    """matplotlib's pyplot on the Agg backend, imported by the tests that draw (not at collection: every xdist
+    worker collects every file, and matplotlib costs about a second of imports)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot
+
+    return matplotlib.pyplot
 
 
 def _truth(k: int) -> SimpleNamespace:
@@ -119,7 +127,7 @@ def _axis(fig, ylabel: str):
     return found[0] if found else None
 
 
-def test_the_landing_figure_shows_the_gimbal_and_the_markers_used():
+def test_the_landing_figure_shows_the_gimbal_and_the_markers_used(plt):
     data = _landing_data(_frames())
     assert has_landing(data)
     fig = fig_landing(plt, data)
@@ -147,7 +155,7 @@ def test_the_landing_figure_shows_the_gimbal_and_the_markers_used():
         plt.close(fig)
 
 
-def test_the_landing_figure_of_a_fixed_camera_says_so():
+def test_the_landing_figure_of_a_fixed_camera_says_so(plt):
     fig = fig_landing(plt, _landing_data(_frames(gimbal=False)))
     try:
         gimbal = _axis(fig, "gimbal joint\nangle, deg")
@@ -156,7 +164,7 @@ def test_the_landing_figure_of_a_fixed_camera_says_so():
         plt.close(fig)
 
 
-def test_an_older_log_without_camera_frames_still_plots_as_before(tmp_path):
+def test_an_older_log_without_camera_frames_still_plots_as_before(plt, tmp_path):
     fig = fig_landing(plt, _landing_data(None))
     try:
         assert len(fig.axes) == 3 and _axis(fig, "gimbal joint\nangle, deg") is None
