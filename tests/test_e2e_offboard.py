@@ -48,6 +48,7 @@ from mavsdk_session import ground_station  # noqa: E402
 from e2e_flight_helpers import (  # tests/e2e_flight_helpers.py
     latlon,
     record_figure,
+    sim_ms,
     sim_sleep,
     stepped_flight_fixture,
     until,
@@ -62,6 +63,7 @@ CIRCLE_SPEED, CIRCLE_RADIUS = 2.0, 3.0  # m/s, m
 SETPOINT_EVERY_S = 0.1  # the circle's velocity setpoints: one every 0.1 s of simulated time
 VELOCITY_NE = (1.2, -1.6)  # MAVSDK's velocity leg, m/s north and east: 2 m/s to the north-west
 ROLL_DEG, PITCH_DEG = 10.0, -6.0  # the attitude step
+ATTITUDE_THRUST = 0.58  # its thrust: quad_x hovers at 57 % of full thrust, divided by cos(11.7 deg) of tilt
 GLOBAL_NE = (-3.0, 2.0)  # the set_position_global point, m north and east of the simulator's home
 
 flight = stepped_flight_fixture(then_free=True)  # one stack, held from its start; its client on the ground-station port
@@ -226,20 +228,35 @@ async def _velocity_leg(offboard, truth) -> tuple[list[float], list[float]]:
 
 
 async def _attitude_step(offboard, truth) -> list[tuple[float, float]]:
-    """The attitude step's settled second.  The settling counts from the truth showing the step under way
-    (half the commanded roll), not from the call's return: on a busy machine the truth's UDP stream lags the
-    vehicle and the setpoint reaches it late, so 0.6 s from the latest truth sample could still be before the
-    step began (a flake hunt saw a 12.5 deg roll error that way)."""
-    await offboard.set_attitude(Attitude(ROLL_DEG, PITCH_DEG, 0.0, 0.5))
+    """The attitude step's settled second: from 0.6 s to 1.6 s of simulated time after the truth first shows the
+    step under way (half the commanded roll).  Both ends are counted from that sample, not from when this client
+    noticed it: at full speed a client stalled for a wall second on a busy machine sees tens of simulated seconds
+    go by, and a window counted from its own waits ended, in two flake hunts, after the vehicle (thrust 0.5, below
+    the hover thrust) had sunk to the ground and lay tilted on its legs (roll 10.8 with pitch 0; roll 11 off).
+    The thrust is about the hover thrust tilted, so the vehicle holds its height meanwhile."""
+    start = await asyncio.get_running_loop().run_in_executor(None, truth.caught_up, WAIT_S)
+    await offboard.set_attitude(Attitude(ROLL_DEG, PITCH_DEG, 0.0, ATTITUDE_THRUST))
+
+    def first_rolling() -> int | None:
+        with truth.lock:
+            times = sorted(t for t in truth.states if t >= start)
+            return next((t for t in times if truth_euler_deg(truth.states[t])[0] > ROLL_DEG / 2), None)
 
     async def rolling():
-        s = truth.latest_state
-        return s is not None and truth_euler_deg(s)[0] > ROLL_DEG / 2
+        return first_rolling() is not None
 
     await until(rolling, WAIT_S, f"the truth's roll past {ROLL_DEG / 2:g} deg", period_s=0.005)
-    t0 = await sim_sleep(truth, 0.6)  # the step settles
-    t1 = await sim_sleep(truth, 1.0)
-    states = [truth.state_at(t) for t in range(t0, t1, 20)]
+    t_roll = first_rolling()
+    assert t_roll is not None
+
+    async def window_passed():
+        return sim_ms(truth) >= t_roll + 1600
+
+    await until(window_passed, WAIT_S, "the attitude step's settled second", period_s=0.005)
+    a, b = truth.at(t_roll + 600), truth.at(t_roll + 1600)
+    if a is not None and b is not None:
+        print(f"attitude step: height {-a.pos_ned_m[2]:.2f} -> {-b.pos_ned_m[2]:.2f} m over the settled second")
+    states = [truth.state_at(t) for t in range(t_roll + 600, t_roll + 1600, 20)]
     return [truth_euler_deg(s) for s in states if s is not None]
 
 
