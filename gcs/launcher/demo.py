@@ -37,6 +37,7 @@ from mavsim_core.cli_checks import make_dir, startup_failed
 
 from ..client import VehicleClient
 from ..errors import CommandRefused, GcsError, GcsTimeout, StatusText
+from ..frame_log import FRAMES_SUFFIX
 from ..sim_client import SimClient
 from .demo_args import build_parser
 from .multi_demo import MultiDemo
@@ -219,7 +220,7 @@ def logs_line(stack: Stack) -> str:
     """Where the flight's logs went and the command that plots them, as the caller can type it (``.frames.npy``,
     the camera's frames, only when the simulator wrote one: a flight with the camera)."""
     plot = f"{console_script('gcs')} plot {stack.log_dir}"
-    frames = ", .frames.npy" if any(Path(stack.log_dir).glob("*.frames.npy")) else ""
+    frames = f", {FRAMES_SUFFIX}" if any(Path(stack.log_dir).glob(f"*{FRAMES_SUFFIX}")) else ""
     return f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy{frames}) in {stack.log_dir}; plot them: {plot}"
 
 
