@@ -110,6 +110,22 @@ def pytest_xdist_auto_num_workers(config):
     return (os.cpu_count() or 1) + 1
 
 
+def pytest_collection_modifyitems(config, items):
+    """The order in which ``--dist loadfile`` hands the files out (xdist's own reordering is off: addopts): the
+    files marked ``long`` first, then the rest by their number of tests, most first (xdist's default order), each
+    file's tests in their own order.  xdist's order alone put the campaign file (one test, a minute of a worker:
+    a landing campaign interrupted, resumed, and resumed again on Ray) among the last, and the run ended with that
+    one worker busy and the other two done (20 s, 2026-12-05)."""
+    files: dict[str, list] = {}
+    for item in items:
+        files.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
+
+    def key(tests: list) -> tuple[bool, int]:
+        return (tests[0].get_closest_marker("long") is None, -len(tests))
+
+    items[:] = [item for tests in sorted(files.values(), key=key) for item in tests]
+
+
 # ---------------------------------------------------------------------------------------------
 # A failed e2e test prints the tails of both processes' logs and each link's last messages
 # (tests/e2e_diagnostics.py), so a CI failure can be read without re-running it.

@@ -1,17 +1,21 @@
 """Bad invocations of ``sitl``, ``autopilot``, ``flight-demo`` and ``python -m vision``, as a user types them.
 
-Each runs the real console script (a subprocess, no stack: each fails before anything starts) and must end
-with the documented exit code (2 usage error, argparse's own; 1 refused or failed: a file that cannot be
-read, a directory that cannot be created, a port already in use) and ONE line on stderr that names the
-option (or the port) - argparse's ``usage:`` lines aside - and never a traceback.  Three of them find the
-instance's port already taken (this test holds it).  Then ``--version`` and ``--help`` of each script.
+Each runs the console script's ``main(argv)`` (in the test's process, ``tests/cli_in_process.py``: no stack,
+each fails before anything starts) and must end with the documented exit code (2 usage error, argparse's
+own; 1 refused or failed: a file that cannot be read, a directory that cannot be created, a port already in
+use) and ONE line on stderr that names the option (or the port) - argparse's ``usage:`` lines aside - and
+never a traceback.  Three of them find the
+instance's port already taken (this test holds it).  Then ``--help`` of each script, and ``--version`` of each
+installed console script as a process of its own: the entry point and the interpreter's part run for real once
+per script.
 
-All the processes run at once in a module fixture (each is a Python start, ~0.3-1.5 s), the tests read
-their results.  Instance numbers come from ``free_instance``; files are under pytest's temporary directory.
+All of them run in a module fixture (the processes four at a time), the tests read their results.  Instance
+numbers come from ``free_instance``; files are under pytest's temporary directory.
 """
 
 from __future__ import annotations
 
+import importlib
 import socket
 import subprocess
 import sys
@@ -23,6 +27,11 @@ import pytest
 from mavsim_core import ports
 from mavsim_core.cli_args import EXIT_CODES_EPILOG, version
 
+from cli_in_process import call_main  # tests/cli_in_process.py
+
+# each script's main, imported by the fixture (not when every xdist worker collects this file)
+MAINS = {"sitl": "sitl.__main__", "autopilot": "autopilot.__main__", "flight-demo": "gcs.launcher.demo"}
+MAINS |= {"python -m vision": "vision.__main__"}
 BIN = Path(sys.executable).parent  # the console scripts of the environment running the tests
 SCRIPTS = {"sitl": [str(BIN / "sitl")], "autopilot": [str(BIN / "autopilot")]}
 SCRIPTS |= {"flight-demo": [str(BIN / "flight-demo")], "python -m vision": [sys.executable, "-m", "vision"]}
@@ -90,15 +99,18 @@ def runs(tmp_path_factory, free_instance):
     _files(tmp)
     instance = free_instance()
     fill = {"i": instance, "tmp": tmp}
-    commands = {key: SCRIPTS[script] + args.format(**fill).split() for key, (script, args, _, _) in BAD.items()}
-    for name, command in SCRIPTS.items():
-        commands[("--version", name)] = command + ["--version"]
-        commands[("--help", name)] = command + ["--help"]
+    calls = {key: (script, args.format(**fill).split()) for key, (script, args, _, _) in BAD.items()}
+    calls |= {("--help", name): (name, ["--help"]) for name in SCRIPTS}
     held = _hold_ports(instance)
     try:
         with ThreadPoolExecutor(max_workers=4) as pool:
-            futures = {key: pool.submit(_run, command, tmp) for key, command in commands.items()}
-            done = {key: future.result() for key, future in futures.items()}
+            futures = {
+                ("--version", name): pool.submit(_run, command + ["--version"], tmp)
+                for name, command in SCRIPTS.items()
+            }
+            mains = {script: importlib.import_module(module).main for script, module in MAINS.items()}
+            done = {key: call_main(mains[script], script, argv, tmp) for key, (script, argv) in calls.items()}
+            done |= {key: future.result() for key, future in futures.items()}
     finally:
         for sock in held:
             sock.close()

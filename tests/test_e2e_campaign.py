@@ -33,7 +33,7 @@ from gcs.campaign.results import WALL_COLUMNS, read
 
 from e2e_flight_helpers import sigint_default  # tests/e2e_flight_helpers.py
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.long]  # handed out first (tests/conftest.py)
 
 RUNS = 2
 CAMPAIGN = f"""

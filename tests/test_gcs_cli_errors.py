@@ -1,11 +1,11 @@
 """Bad invocations of the ``gcs`` console script: one line that says what is wrong, the right exit code.
 
-Each row runs the installed ``gcs`` script (a subprocess, in the test's own temporary directory) with
-something a person could type wrong, and no vehicle anywhere: a bad option value is argparse's usage
-line plus one ``error:`` line naming the argument and the allowed range (exit 2); a file that cannot be
-read is one line (exit 1) before anything is sent; a vehicle that does not answer is one line (exit 3).
-Never a traceback, nothing on stdout.  Also: ``--version``, and every sub-command's ``--help`` ends with
-the exit codes.
+Each row runs the ``gcs`` script's ``main(argv)`` (in the test's process, ``tests/cli_in_process.py``, in the
+test's own temporary directory) with something a person could type wrong, and no vehicle anywhere: a bad
+option value is argparse's usage line plus one ``error:`` line naming the argument and the allowed range
+(exit 2); a file that cannot be read is one line (exit 1) before anything is sent; a vehicle that does not
+answer is one line (exit 3).  Never a traceback, nothing on stdout.  Also: ``--version`` (the installed
+console script, a process of its own: its entry point runs for real), and every sub-command's ``--help`` ends with the exit codes.
 """
 
 from __future__ import annotations
@@ -21,12 +21,22 @@ import pytest
 from gcs.cli_parser import build_parser
 from mavsim_core import cli_args
 
+from cli_in_process import call_main  # tests/cli_in_process.py
+
 GCS = Path(sys.executable).with_name("gcs")  # the console script beside this interpreter (the venv's bin)
 COMMAND = [str(GCS)] if GCS.exists() else [sys.executable, "-m", "gcs"]
 
 
 def run_gcs(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """``gcs ARGS`` as the installed console script: a process."""
     return subprocess.run(COMMAND + args, cwd=cwd, capture_output=True, text=True, timeout=60)
+
+
+def call_gcs(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """``gcs ARGS`` as its ``main(argv)`` in this process."""
+    from gcs.__main__ import main
+
+    return call_main(main, "gcs", args, cwd)
 
 
 def silent_url() -> str:
@@ -54,7 +64,7 @@ BAD = [  # (id, arguments, exit code, the message line starts with, ... and cont
 
 @pytest.mark.parametrize("args, code, start, fragment", [row[1:] for row in BAD], ids=[row[0] for row in BAD])
 def test_bad_invocation_is_one_line_and_its_exit_code(args, code, start, fragment, tmp_path):
-    p = run_gcs(args, tmp_path)
+    p = call_gcs(args, tmp_path)
     assert p.returncode == code, p.stderr
     assert "Traceback" not in p.stderr and p.stdout == ""
     message = [line for line in p.stderr.splitlines() if not line.startswith(("usage:", " "))]  # argparse's usage
@@ -63,7 +73,7 @@ def test_bad_invocation_is_one_line_and_its_exit_code(args, code, start, fragmen
 
 
 def test_no_vehicle_answering_is_exit_3_in_one_line(tmp_path):
-    p = run_gcs(["--url", silent_url(), "--timeout", "0.5", "arm"], tmp_path)
+    p = call_gcs(["--url", silent_url(), "--timeout", "0.5", "arm"], tmp_path)
     assert p.returncode == 3, p.stderr
     assert p.stderr.startswith("gcs: arm: no answer from the vehicle: timed out after 0.5 s waiting for a heartbeat")
     assert len(p.stderr.splitlines()) == 1 and p.stdout == ""
