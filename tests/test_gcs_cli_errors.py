@@ -5,7 +5,8 @@ test's own temporary directory) with something a person could type wrong, and no
 option value is argparse's usage line plus one ``error:`` line naming the argument and the allowed range
 (exit 2); a file that cannot be read is one line (exit 1) before anything is sent; a vehicle that does not
 answer is one line (exit 3).  Never a traceback, nothing on stdout.  Also: ``--version`` (the installed
-console script, a process of its own: its entry point runs for real), and every sub-command's ``--help`` ends with the exit codes.
+console script, a process of its own: its entry point runs for real), and every sub-command's ``--help``
+ends with the exit codes.
 """
 
 from __future__ import annotations
