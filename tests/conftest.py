@@ -112,16 +112,20 @@ def pytest_xdist_auto_num_workers(config):
 
 def pytest_collection_modifyitems(config, items):
     """The order in which ``--dist loadfile`` hands the files out (xdist's own reordering is off: addopts): the
-    files marked ``long`` first, then the rest by their number of tests, most first (xdist's default order), each
-    file's tests in their own order.  xdist's order alone put the campaign file (one test, a minute of a worker:
-    a landing campaign interrupted, resumed, and resumed again on Ray) among the last, and the run ended with that
-    one worker busy and the other two done (20 s, 2026-12-05)."""
+    files marked ``long``, then the other files with e2e tests, then the unit-test files; within each group by
+    their number of tests, most first (xdist's default order); each file's tests in their own order.
+
+    A file is one worker's from its first test to its last, so the run ends when the last file handed out ends.
+    By xdist's order alone (number of tests) the e2e files of one test came last, and the campaign file (a
+    minute of a worker: a landing campaign interrupted, resumed, and resumed again on Ray) ended the run with
+    the other two workers done (20 s, 2026-12-05).  The unit files, most under a second, now fill the end."""
     files: dict[str, list] = {}
     for item in items:
         files.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
 
-    def key(tests: list) -> tuple[bool, int]:
-        return (tests[0].get_closest_marker("long") is None, -len(tests))
+    def key(tests: list) -> tuple[bool, bool, int]:
+        e2e = any(t.get_closest_marker("e2e") is not None for t in tests)
+        return (tests[0].get_closest_marker("long") is None, not e2e, -len(tests))
 
     items[:] = [item for tests in sorted(files.values(), key=key) for item in tests]
 

@@ -114,6 +114,8 @@ def test_gps_glitches_do_not_move_the_vehicle(flight):
 
 
 def test_gps_loss_in_flight_ends_in_a_landing_not_a_fly_away(flight):
+    """GPS lost in a hover: the failsafe lands where the vehicle was (no fly-away), and the estimate is
+    regained once GPS is back.  (tests/test_e2e_failsafes.py flew the same twice more; issue 33 kept this.)"""
     f = flight
     client = f.client
     point = f.take_off(ALT_M, settle_s=SETTLE_S)
@@ -126,3 +128,4 @@ def test_gps_loss_in_flight_ends_in_a_landing_not_a_fly_away(flight):
         record_figure("gps_loss_landing_drift_m", horizontal(end.pos_ned_m, point.pos_ned_m), 3.0, unit="m")
     finally:
         f.set_sim("SIM_GPS_DISABLE", 0)
+    f.until(lambda: texts(f, "Position estimate regained"), 10.0, "Position estimate regained", every_s=0.25)
