@@ -22,9 +22,13 @@ consistent) is the one at fault.
 * The barometer (drifting, frozen at a wrong value, reading garbage that still changes): "Barometer
   failed: inconsistent with GPS height (x.x m)" (CRITICAL).  It is no longer fused, the SYS_STATUS
   barometer bit is cleared (:attr:`HeightSources.failed`, via the estimator's failed sensors) and
-  the filters fly on the GPS height: the EKF's height is reset to it at once (not published as a
-  reset: the setpoint stays, so the vehicle climbs back to where it was told to be), then each fix
-  is fused (``EKF2_GPS_P_NOISE`` or the fix's epv, whichever is larger; gate ``EKF2_GPS_P_GATE``).
+  the filters fly on the GPS height in the barometer's frame, the GPS height plus the bias learnt
+  while the two agreed (the height frame stays the one the vehicle flew in: a barometer frozen at
+  the right height moves nothing; without the bias a GPS height 0.7 m off the barometer's, in one
+  seed's noise, sank the vehicle 0.9 m at the switch): the EKF's height is reset to it at once (not
+  published as a reset: the setpoint stays, so the vehicle climbs back to where it was told to be),
+  then each fix is fused (``EKF2_GPS_P_NOISE`` or the fix's epv, whichever is larger; gate
+  ``EKF2_GPS_P_GATE``).
   The same fallback flies whenever the barometer is failed for another reason
   (:mod:`autopilot.estimation.sensor_checks`: no data, stale data).  Once the innovation, low-passed
   over ``SMOOTH_TAU_S``, stays within a third of the gate for ``RECOVER_S``: "Barometer healthy
@@ -122,15 +126,16 @@ class HeightSources:
         ekf_then = float(ekf.p[2] if pos_then is None else pos_then[2])
         lkf_pos_then, _ = state_at(lkf[1], fix.then_us)
         lkf_then = float(lkf[0].x[2, 0] if lkf_pos_then is None else lkf_pos_then[2])
+        down_m = fix.down_m + (self.bias_m or 0.0)  # the GPS height in the barometer's frame (see the module doc)
         if self.on_gps_height:
-            ekf.fuse_state(2, fix.down_m - ekf_then, noise * noise, self._p(P_GPS_P_GATE), "hgt")
-            lkf[0].fuse_height(fix.down_m, lkf_then, noise)
+            ekf.fuse_state(2, down_m - ekf_then, noise * noise, self._p(P_GPS_P_GATE), "hgt")
+            lkf[0].fuse_height(down_m, lkf_then, noise)
             return
         self.on_gps_height = True  # the switch: take the GPS height now (both filters)
         target = ekf.p.copy()
-        target[2] += fix.down_m - ekf_then
+        target[2] += down_m - ekf_then
         ekf.reset_position(target, noise * noise, slice(2, 3))
-        lkf[0].x[2, 0] += fix.down_m - lkf_then
+        lkf[0].x[2, 0] += down_m - lkf_then
 
     def _integrate(self, fix: GpsHeight) -> None:
         """The GPS vertical velocity summed from fix to fix (trapezoids): a height that cannot jump."""
