@@ -33,7 +33,9 @@ from typing import Callable
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
-def call_main(main: Callable[[list[str]], int | None], prog: str, argv: list[str], cwd: Path | str):
+def call_main(
+    main: Callable[[list[str]], int | None], prog: str, argv: list[str], cwd: Path | str
+) -> subprocess.CompletedProcess:
     """``main(argv)`` with ``prog`` as ``sys.argv[0]``, in ``cwd``: a ``subprocess.CompletedProcess`` of it."""
     return _call(lambda: main(argv), [prog, *argv], cwd)
 
