@@ -70,7 +70,8 @@ def test_the_same_landing_on_two_stacks_gives_identical_results(free_instance):
     for inst in (a, b):
         assert not isinstance(out.get(inst), BaseException), out.get(inst)
     (ra, pos_a, ugv_a, markers), (rb, pos_b, ugv_b, _) = out[a], out[b]
-    assert ra.success, ra.reason
+    assert ra.success, ra.reason  # a pilot's landing: four feet on the deck, level on it 5 s later (deck_stance.py)
+    assert ra.feet_on_deck == 4 and abs(ra.deck_level_err_cm) <= 2.0, (ra.feet_on_deck, ra.deck_level_err_cm)
     outer, inner = markers[NESTED_PAD.markers[0].marker_id], markers[NESTED_PAD.markers[1].marker_id]
     print(f"markers used (frames, nearest m, farthest m, alone): outer {outer}, inner {inner}")
     assert inner[1] < outer[1] and inner[3] > 0, "the inner marker, alone, nearer than the outer one was seen"

@@ -360,7 +360,7 @@ def _instances(stack: Stack) -> str:
 
 def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: Stack) -> int:
     """``--scenario ugv-landing``: one precision landing on the UGV; exit 0 only if it stayed on the deck."""
-    from .landing_run import fly_landing
+    from .landing_run import STAY_ON_DECK_S, fly_landing
 
     demo.step = "precision landing on the UGV"
     with SimClient(ports.sim_component_port(stack.instance)) as truth:
@@ -368,6 +368,10 @@ def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: 
     print(f"touchdown error: {result.touchdown_error_m:.3f} m")
     print(f"time to land: {result.time_to_land_s:.1f} s (simulated, from NAV_LAND to the motors cut)")
     print(f"UGV speed at touchdown: {result.ugv_speed_at_touchdown_m_s:.2f} m/s")
+    print(
+        f"on the deck {STAY_ON_DECK_S:g} s later: {result.feet_on_deck} feet on it, "
+        f"{result.deck_level_err_cm:+.1f} cm from a level stance (within 2 cm: level)"
+    )
     print(f"real-time factor: {result.real_time_factor:.2f}")
     print(logs_line(stack))
     if not result.success:

@@ -12,8 +12,10 @@ controller's landing state machine do.
 
 Scoring (simulator truth on UDP 14740+I, NED metres from the multicopter's start point): the
 touchdown error is the horizontal distance from the multicopter's centre to the marker's centre
-at the disarm; success means disarmed on the deck and still on it ``STAY_ON_DECK_S`` later (its
-centre within the deck's square, above the ground).
+at the disarm; success is what a pilot would call a landing (:mod:`.deck_stance`): disarmed with its
+centre over the deck and, ``STAY_ON_DECK_S`` later, all its feet on the deck and standing level on it
+(its height above the deck that above flat ground, measured before the take-off, within 2 cm).  A
+vehicle resting on the deck's edge is a failure whose reason says so.
 
 Reproducible (``LandingSetup.deterministic``, the default): the simulator starts held
 (``SIM_HOLD_MS`` = :data:`START_HOLD_MS`) and the flight is driven through holds
@@ -32,22 +34,22 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from params.vehicle import load_vehicle
 from sitl.ugv import UgvGeometry
 from sitl.ugv_paths import Pose2, UgvPath, circle, figure8, straight_line
 
 from ..client import VehicleClient
 from ..errors import GcsTimeout
 from ..sim_client import SimClient
+from .deck_stance import STAY_ON_DECK_S, Stance, stance
 from .sim_stepper import SimStepper, SimTimeout
 
 PATH_CODES = {"static": 0, "line": 1, "circle": 2, "figure8": 3, "random": 4}
 CAMERA_MOUNT_CODES = {"gimbal": 2, "fixed": 1}  # SIM_CAM_MOUNT: the 3-axis gimbal, the seed's body-fixed camera
 PAD_LAYOUT_CODES = {"nested": 0, "single": 1}  # SIM_PAD_LAYOUT: the nested pad, the seed's single marker
 PREP_ALT_M = 2.8  # PLD_PREP_ALT's default, [F 3]
-STAY_ON_DECK_S = 5.0
 ARRIVAL_RADIUS_M = 0.3
 START_HOLD_MS = 100  # a reproducible run: the simulator holds from t = 0.1 s until the script moves the hold
 READY_CHECK_EVERY_S = 0.5  # the same while waiting for it to be ready to arm (seconds: the estimator converging)
@@ -150,6 +152,8 @@ class LandingResult:
     touchdown_error_m: float = math.nan
     time_to_land_s: float = math.nan  # from NAV_LAND to the disarm
     ugv_speed_at_touchdown_m_s: float = math.nan
+    feet_on_deck: int = 0  # STAY_ON_DECK_S after the disarm (of the vehicle file's legs)
+    deck_level_err_cm: float = math.nan  # then: height above the deck minus height above flat ground
     reason: str = ""
     phases: list[str] = field(default_factory=list)
     sim_s: float = math.nan
@@ -158,15 +162,6 @@ class LandingResult:
     @property
     def real_time_factor(self) -> float:
         return self.sim_s / self.wall_s if self.wall_s > 0 else math.nan
-
-
-def on_deck(vehicle_ned_m: np.ndarray, ugv_ned_m: np.ndarray, ugv_yaw_rad: float, geom: UgvGeometry) -> bool:
-    """The multicopter's centre is over the deck (within its square, in the UGV's frame) and off the ground."""
-    dn, de = vehicle_ned_m[0] - ugv_ned_m[0], vehicle_ned_m[1] - ugv_ned_m[1]
-    c, s = math.cos(ugv_yaw_rad), math.sin(ugv_yaw_rad)
-    fwd, right = c * dn + s * de, -s * dn + c * de
-    half = geom.deck_side_m / 2
-    return abs(fwd) <= half and abs(right) <= half and -vehicle_ned_m[2] > 0.5 * geom.deck_top_m
 
 
 def _wait(cond: Callable[[], bool], client: VehicleClient, timeout_s: float, what: str) -> None:
@@ -183,13 +178,15 @@ def fly_landing(
 ) -> LandingResult:
     """Fly one precision landing (see the module docstring) and score it."""
     result = LandingResult()
-    geom = geom or UgvGeometry()
+    spec = load_vehicle(setup.vehicle)
+    judge = _Judge(truth, geom or UgvGeometry(), (spec.leg_positions_frd_m, spec.leg_size_m))
     client.add_listener(lambda m: _phase_listener(m, result))
     if setup.stepped:
-        return _fly_stepped(SimStepper(client, truth, timeout_s=min(timeout_s, 60.0)), setup, say, geom, result)
+        return _fly_stepped(SimStepper(client, truth, timeout_s=min(timeout_s, 60.0)), setup, say, judge, result)
     wall0 = time.monotonic()
     client.wait_until(client.prearm_ok, timeout_s, "the vehicle to be ready to arm")
     home = client.wait_home(timeout_s)
+    judge.rest()
     sim0 = client.sim_time_s() or 0.0
     client.arm(timeout_s=10).check()
     client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
@@ -215,21 +212,18 @@ def fly_landing(
         return _finish(result, client, sim0, wall0)
     t_touch = client.sim_time_s() or 0.0
     result.time_to_land_s = t_touch - t_land
-    score = _score(truth, geom)
+    score = judge.score()
     if score is None:
         result.reason = "no truth at touchdown"
         return _finish(result, client, sim0, wall0)
-    result.touchdown_error_m, result.ugv_speed_at_touchdown_m_s, landed_on_deck = score
+    result.touchdown_error_m, result.ugv_speed_at_touchdown_m_s, first = score
     client.wait_sim_time(STAY_ON_DECK_S, timeout_s, f"{STAY_ON_DECK_S:g} s on the deck")
-    later = _score(truth, geom)
-    result.success = bool(landed_on_deck and later is not None and later[2])
-    if not result.success:
-        result.reason = "touched down off the deck" if not landed_on_deck else "fell off the deck"
+    _verdict(result, first, judge.score())
     return _finish(result, client, sim0, wall0)
 
 
 def _fly_stepped(
-    step: SimStepper, setup: LandingSetup, say: Callable[[str], None], geom: UgvGeometry, result: LandingResult
+    step: SimStepper, setup: LandingSetup, say: Callable[[str], None], judge: _Judge, result: LandingResult
 ) -> LandingResult:
     """:func:`fly_landing` driven through holds (reproducible; see the module docstring)."""
     client, truth = step.client, step.truth
@@ -241,6 +235,7 @@ def _fly_stepped(
         step.run_until(ready, READY_SIM_S, "ready to arm", check_every_s=READY_CHECK_EVERY_S)
         home = client.home()
         sim0_ms = step.time_ms
+        judge.rest(step.time_ms)
         client.arm(timeout_s=10).check()
         client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
         step.run_until(lambda: client.takeoff_done(PREP_ALT_M), TAKEOFF_SIM_S, f"takeoff to {PREP_ALT_M} m")
@@ -264,16 +259,13 @@ def _fly_stepped(
             result.reason = "target lost: " + " | ".join(result.phases[-2:])
             return result
         result.time_to_land_s = (step.time_ms - t_land_ms) / 1000.0
-        score = _score(truth, geom, step.time_ms)
+        score = judge.score(step.time_ms)
         if score is None:
             result.reason = "no truth at touchdown"
             return result
-        result.touchdown_error_m, result.ugv_speed_at_touchdown_m_s, landed_on_deck = score
+        result.touchdown_error_m, result.ugv_speed_at_touchdown_m_s, first = score
         step.advance(STAY_ON_DECK_S)
-        later = _score(truth, geom, step.time_ms)
-        result.success = bool(landed_on_deck and later is not None and later[2])
-        if not result.success:
-            result.reason = "touched down off the deck" if not landed_on_deck else "fell off the deck"
+        _verdict(result, first, judge.score(step.time_ms))
         return result
     finally:
         result.sim_s, result.wall_s = (step.time_ms - sim0_ms) / 1000.0, time.monotonic() - wall0
@@ -286,19 +278,55 @@ def _finish(result: LandingResult, client: VehicleClient, sim0: float, wall0: fl
     return result
 
 
-def _score(truth: SimClient, geom: UgvGeometry, at_ms: int | None = None) -> tuple[float, float, bool] | None:
-    """Touchdown error (m), UGV speed (m/s) and on-deck from the vehicle and UGV truth at ``at_ms`` (simulated
-    ms; None: the latest)."""
-    if at_ms is None:
-        veh, ugv = truth.latest(), truth.ugv_latest()
-    else:
-        veh, ugv = truth.at(at_ms, within_ms=0), truth.ugv_at(at_ms, within_ms=0)
-    if veh is None or ugv is None:
-        return None
-    v = np.asarray(veh.pos_ned_m)
-    u = np.asarray(ugv.pos_ned_m)
-    err = float(math.hypot(v[0] - u[0], v[1] - u[1]))
-    return err, float(math.hypot(*ugv.vel_ned_m_s[:2])), on_deck(v, u, ugv.yaw_rad, geom)
+@dataclass
+class _Judge:
+    """Scores a landing from the simulator's truth (:mod:`.deck_stance`): ``legs`` are the vehicle file's leg
+    positions (FRD m) and leg size (m); ``rest_dz_m`` the flat-ground reference, set by :meth:`rest`."""
+
+    truth: SimClient
+    geom: UgvGeometry
+    legs: tuple
+    rest_dz_m: float | None = None
+
+    def _samples(self, at_ms: int | None):
+        if at_ms is None:
+            return self.truth.latest(), self.truth.ugv_latest()
+        return self.truth.at(at_ms, within_ms=0), self.truth.ugv_at(at_ms, within_ms=0)
+
+    def rest(self, at_ms: int | None = None) -> None:
+        """Both vehicles stand on flat ground at ``at_ms`` (simulated ms; None: the latest truth): the reference
+        of a level stance on the deck."""
+        veh, ugv = self._samples(at_ms)
+        if veh is not None and ugv is not None:
+            self.rest_dz_m = veh.pos_ned_m[2] - ugv.pos_ned_m[2]
+
+    def score(self, at_ms: int | None = None) -> tuple[float, float, Stance] | None:
+        """Touchdown error (m), the UGV's speed (m/s) and the :class:`Stance` at ``at_ms`` (None: the latest)."""
+        veh, ugv = self._samples(at_ms)
+        if veh is None or ugv is None:
+            return None
+        state = self.truth.state_at(veh.time_ms, within_ms=10)
+        q = None if state is None else state.attitude_quaternion
+        v, u = veh.pos_ned_m, ugv.pos_ned_m
+        err = float(math.hypot(v[0] - u[0], v[1] - u[1]))
+        where = stance(v, q, u, ugv.yaw_rad, self.geom, self.legs, self.rest_dz_m)
+        return err, float(math.hypot(*ugv.vel_ned_m_s[:2])), where
+
+
+def _verdict(result: LandingResult, first: Stance, later: tuple[float, float, Stance] | None) -> None:
+    """Success and its reason from the stance at the disarm (``first``) and STAY_ON_DECK_S later."""
+    then = None if later is None else later[2]
+    if then is not None:
+        result.feet_on_deck, result.deck_level_err_cm = then.feet_on_deck, 100.0 * then.level_error_m
+    result.success = first.centre_on_deck and then is not None and then.standing
+    if not first.centre_on_deck:
+        result.reason = "touched down off the deck"
+    elif then is None:
+        result.reason = "no truth after the touchdown"
+    elif not then.centre_on_deck:
+        result.reason = "fell off the deck"
+    elif not then.standing:
+        result.reason = then.problem()
 
 
 def _phase_listener(msg, result: LandingResult) -> None:
