@@ -84,6 +84,7 @@ class LandingTargetInput:
         self.estimate: LandingTargetEstimate | None = None
         self.target_acc_ned_m_s2 = np.zeros(3)  # the target's acceleration over the ground, low-passed
         self._prev_vel: tuple[int, np.ndarray] | None = None
+        self._square: tuple[int, float] | None = None  # the latest fix's square heading: (capture us, rad NED)
 
     # ---- inputs ------------------------------------------------------------------------------
     def record_state(self, time_us: int, q_wxyz: np.ndarray, pos_ned_m: np.ndarray, height_m: float) -> None:
@@ -155,6 +156,9 @@ class LandingTargetInput:
             if self.estimator.update(now_meas, est.vel_ned_m_s):
                 self.accepted += 1
                 fresh = True
+        for meas in self._pending:
+            if meas.square_yaw_rad is not None:
+                self._square = (meas.timestamp_us, meas.square_yaw_rad)
         self._pending.clear()
         e = self._deck_estimate(now_us, est, deck) if turning else self.estimator.estimate(now_us, est.vel_ned_m_s)
         if int(self.params.get("PLD_PREDICTOR")) == 1:
@@ -171,10 +175,19 @@ class LandingTargetInput:
         if not fresh or not e.valid or e.target_vel_ned_m_s is None:
             return None  # no new measurement: the task predicts the target on by itself
         # Stamped now: the estimate is already moved on to now (the task must not move it again).
+        turn = None if deck is None else deck.turn_rad_s
         return TargetForTask(
-            now_us, e.rel_pos_ned_m, e.target_vel_ned_m_s, True, self.target_acc_ned_m_s2.copy(),
-            None if deck is None else deck.turn_rad_s,
+            now_us, e.rel_pos_ned_m, e.target_vel_ned_m_s, True, self.target_acc_ned_m_s2.copy(), turn,
+            self._square_now(now_us, turn),
         )  # fmt: skip
+
+    def _square_now(self, now_us: int, turn_rad_s: float | None) -> float | None:
+        """The deck's square heading (rad NED, modulo 90 deg) moved on from its fix to now at the deck's turn rate;
+        None without one in the last second (a sender without the target's orientation)."""
+        if self._square is None or now_us - self._square[0] > HISTORY_US:
+            return None
+        age_s = max(0.0, (now_us - self._square[0]) * 1e-6)
+        return self._square[1] + (turn_rad_s or 0.0) * age_s
 
     def _fuse_deck(self, est: VehicleEstimate) -> bool:
         """PLD_DECK_MDL 1: each pending fix as the deck's absolute position at its capture time into the turn filter

@@ -367,7 +367,9 @@ class LandingTargetMeasurement:
     ``std_m`` is the measurement's standard deviation in metres per horizontal axis;
     NaN when the sender gave none (the estimator then uses ``LTEST_MEAS_UNC``).
     ``source_frame`` is the message's MAV_FRAME value; ``angular`` says whether it came
-    from the angle_x/angle_y/distance form.
+    from the angle_x/angle_y/distance form.  ``square_yaw_rad``: the heading of the target's edges
+    (its x axis, NED, rad) modulo 90 deg, in [-45, 45) deg, from the message's ``q``; None when the
+    message gave no usable orientation.
     """
 
     timestamp_us: int
@@ -376,6 +378,7 @@ class LandingTargetMeasurement:
     source_frame: int
     valid: bool
     angular: bool = False
+    square_yaw_rad: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

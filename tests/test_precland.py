@@ -29,6 +29,7 @@ from autopilot.navigation.precland import (
 )
 from autopilot.param_catalogue import default_store
 from autopilot.topics import VehicleEstimate
+from mavsim_core import quaternion as quat
 
 STEP_US = 20_000
 DT_S = STEP_US * 1e-6
@@ -36,10 +37,11 @@ TAU_S = 0.3
 T0_US = 3_000_000
 
 
-def estimate(t_us: int, pos: np.ndarray, vel: np.ndarray) -> VehicleEstimate:
+def estimate(t_us: int, pos: np.ndarray, vel: np.ndarray, yaw_rad: float = 0.0) -> VehicleEstimate:
     return VehicleEstimate(
         timestamp_us=t_us,
-        q_wxyz=np.array([1.0, 0.0, 0.0, 0.0]),
+        q_wxyz=np.asarray(quat.from_euler(0.0, 0.0, yaw_rad), dtype=float),
+        yaw_rad=yaw_rad,
         rate_frd_rad_s=np.zeros(3),
         accel_ned_m_s2=np.zeros(3),
         pos_ned_m=pos.copy(),
@@ -53,12 +55,13 @@ def estimate(t_us: int, pos: np.ndarray, vel: np.ndarray) -> VehicleEstimate:
 
 
 class Sim:
-    """The task, a lagging vehicle and a ground target moving at ``target_vel`` (m/s NED)."""
+    """The task, a lagging vehicle (its heading too) and a ground target moving at ``target_vel`` (m/s NED)."""
 
     def __init__(self, target0, target_vel=(0.0, 0.0, 0.0), mode=PrecLandMode.OPPORTUNISTIC, start=(0.0, 0.0, -2.8)):
         self.t_us = T0_US
         self.pos = np.array(start, dtype=float)
         self.vel = np.zeros(3)
+        self.yaw = 0.0
         self.target = np.array(target0, dtype=float)
         self.target_vel = np.array(target_vel, dtype=float)
         self.visible = lambda sim: True
@@ -67,7 +70,7 @@ class Sim:
         self.phases = [self.task.phase]
 
     def step(self) -> None:
-        est = estimate(self.t_us, self.pos, self.vel)
+        est = estimate(self.t_us, self.pos, self.vel, self.yaw)
         tgt = None
         if self.visible(self):
             tgt = LandingTargetInput(self.t_us, self.target - self.pos, self.target_vel.copy())
@@ -76,6 +79,7 @@ class Sim:
         err = np.where(np.isfinite(sp.pos_ned_m), sp.pos_ned_m - self.pos, 0.0)
         self.vel = err / TAU_S + sp_vel
         self.pos = self.pos + self.vel * DT_S
+        self.yaw = quat.wrap_pi(self.yaw + quat.wrap_pi(sp.yaw_rad - self.yaw) * DT_S / TAU_S)
         self.target = self.target + self.target_vel * DT_S
         self.t_us += STEP_US
         if self.task.phase is not self.phases[-1]:
@@ -353,3 +357,13 @@ def test_over_a_moving_deck_the_docking_aims_into_it_so_the_legs_meet_it_descend
         assert sim.task.done
     else:
         assert descent_m_s < 0.35 and float(spline.at(spline.td_s).vel[0]) == 0.0
+
+
+@pytest.mark.parametrize("deck_yaw", [1, 0])
+def test_the_vehicle_comes_down_square_to_a_deck_driving_diagonally(deck_yaw):
+    sim = Sim(target0=(2.0, 1.0, 0.0), target_vel=(0.7, 0.7, 0.0))  # heading 45 deg: the worst for a held heading
+    sim.task.params.set("PLD_DECK_YAW", deck_yaw)
+    sim.task.activate(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us)
+    assert sim.run_until(lambda s: s.task.done, 30.0)
+    off_square = abs(math.remainder(sim.yaw - math.pi / 4, math.pi / 2))
+    assert off_square < math.radians(2.0) if deck_yaw else off_square == pytest.approx(math.pi / 4)

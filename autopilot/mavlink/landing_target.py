@@ -17,6 +17,11 @@ Three forms are accepted, as used in the field:
   Frames LOCAL_NED, BODY_FRD, BODY_NED, BODY_OFFSET_NED and 0 (a MAVLink 1 sender
   without the extension fields) are accepted for this form.
 
+A position form's ``q`` (the target's orientation in ``frame``: LOCAL_NED's axes, or body FRD's) gives the
+heading of the target's edges modulo 90 deg (``square_yaw_rad``), when it is a unit quaternion whose z axis is
+within 30 deg of the vertical (a marker lying on a deck, seen either way up); anything else (PX4's senders
+often fill zeros) gives none, and the landing holds its own heading.
+
 Anything else is refused with a reason short enough for one STATUSTEXT (50 characters).
 Attitude: quaternion (w, x, y, z) rotating FRD into NED.  Pure: no I/O, no clock.
 """
@@ -98,6 +103,32 @@ def _angular_form(msg: Any, q_wxyz: np.ndarray, r_ned_frd: np.ndarray, dist_bott
     return ray_ned / ray_ned[2] * float(dist_bottom_m)
 
 
+SQUARE_TILT_MAX_RAD = math.radians(30.0)  # a target orientation tilted more than this gives no square heading
+
+
+def square_yaw(q_target_wxyz: Any, frame: int, r_ned_frd: np.ndarray) -> float | None:
+    """The heading of a level square target's edges (rad, NED, in [-pi/4, pi/4)) from LANDING_TARGET's ``q``
+    (target -> ``frame``), or None (not a unit quaternion, not level within SQUARE_TILT_MAX_RAD, or a frame
+    without axes of its own)."""
+    try:
+        q = np.asarray(q_target_wxyz, dtype=float).reshape(4)
+    except (TypeError, ValueError):
+        return None
+    if not np.all(np.isfinite(q)) or abs(float(np.linalg.norm(q)) - 1.0) > 1e-2:
+        return None
+    if frame == MAV_FRAME_LOCAL_NED:
+        rot = quat.to_matrix(q / np.linalg.norm(q))
+    elif frame == MAV_FRAME_BODY_FRD:
+        rot = r_ned_frd @ quat.to_matrix(q / np.linalg.norm(q))
+    else:
+        return None
+    if abs(float(rot[2, 2])) < math.cos(SQUARE_TILT_MAX_RAD):
+        return None
+    # the target's x axis (a level square's edge) projected on the horizontal
+    yaw = math.atan2(float(rot[1, 0]), float(rot[0, 0]))
+    return (yaw + math.pi / 4) % (math.pi / 2) - math.pi / 4
+
+
 def decode_landing_target(
     msg: Any,
     q_wxyz: np.ndarray,
@@ -123,6 +154,7 @@ def decode_landing_target(
     if isinstance(rel, str):
         return LandingTargetRefusal(rel)
     stamp = int(msg.time_usec) if timestamp_us is None else int(timestamp_us)
+    square = square_yaw(getattr(msg, "q", None), int(msg.frame), r_ned_frd) if msg.position_valid else None
     return LandingTargetMeasurement(
         timestamp_us=stamp,
         rel_pos_ned_m=rel,
@@ -130,4 +162,5 @@ def decode_landing_target(
         source_frame=int(msg.frame),
         valid=True,
         angular=not msg.position_valid,
+        square_yaw_rad=square,
     )

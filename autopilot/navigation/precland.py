@@ -7,10 +7,10 @@ each step on the target's latest position, plus the target's velocity (and, over
 its acceleration) as feed-forward, the chase's tilt held where the camera still sees the target
 (:mod:`autopilot.navigation.view_limited_catchup`, PLD_VIEW_LIM; ``gimbal_reach_rad``: the gimbal's reach);
 APPROACHING holds the point above the target until the horizontal error stays below
-PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S (and DOCKING returns to it when the error exceeds
-PLD_HACC_RAD); DOCKING descends on a cubic spline onto the deck (its acceleration within
-MPC_ACC_DOWN_MAX, fed forward) while tracking the target horizontally and reports ``done``
-(``motors_cut``) at the docking point.  A target unseen for PLD_BTOUT starts a SEARCH
+PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S with the heading square to the deck (:mod:`deck_heading`, PLD_DECK_YAW:
+flown from tracking on), and DOCKING returns to it when the error exceeds PLD_HACC_RAD; DOCKING descends on a
+cubic spline onto the deck (its acceleration within MPC_ACC_DOWN_MAX, fed forward) while tracking the target
+horizontally and reports ``done`` (``motors_cut``) at the docking point.  A target unseen for PLD_BTOUT starts a SEARCH
 (PLD_SRCH_ALT above the ground, up to PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
 (opportunistic) or holds and reports ``failed`` (required).  Every phase change is appended to
 ``events`` as (time_us, text).
@@ -29,6 +29,7 @@ from enum import Enum
 import numpy as np
 
 from autopilot.navigation.cubic_spline import CubicSpline, duration_s
+from autopilot.navigation.deck_heading import DeckHeading
 from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.land import LandTask
 from autopilot.navigation.target_coast import TurnRate, coast
@@ -39,14 +40,7 @@ from autopilot.topics import VehicleEstimate
 PARAMS: tuple[ParamDef, ...] = (
     param("PLD_BTOUT", 5.0, 0.0, 50.0, "s", "Landing target lost longer than this: search"),
     param("PLD_HACC_RAD", 0.2, 0.0, 10.0, "m", "Horizontal acceptance radius above the target (PX4)"),
-    param(
-        "PLD_FAPPR_ALT",
-        0.1,
-        0.0,
-        10.0,
-        "m",
-        "Below this height above the target a lost target no longer stops the descent",
-    ),
+    param("PLD_FAPPR_ALT", 0.1, 0.0, 10.0, "m", "Below this height above the target a lost target stops no descent"),
     param("PLD_SRCH_ALT", 10.0, 0.0, 100.0, "m", "Search height above the ground"),
     param("PLD_SRCH_TOUT", 10.0, 0.0, 100.0, "s", "Longest search (also the longest preparation without target)"),
     param("PLD_MAX_SRCH", 3, 0, 100, "", "Most searches before the fallback", ParamType.INT32),
@@ -105,6 +99,7 @@ class LandingTargetInput:
     valid: bool = True
     acc_ned_m_s2: np.ndarray | None = None  # the target's acceleration over the ground (a turning UGV)
     turn_rad_s: float | None = None  # its turn rate (rad/s, clockwise from above) if the deck model has one
+    square_yaw_rad: float | None = None  # the heading of the deck's edges now (rad NED, modulo 90 deg), if known
 
 
 @dataclass(frozen=True, slots=True)
@@ -166,6 +161,7 @@ class PrecLandTask:
         self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
         self.gimbal_reach_rad: float | None = None  # ... and the gimbal device's reach (rad; None: no device)
         self._fallback: LandTask | None = None
+        self.heading = DeckHeading(0.0, False)  # the heading: square to the deck (PLD_DECK_YAW), set on activate
         self._last_us: int | None = None  # time of the previous update
         self._used_us: int | None = None  # timestamp of the latest measurement taken
 
@@ -174,6 +170,7 @@ class PrecLandTask:
         """Start in PREPARATION over the vehicle's position, PLD_PREP_ALT above the ground."""
         if self.yaw_rad is None:
             self.yaw_rad = est.yaw_rad
+        self.heading = DeckHeading.from_store(self.params, self.yaw_rad)
         self._hold = np.array([est.pos_ned_m[0], est.pos_ned_m[1], self.ground_down_m - self.cfg.prep_alt_m])
         self._enter(PrecLandPhase.PREPARATION, now_us, "hover above the ground until the target is seen")
 
@@ -240,6 +237,7 @@ class PrecLandTask:
                 self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
                     est.pos_ned_m + rel, vel, acc, age_s, turn, _moving(vel)
                 )
+                self.heading.observe(now_us, t.square_yaw_rad, self._tgt_vel, t.turn_rad_s)
                 self._used_us = t.timestamp_us
                 self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
             else:
@@ -331,7 +329,8 @@ class PrecLandTask:
             patient = in_phase_s >= APPROACH_PATIENCE_S
             close = err < cfg.appr_rad_m and slip < APPROACH_SLIP_M_S
             close_enough = patient and err < cfg.hacc_rad_m and slip < 2 * APPROACH_SLIP_M_S
-            if not (close or close_enough) or not visible:
+            square = self.heading.aligned(now_us, est.yaw_rad)  # (square to the deck, PLD_DECK_YAW)
+            if not (close or close_enough) or not visible or not square:
                 self._close_since_us = None
             elif self._close_since_us is None:
                 self._close_since_us = now_us
@@ -370,11 +369,12 @@ class PrecLandTask:
         acc = self._tgt_acc * _moving(self._tgt_vel)
         self._view = self._view.with_device(self.gimbal_reach_rad)  # (PLD_CAM_REACH -1: follows the device)
         band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
+        yaw = self.heading.setpoint(now_us)  # square to the deck (PLD_DECK_YAW), else the landing's heading
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, self.yaw_rad, p.acc + acc, band, cone)
+            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(base, vel, self.yaw_rad, acc, band, cone)
+            return PositionSetpoint(base, vel, yaw, acc, band, cone)
         # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
         deck = self._above_target(
             self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M)
@@ -384,8 +384,8 @@ class PrecLandTask:
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
             v_sp, a_sp = vel + float(p.vel[0]) * down, acc + float(p.acc[0]) * down
-            return PositionSetpoint(pos, v_sp, self.yaw_rad, a_sp, band, cone)
-        return PositionSetpoint(deck, vel, self.yaw_rad, None, band)  # DONE: the deck (motors are off)
+            return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone)
+        return PositionSetpoint(deck, vel, yaw, None, band)  # DONE: the deck (motors are off)
 
 
 def _moving(target_vel_ned_m_s: np.ndarray) -> float:
