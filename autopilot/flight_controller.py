@@ -92,6 +92,7 @@ class FlightController:
         self.last_us: int | None = None
         self.last_imu: ImuSample | None = None  # the sample of the latest step (HIGHRES_IMU)
         self.q_sp = np.array([1.0, 0.0, 0.0, 0.0])
+        self.yaw_rate_ff = 0.0  # rad/s about NED down, fed forward with q_sp (PositionSetpoint.yaw_rate_rad_s)
         self.rate_sp = np.zeros(3)
         self.thrust_vec = np.zeros(3)  # wanted thrust vector, N NED (position or attitude setpoints)
         self.rate_override: np.ndarray | None = None  # body rates flown directly (ACRO, offboard rates), rad/s FRD
@@ -209,6 +210,13 @@ class FlightController:
         w, x, y, z = q = est.q.tolist()  # FRD -> NED
         if self.rate_override is None:
             sp = self.attitude_control.update_floats(q, self.q_sp.tolist())
+            if self.yaw_rate_ff != 0.0:  # about NED down, in FRD: the third row of the attitude's matrix
+                r = self.yaw_rate_ff
+                sp = (
+                    sp[0] + 2.0 * (x * z - w * y) * r,
+                    sp[1] + 2.0 * (y * z + w * x) * r,
+                    sp[2] + (w * w - x * x - y * y + z * z) * r,
+                )
             rate_sp = self.rate_sp = np.array(sp)
         else:
             rate_sp = self.rate_sp = self.rate_override
@@ -302,6 +310,7 @@ class FlightController:
         self.thrust_vec = out.thrust_ned_n
         self.commander.vel_sp_down_m_s = float(out.vel_sp_ned_m_s[2])
         self.q_sp = quat.from_matrix(attitude_from_thrust(self.thrust_vec, sp.yaw_rad))
+        self.yaw_rate_ff = float(sp.yaw_rate_rad_s) if math.isfinite(sp.yaw_rate_rad_s) else 0.0
 
     def _check_rest(self) -> None:
         """Tell the commander whether the vehicle is at rest (home waits for it); report a vehicle moving
@@ -317,6 +326,7 @@ class FlightController:
         """An attitude or body-rate setpoint: the position loop is bypassed (and reset)."""
         self.setpoint = sp
         self.position_control.reset()
+        self.yaw_rate_ff = 0.0
         thrust_n = min(max(sp.thrust_frac, 0.0), 1.0) * self.max_thrust_n
         if sp.q_wxyz is None:
             self.rate_override = np.asarray(sp.body_rate_frd_rad_s, dtype=float).copy()

@@ -35,38 +35,41 @@ def test_square_and_nearest_square():
     assert nearest_square(10 * DEG, 179 * DEG) == pytest.approx(-170 * DEG)  # wrapped, nearer than 190
 
 
-def test_the_heading_turns_square_to_a_driving_deck_and_leads_its_turn():
-    h = DeckHeading(yaw_rad=0.0, enabled=True, yaw_p_per_s=2.0)
-    assert h.setpoint(0) == 0.0  # no deck yet: the landing's own heading
+def test_the_heading_turns_square_to_a_driving_deck_and_with_its_turn():
+    h = DeckHeading(yaw_rad=0.0, enabled=True)
+    assert h.setpoint(0, 0.3) == (0.0, 0.0)  # no deck yet: the landing's own heading
     h.observe(0, None, np.array([1.0, 1.0, 0.0]), None)  # driving north-east, no orientation sent
-    assert h.setpoint(0) == pytest.approx(-45 * DEG) or h.setpoint(0) == pytest.approx(45 * DEG)
+    yaw, rate = h.setpoint(0, 0.0)
+    assert yaw in (pytest.approx(-45 * DEG), pytest.approx(45 * DEG)) and rate == 0.0
     assert not h.aligned(0, 0.0) and h.aligned(0, 47 * DEG) and h.aligned(0, -137 * DEG)
-    # turning at 0.5 rad/s: moved on between fixes, and led by rate / MC_YAW_P (0.25 rad)
-    h = DeckHeading(yaw_rad=0.0, enabled=True, yaw_p_per_s=2.0)
+    # turning at 0.5 rad/s: moved on between fixes, its rate fed forward
+    h = DeckHeading(yaw_rad=0.0, enabled=True)
     h.observe(0, 10 * DEG, np.zeros(3), 0.5)
     assert h.deck_square(S) == pytest.approx(square(10 * DEG + 0.5))
-    # of the four square headings (10 + 29 + 14 deg + k 90) the one nearest to the heading it had (0)
-    assert h.setpoint(S) == pytest.approx(10 * DEG + 0.5 + 0.25 - math.pi / 2)
-    # continuous through the 45 deg fold (the deck's square heading 10 + 57 deg folds to -23): the setpoint goes
-    # on turning instead of jumping back 90 deg
-    assert h.setpoint(2 * S) == pytest.approx(10 * DEG + 1.0 + 0.25 - math.pi / 2)
+    # of the four square headings (10 + 29 deg + k 90) the one nearest to the vehicle's (-40 deg), never more
+    # than 45 deg of turn away
+    assert h.setpoint(S, -40 * DEG) == (pytest.approx(10 * DEG + 0.5 - math.pi / 2), 0.5)
+    assert h.setpoint(S, 100 * DEG) == (pytest.approx(10 * DEG + 0.5 + math.pi / 2), 0.5)
+    h.observe(S, 0.0, np.zeros(3), 9.0)  # a turn rate beyond any deck's is fed forward only up to 2.5 rad/s
+    assert h.setpoint(S, 0.0) == (0.0, 2.5)
 
 
 def test_a_slow_deck_without_orientation_and_the_parameter_off_keep_the_own_heading():
     h = DeckHeading(yaw_rad=1.0, enabled=True)
     h.observe(0, None, np.array([0.3, 0.1, 0.0]), 0.0)  # slower than HEADING_SPEED_M_S
-    assert h.setpoint(0) == 1.0 and h.aligned(0, 0.3)
+    assert h.setpoint(0, 0.2) == (1.0, 0.0) and h.aligned(0, 0.3)
     off = DeckHeading(yaw_rad=1.0, enabled=False)
-    off.observe(0, 20 * DEG, np.array([2.0, 0.0, 0.0]), 0.0)
-    assert off.setpoint(0) == 1.0 and off.aligned(0, 0.3)
+    off.observe(0, 20 * DEG, np.array([2.0, 0.0, 0.0]), 0.3)
+    assert off.setpoint(0, 0.2) == (1.0, 0.0) and off.aligned(0, 0.3)
 
 
 def test_a_stale_deck_heading_holds_the_last_setpoint():
     h = DeckHeading(yaw_rad=0.0, enabled=True)
     h.observe(0, 30 * DEG, np.zeros(3), 0.0)
-    assert h.setpoint(S) == pytest.approx(30 * DEG)
+    assert h.setpoint(S, 0.0) == (pytest.approx(30 * DEG), 0.0)
     later = int((STALE_S + 1) * S)
-    assert h.deck_square(later) is None and h.setpoint(later) == pytest.approx(30 * DEG) and h.aligned(later, 2.0)
+    assert h.deck_square(later) is None and h.setpoint(later, 1.0) == (pytest.approx(30 * DEG), 0.0)
+    assert h.aligned(later, 2.0)
 
 
 def _target(frame: int, q) -> mav.MAVLink_landing_target_message:

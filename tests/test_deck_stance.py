@@ -77,3 +77,11 @@ def test_feet_follow_the_attitude_and_the_deck_follows_the_ugv_yaw():
     half = GEOM.deck_side_m / 2
     assert in_deck((half - 0.01, 0.0), (0.0, 0.0), 0.0, GEOM)
     assert not in_deck((half - 0.01, half - 0.01), (0.0, 0.0), math.radians(45.0), GEOM)
+
+
+def test_the_heading_off_square_to_the_deck():
+    for rel_deg, off in ((0.0, 0.0), (30.0, 30.0), (-100.0, 10.0), (135.0, 45.0), (80.0, 10.0)):
+        q = quat.from_euler(0.0, 0.0, math.radians(20.0 + rel_deg))
+        st = stance((UGV[0], UGV[1], standing_z()), q, UGV, math.radians(20.0), GEOM, LEGS, REST_DZ)
+        assert st.square_off_deg == pytest.approx(off), rel_deg
+    assert math.isnan(stance((UGV[0], UGV[1], standing_z()), None, UGV, 0.0, GEOM, LEGS, REST_DZ).square_off_deg)

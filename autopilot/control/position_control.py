@@ -66,7 +66,9 @@ class PositionSetpoint:
     error is under this (m/s; inf, the default: always).  A chase of a moving target sets it, so that
     the chase's transient is not stored and given back later as a slow lag behind the target.
     ``axis_cone``: the vehicle's down axis kept inside this cone by shortening the horizontal thrust (after the
-    tilt limit; :mod:`autopilot.control.thrust_cone`), e.g. so that a camera keeps the landing target in view."""
+    tilt limit; :mod:`autopilot.control.thrust_cone`), e.g. so that a camera keeps the landing target in view.
+    ``yaw_rate_rad_s``: the yaw setpoint's own rate (rad/s about NED down), fed forward to the rate loop as PX4's
+    yawspeed setpoint, so that a turning heading is flown without the attitude loop's lag."""
 
     pos_ned_m: np.ndarray
     vel_ned_m_s: np.ndarray
@@ -74,6 +76,7 @@ class PositionSetpoint:
     acc_ned_m_s2: np.ndarray | None = None
     int_band_m_s: float = math.inf
     axis_cone: AxisCone | None = None
+    yaw_rate_rad_s: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,8 +9,11 @@ meets a deck turned any way, and a turning deck turns under it.
 deck's edges.  The deck's edges come from the target's orientation in LANDING_TARGET (``square_yaw_rad``,
 the vision companion's marker pose), else from the deck's velocity heading while it drives faster than
 HEADING_SPEED_M_S (a ground vehicle drives along its axis), moved on between fixes at the deck's turn rate.
-The setpoint leads the deck by its turn rate over MC_YAW_P (a proportional yaw loop lags a ramp by rate / P).
-With no deck heading known, or PLD_DECK_YAW = 0, it is the landing's own heading.
+Of the four square headings the setpoint is the one nearest to the vehicle's heading (it never asks for more than
+45 deg of turn), and the deck's turn rate goes with it as the yaw rate fed forward (PositionSetpoint.yaw_rate_rad_s,
+PX4's yawspeed setpoint): without it the attitude loop lags a turning deck (quad_x, MC_YAW_P 1.54, by 10 deg at the
+57 deg/s of a 2 m circle at 2 m/s).  With no deck heading known, or PLD_DECK_YAW = 0, it is the landing's own
+heading (the one it last flew, once a deck heading was known), with no rate.
 
 Frames and units: yaw in rad, NED (clockwise from north seen from above), in (-pi, pi]; turn rates rad/s,
 clockwise from above; time in microseconds.
@@ -37,6 +40,7 @@ QUARTER = math.pi / 2
 HEADING_SPEED_M_S = 0.5  # a deck slower than this gives no heading from its velocity
 STALE_S = 3.0  # a deck heading older than this (no fix) is dropped: the landing holds the last setpoint
 ALIGNED_RAD = math.radians(10.0)  # within this of square the vehicle counts as aligned (docking may start)
+TURN_FF_MAX_RAD_S = 2.5  # the deck's turn rate fed forward at most (rad/s): a figure-8's 2 m lobes at 4.2 m/s
 
 
 def square(yaw_rad: float) -> float:
@@ -51,20 +55,18 @@ def nearest_square(square_yaw_rad: float, near_rad: float) -> float:
 
 
 class DeckHeading:
-    """See the module docstring.  ``yaw_rad``: the landing's own heading (the fallback); ``yaw_p_per_s``:
-    MC_YAW_P, for the lead over a turning deck."""
+    """See the module docstring.  ``yaw_rad``: the landing's own heading (the fallback)."""
 
-    def __init__(self, yaw_rad: float, enabled: bool = True, yaw_p_per_s: float = 2.8) -> None:
+    def __init__(self, yaw_rad: float, enabled: bool = True) -> None:
         self.own_yaw_rad = yaw_rad
         self.enabled = enabled
-        self.lead_s = 1.0 / yaw_p_per_s if yaw_p_per_s > 0.0 else 0.0
         self._square: tuple[int, float] | None = None  # (time us, the deck's square heading then, rad)
         self._turn_rad_s = 0.0
         self._yaw_sp = yaw_rad
 
     @staticmethod
     def from_store(store: ParameterStore, yaw_rad: float) -> DeckHeading:
-        return DeckHeading(yaw_rad, bool(int(store.get("PLD_DECK_YAW"))), float(store.get("MC_YAW_P")))
+        return DeckHeading(yaw_rad, bool(int(store.get("PLD_DECK_YAW"))))
 
     def observe(
         self, now_us: int, square_yaw_rad: float | None, vel_ned_m_s: np.ndarray, turn_rad_s: float | None
@@ -83,13 +85,14 @@ class DeckHeading:
             return None
         return square(self._square[1] + self._turn_rad_s * max(0.0, (now_us - self._square[0]) * 1e-6))
 
-    def setpoint(self, now_us: int) -> float:
-        """The yaw setpoint now (rad): square to the deck, continuous from the previous one."""
+    def setpoint(self, now_us: int, vehicle_yaw_rad: float) -> tuple[float, float]:
+        """The yaw setpoint now (rad) and its rate (rad/s, fed forward): square to the deck, nearest to the
+        vehicle's heading, turning with the deck."""
         deck = self.deck_square(now_us) if self.enabled else None
         if deck is None:
-            return self._yaw_sp if self.enabled and self._square is not None else self.own_yaw_rad
-        self._yaw_sp = nearest_square(deck + self._turn_rad_s * self.lead_s, self._yaw_sp)
-        return self._yaw_sp
+            return (self._yaw_sp if self.enabled and self._square is not None else self.own_yaw_rad), 0.0
+        self._yaw_sp = nearest_square(deck, vehicle_yaw_rad)
+        return self._yaw_sp, max(-TURN_FF_MAX_RAD_S, min(TURN_FF_MAX_RAD_S, self._turn_rad_s))
 
     def aligned(self, now_us: int, vehicle_yaw_rad: float) -> bool:
         """True when the vehicle's heading is within ALIGNED_RAD of square to the deck (or no alignment is asked)."""

@@ -369,12 +369,12 @@ class PrecLandTask:
         acc = self._tgt_acc * _moving(self._tgt_vel)
         self._view = self._view.with_device(self.gimbal_reach_rad)  # (PLD_CAM_REACH -1: follows the device)
         band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
-        yaw = self.heading.setpoint(now_us)  # square to the deck (PLD_DECK_YAW), else the landing's heading
+        yaw, rate = self.heading.setpoint(now_us, est.yaw_rad)  # square to the deck (PLD_DECK_YAW), turning with it
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone)
+            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone, rate)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(base, vel, yaw, acc, band, cone)
+            return PositionSetpoint(base, vel, yaw, acc, band, cone, rate)
         # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
         deck = self._above_target(
             self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M)
@@ -384,7 +384,7 @@ class PrecLandTask:
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
             v_sp, a_sp = vel + float(p.vel[0]) * down, acc + float(p.acc[0]) * down
-            return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone)
+            return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone, rate)
         return PositionSetpoint(deck, vel, yaw, None, band)  # DONE: the deck (motors are off)
 
 

@@ -37,13 +37,16 @@ class Stance:
 
     ``centre_on_deck``: its centre over the deck's square and off the ground; ``feet_on_deck``: how many of its
     ``feet`` are inside the square; ``level_error_m``: its height above the deck minus its height above flat
-    ground (positive: higher, e.g. propped on the edge); NaN without a flat-ground reference.
+    ground (positive: higher, e.g. propped on the edge); NaN without a flat-ground reference; ``square_off_deg``:
+    its heading off square to the deck's edges (0: its axes along them, 45: along the diagonals), NaN without an
+    attitude.
     """
 
     centre_on_deck: bool
     feet_on_deck: int
     feet: int
     level_error_m: float
+    square_off_deg: float = math.nan
 
     @property
     def standing(self) -> bool:
@@ -112,4 +115,8 @@ def stance(
     if rest_dz_m is not None:
         # on flat ground: z_v - z_u = rest_dz; standing on the deck: deck_top_m higher (z is down)
         level = -((pos_ned_m[2] - ugv_ned_m[2]) - rest_dz_m) - geom.deck_top_m
-    return Stance(bool(centre), int(on), len(positions), float(level))
+    square = math.nan
+    if q_frd_to_ned is not None:
+        rel_deg = math.degrees(quat.to_euler(np.asarray(q_frd_to_ned, dtype=float))[2] - ugv_yaw_rad)
+        square = abs((rel_deg + 45.0) % 90.0 - 45.0)
+    return Stance(bool(centre), int(on), len(positions), float(level), square)

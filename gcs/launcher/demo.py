@@ -370,7 +370,8 @@ def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: 
     print(f"UGV speed at touchdown: {result.ugv_speed_at_touchdown_m_s:.2f} m/s")
     print(
         f"on the deck {STAY_ON_DECK_S:g} s later: {result.feet_on_deck} feet on it, "
-        f"{result.deck_level_err_cm:+.1f} cm from a level stance (within 2 cm: level)"
+        f"{result.deck_level_err_cm:+.1f} cm from a level stance (within 2 cm: level), "
+        f"{result.square_off_deg:.0f} deg off square to its edges"
     )
     print(f"real-time factor: {result.real_time_factor:.2f}")
     print(logs_line(stack))

@@ -154,6 +154,7 @@ class LandingResult:
     ugv_speed_at_touchdown_m_s: float = math.nan
     feet_on_deck: int = 0  # STAY_ON_DECK_S after the disarm (of the vehicle file's legs)
     deck_level_err_cm: float = math.nan  # then: height above the deck minus height above flat ground
+    square_off_deg: float = math.nan  # then: its heading off square to the deck's edges (0-45 deg)
     reason: str = ""
     phases: list[str] = field(default_factory=list)
     sim_s: float = math.nan
@@ -318,6 +319,7 @@ def _verdict(result: LandingResult, first: Stance, later: tuple[float, float, St
     then = None if later is None else later[2]
     if then is not None:
         result.feet_on_deck, result.deck_level_err_cm = then.feet_on_deck, 100.0 * then.level_error_m
+        result.square_off_deg = then.square_off_deg
     result.success = first.centre_on_deck and then is not None and then.standing
     if not first.centre_on_deck:
         result.reason = "touched down off the deck"
