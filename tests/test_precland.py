@@ -16,6 +16,7 @@ from autopilot.navigation.cubic_spline import MIN_DURATION_S, CubicSpline, durat
 from autopilot.navigation.flight_task import FlightTask
 from autopilot.navigation.precland import (
     CHASE_INT_BAND_M_S,
+    COAST_MAX_S,
     DOCK_DONE_M,
     DOCK_HOVER_M,
     DOCK_INTO_DECK_M,
@@ -367,3 +368,17 @@ def test_the_vehicle_comes_down_square_to_a_deck_driving_diagonally(deck_yaw):
     assert sim.run_until(lambda s: s.task.done, 30.0)
     off_square = abs(math.remainder(sim.yaw - math.pi / 4, math.pi / 2))
     assert off_square < math.radians(2.0) if deck_yaw else off_square == pytest.approx(math.pi / 4)
+
+
+def test_a_target_unseen_longer_than_coast_max_s_stays_where_it_was():
+    sim = Sim(target0=(1.0, 0.0, 0.0), target_vel=(2.0, 0.0, 0.0))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.APPROACHING, 10.0)
+    sim.visible = lambda s: False
+    sim.run_until(lambda s: False, COAST_MAX_S / 2)
+    moving = sim.task.target_pos_ned_m
+    sim.run_until(lambda s: False, COAST_MAX_S)
+    held = sim.task.target_pos_ned_m
+    sim.run_until(lambda s: False, 1.0)
+    assert held[0] > moving[0] + 0.5  # moved on while fresh enough ...
+    np.testing.assert_allclose(sim.task.target_pos_ned_m, held)  # ... then held (not 2 m further on)
+    assert np.all(sim.task.target_velocity_ned_m_s == 0.0)

@@ -5,15 +5,14 @@ A square deck takes a vehicle's feet best with the vehicle's axes along its edge
 0.19 m of room each way and turned 45 deg to it none.  A landing that holds its own heading (PX4's)
 meets a deck turned any way, and a turning deck turns under it.
 
-:class:`DeckHeading` gives the yaw setpoint: the heading nearest to the previous one whose axes lie along the
-deck's edges.  The deck's edges come from the target's orientation in LANDING_TARGET (``square_yaw_rad``,
-the vision companion's marker pose), else from the deck's velocity heading while it drives faster than
-HEADING_SPEED_M_S (a ground vehicle drives along its axis), moved on between fixes at the deck's turn rate.
-Of the four square headings the setpoint is the one nearest to the vehicle's heading (it never asks for more than
-45 deg of turn), and the deck's turn rate goes with it as the yaw rate fed forward (PositionSetpoint.yaw_rate_rad_s,
-PX4's yawspeed setpoint): without it the attitude loop lags a turning deck (quad_x, MC_YAW_P 1.54, by 10 deg at the
-57 deg/s of a 2 m circle at 2 m/s).  With no deck heading known, or PLD_DECK_YAW = 0, it is the landing's own
-heading (the one it last flew, once a deck heading was known), with no rate.
+:class:`DeckHeading` gives the yaw setpoint.  The deck's edges come from the target's orientation in
+LANDING_TARGET (``square_yaw_rad``, the vision companion's marker pose), else from the deck's velocity heading while
+it drives faster than HEADING_SPEED_M_S (a ground vehicle drives along its axis), moved on between fixes at the
+deck's turn rate.  Of the four headings along them the setpoint aims at the one nearest to the vehicle's heading,
+at most YAW_ERROR_MAX_RAD (15 deg) ahead of the vehicle, and the deck's turn rate goes with it as the yaw rate fed
+forward (PositionSetpoint.yaw_rate_rad_s, PX4's yawspeed setpoint): without it the attitude loop lags a turning
+deck.  With no deck heading known, or PLD_DECK_YAW = 0, it is the landing's own heading (the one it last flew,
+once a deck heading was known), with no rate.
 
 Frames and units: yaw in rad, NED (clockwise from north seen from above), in (-pi, pi]; turn rates rad/s,
 clockwise from above; time in microseconds.
@@ -40,6 +39,9 @@ QUARTER = math.pi / 2
 HEADING_SPEED_M_S = 0.5  # a deck slower than this gives no heading from its velocity
 STALE_S = 3.0  # a deck heading older than this (no fix) is dropped: the landing holds the last setpoint
 ALIGNED_RAD = math.radians(10.0)  # within this of square the vehicle counts as aligned (docking may start)
+# The setpoint at most this far from the vehicle's heading: quad_x yaws at 0.4-1 rad/s^2 (two motors at full speed,
+# two at 40 %); asked for up to 45 deg, it held the yaw there for seconds and lost a figure-8 (2 m/s) 4 times in 10.
+YAW_ERROR_MAX_RAD = math.radians(15.0)
 TURN_FF_MAX_RAD_S = 2.5  # the deck's turn rate fed forward at most (rad/s): a figure-8's 2 m lobes at 4.2 m/s
 
 
@@ -91,7 +93,9 @@ class DeckHeading:
         deck = self.deck_square(now_us) if self.enabled else None
         if deck is None:
             return (self._yaw_sp if self.enabled and self._square is not None else self.own_yaw_rad), 0.0
-        self._yaw_sp = nearest_square(deck, vehicle_yaw_rad)
+        target = nearest_square(deck, vehicle_yaw_rad)
+        step = max(-YAW_ERROR_MAX_RAD, min(YAW_ERROR_MAX_RAD, wrap_pi(target - vehicle_yaw_rad)))
+        self._yaw_sp = wrap_pi(vehicle_yaw_rad + step)
         return self._yaw_sp, max(-TURN_FF_MAX_RAD_S, min(TURN_FF_MAX_RAD_S, self._turn_rad_s))
 
     def aligned(self, now_us: int, vehicle_yaw_rad: float) -> bool:

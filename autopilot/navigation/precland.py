@@ -60,6 +60,8 @@ DOCK_HOVER_M = 0.03  # the docking point: the feet this high (m) above the deck
 # vehicle could stop blind a few centimetres over a turning deck (braked, bounced up) and hover there
 # for the settling time while the deck drove on: 0.9 s blind instead of 0.3 s, 0.2-0.34 m off.
 DOCK_INTO_DECK_M = 0.05
+# A target unseen this long (s) stays where it was (coasting to PLD_BTOUT took a vehicle 10 m from a figure-8)
+COAST_MAX_S = 1.5
 DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
@@ -243,7 +245,10 @@ class PrecLandTask:
             else:
                 new = False
         if not new and self._tgt_pos is not None and self._last_us is not None:
-            # Unseen: the target's point moves on at its last velocity, turning as it was (target_coast).
+            # Unseen: the target's point moves on at its last velocity, turning as it was (target_coast), for
+            # COAST_MAX_S; then it stays where it was, and so does the vehicle.
+            if self._lost_s(now_us) > COAST_MAX_S:
+                self._tgt_vel, self._tgt_acc = np.zeros(3), np.zeros(3)
             dt_s = max(0.0, (now_us - self._last_us) * 1e-6)
             self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
                 self._tgt_pos, self._tgt_vel, self._tgt_acc, dt_s, self._turn.rate(), _moving(self._tgt_vel)
@@ -389,9 +394,7 @@ class PrecLandTask:
 
 
 def _moving(target_vel_ned_m_s: np.ndarray) -> float:
-    """How much of the target's acceleration to feed forward (0-1), by its speed over the ground: none over a
-    still deck (below STILL_TARGET_M_S / 2), all over one driving faster than 1.5 STILL_TARGET_M_S, linear
-    between.  The acceleration is the estimated velocity differenced: over a still deck it is only the
-    marker's noise (~0.5 m/s^2 RMS at ~1 Hz), which would go straight to the attitude setpoint."""
+    """How much of the target's acceleration to feed forward (0-1) by its speed: none below STILL_TARGET_M_S / 2, all
+    above 1.5 STILL_TARGET_M_S, linear between (a still deck's differenced velocity is the marker's noise)."""
     speed = math.hypot(float(target_vel_ned_m_s[0]), float(target_vel_ned_m_s[1]))
     return min(1.0, max(0.0, speed / STILL_TARGET_M_S - 0.5))
