@@ -267,7 +267,7 @@ class UgvSettings:
         "UGV path: 0 stop, 1 straight line, 2 circle, 3 figure-8, 4 random waypoints, 5 manual (MANUAL_CONTROL)",
         ParamType.INT32,
     )
-    speed_m_s: float = sim_param("SIM_UGV_SPD", 1.0, 0.0, 4.0, "m/s", "UGV speed along its path")
+    speed_m_s: float = sim_param("SIM_UGV_SPD", 1.0, 0.0, 4.5, "m/s", "UGV speed along its path")
     radius_m: float = sim_param("SIM_UGV_RAD", 2.0, 0.5, 100.0, "m", "Radius of the UGV's circle and figure-8")
     accel_m_s2: float = sim_param("SIM_UGV_ACC", 1.5, 0.1, 5.0, "m/s^2", "UGV acceleration limit")
     # The UGV's telemetry radio (sitl.ugv_broadcast): FOLLOW_TARGET to the flight controller, for AUTO.FOLLOW_TARGET.

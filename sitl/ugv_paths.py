@@ -22,7 +22,7 @@ import numpy as np
 class UgvLimits:
     """Drive limits: forward speed (m/s), longitudinal acceleration (m/s^2), yaw rate (rad/s)."""
 
-    speed_max_m_s: float = 4.0
+    speed_max_m_s: float = 4.5  # MBZIRC 2017's truck drove its figure-8 at 4.2 m/s (15 km/h)
     accel_m_s2: float = 1.5
     yaw_rate_max_rad_s: float = 1.5
 

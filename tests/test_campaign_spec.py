@@ -177,3 +177,17 @@ def test_the_benchmark_campaign_files_are_valid():
     for path in sorted((Path(__file__).resolve().parents[1] / "benchmarks" / "campaigns").glob("*.toml")):
         assert plan.expand(spec.load(path)), path
     assert len(plan.expand(spec.load(path.parent / "landing.toml"))) == 680
+
+
+def test_the_radius_is_a_cell_of_the_turning_paths_only():
+    """ugv_radius_m (SIM_UGV_RAD) makes cells of the circle and the figure-8; the static pad and the line keep one."""
+    text = GOOD.replace('ugv_path = ["line", "circle"]', 'ugv_path = ["line", "figure8"]\nugv_radius_m = [2, 3]')
+    runs = plan.expand(campaign(text.replace('wind = ["calm", "windy"]', 'wind = ["calm"]')))
+    labels = list(dict.fromkeys(r.label for r in runs))
+    assert labels == [
+        "quad_x static pad calm gimbal camera nested pad",
+        "quad_x line 1 m/s calm gimbal camera nested pad",
+        "quad_x figure8 1 m/s calm gimbal camera nested pad",
+        "quad_x figure8 1 m/s r 3 m calm gimbal camera nested pad",
+    ]
+    assert {r.axes["ugv_radius_m"] for r in runs if r.label == labels[-1]} == {3}

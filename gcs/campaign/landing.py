@@ -4,8 +4,10 @@ Grid axes: ``vehicle`` (a vehicle file name), ``ugv_speed_m_s`` (0: the static p
 the path), ``ugv_path`` (line, circle, figure8, random), ``wind`` (calm, or windy: 5 m/s from the
 West, 1 m/s turbulence, 2 m/s gusts), ``camera`` (gimbal: the 3-axis gimbal, ``SIM_CAM_MOUNT`` 2; fixed:
 the seed's body-fixed camera, 1) and ``pad`` (nested: the nested marker pad, ``SIM_PAD_LAYOUT`` 0; single:
-the seed's single marker, 1).  Cells in the order vehicle, wind, speed, path, camera, pad (the last two
-innermost, so a cell's gimbal and fixed-camera runs stand next to each other in the report).
+the seed's single marker, 1), ``ugv_radius_m`` (the circle's and the figure-8 lobes' radius, ``SIM_UGV_RAD``;
+default 2 m: the UGV turns at most 1.5 rad/s, so 4.2 m/s needs lobes of 2.8 m or more).  Cells in the order
+vehicle, wind, speed, path, radius, camera, pad (the last two innermost, so a cell's gimbal and fixed-camera runs
+stand next to each other in the report).
 
 Randomised per run (:mod:`.plan` draws them): the UGV's start pose (NED metres from the
 multicopter's start point, heading in degrees), the meeting point's offset from the UGV's path
@@ -34,6 +36,7 @@ CAMERA_LINE = re.compile(
     r"([\d.]+) cm mean, ([\d.]+) cm max"
 )
 CAMERA_HZ = 20.0
+NAMES = ("ugv_radius_m", "camera", "pad")  # the grid's innermost axes, slowest first
 
 
 def camera_figures(sitl_log: str) -> dict[str, float]:
@@ -64,6 +67,7 @@ def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: d
         meet_offset_m=(r * math.cos(bearing), r * math.sin(bearing)),
         camera=cell["camera"],
         pad=cell["pad"],
+        radius_m=float(cell.get("ugv_radius_m", 2.0)),
         extra_sim_params=dict(extra_sim_params or {}),
     )
 
@@ -78,6 +82,7 @@ class LandingKind:
         Axis("ugv_speed_m_s", (0, 0.5, 1, 2, 3), number_in(0.0, 5.0), "UGV speed, m/s (0: static pad)"),
         Axis("ugv_path", PATHS, one_of(*PATHS), "UGV path (for speeds above 0)"),
         # Added with issue 34: a results file written before them has no such column and is still a landing one.
+        Axis("ugv_radius_m", (2,), number_in(1.0, 20.0), "circle and figure-8 radius, m", required_in_results=False),
         Axis("camera", CAMERAS[:1], one_of(*CAMERAS), "camera mount (SIM_CAM_MOUNT)", required_in_results=False),
         Axis("pad", PADS[:1], one_of(*PADS), "landing pad on the deck (SIM_PAD_LAYOUT)", required_in_results=False),
     )
@@ -111,6 +116,7 @@ class LandingKind:
         "SIM_CAM_MOUNT": "grid.camera",
         "SIM_PAD_LAYOUT": "grid.pad",
         "SIM_UGV_PATH": "grid.ugv_path",
+        "SIM_UGV_RAD": "grid.ugv_radius_m",
         "SIM_UGV_X": "random.ugv_start_north_m",
         "SIM_UGV_Y": "random.ugv_start_east_m",
         "SIM_UGV_YAW": "random.ugv_heading_deg",
@@ -126,13 +132,17 @@ class LandingKind:
                 for speed in grid["ugv_speed_m_s"]:
                     for path in ("static",) if speed == 0 else grid["ugv_path"]:
                         where = {"vehicle": vehicle, "wind": wind, "ugv_speed_m_s": speed, "ugv_path": path}
-                        out += [{**where, **c} for c in grid_cells(grid, ("camera", "pad"))]
+                        turns = path in ("circle", "figure8")  # (the radius is theirs: one cell for the others)
+                        radii = grid["ugv_radius_m"] if turns else grid["ugv_radius_m"][:1]
+                        out += [{**where, **c} for c in grid_cells({**grid, "ugv_radius_m": radii}, NAMES)]
         return out
 
     def label(self, cell: dict[str, Any]) -> str:
         """e.g. ``quad_x figure8 2 m/s calm gimbal camera nested pad``."""
         speed = cell["ugv_speed_m_s"]
         where = "static pad" if speed == 0 else f"{cell['ugv_path']} {speed:g} m/s"
+        radius = float(cell.get("ugv_radius_m", 2.0))
+        where += f" r {radius:g} m" if speed != 0 and cell["ugv_path"] in ("circle", "figure8") and radius != 2 else ""
         return f"{cell['vehicle']} {where} {cell['wind']} {cell['camera']} camera {cell['pad']} pad"
 
     def fly(self, run: Run, ctx) -> dict[str, Any]:
