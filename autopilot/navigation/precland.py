@@ -32,7 +32,7 @@ from autopilot.navigation.cubic_spline import CubicSpline, duration_s
 from autopilot.navigation.deck_heading import DeckHeading
 from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.land import LandTask
-from autopilot.navigation.target_coast import TurnRate, coast
+from autopilot.navigation.target_coast import STILL_M_S, TurnRate, acc_weight, coast
 from autopilot.navigation.view_limited_catchup import ViewLimits, view_cone
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import VehicleEstimate
@@ -66,7 +66,7 @@ DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
 DOCK_WAIT_S = 2.0  # at the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long
-STILL_TARGET_M_S = 0.2  # ... over a deck slower than this; over a moving deck at once
+STILL_TARGET_M_S = STILL_M_S  # ... over a deck slower than this; over a moving deck at once
 # From the tracking chase on, the horizontal velocity integrator learns only within this velocity error
 # (m/s): the chase's catch-up (at up to twice the deck's speed) would wind it up, and given back it held
 # the vehicle 0.2 m behind a 3 m/s deck for seconds (PositionSetpoint.int_band_m_s).
@@ -237,7 +237,7 @@ class PrecLandTask:
                 self._turn.add(t.timestamp_us, vel, t.turn_rad_s)
                 turn = self._turn.rate()
                 self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
-                    est.pos_ned_m + rel, vel, acc, age_s, turn, _moving(vel)
+                    est.pos_ned_m + rel, vel, acc, age_s, turn, acc_weight(vel)
                 )
                 self.heading.observe(now_us, t.square_yaw_rad, self._tgt_vel, t.turn_rad_s)
                 self._used_us = t.timestamp_us
@@ -251,7 +251,7 @@ class PrecLandTask:
                 self._tgt_vel, self._tgt_acc = np.zeros(3), np.zeros(3)
             dt_s = max(0.0, (now_us - self._last_us) * 1e-6)
             self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
-                self._tgt_pos, self._tgt_vel, self._tgt_acc, dt_s, self._turn.rate(), _moving(self._tgt_vel)
+                self._tgt_pos, self._tgt_vel, self._tgt_acc, dt_s, self._turn.rate(), acc_weight(self._tgt_vel)
             )
         self._last_us = now_us
         return self._lost_s(now_us) <= TARGET_FRESH_S
@@ -371,7 +371,7 @@ class PrecLandTask:
             return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
         base = self._above_target(self.cfg.trk_alt_m)
         vel = self._tgt_vel.copy()
-        acc = self._tgt_acc * _moving(self._tgt_vel)
+        acc = self._tgt_acc * acc_weight(self._tgt_vel)
         self._view = self._view.with_device(self.gimbal_reach_rad)  # (PLD_CAM_REACH -1: follows the device)
         band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
         yaw, rate = self.heading.setpoint(now_us, est.yaw_rad)  # square to the deck (PLD_DECK_YAW), turning with it
@@ -391,10 +391,3 @@ class PrecLandTask:
             v_sp, a_sp = vel + float(p.vel[0]) * down, acc + float(p.acc[0]) * down
             return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone, rate)
         return PositionSetpoint(deck, vel, yaw, None, band)  # DONE: the deck (motors are off)
-
-
-def _moving(target_vel_ned_m_s: np.ndarray) -> float:
-    """How much of the target's acceleration to feed forward (0-1) by its speed: none below STILL_TARGET_M_S / 2, all
-    above 1.5 STILL_TARGET_M_S, linear between (a still deck's differenced velocity is the marker's noise)."""
-    speed = math.hypot(float(target_vel_ned_m_s[0]), float(target_vel_ned_m_s[1]))
-    return min(1.0, max(0.0, speed / STILL_TARGET_M_S - 0.5))

@@ -21,6 +21,7 @@ import numpy as np
 TURNING_FROM_M_S = 0.5  # slower than this over the ground: moved on straight
 MAX_TURN_RATE_RAD_S = 1.5  # a turn rate is held to this (a 2 m circle at 2 m/s turns at 1 rad/s)
 TURN_WINDOW_S = 1.0  # the turn rate is the heading's change over this long
+STILL_M_S = 0.2  # a deck slower than this is still (precland's STILL_TARGET_M_S): no acceleration fed forward
 TURN_DEAD_BAND_RAD_S = 0.2  # a slower turn is taken for a straight drive's weave and noise ...
 TURN_DEAD_BAND_M_S2 = 0.25  # ... and so is one whose acceleration across the track (rate x speed) is smaller
 
@@ -100,3 +101,10 @@ def coast(
         np.array([vx * c - vy * s, vx * s + vy * c, vz]),
         np.array([ax * c - ay * s, ax * s + ay * c, az]),
     )
+
+
+def acc_weight(target_vel_ned_m_s: np.ndarray) -> float:
+    """How much of the target's acceleration to feed forward (0-1) by its speed: none below STILL_M_S / 2, all
+    above 1.5 STILL_M_S, linear between (a still deck's differenced velocity is the marker's noise)."""
+    speed = math.hypot(float(target_vel_ned_m_s[0]), float(target_vel_ned_m_s[1]))
+    return min(1.0, max(0.0, speed / STILL_M_S - 0.5))
