@@ -32,6 +32,7 @@ from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import Commander
 from autopilot.commander.external_inputs import ExternalInputs
+from autopilot.control.attitude_control import with_yaw_rate
 from autopilot.control.gains_from_params import GainsFromParams
 from autopilot.control.mixer import Mixer
 from autopilot.control.position_control import attitude_from_thrust
@@ -210,13 +211,8 @@ class FlightController:
         w, x, y, z = q = est.q.tolist()  # FRD -> NED
         if self.rate_override is None:
             sp = self.attitude_control.update_floats(q, self.q_sp.tolist())
-            if self.yaw_rate_ff != 0.0:  # about NED down, in FRD: the third row of the attitude's matrix
-                r = self.yaw_rate_ff
-                sp = (
-                    sp[0] + 2.0 * (x * z - w * y) * r,
-                    sp[1] + 2.0 * (y * z + w * x) * r,
-                    sp[2] + (w * w - x * x - y * y + z * z) * r,
-                )
+            if self.yaw_rate_ff != 0.0:  # the yaw setpoint's own rate, about NED down
+                sp = with_yaw_rate(sp, q, self.yaw_rate_ff)
             rate_sp = self.rate_sp = np.array(sp)
         else:
             rate_sp = self.rate_sp = self.rate_override

@@ -59,3 +59,15 @@ class AttitudeControl:
             -my if ry < -my else (my if ry > my else ry),
             -mz if rz < -mz else (mz if rz > mz else rz),
         )
+
+
+def with_yaw_rate(rates_frd: Axes3, q: Sequence[float], yaw_rate_rad_s: float) -> Axes3:
+    """Body rates (rad/s, FRD) plus a yaw rate about NED down (PX4's yawspeed setpoint fed forward): NED down in
+    FRD is the third row of the attitude's matrix (``q`` (w, x, y, z), FRD -> NED)."""
+    w, x, y, z = q
+    r = yaw_rate_rad_s
+    return (
+        rates_frd[0] + 2.0 * (x * z - w * y) * r,
+        rates_frd[1] + 2.0 * (y * z + w * x) * r,
+        rates_frd[2] + (w * w - x * x - y * y + z * z) * r,
+    )
