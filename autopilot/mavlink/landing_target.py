@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from autopilot.navigation.deck_heading import square
 from autopilot.topics import LandingTargetMeasurement
 from mavsim_core import quaternion as quat
 
@@ -114,19 +115,15 @@ def square_yaw(q_target_wxyz: Any, frame: int, r_ned_frd: np.ndarray) -> float |
         q = np.asarray(q_target_wxyz, dtype=float).reshape(4)
     except (TypeError, ValueError):
         return None
-    if not np.all(np.isfinite(q)) or abs(float(np.linalg.norm(q)) - 1.0) > 1e-2:
+    norm = float(np.linalg.norm(q))
+    if not np.all(np.isfinite(q)) or abs(norm - 1.0) > 1e-2 or frame not in (MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD):
         return None
-    if frame == MAV_FRAME_LOCAL_NED:
-        rot = quat.to_matrix(q / np.linalg.norm(q))
-    elif frame == MAV_FRAME_BODY_FRD:
-        rot = r_ned_frd @ quat.to_matrix(q / np.linalg.norm(q))
-    else:
-        return None
+    rot = quat.to_matrix(q / norm)
+    if frame == MAV_FRAME_BODY_FRD:
+        rot = r_ned_frd @ rot
     if abs(float(rot[2, 2])) < math.cos(SQUARE_TILT_MAX_RAD):
         return None
-    # the target's x axis (a level square's edge) projected on the horizontal
-    yaw = math.atan2(float(rot[1, 0]), float(rot[0, 0]))
-    return (yaw + math.pi / 4) % (math.pi / 2) - math.pi / 4
+    return square(math.atan2(float(rot[1, 0]), float(rot[0, 0])))  # its x axis (an edge) on the horizontal
 
 
 def decode_landing_target(

@@ -65,8 +65,9 @@ COAST_MAX_S = 1.5
 DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
-DOCK_WAIT_S = 2.0  # at the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long
-STILL_TARGET_M_S = STILL_M_S  # ... over a deck slower than this; over a moving deck at once
+# At the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long, over a deck slower than
+# target_coast.STILL_M_S; over a moving deck at once.
+DOCK_WAIT_S = 2.0
 # From the tracking chase on, the horizontal velocity integrator learns only within this velocity error
 # (m/s): the chase's catch-up (at up to twice the deck's speed) would wind it up, and given back it held
 # the vehicle 0.2 m behind a 3 m/s deck for seconds (PositionSetpoint.int_band_m_s).
@@ -276,7 +277,7 @@ class PrecLandTask:
         self._enter(PrecLandPhase.TRACKING, now_us, f"{why}; td {td:.1f} s")
 
     def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
-        moving = float(np.linalg.norm(self._tgt_vel[:2])) >= STILL_TARGET_M_S
+        moving = float(np.linalg.norm(self._tgt_vel[:2])) >= STILL_M_S
         self._dock_end_m = -DOCK_INTO_DECK_M if moving else DOCK_HOVER_M  # the feet's height at the spline's end
         h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - self._dock_end_m
         # [F 3]'s td (h over the mean speed), but never shorter than the cubic's peak acceleration 6 h / td^2
@@ -355,7 +356,7 @@ class PrecLandTask:
                 # tracked blind (the camera is too close to see the marker whole): cut at once.
                 # Legs on the deck (ground contact: the deck carries weight, or pushed up in an impact) end
                 # the docking at once: sliding on the deck in wind the error only grew (0.03 -> 0.29 m).
-                still = float(np.linalg.norm(self._tgt_vel[:2])) < STILL_TARGET_M_S
+                still = float(np.linalg.norm(self._tgt_vel[:2])) < STILL_M_S
                 waited = err <= 2.0 * cfg.appr_rad_m or settled_s >= DOCK_WAIT_S or touching
                 if there and (not still or waited):
                     self.motors_cut = True

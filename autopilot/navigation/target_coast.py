@@ -21,7 +21,7 @@ import numpy as np
 TURNING_FROM_M_S = 0.5  # slower than this over the ground: moved on straight
 MAX_TURN_RATE_RAD_S = 1.5  # a turn rate is held to this (a 2 m circle at 2 m/s turns at 1 rad/s)
 TURN_WINDOW_S = 1.0  # the turn rate is the heading's change over this long
-STILL_M_S = 0.2  # a deck slower than this is still (precland's STILL_TARGET_M_S): no acceleration fed forward
+STILL_M_S = 0.2  # a deck slower than this is still: no acceleration fed forward (and precland's docking waits)
 TURN_DEAD_BAND_RAD_S = 0.2  # a slower turn is taken for a straight drive's weave and noise ...
 TURN_DEAD_BAND_M_S2 = 0.25  # ... and so is one whose acceleration across the track (rate x speed) is smaller
 
