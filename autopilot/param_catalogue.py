@@ -17,6 +17,7 @@ from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mag_fusion, mahony, position_kf
 from autopilot.mavlink import failure_injection, gimbal_control
 from autopilot.navigation import (
+    cut_lead,
     deck_heading,
     follow_target,
     geofence,
@@ -63,6 +64,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     offboard.PARAMS,
     precland.PARAMS,
     deck_heading.PARAMS,
+    cut_lead.PARAMS,
     precland_gimbal.PARAMS,
     view_limited_catchup.PARAMS,
     orbit.PARAMS,

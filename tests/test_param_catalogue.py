@@ -27,6 +27,7 @@ REGENERATE = "python -m autopilot.param_catalogue --markdown > docs/parameters.m
 UNITS = {
     "",
     "m^2",  # variances of the landing-target estimator (LTEST_*, PX4's units)
+    "s^2",  # PLD_CUT_LEAD: metres of aim per m/s^2 of thrust (autopilot/navigation/cut_lead.py)
     "(m/s)^2",
     "(m/s^2)^2",
     "tan(rad)^2",

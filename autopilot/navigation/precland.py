@@ -29,6 +29,7 @@ from enum import Enum
 import numpy as np
 
 from autopilot.navigation.cubic_spline import CubicSpline, duration_s
+from autopilot.navigation.cut_lead import CutLead
 from autopilot.navigation.deck_heading import DeckHeading
 from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.land import LandTask
@@ -55,10 +56,9 @@ APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long
 APPROACH_SLIP_M_S = 0.1  # ... and the vehicle moves with the target to within this (m/s) before docking
 APPROACH_PATIENCE_S = 5.0  # approaching longer than this: within PLD_HACC_RAD (and twice the slip) will do
 DOCK_HOVER_M = 0.03  # the docking point: the feet this high (m) above the deck
-# Over a moving deck the docking spline ends this far (m) below the deck's top instead: the legs meet it
-# still descending (about 0.5 m/s) and the motors are cut on the contact.  Ending above it at rest, the
-# vehicle could stop blind a few centimetres over a turning deck (braked, bounced up) and hover there
-# for the settling time while the deck drove on: 0.9 s blind instead of 0.3 s, 0.2-0.34 m off.
+# Over a moving deck the docking spline ends this far (m) below the deck's top: the legs meet it descending
+# (about 0.5 m/s), the motors cut on the contact.  Ending above it at rest, the vehicle could stop blind a few cm
+# over a turning deck (braked, bounced up) and hover for the settling time: 0.9 s blind, 0.2-0.34 m off.
 DOCK_INTO_DECK_M = 0.05
 # A target unseen this long (s) stays where it was (coasting to PLD_BTOUT took a vehicle 10 m from a figure-8)
 COAST_MAX_S = 1.5
@@ -160,6 +160,7 @@ class PrecLandTask:
         self._tgt_acc = np.zeros(3)  # fed forward while tracking, approaching and docking
         self._dock_end_m = DOCK_HOVER_M  # the feet's height over the deck where the docking spline ends
         self._turn = TurnRate()  # the target's turn rate from its measured headings
+        self._lead = CutLead()  # approaching and docking aim off the deck's centre: the drift after the cut
         self._view = ViewLimits.from_store(params)  # the chase keeps the marker in the camera's view
         self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
         self.gimbal_reach_rad: float | None = None  # ... and the gimbal device's reach (rad; None: no device)
@@ -186,6 +187,8 @@ class PrecLandTask:
         if target is not None:
             self._target = target
         visible = self._observe(est, now_us)
+        if self.phase in (PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
+            self._lead.update(now_us, est.q_wxyz)
         self._transitions(est, now_us, visible)
         return self._setpoint(est, now_us)
 
@@ -268,6 +271,10 @@ class PrecLandTask:
         assert self._tgt_pos is not None
         return self._tgt_pos - np.array([0.0, 0.0, height_m])
 
+    def _aim(self, height_m: float) -> np.ndarray:
+        """The approach's and docking's point: above the target, off its centre by the cut's lead (cut_lead)."""
+        return self._above_target(height_m) + self._lead.offset_ned_m(self.params.get("PLD_CUT_LEAD"))
+
     def _start_tracking(self, est: VehicleEstimate, now_us: int, why: str) -> None:
         offset = est.pos_ned_m - self._above_target(self.cfg.trk_alt_m)
         # [F eq. 3.1]'s td is the horizontal error over the mean speed; a larger height change
@@ -286,7 +293,7 @@ class PrecLandTask:
         acc_max = self.params.get("MPC_ACC_DOWN_MAX")
         td = max(duration_s(h, self.cfg.trk_spd_m_s), math.sqrt(6.0 * abs(h) / acc_max))
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
-        err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+        err = float(np.linalg.norm(self._aim(0.0)[:2] - est.pos_ned_m[:2]))
         self._enter(PrecLandPhase.DOCKING, now_us, f"{err:.2f} m off, moving with it")
 
     def _lose(self, est: VehicleEstimate, now_us: int) -> None:
@@ -326,9 +333,10 @@ class PrecLandTask:
                 return
         if ph is PrecLandPhase.TRACKING and in_phase_s >= self._spline.td_s:
             self._enter(PrecLandPhase.APPROACHING, now_us, "spline flown")
+            self._lead.reset()
             self._close_since_us: int | None = None
         elif ph is PrecLandPhase.APPROACHING:
-            err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+            err = float(np.linalg.norm(self._aim(0.0)[:2] - est.pos_ned_m[:2]))
             slip = float(np.linalg.norm(est.vel_ned_m_s[:2] - self._tgt_vel[:2]))  # speed over the deck
             # [F 3]: within PLD_APPR_RAD; a deck that turns may keep the error above that for good,
             # so after APPROACH_PATIENCE_S PX4's acceptance radius PLD_HACC_RAD will do.
@@ -343,7 +351,7 @@ class PrecLandTask:
             if self._close_since_us is not None and (now_us - self._close_since_us) * 1e-6 >= APPROACH_HOLD_S:
                 self._start_docking(est, now_us)
         elif ph is PrecLandPhase.DOCKING:
-            err = float(np.linalg.norm(self._above_target(0.0)[:2] - est.pos_ned_m[:2]))
+            err = float(np.linalg.norm(self._aim(0.0)[:2] - est.pos_ned_m[:2]))
             if err > cfg.hacc_rad_m and visible:
                 self._enter(PrecLandPhase.APPROACHING, now_us, f"horizontal error above {cfg.hacc_rad_m:.2f} m")
                 self._close_since_us = None
@@ -380,11 +388,9 @@ class PrecLandTask:
             p = self._spline.at(in_phase_s)
             return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone, rate)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(base, vel, yaw, acc, band, cone, rate)
+            return PositionSetpoint(self._aim(self.cfg.trk_alt_m), vel, yaw, acc, band, cone, rate)
         # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
-        deck = self._above_target(
-            self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M)
-        )
+        deck = self._aim(self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M))
         if ph is PrecLandPhase.DOCKING:
             p = self._spline.at(in_phase_s)
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
