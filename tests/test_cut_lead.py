@@ -30,22 +30,41 @@ def test_level_gives_no_push_and_a_tilt_pushes_where_it_leans():
     np.testing.assert_allclose(thrust_horizontal_m_s2(right_down), [-g_tan20, 0.0], atol=1e-9)
 
 
-def test_the_offset_ramps_in_from_zero_to_the_lead_times_the_push_and_is_held_to_its_limit():
+ZERO = np.zeros(3)
+
+
+def test_the_wind_push_ramps_in_from_zero_to_the_lead_times_the_push_and_is_held_to_its_limit():
+    """Leaning 10 deg forward without accelerating: a push against a wind from the north, ramped in."""
     lead, q = CutLead(), quat.from_euler(0.0, math.radians(-10.0), 0.0)
     push = GRAVITY_M_S2 * math.tan(math.radians(10.0))
     np.testing.assert_allclose(lead.offset_ned_m(0.032), 0.0)
     for k in range(5):  # 0.1 s: a fifth of the way at most
-        lead.update(k * STEP_US, q)
+        lead.update(k * STEP_US, q, ZERO, ZERO)
     assert 0.0 < lead.offset_ned_m(0.032)[0] < 0.25 * 0.032 * push
     for k in range(5, 200):  # 4 s: there
-        lead.update(k * STEP_US, q)
+        lead.update(k * STEP_US, q, ZERO, ZERO)
     np.testing.assert_allclose(lead.offset_ned_m(0.032), [0.032 * push, 0.0, 0.0], atol=1e-4)
     np.testing.assert_allclose(lead.offset_ned_m(0.0), 0.0)
     assert lead.offset_ned_m(0.1)[0] == pytest.approx(MAX_OFFSET_M)  # 0.17 m asked: held to 0.15
-    lead.update(200 * STEP_US, np.full(4, math.nan))  # a NaN attitude changes nothing
+    lead.update(200 * STEP_US, np.full(4, math.nan), ZERO, ZERO)  # a NaN attitude changes nothing
     np.testing.assert_allclose(lead.offset_ned_m(0.032), [0.032 * push, 0.0, 0.0], atol=1e-4)
     lead.reset()
     np.testing.assert_allclose(lead.offset_ned_m(0.032), 0.0)
+
+
+def test_the_vehicles_own_acceleration_is_no_push_and_the_decks_turn_counts_at_once():
+    """Leaning 10 deg forward to accelerate north (a correction): no lead; a deck turning with 2 m/s^2 toward
+    the east: 0.032 x 2 m east from the first step (the turn reverses within a quarter of a second on a figure-8)."""
+    lead, q = CutLead(), quat.from_euler(0.0, math.radians(-10.0), 0.0)
+    own = np.array([GRAVITY_M_S2 * math.tan(math.radians(10.0)), 0.0, 0.0])
+    for k in range(100):
+        lead.update(k * STEP_US, q, own, ZERO)
+    np.testing.assert_allclose(lead.offset_ned_m(0.032), 0.0, atol=1e-9)
+    level = quat.from_euler(0.0, 0.0, 0.0)
+    lead.update(100 * STEP_US, level, ZERO, np.array([0.0, 2.0, 0.0]))
+    np.testing.assert_allclose(lead.offset_ned_m(0.032), [0.0, 0.064, 0.0], atol=1e-9)
+    lead.update(101 * STEP_US, level, ZERO, np.array([0.0, -2.0, 0.0]))
+    np.testing.assert_allclose(lead.offset_ned_m(0.032), [0.0, -0.064, 0.0], atol=1e-9)
 
 
 def _estimate(t_us: int, pos: np.ndarray, q: np.ndarray) -> VehicleEstimate:

@@ -188,7 +188,7 @@ class PrecLandTask:
             self._target = target
         visible = self._observe(est, now_us)
         if self.phase in (PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
-            self._lead.update(now_us, est.q_wxyz)
+            self._lead.update(now_us, est.q_wxyz, est.accel_ned_m_s2, self._tgt_acc * acc_weight(self._tgt_vel))
         self._transitions(est, now_us, visible)
         return self._setpoint(est, now_us)
 
