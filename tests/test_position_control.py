@@ -101,3 +101,25 @@ def test_a_setpoints_axis_cone_shortens_the_horizontal_thrust_and_holds_the_inte
     )
     assert t[2] == pytest.approx(free.thrust_ned_n[2])  # the vertical thrust kept
     assert math.degrees(math.atan2(math.hypot(*free.thrust_ned_n[:2]), -free.thrust_ned_n[2])) > 30.0
+
+
+def test_a_setpoints_acceleration_slew_swings_the_horizontal_thrust_no_faster_than_it_allows(params, quad):
+    """A hover, then a setpoint 20 m east (the tilt limit at once without a slew): with 20 m/s^3 the horizontal
+    thrust per unit mass grows by 0.4 m/s^2 a 20 ms step, the horizontal axes reported saturated meanwhile; then
+    back toward the hover at the same rate; inf (the default) is the step."""
+    here = np.array([0.0, 0.0, -5.0])
+    slewed, free = make_position_control(params, quad), make_position_control(params, quad)
+    hover = PositionSetpoint(here.copy(), np.zeros(3), 0.0, acc_slew_m_s3=20.0)
+    east = PositionSetpoint(np.array([0.0, 20.0, -5.0]), np.zeros(3), 0.0, acc_slew_m_s3=20.0)
+    slewed.control(here, np.zeros(3), hover, 0.02)
+    side = []
+    for _ in range(5):
+        out = slewed.control(here, np.zeros(3), east, 0.02)
+        side.append(out.thrust_ned_n[1] / quad.mass_kg)
+        assert out.saturated[:2] == (True, True)
+    assert side == pytest.approx([0.4, 0.8, 1.2, 1.6, 2.0])
+    back = slewed.control(here, np.zeros(3), hover, 0.02).thrust_ned_n[1] / quad.mass_kg
+    assert back == pytest.approx(1.6)
+    step = free.control(here, np.zeros(3), PositionSetpoint(east.pos_ned_m, np.zeros(3), 0.0), 0.02)
+    tilt = math.degrees(math.atan2(math.hypot(*step.thrust_ned_n[:2]), -step.thrust_ned_n[2]))
+    assert tilt == pytest.approx(params.get("MPC_TILTMAX_AIR"))

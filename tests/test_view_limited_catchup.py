@@ -118,3 +118,33 @@ def test_the_reach_keeps_its_range_check(value):
     store = default_store()
     with pytest.raises(ParamError, match="PLD_CAM_REACH"):
         store.set("PLD_CAM_REACH", value)
+
+
+@pytest.mark.parametrize("slew, want", [(None, 20.0), (35.0, 35.0), (0.0, math.inf)])
+def test_the_landings_setpoints_carry_pld_acc_slew_from_tracking_on(slew, want):
+    """PLD_ACC_SLEW (default 20 m/s^3, 0: no limit) goes with every setpoint of the chase and the docking, and not
+    with the preparation's hover (a deck seen later: the vehicle there is still)."""
+    from autopilot.navigation.precland import LandingTargetInput, PrecLandPhase, PrecLandTask
+    from autopilot.topics import VehicleEstimate
+
+    store = default_store()
+    if slew is not None:
+        store.set("PLD_ACC_SLEW", slew)
+    pos, t = np.array([0.0, 0.0, -2.8]), 1_000_000
+
+    def est(t_us: int) -> VehicleEstimate:
+        return VehicleEstimate(
+            t_us, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), np.zeros(3), pos.copy(), np.zeros(3), True, True,
+            47.0, 8.0, 400.0,
+        )  # fmt: skip
+
+    task = PrecLandTask(0.0, store)
+    task.activate(est(t), t)
+    assert task.update(est(t + 20_000), t + 20_000).acc_slew_m_s3 == math.inf  # preparation: no target yet
+    seen = {}
+    for k in range(2, 600):
+        t_us = t + 20_000 * k
+        sp = task.update(est(t_us), t_us, LandingTargetInput(t_us, np.array([0.5, 0.0, 2.8]), np.zeros(3)))
+        seen.setdefault(task.phase, sp.acc_slew_m_s3)
+    assert {PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING} <= seen.keys()
+    assert all(v == want for p, v in seen.items() if p is not PrecLandPhase.DONE)

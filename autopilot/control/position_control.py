@@ -68,7 +68,11 @@ class PositionSetpoint:
     ``axis_cone``: the vehicle's down axis kept inside this cone by shortening the horizontal thrust (after the
     tilt limit; :mod:`autopilot.control.thrust_cone`), e.g. so that a camera keeps the landing target in view.
     ``yaw_rate_rad_s``: the yaw setpoint's own rate (rad/s about NED down), fed forward to the rate loop as PX4's
-    yawspeed setpoint, so that a turning heading is flown without the attitude loop's lag."""
+    yawspeed setpoint, so that a turning heading is flown without the attitude loop's lag.
+    ``acc_slew_m_s3``: the horizontal thrust per unit mass (m/s^2) changes at most this fast (m/s^3; inf, the
+    default: no limit), so that the attitude setpoint swings no faster than the vehicle turns (a chase whose
+    target reverses its turn asked for 35 deg of tilt in 0.16 s; the motors saturated on roll and pitch, the
+    collective fell to half and the vehicle lost 1 m of height)."""
 
     pos_ned_m: np.ndarray
     vel_ned_m_s: np.ndarray
@@ -77,6 +81,7 @@ class PositionSetpoint:
     int_band_m_s: float = math.inf
     axis_cone: AxisCone | None = None
     yaw_rate_rad_s: float = 0.0
+    acc_slew_m_s3: float = math.inf
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,6 +109,7 @@ class PositionControl:
         self.vel_sp = np.zeros(3)
         self.acc_sp = np.zeros(3)
         self.acc_ff = np.zeros(3)  # the trajectory's acceleration as fed forward, jerk-limited, m/s^2
+        self._prev_h: tuple[float, float] | None = None  # the latest step's horizontal thrust per mass, m/s^2
         self.output: PositionControlOutput | None = None  # the latest step's
         self.set_gains(gains)
 
@@ -123,6 +129,7 @@ class PositionControl:
         self.prev_vel = None
         self.d_filt[:] = 0.0
         self.acc_ff[:] = 0.0
+        self._prev_h = None
 
     def update(self, pos: np.ndarray, vel: np.ndarray, sp: PositionSetpoint, dt: float) -> np.ndarray:
         """The thrust vector (N, NED) for this step; :meth:`control` gives the whole record."""
@@ -183,6 +190,7 @@ class PositionControl:
         if sp.axis_cone is not None and (k := horizontal_share((thrust[0], thrust[1], thrust[2]), sp.axis_cone)) < 1.0:
             thrust[0], thrust[1] = thrust[0] * k, thrust[1] * k
             sat[0] = sat[1] = True
+        self._slew_limit(thrust, sat, sp.acc_slew_m_s3, dt)
         self._integrate(vel_err, acc_sp, sat, dt, sp.int_band_m_s)
         self.acc_sp = np.array(acc_sp)
         self.output = out = PositionControlOutput(
@@ -254,6 +262,19 @@ class PositionControl:
             tx, ty = tx * k, ty * k
             sat[0] = sat[1] = True
         return [tx, ty, tz], sat
+
+    def _slew_limit(self, thrust: list[float], sat: list[bool], slew_m_s3: float, dt: float) -> None:
+        """Hold the horizontal thrust's change (per unit mass) to ``slew_m_s3 dt`` from the last step's, in place;
+        a limited step counts as saturated on both horizontal axes (their integrators hold)."""
+        m = self.mass_kg
+        prev = self._prev_h
+        if prev is not None and math.isfinite(slew_m_s3) and _dt_ok(dt):
+            dx, dy = thrust[0] / m - prev[0], thrust[1] / m - prev[1]
+            n, lim = math.hypot(dx, dy), slew_m_s3 * dt
+            if n > lim:
+                thrust[0], thrust[1] = m * (prev[0] + dx * lim / n), m * (prev[1] + dy * lim / n)
+                sat[0] = sat[1] = True
+        self._prev_h = (thrust[0] / m, thrust[1] / m)
 
     def _integrate(self, vel_err: list[float], acc_sp: list[float], sat: list[bool], dt: float, band: float) -> None:
         """Integrate unless that would push further into saturation (anti-windup), the horizontal velocity

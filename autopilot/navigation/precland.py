@@ -65,9 +65,7 @@ COAST_MAX_S = 1.5
 DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
-# At the docking point the motors are cut within 2 x PLD_APPR_RAD, or after this long, over a deck slower than
-# target_coast.STILL_M_S; over a moving deck at once.
-DOCK_WAIT_S = 2.0
+DOCK_WAIT_S = 2.0  # the motors cut within 2 x PLD_APPR_RAD or after this long over a still deck (moving: at once)
 # From the tracking chase on, the horizontal velocity integrator learns only within this velocity error
 # (m/s): the chase's catch-up (at up to twice the deck's speed) would wind it up, and given back it held
 # the vehicle 0.2 m behind a 3 m/s deck for seconds (PositionSetpoint.int_band_m_s).
@@ -386,9 +384,11 @@ class PrecLandTask:
         yaw, rate = self.heading.setpoint(now_us, est.yaw_rad)  # square to the deck (PLD_DECK_YAW), turning with it
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone, rate)
+            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone, rate, self._view.slew_m_s3)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(self._aim(self.cfg.trk_alt_m), vel, yaw, acc, band, cone, rate)
+            return PositionSetpoint(
+                self._aim(self.cfg.trk_alt_m), vel, yaw, acc, band, cone, rate, self._view.slew_m_s3
+            )
         # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
         deck = self._aim(self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M))
         if ph is PrecLandPhase.DOCKING:
@@ -396,5 +396,5 @@ class PrecLandTask:
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
             v_sp, a_sp = vel + float(p.vel[0]) * down, acc + float(p.acc[0]) * down
-            return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone, rate)
+            return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone, rate, self._view.slew_m_s3)
         return PositionSetpoint(deck, vel, yaw, None, band)  # DONE: the deck (motors are off)

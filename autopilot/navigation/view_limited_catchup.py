@@ -43,6 +43,11 @@ PARAMS: tuple[ParamDef, ...] = (
         "side and pitch either side of straight down), 0 without a gimbal device",
     ),
     param("PLD_VIEW_MARG", 8.0, 0.0, 45.0, "deg", "The marker kept this far inside the edge of the view"),
+    param(
+        "PLD_ACC_SLEW", 20.0, 0.0, 200.0, "m/s^3",
+        "Precision landing's horizontal acceleration setpoint changes at most this fast from tracking on (0: no "
+        "limit; ours)",
+    ),
 )  # fmt: skip
 
 
@@ -57,6 +62,7 @@ class ViewLimits:
     reach_rad: float | None = None
     margin_rad: float = math.radians(8.0)
     device_reach_rad: float | None = None
+    slew_m_s3: float = math.inf  # PLD_ACC_SLEW (0: inf, no limit)
 
     @staticmethod
     def from_store(store: ParameterStore) -> ViewLimits:
@@ -66,6 +72,7 @@ class ViewLimits:
             math.radians(store.get("PLD_CAM_FOV") / 2.0),
             None if reach_deg < 0.0 else math.radians(reach_deg),
             math.radians(store.get("PLD_VIEW_MARG")),
+            slew_m_s3=float(store.get("PLD_ACC_SLEW")) or math.inf,
         )
 
     def with_device(self, device_reach_rad: float | None) -> ViewLimits:
