@@ -65,7 +65,9 @@ class CutLead:
         self._wind, self._deck = np.zeros(2), np.zeros(2)
         self._last_us = None
 
-    def update(self, now_us: int, q_frd_to_ned: np.ndarray, accel_ned_m_s2: np.ndarray, deck_acc_ned_m_s2) -> None:
+    def update(
+        self, now_us: int, q_frd_to_ned: np.ndarray, accel_ned_m_s2: np.ndarray, deck_acc_ned_m_s2: np.ndarray
+    ) -> None:
         """One step: the attitude and the vehicle's acceleration (m/s^2 NED, gravity removed) give the wind's push,
         low-passed; ``deck_acc_ned_m_s2`` is the deck's acceleration now.  NaN or time going back: no change."""
         wind = thrust_horizontal_m_s2(q_frd_to_ned) - np.asarray(accel_ned_m_s2, dtype=float)[:2]
