@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gcs.launcher.deck_stance import feet_ned
+from gcs.launcher.deck_stance import deck_frame, feet_ned
 from mavsim_core import quaternion as quat
 from params.vehicle import load_vehicle
 
@@ -48,9 +48,8 @@ def _one(path: Path, suffix: str) -> np.ndarray | None:
 
 
 def _deck_frame(truth: np.ndarray, i: int) -> tuple[float, float]:
-    dn, de = truth["pos_n_m"][i] - truth["ugv_n_m"][i], truth["pos_e_m"][i] - truth["ugv_e_m"][i]
-    c, s = math.cos(truth["ugv_yaw_rad"][i]), math.sin(truth["ugv_yaw_rad"][i])
-    return c * dn + s * de, -s * dn + c * de
+    pos, ugv = (truth["pos_n_m"][i], truth["pos_e_m"][i]), (truth["ugv_n_m"][i], truth["ugv_e_m"][i])
+    return deck_frame(pos, ugv, float(truth["ugv_yaw_rad"][i]))
 
 
 def _attitude(truth: np.ndarray, i: int) -> np.ndarray:

@@ -151,7 +151,7 @@ def decode_landing_target(
     if isinstance(rel, str):
         return LandingTargetRefusal(rel)
     stamp = int(msg.time_usec) if timestamp_us is None else int(timestamp_us)
-    square = square_yaw(getattr(msg, "q", None), int(msg.frame), r_ned_frd) if msg.position_valid else None
+    edges = square_yaw(getattr(msg, "q", None), int(msg.frame), r_ned_frd) if msg.position_valid else None
     return LandingTargetMeasurement(
         timestamp_us=stamp,
         rel_pos_ned_m=rel,
@@ -159,5 +159,5 @@ def decode_landing_target(
         source_frame=int(msg.frame),
         valid=True,
         angular=not msg.position_valid,
-        square_yaw_rad=square,
+        square_yaw_rad=edges,
     )

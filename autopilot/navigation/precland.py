@@ -66,9 +66,8 @@ DOCK_DONE_M = 0.02  # docking point reached: within this (m, vertically) of it
 DOCK_SETTLE_S = 0.5  # ... or this long after the docking spline ended (the camera is blind on the deck)
 DOCK_TOUCH_M = 0.15  # the legs felt on the deck (ground contact) with the feet estimated this close: docked
 DOCK_WAIT_S = 2.0  # the motors cut within 2 x PLD_APPR_RAD or after this long over a still deck (moving: at once)
-# From the tracking chase on, the horizontal velocity integrator learns only within this velocity error
-# (m/s): the chase's catch-up (at up to twice the deck's speed) would wind it up, and given back it held
-# the vehicle 0.2 m behind a 3 m/s deck for seconds (PositionSetpoint.int_band_m_s).
+# From tracking on, the horizontal velocity integrator learns only within this velocity error (m/s): the chase's
+# catch-up would wind it up, and given back it held the vehicle 0.2 m behind a 3 m/s deck for seconds.
 CHASE_INT_BAND_M_S = 0.5
 
 
@@ -185,10 +184,11 @@ class PrecLandTask:
         if target is not None:
             self._target = target
         visible = self._observe(est, now_us)
+        acc = self._tgt_acc * acc_weight(self._tgt_vel)  # the target's acceleration fed forward (none if still)
         if self.phase in (PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
-            self._lead.update(now_us, est.q_wxyz, est.accel_ned_m_s2, self._tgt_acc * acc_weight(self._tgt_vel))
+            self._lead.update(now_us, est.q_wxyz, est.accel_ned_m_s2, acc)
         self._transitions(est, now_us, visible)
-        return self._setpoint(est, now_us)
+        return self._setpoint(est, now_us, acc)
 
     @property
     def done(self) -> bool:
@@ -369,26 +369,24 @@ class PrecLandTask:
                     how = "legs on the deck" if touching else "docking point reached"
                     self._enter(PrecLandPhase.DONE, now_us, f"{how} {err:.2f} m off, motors off")
 
-    def _setpoint(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
+    def _setpoint(self, est: VehicleEstimate, now_us: int, acc: np.ndarray) -> PositionSetpoint:
+        """The setpoint of the phase now; ``acc``: the target's acceleration fed forward (m/s^2 NED)."""
         ph, zero = self.phase, np.zeros(3)
         in_phase_s = (now_us - self._phase_us) * 1e-6
         if ph is PrecLandPhase.FALLBACK and self._fallback is not None:
             return self._fallback.update(est, now_us)
         if ph in (PrecLandPhase.PREPARATION, PrecLandPhase.SEARCH, PrecLandPhase.FALLBACK):
             return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
-        base = self._above_target(self.cfg.trk_alt_m)
-        vel = self._tgt_vel.copy()
-        acc = self._tgt_acc * acc_weight(self._tgt_vel)
+        base, vel = self._above_target(self.cfg.trk_alt_m), self._tgt_vel.copy()
         self._view = self._view.with_device(self.gimbal_reach_rad)  # (PLD_CAM_REACH -1: follows the device)
         band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
         yaw, rate = self.heading.setpoint(now_us, est.yaw_rad)  # square to the deck (PLD_DECK_YAW), turning with it
+        chase = (band, cone, rate, self._view.slew_m_s3)  # the chase's limits and yaw rate, from tracking on
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
-            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, band, cone, rate, self._view.slew_m_s3)
+            return PositionSetpoint(base + p.pos, vel + p.vel, yaw, p.acc + acc, *chase)
         if ph is PrecLandPhase.APPROACHING:
-            return PositionSetpoint(
-                self._aim(self.cfg.trk_alt_m), vel, yaw, acc, band, cone, rate, self._view.slew_m_s3
-            )
+            return PositionSetpoint(self._aim(self.cfg.trk_alt_m), vel, yaw, acc, *chase)
         # the reference point at the docking point (DONE), or where the docking spline ends (in a moving deck)
         deck = self._aim(self.feet_below_m + (self._dock_end_m if ph is PrecLandPhase.DOCKING else DOCK_HOVER_M))
         if ph is PrecLandPhase.DOCKING:
@@ -396,5 +394,5 @@ class PrecLandTask:
             pos = np.array([deck[0], deck[1], deck[2] + float(p.pos[0])])
             down = np.array([0.0, 0.0, 1.0])  # the spline's descent: its velocity and acceleration fed forward
             v_sp, a_sp = vel + float(p.vel[0]) * down, acc + float(p.acc[0]) * down
-            return PositionSetpoint(pos, v_sp, yaw, a_sp, band, cone, rate, self._view.slew_m_s3)
+            return PositionSetpoint(pos, v_sp, yaw, a_sp, *chase)
         return PositionSetpoint(deck, vel, yaw, None, band)  # DONE: the deck (motors are off)

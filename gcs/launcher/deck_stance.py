@@ -83,11 +83,16 @@ def feet_ned(
     return np.asarray(pos_ned_m, dtype=float) + feet_frd @ r.T
 
 
+def deck_frame(point_ned_m: Sequence[float], ugv_ned_m: Sequence[float], ugv_yaw_rad: float) -> tuple[float, float]:
+    """A point's horizontal offset from the deck's centre in the UGV's frame: (forward, right), metres."""
+    dn, de = float(point_ned_m[0] - ugv_ned_m[0]), float(point_ned_m[1] - ugv_ned_m[1])
+    c, s = math.cos(ugv_yaw_rad), math.sin(ugv_yaw_rad)
+    return c * dn + s * de, -s * dn + c * de
+
+
 def in_deck(point_ned_m: Sequence[float], ugv_ned_m: Sequence[float], ugv_yaw_rad: float, geom: UgvGeometry) -> bool:
     """A point's horizontal position inside the deck's square (in the UGV's frame)."""
-    dn, de = point_ned_m[0] - ugv_ned_m[0], point_ned_m[1] - ugv_ned_m[1]
-    c, s = math.cos(ugv_yaw_rad), math.sin(ugv_yaw_rad)
-    fwd, right = c * dn + s * de, -s * dn + c * de
+    fwd, right = deck_frame(point_ned_m, ugv_ned_m, ugv_yaw_rad)
     half = geom.deck_side_m / 2
     return abs(fwd) <= half and abs(right) <= half
 

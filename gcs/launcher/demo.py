@@ -360,6 +360,7 @@ def _instances(stack: Stack) -> str:
 
 def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: Stack) -> int:
     """``--scenario ugv-landing``: one precision landing on the UGV; exit 0 only if it stayed on the deck."""
+    from .deck_stance import LEVEL_TOLERANCE_M
     from .landing_run import STAY_ON_DECK_S, fly_landing
 
     demo.step = "precision landing on the UGV"
@@ -370,7 +371,7 @@ def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: 
     print(f"UGV speed at touchdown: {result.ugv_speed_at_touchdown_m_s:.2f} m/s")
     print(
         f"on the deck {STAY_ON_DECK_S:g} s later: {result.feet_on_deck} feet on it, "
-        f"{result.deck_level_err_cm:+.1f} cm from a level stance (within 2 cm: level), "
+        f"{result.deck_level_err_cm:+.1f} cm from a level stance (within {100 * LEVEL_TOLERANCE_M:g} cm: level), "
         f"{result.square_off_deg:.0f} deg off square to its edges"
     )
     print(f"real-time factor: {result.real_time_factor:.2f}")
