@@ -19,6 +19,7 @@ from autopilot.mavlink import failure_injection, gimbal_control
 from autopilot.navigation import (
     cut_lead,
     deck_heading,
+    dock_gate,
     follow_target,
     geofence,
     goto,
@@ -65,6 +66,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     precland.PARAMS,
     deck_heading.PARAMS,
     cut_lead.PARAMS,
+    dock_gate.PARAMS,
     precland_gimbal.PARAMS,
     view_limited_catchup.PARAMS,
     orbit.PARAMS,

@@ -193,6 +193,19 @@ def test_target_lost_searches_at_the_search_height_and_reacquires():
     assert sim.horizontal_error() < 0.05
 
 
+def test_a_deck_that_drove_on_is_searched_for_where_it_should_be_now():
+    """Lost at 3 m/s on a straight line: the search (PLD_SRCH_ALT up) follows the deck's predicted track, not the
+    place where the marker went out of view, and finds it again."""
+    sim = Sim(target0=(1.0, 0.0, 0.0), target_vel=(3.0, 0.0, 0.0))
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.TRACKING, 1.0)
+    lost_us = sim.t_us + 1_000_000
+    sim.visible = lambda s: s.t_us < lost_us or s.t_us > lost_us + 9_000_000
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.SEARCH, 7.0)
+    assert sim.run_until(lambda s: s.t_us > lost_us + 8_900_000, 5.0)
+    assert abs(sim.pos[0] - sim.target[0]) < 1.0 and sim.pos[2] == pytest.approx(-10.0, abs=0.5)
+    assert sim.run_until(lambda s: s.task.done, 30.0) and sim.horizontal_error() < 0.1
+
+
 @pytest.mark.parametrize("mode", [PrecLandMode.OPPORTUNISTIC, PrecLandMode.REQUIRED])
 def test_target_never_found_again_falls_back_after_pld_max_srch_searches(mode):
     sim = Sim(target0=(1.0, 0.0, 0.0), mode=mode)

@@ -81,6 +81,11 @@ class DeckHeading:
         elif math.hypot(float(vel_ned_m_s[0]), float(vel_ned_m_s[1])) >= HEADING_SPEED_M_S:
             self._square = (now_us, square(math.atan2(float(vel_ned_m_s[1]), float(vel_ned_m_s[0]))))
 
+    @property
+    def turn_rad_s(self) -> float:
+        """The deck's latest turn rate (rad/s, clockwise from above; 0 unknown)."""
+        return self._turn_rad_s
+
     def deck_square(self, now_us: int) -> float | None:
         """The deck's square heading now (rad, modulo 90 deg; None: unknown or stale)."""
         if self._square is None or (now_us - self._square[0]) * 1e-6 > STALE_S:
@@ -98,9 +103,18 @@ class DeckHeading:
         self._yaw_sp = wrap_pi(vehicle_yaw_rad + step)
         return self._yaw_sp, max(-TURN_FF_MAX_RAD_S, min(TURN_FF_MAX_RAD_S, self._turn_rad_s))
 
+    def off_square_rad(
+        self, now_us: int, vehicle_yaw_rad: float, yaw_rate_rad_s: float = 0.0, ahead_s: float = 0.0
+    ) -> float | None:
+        """The vehicle's heading off square to the deck (rad, in [-pi/4, pi/4)) ``ahead_s`` from now, the vehicle
+        turning on at ``yaw_rate_rad_s`` and the deck at its turn rate; None when no deck heading is known (or
+        PLD_DECK_YAW is 0)."""
+        deck = self.deck_square(now_us + int(ahead_s * 1e6)) if self.enabled else None
+        if deck is None:
+            return None
+        return square(vehicle_yaw_rad + yaw_rate_rad_s * ahead_s - deck)
+
     def aligned(self, now_us: int, vehicle_yaw_rad: float) -> bool:
         """True when the vehicle's heading is within ALIGNED_RAD of square to the deck (or no alignment is asked)."""
-        deck = self.deck_square(now_us) if self.enabled else None
-        if deck is None:
-            return True
-        return abs(wrap_pi(vehicle_yaw_rad - nearest_square(deck, vehicle_yaw_rad))) <= ALIGNED_RAD
+        off = self.off_square_rad(now_us, vehicle_yaw_rad)
+        return off is None or abs(off) <= ALIGNED_RAD

@@ -23,33 +23,28 @@ is the ground's down coordinate (NED).  The target's position is relative to the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from enum import Enum
 
 import numpy as np
 
 from autopilot.navigation.cubic_spline import CubicSpline, duration_s
 from autopilot.navigation.cut_lead import CutLead
 from autopilot.navigation.deck_heading import DeckHeading
+from autopilot.navigation.dock_gate import DockGate, yaw_rate_ned
 from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.land import LandTask
+from autopilot.navigation.precland_types import (
+    PARAMS,
+    LandingTargetInput,
+    PrecLandConfig,
+    PrecLandMode,
+    PrecLandPhase,
+)
 from autopilot.navigation.target_coast import STILL_M_S, TurnRate, acc_weight, coast
 from autopilot.navigation.view_limited_catchup import ViewLimits, view_cone
-from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
+from autopilot.parameters import ParameterStore
 from autopilot.topics import VehicleEstimate
 
-PARAMS: tuple[ParamDef, ...] = (
-    param("PLD_BTOUT", 5.0, 0.0, 50.0, "s", "Landing target lost longer than this: search"),
-    param("PLD_HACC_RAD", 0.2, 0.0, 10.0, "m", "Horizontal acceptance radius above the target (PX4)"),
-    param("PLD_FAPPR_ALT", 0.1, 0.0, 10.0, "m", "Below this height above the target a lost target stops no descent"),
-    param("PLD_SRCH_ALT", 10.0, 0.0, 100.0, "m", "Search height above the ground"),
-    param("PLD_SRCH_TOUT", 10.0, 0.0, 100.0, "s", "Longest search (also the longest preparation without target)"),
-    param("PLD_MAX_SRCH", 3, 0, 100, "", "Most searches before the fallback", ParamType.INT32),
-    param("PLD_PREP_ALT", 2.8, 0.5, 20.0, "m", "Preparation hover height above the ground [F 3]"),
-    param("PLD_TRK_ALT", 1.0, 0.2, 10.0, "m", "Tracking height above the target [F 3]"),
-    param("PLD_APPR_RAD", 0.05, 0.01, 1.0, "m", "Approach: horizontal error below this starts the docking [F 3]"),
-    param("PLD_TRK_SPD", 1.0, 0.1, 10.0, "m/s", "Mean speed of the tracking and docking splines [F 3]"),
-)
+__all__ = ["PARAMS", "LandingTargetInput", "PrecLandConfig", "PrecLandMode", "PrecLandPhase", "PrecLandTask"]
 
 TARGET_FRESH_S = 0.3  # a target measurement older than this does not count as seen
 APPROACH_HOLD_S = 0.2  # the horizontal error stays below PLD_APPR_RAD this long before docking
@@ -69,59 +64,6 @@ DOCK_WAIT_S = 2.0  # the motors cut within 2 x PLD_APPR_RAD or after this long o
 # From tracking on, the horizontal velocity integrator learns only within this velocity error (m/s): the chase's
 # catch-up would wind it up, and given back it held the vehicle 0.2 m behind a 3 m/s deck for seconds.
 CHASE_INT_BAND_M_S = 0.5
-
-
-class PrecLandPhase(Enum):
-    PREPARATION = "preparation"
-    TRACKING = "tracking"
-    APPROACHING = "approaching"
-    DOCKING = "docking"
-    SEARCH = "search"
-    FALLBACK = "fallback"
-    DONE = "done"
-
-
-class PrecLandMode(Enum):
-    """NAV_LAND param 2 as in PX4: 1 opportunistic, 2 required."""
-
-    OPPORTUNISTIC = 1
-    REQUIRED = 2
-
-
-@dataclass(frozen=True, slots=True)
-class LandingTargetInput:
-    """The landing target as the task reads it: position relative to the vehicle (target minus
-    vehicle, m NED), velocity over the ground (m/s NED), validity and time (µs)."""
-
-    timestamp_us: int
-    rel_pos_ned_m: np.ndarray
-    vel_ned_m_s: np.ndarray
-    valid: bool = True
-    acc_ned_m_s2: np.ndarray | None = None  # the target's acceleration over the ground (a turning UGV)
-    turn_rad_s: float | None = None  # its turn rate (rad/s, clockwise from above) if the deck model has one
-    square_yaw_rad: float | None = None  # the heading of the deck's edges now (rad NED, modulo 90 deg), if known
-
-
-@dataclass(frozen=True, slots=True)
-class PrecLandConfig:
-    """The PARAMS' values (see PARAMS for units); ``from_store`` reads them, defaults otherwise."""
-
-    btout_s: float = 5.0
-    hacc_rad_m: float = 0.2
-    fappr_alt_m: float = 0.1
-    srch_alt_m: float = 10.0
-    srch_tout_s: float = 10.0
-    max_srch: int = 3
-    prep_alt_m: float = 2.8
-    trk_alt_m: float = 1.0
-    appr_rad_m: float = 0.05
-    trk_spd_m_s: float = 1.0
-
-    @staticmethod
-    def from_store(store: ParameterStore) -> PrecLandConfig:
-        names = [d.name for d in PARAMS]
-        vals = [store.get(n) for n in names]
-        return PrecLandConfig(*vals[:5], int(vals[5]), *vals[6:])
 
 
 class PrecLandTask:
@@ -163,8 +105,13 @@ class PrecLandTask:
         self.gimbal_reach_rad: float | None = None  # ... and the gimbal device's reach (rad; None: no device)
         self._fallback: LandTask | None = None
         self.heading = DeckHeading(0.0, False)  # the heading: square to the deck (PLD_DECK_YAW), set on activate
+        self._gate = DockGate(int(params.get("PLD_DOCK_CHK")))  # when the docking may start, when it climbs out
         self._last_us: int | None = None  # time of the previous update
         self._used_us: int | None = None  # timestamp of the latest measurement taken
+        # the latest measurement moved to its time: (us, position m NED, velocity m/s NED, turn rate rad/s); a search
+        # follows the one it started from while the deck was moving
+        self._fix: tuple[int, np.ndarray, np.ndarray, float] | None = None
+        self._search_fix: tuple[int, np.ndarray, np.ndarray, float] | None = None
 
     # ---- interface -------------------------------------------------------------------------
     def activate(self, est: VehicleEstimate, now_us: int) -> None:
@@ -212,6 +159,10 @@ class PrecLandTask:
     def shift(self, delta_ned_m: np.ndarray) -> None:
         """Move the held point, the target and the ground with an estimator reset."""
         self._hold = self._hold + delta_ned_m
+        if self._fix is not None:
+            self._fix = (self._fix[0], self._fix[1] + delta_ned_m, self._fix[2], self._fix[3])
+        if self._search_fix is not None:
+            self._search_fix = (self._search_fix[0], self._search_fix[1] + delta_ned_m, *self._search_fix[2:])
         if self._tgt_pos is not None:
             self._tgt_pos = self._tgt_pos + delta_ned_m
         self.ground_down_m += float(delta_ned_m[2])
@@ -238,10 +189,12 @@ class PrecLandTask:
                 age_s = (now_us - t.timestamp_us) * 1e-6
                 self._turn.add(t.timestamp_us, vel, t.turn_rad_s)
                 turn = self._turn.rate()
+                self._gate.observe_turn(t.timestamp_us, turn)
                 self._tgt_pos, self._tgt_vel, self._tgt_acc = coast(
                     est.pos_ned_m + rel, vel, acc, age_s, turn, acc_weight(vel)
                 )
                 self.heading.observe(now_us, t.square_yaw_rad, self._tgt_vel, t.turn_rad_s)
+                self._fix = (now_us, self._tgt_pos.copy(), self._tgt_vel.copy(), turn)
                 self._used_us = t.timestamp_us
                 self._seen_us = t.timestamp_us  # the loss time (PLD_BTOUT) counts from the last measurement
             else:
@@ -281,18 +234,26 @@ class PrecLandTask:
         self._spline = CubicSpline(offset, np.zeros(3), td)
         self._enter(PrecLandPhase.TRACKING, now_us, f"{why}; td {td:.1f} s")
 
-    def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
+    def _dock_plan(self, est: VehicleEstimate) -> tuple[float, float, float]:
+        """The docking spline's end (the feet's height over the deck, m), its height to descend (m) and time (s)."""
         moving = float(np.linalg.norm(self._tgt_vel[:2])) >= STILL_M_S
-        self._dock_end_m = -DOCK_INTO_DECK_M if moving else DOCK_HOVER_M  # the feet's height at the spline's end
-        h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - self._dock_end_m
+        end_m = -DOCK_INTO_DECK_M if moving else DOCK_HOVER_M
+        h = (self._feet_above_target(est) if self._tgt_pos is not None else self.cfg.trk_alt_m) - end_m
         # [F 3]'s td (h over the mean speed), but never shorter than the cubic's peak acceleration 6 h / td^2
         # allows within MPC_ACC_DOWN_MAX: 0.7 m in 0.7 s starts with 8.5 m/s^2 down, a near free fall whose
         # low collective thrust leaves the motors no room to hold the attitude just above the deck.
         acc_max = self.params.get("MPC_ACC_DOWN_MAX")
-        td = max(duration_s(h, self.cfg.trk_spd_m_s), math.sqrt(6.0 * abs(h) / acc_max))
+        return end_m, h, max(duration_s(h, self.cfg.trk_spd_m_s), math.sqrt(6.0 * abs(h) / acc_max))
+
+    def _start_docking(self, est: VehicleEstimate, now_us: int) -> None:
+        self._dock_end_m, h, td = self._dock_plan(est)
         self._spline = CubicSpline(np.array([-h]), np.array([0.0]), td)
         err = float(np.linalg.norm(self._aim(0.0)[:2] - est.pos_ned_m[:2]))
-        self._enter(PrecLandPhase.DOCKING, now_us, f"{err:.2f} m off, moving with it")
+        notes = [f"{err:.2f} m off, moving with it"]
+        if self._gate.planned_off_rad is not None:  # (PLD_DOCK_CHK bit 1: timed to touch square)
+            notes.append(f"{math.degrees(self._gate.planned_off_rad):+.0f} deg off square at the touch")
+        waited = self._gate.waited()  # what held it, if anything
+        self._enter(PrecLandPhase.DOCKING, now_us, "; ".join(notes + ([f"held: {waited}"] if waited else [])))
 
     def _lose(self, est: VehicleEstimate, now_us: int) -> None:
         """The target is gone for longer than PLD_BTOUT (or never came): search or fall back."""
@@ -300,6 +261,9 @@ class PrecLandTask:
             self.searches += 1
             down = self.ground_down_m - self.cfg.srch_alt_m
             self._hold = np.array([est.pos_ned_m[0], est.pos_ned_m[1], down])
+            # a deck that drove on is searched for where it should be now (target_coast), a still one in place
+            moving = self._fix is not None and float(np.linalg.norm(self._fix[2][:2])) >= STILL_M_S
+            self._search_fix = self._fix if moving else None
             self._enter(PrecLandPhase.SEARCH, now_us, f"target lost, search {self.searches} of {self.cfg.max_srch}")
             return
         self._enter_fallback(est, now_us)
@@ -341,17 +305,32 @@ class PrecLandTask:
             patient = in_phase_s >= APPROACH_PATIENCE_S
             close = err < cfg.appr_rad_m and slip < APPROACH_SLIP_M_S
             close_enough = patient and err < cfg.hacc_rad_m and slip < 2 * APPROACH_SLIP_M_S
-            square = self.heading.aligned(now_us, est.yaw_rad)  # (square to the deck, PLD_DECK_YAW)
-            if not (close or close_enough) or not visible or not square:
+            rate, ahead_s = yaw_rate_ned(est.rate_frd_rad_s, est.roll_rad, est.pitch_rad), self._dock_plan(est)[2]
+            if not (close or close_enough) or not visible:
                 self._close_since_us = None
             elif self._close_since_us is None:
                 self._close_since_us = now_us
+            held = self._gate.hold_reason(now_us, self.heading, est.yaw_rad, rate, ahead_s)  # (PLD_DOCK_CHK)
             if self._close_since_us is not None and (now_us - self._close_since_us) * 1e-6 >= APPROACH_HOLD_S:
-                self._start_docking(est, now_us)
+                if not held:
+                    self._gate.start(now_us, self.heading, est.yaw_rad, rate, ahead_s)
+                    self._start_docking(est, now_us)
         elif ph is PrecLandPhase.DOCKING:
             err = float(np.linalg.norm(self._aim(0.0)[:2] - est.pos_ned_m[:2]))
-            if err > cfg.hacc_rad_m and visible:
-                self._enter(PrecLandPhase.APPROACHING, now_us, f"horizontal error above {cfg.hacc_rad_m:.2f} m")
+            rate, ahead_s = (
+                yaw_rate_ned(est.rate_frd_rad_s, est.roll_rad, est.pitch_rad),
+                self._spline.td_s - in_phase_s,
+            )
+            off = (
+                self._gate.abort_reason(
+                    now_us, self.heading, est.yaw_rad, rate, max(0.0, ahead_s), self._feet_above_target(est)
+                )
+                if self._tgt_pos is not None
+                else ""
+            )
+            if (err > cfg.hacc_rad_m and visible) or off:
+                why = off or f"horizontal error above {cfg.hacc_rad_m:.2f} m"
+                self._enter(PrecLandPhase.APPROACHING, now_us, why)
                 self._close_since_us = None
             elif self._tgt_pos is not None:
                 settled_s = in_phase_s - self._spline.td_s - DOCK_SETTLE_S
@@ -375,12 +354,20 @@ class PrecLandTask:
         in_phase_s = (now_us - self._phase_us) * 1e-6
         if ph is PrecLandPhase.FALLBACK and self._fallback is not None:
             return self._fallback.update(est, now_us)
+        if ph is PrecLandPhase.SEARCH and self._search_fix is not None:
+            t_us, pos, vel, turn = self._search_fix
+            pos, vel, _ = coast(pos, vel, zero, (now_us - t_us) * 1e-6, turn)
+            return PositionSetpoint(
+                np.array([pos[0], pos[1], self._hold[2]]), np.array([vel[0], vel[1], 0.0]), self.yaw_rad
+            )
         if ph in (PrecLandPhase.PREPARATION, PrecLandPhase.SEARCH, PrecLandPhase.FALLBACK):
             return PositionSetpoint(self._hold.copy(), zero, self.yaw_rad)
         base, vel = self._above_target(self.cfg.trk_alt_m), self._tgt_vel.copy()
         self._view = self._view.with_device(self.gimbal_reach_rad)  # (PLD_CAM_REACH -1: follows the device)
         band, cone = CHASE_INT_BAND_M_S, view_cone(self._above_target(0.0) - est.pos_ned_m, self._view)
         yaw, rate = self.heading.setpoint(now_us, est.yaw_rad)  # square to the deck (PLD_DECK_YAW), turning with it
+        if ph is PrecLandPhase.DOCKING:
+            yaw, rate = self._gate.yaw_setpoint(now_us) or (yaw, rate)  # timed to touch square (PLD_DOCK_CHK)
         chase = (band, cone, rate, self._view.slew_m_s3)  # the chase's limits and yaw rate, from tracking on
         if ph is PrecLandPhase.TRACKING:
             p = self._spline.at(in_phase_s)
