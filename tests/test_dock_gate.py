@@ -57,16 +57,6 @@ def test_a_circle_a_weave_and_an_overdue_change_expect_nothing():
     assert rhythm.next_change_us(int((3 * LOBE_S + 2 * OVERDUE_S) * S)) is None
 
 
-def test_a_turning_decks_rhythm_is_unknown_until_two_changes_or_a_circles_turn_and_a_quarter():
-    assert fed(TurnRhythm(), lambda t: 0.05, 1.0).known(S)  # driving straight: nothing to know
-    circle = fed(TurnRhythm(), lambda t: 1.0, 7.0)
-    assert not circle.known(7 * S)
-    assert fed(circle, lambda t: 1.0, 8.5).known(int(8.5 * S))  # 1.25 turns at 1 rad/s: 7.85 s
-    figure8 = fed(TurnRhythm(), figure8_rate, 1.5 * LOBE_S)
-    assert not figure8.known(int(1.5 * LOBE_S * S))  # one reversal seen, half a lobe ago
-    assert fed(TurnRhythm(), figure8_rate, 2.1 * LOBE_S).known(int(2.1 * LOBE_S * S))
-
-
 def test_bad_samples_are_ignored():
     rhythm = fed(TurnRhythm(), figure8_rate, 2.5 * LOBE_S)
     due = rhythm.next_change_us(int(2.5 * LOBE_S * S))

@@ -106,8 +106,6 @@ class DockGate:
         if self.checks & TURN_RHYTHM:
             if not self.rhythm.clear(now_us, ahead_s + RHYTHM_MARGIN_S):
                 return self._held(now_us, "the deck's turn changes before the touch", "turn change due")
-            if not self.rhythm.known(now_us):
-                return self._held(now_us, "the deck's turn rhythm is not known yet", "rhythm unknown")
             if self.rhythm.steady_s(now_us) < TURN_SETTLE_S:
                 return self._held(now_us, "the deck's turn has just changed", "turn just changed")
         self._asked_us = None

@@ -10,9 +10,7 @@ A turn change: the deck's turn rate (rad/s, clockwise from above; the deck model
 it) more than CHANGE_RAD_S away from the rate its current segment settled on, for CONFIRM_S in a row; the change is
 dated to the first sample away.  The next change is expected one segment later: the latest change plus the time
 between the two before it (a figure-8's lobes, a track driven again; a random path's next leg may differ, which
-only costs a landing the wait).  A change not seen OVERDUE_S after it was due is no longer expected.  Before a
-rhythm is known a turning deck may change its turn at any time (:meth:`TurnRhythm.known`): on the figure-8, the 4
-failures left of 30 (dock_gate's figures) docked at 7-14 s, before the deck's second reversal.
+only costs a landing the wait).  A change not seen OVERDUE_S after it was due is no longer expected.
 
 Pure: time is an input (microseconds).
 """
@@ -27,8 +25,6 @@ CONFIRM_S = 0.1  # ... held this long
 SETTLE_S = 0.3  # the segment's rate follows the turn rate over this time constant (s) while no change is under way
 OVERDUE_S = 0.5  # an expected change not seen this long after it was due is dropped
 MIN_SEGMENT_S = 1.0  # two changes closer than this are one (the deck model settling on the new turn)
-TURNING_RAD_S = 0.3  # a deck turning faster than this with no rhythm known yet may change its turn any time ...
-CIRCLE_TURNS = 1.25  # ... until it has turned this many full turns without a change (a circle: none will come)
 
 
 class TurnRhythm:
@@ -39,7 +35,6 @@ class TurnRhythm:
         self._rate: float | None = None  # the current segment's turn rate, rad/s
         self._last_us: int | None = None
         self._away_since_us: int | None = None  # first sample away from the segment's rate
-        self._first_us: int | None = None  # the first sample's time
 
     def add(self, t_us: int, turn_rad_s: float) -> None:
         """The deck's turn rate (rad/s) at ``t_us``; samples out of time order or not finite are ignored."""
@@ -48,7 +43,7 @@ class TurnRhythm:
         dt_s = 0.0 if self._last_us is None else (t_us - self._last_us) * 1e-6
         self._last_us = t_us
         if self._rate is None:
-            self._rate, self._first_us = turn_rad_s, t_us
+            self._rate = turn_rad_s
             return
         if abs(turn_rad_s - self._rate) <= CHANGE_RAD_S:
             self._away_since_us = None
@@ -68,15 +63,6 @@ class TurnRhythm:
             return None
         due = self._changes[-1] + (self._changes[-1] - self._changes[-2])
         return None if (now_us - due) * 1e-6 > OVERDUE_S else due
-
-    def known(self, now_us: int) -> bool:
-        """Whether the deck's next turn change can be told: a rhythm is known (two changes seen), or the deck is
-        not turning, or it has turned CIRCLE_TURNS full turns without a change."""
-        if len(self._changes) >= 2 or self._rate is None or abs(self._rate) < TURNING_RAD_S:
-            return True
-        since_us = self._changes[-1] if self._changes else self._first_us
-        assert since_us is not None
-        return (now_us - since_us) * 1e-6 * abs(self._rate) >= CIRCLE_TURNS * math.tau
 
     def steady_s(self, now_us: int) -> float:
         """How long (s) since the latest turn change was dated (infinite before the first, 0 while one is under
