@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from autopilot.navigation.deck_heading import DeckHeading, square
-from autopilot.navigation.dock_gate import ABORT_ABOVE_M, RHYTHM_MARGIN_S, DockGate, yaw_rate_ned
+from autopilot.navigation.dock_gate import ABORT_ABOVE_M, LATE_S, RHYTHM_MARGIN_S, DockGate, yaw_rate_ned
 from autopilot.navigation.turn_rhythm import OVERDUE_S, TurnRhythm
 
 S = 1_000_000  # us
@@ -103,6 +103,8 @@ def test_the_docking_heading_turns_on_at_the_rate_that_touches_square():
         0.9 - math.radians(5.0 - 5.73), abs=1e-3
     )
     assert gate.yaw_setpoint(S // 2)[0] == pytest.approx(math.radians(5.0) + rate / 2)
+    assert gate.yaw_setpoint(int((1.0 + LATE_S) * S)) is not None
+    assert gate.yaw_setpoint(int((1.0 + LATE_S) * S) + 1000) is None  # a late touch: square to the deck again
     off = DockGate(checks=6)
     off.start(0, deck, math.radians(5.0), 0.9, 1.0)
     assert off.yaw_setpoint(S) is None  # bit 1 off: the deck's heading (DeckHeading) is flown

@@ -13,7 +13,8 @@ PLD_DOCK_CHK, a bitmask (default 7):
 - 1: the docking is timed to touch square.  It may start when the vehicle's heading, moved on at its yaw rate now,
   will be within ALIGNED_AT_TOUCH_RAD of square at the touch, ``ahead_s`` from now (the deck's heading moved on at
   its turn rate: :meth:`DeckHeading.off_square_rad`), whatever it is now; through the docking the heading then
-  keeps turning at that rate, corrected by that prediction's error (:meth:`DockGate.yaw_setpoint`).  The
+  keeps turning at that rate, corrected by that prediction's error, until LATE_S after the touch was due
+  (:meth:`DockGate.yaw_setpoint`).  The
   docking's length is what [F 3]'s spline makes it (0.94-1.06 s measured from its start to the first foot's
   touch), and a yaw rate held needs no yaw torque: the prediction holds where a heading still catching up
   with the deck's turned on past it.  Without this bit: within ALIGNED_RAD of square now, the deck's heading
@@ -52,6 +53,7 @@ ALIGNED_AT_TOUCH_RAD = math.radians(8.0)  # square at the touch within this: 8 c
 # came right after the deck's reversals, when its model's turn rate was still settling.
 RELATIVE_RATE_MAX_RAD_S = 0.5
 TURN_SETTLE_S = 1.0  # ... and the deck's turn has held this long (s) since its latest change (its model settles)
+LATE_S = 0.2  # the timed heading is flown this long after the touch was due, then the deck's again
 RHYTHM_MARGIN_S = 0.4  # the turn change is dated when the deck model has taken it up, 0.1-0.3 s after it began
 ABORT_RAD = math.radians(15.0)  # touching this far off square leaves 3 cm for the feet's position error
 ABORT_ABOVE_M = 0.3  # below this the docking goes on (the vehicle could not stop before the deck)
@@ -122,12 +124,13 @@ class DockGate:
 
     def yaw_setpoint(self, now_us: int) -> tuple[float, float] | None:
         """The docking's heading setpoint now (rad) and its rate (rad/s): the heading at the start turned on at the
-        rate that makes it square at the touch (held after it); None without a plan (the deck's heading then)."""
+        rate that makes it square at the touch; None without a plan, or LATE_S after the touch was due (the deck's
+        heading then: a touch 0.8 s late, the rate held on, had a windy circle's landing 13 deg off square)."""
         if self._yaw_plan is None:
             return None
-        t0_us, yaw0, rate, _ = self._yaw_plan
+        t0_us, yaw0, rate, length_s = self._yaw_plan
         t_s = max(0.0, (now_us - t0_us) * 1e-6)
-        return wrap_pi(yaw0 + rate * t_s), rate
+        return None if t_s > length_s + LATE_S else (wrap_pi(yaw0 + rate * t_s), rate)
 
     def abort_reason(
         self,

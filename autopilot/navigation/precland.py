@@ -7,13 +7,15 @@ each step on the target's latest position, plus the target's velocity (and, over
 its acceleration) as feed-forward, the chase's tilt held where the camera still sees the target
 (:mod:`autopilot.navigation.view_limited_catchup`, PLD_VIEW_LIM; ``gimbal_reach_rad``: the gimbal's reach);
 APPROACHING holds the point above the target until the horizontal error stays below
-PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S with the heading square to the deck (:mod:`deck_heading`, PLD_DECK_YAW:
-flown from tracking on), and DOCKING returns to it when the error exceeds PLD_HACC_RAD; DOCKING descends on a
-cubic spline onto the deck (its acceleration within MPC_ACC_DOWN_MAX, fed forward) while tracking the target
-horizontally and reports ``done`` (``motors_cut``) at the docking point.  A target unseen for PLD_BTOUT starts a SEARCH
-(PLD_SRCH_ALT above the ground, up to PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
-(opportunistic) or holds and reports ``failed`` (required).  Every phase change is appended to
-``events`` as (time_us, text).
+PLD_APPR_RAD (5 cm) for APPROACH_HOLD_S and the docking may start (:mod:`dock_gate`, PLD_DOCK_CHK: timed to touch
+square to the deck, not into its next turn change; the heading square to the deck, :mod:`deck_heading`,
+PLD_DECK_YAW, is flown from tracking on), and DOCKING returns to it when the error exceeds PLD_HACC_RAD or the
+heading will touch off square; DOCKING descends on a cubic spline onto the deck (its acceleration within
+MPC_ACC_DOWN_MAX, fed forward) while tracking the target horizontally and reports ``done`` (``motors_cut``) at the
+docking point.  A target unseen for PLD_BTOUT starts a SEARCH (PLD_SRCH_ALT above the ground, over where a deck that
+drove on should be now, up to PLD_SRCH_TOUT, at most PLD_MAX_SRCH times); after that FALLBACK lands normally
+(opportunistic) or holds and reports ``failed`` (required).  Every phase change is appended to ``events`` as
+(time_us, text).
 
 Frames and units: metres NED relative to the estimator origin, m/s, seconds; ``ground_down_m``
 is the ground's down coordinate (NED).  The target's position is relative to the vehicle
@@ -160,7 +162,7 @@ class PrecLandTask:
         """Move the held point, the target and the ground with an estimator reset."""
         self._hold = self._hold + delta_ned_m
         if self._fix is not None:
-            self._fix = (self._fix[0], self._fix[1] + delta_ned_m, self._fix[2], self._fix[3])
+            self._fix = (self._fix[0], self._fix[1] + delta_ned_m, *self._fix[2:])
         if self._search_fix is not None:
             self._search_fix = (self._search_fix[0], self._search_fix[1] + delta_ned_m, *self._search_fix[2:])
         if self._tgt_pos is not None:
