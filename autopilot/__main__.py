@@ -45,6 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=port_number,
         help="local UDP port of the API link, where companions send (default 14640+N)",
     )
+    p.add_argument(
+        "--payload-local-port", type=port_number,
+        help="local UDP port of the onboard payload link, where a MAVLink camera talks (default 14280+N)",
+    )  # fmt: skip
+    p.add_argument("--camera-port", type=port_number, help="UDP port of the MAVLink camera (default 14030+N)")
     p.add_argument("--sysid", type=system_id, help="MAVLink system id 1-255 (default 1+N)")
     # -- parameters (autopilot/param_storage.py)
     p.add_argument(

@@ -72,3 +72,13 @@ def add_link_services(
     link.requestable.update(gimbal.requestable())
     sim.device_handlers.update(gimbal.device_handlers())
     sim.device_steps.append(gimbal.control_step)
+
+    from autopilot.mavlink.payload_link import PayloadLink
+
+    # The onboard payload link (PX4's 14280+N <-> 14030+N): the simulated camera (component 100), forwarded both ways.
+    payload = PayloadLink(
+        link.endpoints, link.sysid, link.compid, args.instance, link.send_statustext,
+        args.payload_local_port, args.camera_port,
+    )  # fmt: skip
+    link.add_service(payload)
+    link.router = payload.route

@@ -6,7 +6,12 @@ Instance N (``--instance`` / ``-i``, 0-99) of the stack uses, as PX4 SITL does:
 - UDP 14550: where EVERY instance sends its ground-station link (QGroundControl listens there
   and shows all vehicles on its one link), from the flight controller's socket 18570+N;
 - UDP 14540+N: where the flight controller sends its API link (MAVSDK listens there);
-- MAVLink system id 1+N (PX4's ``MAV_SYS_ID`` in SITL).
+- MAVLink system id 1+N (PX4's ``MAV_SYS_ID`` in SITL);
+- UDP 14280+N: the flight controller's onboard payload link (PX4's ``udp_onboard_payload_port_local``), which
+  talks to a MAVLink camera on UDP 14030+N (``udp_onboard_payload_port_remote``) and forwards between it and the
+  ground stations, so they see the camera as component 100 of the vehicle's system;
+- UDP 5600+N: where the camera's video goes, RTP H.264 (PX4's simulated cameras send there; QGroundControl's
+  default video source listens on 5600).
 
 And ports of our own, chosen so that no two instances 0-99 share a port (a test checks it):
 
@@ -32,6 +37,9 @@ API_BASE = 14540
 API_LOCAL_BASE = 14640
 SIM_COMPONENT_BASE = 14740
 OWN_GCS_BASE = 14840
+PAYLOAD_LOCAL_BASE = 14280
+CAMERA_BASE = 14030
+VIDEO_BASE = 5600
 
 
 def system_id(instance: int) -> int:
@@ -66,3 +74,18 @@ def sim_component_port(instance: int) -> int:
 def own_gcs_port(instance: int) -> int:
     """A ground-station port of the instance's own (instead of the shared 14550)."""
     return OWN_GCS_BASE + instance
+
+
+def payload_local_port(instance: int) -> int:
+    """The flight controller's onboard payload socket (a MAVLink camera talks to it)."""
+    return PAYLOAD_LOCAL_BASE + instance
+
+
+def camera_port(instance: int) -> int:
+    """The MAVLink camera component's socket (the flight controller's payload link sends there)."""
+    return CAMERA_BASE + instance
+
+
+def video_port(instance: int) -> int:
+    """Where the camera's RTP H.264 video goes (a video player or QGroundControl listens there)."""
+    return VIDEO_BASE + instance

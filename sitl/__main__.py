@@ -157,6 +157,20 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="save every 10th camera frame, annotated by the vision companion, as PNG here (default: none)",
     )
+    p.add_argument(
+        "--media-dir",
+        metavar="DIR",
+        default=None,
+        help="where the camera's photos and recordings go (MAV_CMD_IMAGE_START_CAPTURE, VIDEO_START_CAPTURE); "
+        "default: DIR/camera under --log-dir, else a folder in the system's temporary directory",
+    )
+    p.add_argument("--video-host", default="127.0.0.1", type=host_address, help="where the RTP video goes")
+    p.add_argument("--video-port", type=port_number, help="UDP port of the RTP video (default 5600+N)")
+    p.add_argument("--camera-port", type=port_number, help="the MAVLink camera's local UDP port (default 14030+N)")
+    p.add_argument(
+        "--payload-port", type=port_number,
+        help="the flight controller's payload link, where the MAVLink camera sends (default 14280+N)",
+    )  # fmt: skip
     return p
 
 
@@ -345,6 +359,10 @@ def _attach(server, sim, k: int, args: argparse.Namespace) -> None:
     instance = args.instance + k
     if args.count == 1:  # the camera's names are vehicle 0's (sitl.camera): one vehicle only
         server.companion = _companion(sim, sim.camera_settings, args)
+    if server.companion is not None:  # a MAVLink camera (component 100) with its video (sitl/camera_setup.py)
+        from sitl.camera_setup import camera_component
+
+        server.camera = camera_component(server.companion, sim, args)
     if sim.ugv is not None:  # its telemetry radio: FOLLOW_TARGET while SIM_UGV_FLW = 1 (sitl/ugv_broadcast.py)
         from sitl.ugv_broadcast import UgvRadio
 
@@ -355,6 +373,9 @@ def _attach(server, sim, k: int, args: argparse.Namespace) -> None:
         from sitl.truth_log import TruthRecorder
 
         server.truth_log = TruthRecorder(args.log_dir, len(sim.spec.rotors), instance, ugv=sim.ugv is not None)
+        from sitl.flight_setup import SetupRecorder  # and the world it flew in beside it (.sim.json, gcs replay)
+
+        server.truth_log.on_open = SetupRecorder(args, sim, server.params)
         if server.companion is not None:  # and each camera frame's record beside it (.frames.npy)
             server.companion.on_frame = server.truth_log.record_frame
 

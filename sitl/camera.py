@@ -37,6 +37,7 @@ class DownwardCamera:
         ]
         self.frames = 0
         self.render_s = 0.0
+        self.last_rgb: np.ndarray | None = None  # the latest capture in colour (RGB, height x width x 3)
 
     def capture(self, data: mujoco.MjData, noise_grey: float = 0.0) -> np.ndarray:
         """The current view as a greyscale image (uint8, height x width)."""
@@ -45,7 +46,8 @@ class DownwardCamera:
         r.update_scene(data, camera=self._camera, scene_option=self.option)
         for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
             r.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
-        grey = cv2.cvtColor(r.render(), cv2.COLOR_RGB2GRAY)
+        self.last_rgb = rgb = r.render()  # (the video, photos and recordings use the colour frame, without noise)
+        grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         if noise_grey > 0.0:
             k = int(self._rng.integers(NOISE_BANK))
             shift = int(self._rng.integers(grey.shape[0]))

@@ -44,6 +44,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from params.vehicle import CameraSpec
 from sitl.camera import DownwardCamera
+from sitl.camera_media import CameraMedia, CameraPose, camera_pose
 from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
 from sitl.model import GIMBAL_JOINTS
@@ -147,7 +148,9 @@ class LockstepCompanion:
         self._gimbal_qadr = (
             [int(model.jnt_qposadr[model.joint(name).id]) for name, _ in GIMBAL_JOINTS] if camera.gimballed else None
         )
+        self._camera_id = model.camera("downward").id
         self.on_frame: Callable[[CameraFrame], None] | None = None  # each frame's record, at its release
+        self.media: CameraMedia | None = None  # the video, photos and recordings (sitl/camera_media.py), if any
         self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
         self._thread.start()
 
@@ -229,11 +232,18 @@ class LockstepCompanion:
         joints = self._joints(data)
         rpy = None if joints is None else (joints[1], joints[2], joints[0])  # (yaw, roll, pitch) -> roll, pitch, yaw
         saved = self.save_dir is not None and (camera.frames + 1) % self.save_every == 1
+        media = self.media if self.media is not None and self.media.wants(time_us) else None
         if view is not None and not saved and view.out_of_view(data):  # it could not show the marker
-            camera.skip(noise)
+            if media is None:
+                camera.skip(noise)
+            else:  # (rendered for the video alone: the same noise draws as a skip, so the same frames after it)
+                camera.capture(data, noise)
+                media.frame(camera.last_rgb, time_us, self._pose(data))  # type: ignore[arg-type]
             st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
             return b"", CameraFrame(time_us, rpy, rendered=False)
         frame = camera.capture(data, noise)
+        if media is not None:
+            media.frame(camera.last_rgb, time_us, self._pose(data))  # type: ignore[arg-type]
         mount = self._mount_at_capture(mount, joints)
         q_ned_frd = _attitude(data)
         t0 = time.perf_counter()
@@ -254,6 +264,10 @@ class LockstepCompanion:
         packed = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) % 256
         return packed, CameraFrame(time_us, rpy, rendered=True, marker_ids=tuple(int(i) for i in det.marker_ids))
+
+    def _pose(self, data: mujoco.MjData) -> CameraPose:
+        """The camera's pose in the state copy a frame is rendered from (a photo's geotag and attitude)."""
+        return camera_pose(data, self._camera_id, self.media.home if self.media is not None else (0.0, 0.0, 0.0))
 
     def _mount_at_capture(self, fixed: CameraMount, joints: tuple[float, float, float] | None) -> CameraMount:
         """The camera's mount at the frame's capture: the fixed one, or on a gimbal the rotation its encoders

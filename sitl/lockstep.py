@@ -115,6 +115,7 @@ class LockstepServer:
         )
         self._said_no_ugv = False
         self.companion = None  # sitl.companion.LockstepCompanion: camera + vision, when the world has the UGV
+        self.camera = None  # sitl.camera_component.CameraComponent: the companion's camera as MAVLink component 100
         # The camera's gimbal, when the vehicle has one: driven and reported on this link (sitl/gimbal_link.py)
         gimbal = getattr(getattr(sim, "vehicle", None), "gimbal", None)
         self.gimbal_link = GimbalDeviceLink(gimbal) if gimbal is not None else None
@@ -149,6 +150,9 @@ class LockstepServer:
         if self.companion is not None:
             self.companion.close()
             self.companion = None
+        if self.camera is not None:
+            self.camera.close()
+            self.camera = None
         if self.ugv_radio is not None:
             self.ugv_radio.close()
         for s in (self.conn, self.listener):
@@ -213,6 +217,8 @@ class LockstepServer:
             out += self._pack(battery_status_message(sim.battery, sim.motor_settings.battery_empty))
         if self.companion is not None:  # LANDING_TARGET whose simulated latency has passed
             out += self.companion.step(sim.data, time_us)
+        if self.camera is not None:  # the camera protocol on the flight controller's payload link (UDP)
+            self.camera.step(time_us)
         if self.gimbal_link is not None:  # GIMBAL_DEVICE_ATTITUDE_STATUS at 50 Hz
             out += self.gimbal_link.status(time_us, sim.data, t.r_ned_frd, self.mav)
         if self.ugv_radio is not None and time_us % TRUTH_PERIOD_US == 0:

@@ -323,6 +323,19 @@ class CameraSettings:
         True,
     )
 
+    video: int = sim_param(
+        "SIM_VID_EN", 1, 0, 1, "", "1: the camera's video goes out as RTP H.264 to UDP 5600+N (read at start)",
+        ParamType.INT32, True,
+    )  # fmt: skip
+    video_fps: float = sim_param(
+        "SIM_VID_FPS", 0.0, 0.0, 60.0, "Hz", "Frame rate of the video stream (0: the camera's; read at start)",
+        start_only=True,
+    )  # fmt: skip
+    video_kbps: int = sim_param(
+        "SIM_VID_KBPS", 2000, 100, 20000, "kbit/s", "Bit rate of the video stream (read at start)",
+        ParamType.INT32, True,
+    )  # fmt: skip
+
     def mount_name(self, vehicle_file_mount: str) -> str:
         """The camera mount to build ("fixed" or "gimbal"): SIM_CAM_MOUNT's, or the vehicle file's when it is 0."""
         return {1: "fixed", 2: "gimbal"}.get(int(self.mount), vehicle_file_mount)

@@ -21,13 +21,19 @@ EVERY_INSTANCE = range(port_scheme.MAX_INSTANCE + 1)
 
 
 def test_ports_of_an_instance_follow_px4():
-    """PX4 SITL instance 3: system id 4, TCP 4563, API link to 14543, ground-station link from 18573 to 14550."""
+    """PX4 SITL instance 3: system id 4, TCP 4563, API link to 14543, ground-station link from 18573 to 14550,
+    onboard payload link 14283 <-> camera 14033, video to 5603."""
     assert port_scheme.system_id(3) == 4
     assert port_scheme.sim_tcp_port(3) == 4563
     assert port_scheme.api_port(3) == 14543
     assert port_scheme.gcs_local_port(3) == 18573
     assert port_scheme.GCS_PORT == 14550
-    assert ports(3) == {("tcp", 4563), ("udp", 18573), ("udp", 14643), ("udp", 14543), ("udp", 14743), ("udp", 14843)}
+    assert port_scheme.payload_local_port(3) == 14283 and port_scheme.camera_port(3) == 14033
+    assert port_scheme.video_port(3) == 5603
+    assert ports(3) == {
+        ("tcp", 4563), ("udp", 18573), ("udp", 14643), ("udp", 14543), ("udp", 14743), ("udp", 14843),
+        ("udp", 14283), ("udp", 14033), ("udp", 5603),
+    }  # fmt: skip
 
 
 def test_no_two_instances_0_to_99_share_a_port():

@@ -140,6 +140,7 @@ class GcsLink:
         # before the streamed ones: e.g. COMPONENT_METADATA (autopilot/mavlink/component_metadata.py).
         self.requestable: dict[int, Callable[[LinkEndpoint], int]] = {}
         self.command_source: tuple[int, int] = (0, 0)  # (sysid, compid) of the command being run, for services
+        self.router: Callable[[LinkEndpoint, mavlink.MAVLink_message], bool] | None = None  # (payload_link.py)
         self.add_service(MessageRequests(self))  # GET_MESSAGE_INTERVAL and the old one-message requests
 
     def _message_handlers(self) -> dict[str, Handler]:
@@ -306,8 +307,8 @@ class GcsLink:
             if self._tap is not None and mtype != "SETUP_SIGNING":  # (a signing key stays out of the logs)
                 self._tap(self._now_us, ep.name, False, bytes(msg.get_msgbuf()))
             handler = self._handlers.get(mtype)
-            if handler is None:
-                continue
+            if self.router is not None and self.router(ep, msg) or handler is None:
+                continue  # (router: forwards what is for other components of the system, True if it was only theirs)
             self.rx_messages += 1
             try:
                 handler(ep, msg)

@@ -43,6 +43,9 @@ def ports(i: int) -> set[tuple[str, int]]:
         ("udp", port_scheme.api_port(i)),
         ("udp", port_scheme.sim_component_port(i)),
         ("udp", port_scheme.own_gcs_port(i)),
+        ("udp", port_scheme.payload_local_port(i)),
+        ("udp", port_scheme.camera_port(i)),
+        ("udp", port_scheme.video_port(i)),
     }
 
 

@@ -1,0 +1,49 @@
+"""Assembles the camera's MAVLink side and media for a simulation whose vision companion renders frames.
+
+The camera component (:mod:`sitl.camera_component`) talks from UDP 14030+N to the flight controller's payload
+link 14280+N; the video (SIM_VID_EN) goes as RTP H.264 to 5600+N (:mod:`sitl.video_stream`); photos and
+recordings go to ``--media-dir`` (default: ``camera/`` under ``--log-dir``, else a folder in the temporary
+directory named for the instance).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from mavsim_core import ports
+from sitl.camera_component import CameraComponent
+from sitl.camera_media import CameraMedia, camera_pose
+
+
+def media_dir(args: argparse.Namespace) -> Path:
+    """Where photos and recordings go (see the module docstring)."""
+    if args.media_dir:
+        return Path(args.media_dir)
+    if args.log_dir:
+        return Path(args.log_dir) / "camera"
+    return Path(tempfile.gettempdir()) / f"mavsim-camera-{args.instance}"
+
+
+def camera_component(companion, sim, args: argparse.Namespace) -> CameraComponent:
+    """The camera component of vehicle 0, its media handed to ``companion`` (which renders the frames)."""
+    spec, settings = sim.spec.camera, sim.camera_settings
+    fps = float(settings.video_fps) or spec.rate_hz
+    host = args.video_host
+    video_port = args.video_port or ports.video_port(args.instance)
+    stream = None
+    if settings.video:
+        from sitl.video_stream import RtpVideoStream
+
+        stream = RtpVideoStream(host, video_port, spec.width_px, spec.height_px, fps, int(settings.video_kbps))
+    home = sim.sensors.home
+    media = CameraMedia(spec.width_px, spec.height_px, spec.rate_hz, media_dir(args), stream, fps, home)
+    companion.media = media
+    cam_id = sim.model.camera("downward").id
+    camera_port = args.camera_port or ports.camera_port(args.instance)
+    payload_port = args.payload_port or ports.payload_local_port(args.instance)
+    return CameraComponent(
+        media, spec, ports.system_id(args.instance), (args.bind, camera_port), ("127.0.0.1", payload_port),
+        f"udp://{host}:{video_port}", fps, int(settings.video_kbps), lambda: camera_pose(sim.data, cam_id, home),
+    )  # fmt: skip
