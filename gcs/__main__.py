@@ -15,6 +15,7 @@ Examples::
     gcs -i 2 rtl               # the vehicle of instance 2 (system id 3, on the shared UDP 14550)
     gcs param get MPC_XY_P
     gcs plot logs/             # PNG figures of the newest flight log there
+    gcs replay logs/ --video flight.mp4  # a video of the latest flight there, rendered from its logs
     gcs param save tuned.params  # also: param list, set, load, diff (see gcs/param_cli.py)
     gcs signing setup PASSPHRASE  # MAVLink 2 signing; then: gcs --signing-key PASSPHRASE arm
 
@@ -89,6 +90,10 @@ def main(argv: list[str] | None = None) -> int:
         from . import plot
 
         return plot.run(args)
+    if args.command == "replay":  # a video from the logs (gcs/launcher/replay.py), no vehicle needed
+        from .launcher import replay
+
+        return replay.run(args)
     if args.command == "ugv":  # the simulator's own port, not the vehicle's
         return ugv_cli.run_ugv_command(args)
     if args.command == "mission" and args.mission_command == "upload":

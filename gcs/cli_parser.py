@@ -91,6 +91,15 @@ def build_parser() -> argparse.ArgumentParser:
             "plot", help="write PNG figures (setpoint vs estimate vs truth, motors) of a flight log (.fc.npy or .tlog)"
         )
     )
+    from .launcher import replay  # gcs replay (gcs/launcher/replay.py): a flight's video from its logs
+
+    replay.add_arguments(
+        sub.add_parser(
+            "replay",
+            help="render a flight's video from its logs (MP4: a chase view, the onboard camera, mode and phase)",
+            description=replay.DESCRIPTION,
+        )
+    )
     _add_exit_codes(parser)
     return parser
 

@@ -20,7 +20,8 @@ result, in capture order).  Columns: time_us (the capture's simulated time), gim
 gimbal's joint angles at capture as its encoders read them, degrees; NaN for a fixed camera), rendered (0: the
 frame was not rendered, the pad wholly out of view), n_markers (how many of the pad's markers the detector used;
 0: no detection) and marker_0 ... marker_{MAX_FRAME_MARKERS-1} (their ids in the detector's order, -1 past
-n_markers).  Older flights have no such file; readers must do without it.
+n_markers).  Older flights have no such file; readers must do without it.  Also beside it, ``<same stem>.sim.json``:
+the world the flight was flown in (vehicle file, camera mount, pad, SIM_* values; :mod:`sitl.flight_setup`).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 from mavsim_core.log_naming import flight_stem
 from mavsim_core.npy_log import NpyLogWriter
@@ -115,6 +116,7 @@ class TruthRecorder:
         self._close_at_us: int | None = None
         self.files: list[Path] = []
         self.disabled = False
+        self.on_open: Callable[[Path], None] | None = None  # called with each new truth log (sitl/flight_setup.py)
 
     def record(self, time_us: int, t, armed: bool, motor_commands: Sequence[float], ugv=None) -> None:
         """One period: ``t`` a :class:`sitl.simulation.SensorTruth`, ``ugv`` a :class:`sitl.ugv_world.UgvTruth`."""
@@ -127,6 +129,8 @@ class TruthRecorder:
                 self._w = NpyLogWriter(self.log_dir / (stem + SUFFIX), self.fields)
                 self.files.append(self._w.path)
                 print(f"[sitl] logging ground truth to {self._w.path}", file=sys.stderr, flush=True)
+                if self.on_open is not None:
+                    self.on_open(self._w.path)
             elif not armed and self._w is not None and self._close_at_us is None:
                 self._close_at_us = time_us + int(POST_DISARM_S * 1e6)
             w = self._w

@@ -49,10 +49,10 @@ class Rig:
         self.run(0.1)  # the camera's HEARTBEAT: the flight controller's side knows its address
 
     def run(self, sim_s: float) -> list:
-        """Step for ``sim_s`` simulated seconds, a frame every 50 ms (as the companion hands them); the messages."""
+        """Step for ``sim_s`` simulated seconds, a frame every 100 ms (as the companion hands them); the messages."""
         out = []
         for _ in range(round(sim_s * 1e6 / STEP_US)):
-            if self.t_us % 50_000 == 0 and self.media.wants(self.t_us):
+            if self.t_us % 100_000 == 0 and self.media.wants(self.t_us):
                 self.media.frame(self.frame, self.t_us, POSE)
             self.cam.step(self.t_us)
             self.t_us += STEP_US
@@ -162,3 +162,29 @@ def test_bad_input_is_denied_with_a_reason_and_a_failed_write_goes_on(rig, tmp_p
     rig.media.media_dir = tmp_path / "media2"  # the camera goes on
     got = rig.command(mavlink.MAV_CMD_IMAGE_START_CAPTURE, 0, 0, 1, 10) + rig.run(0.2)
     assert [m.capture_result for m in _of(got, "CAMERA_IMAGE_CAPTURED")] == [1]
+
+
+def test_a_recording_is_an_mp4_of_the_simulated_time_and_a_failed_one_says_why(rig, tmp_path):
+    import av
+
+    got = rig.command(mavlink.MAV_CMD_VIDEO_START_CAPTURE, 0, 2)  # CAMERA_CAPTURE_STATUS at 2 Hz while recording
+    assert _acks(got, mavlink.MAV_CMD_VIDEO_START_CAPTURE) == [mavlink.MAV_RESULT_ACCEPTED]
+    got = rig.run(1.0)
+    recording = [m for m in _of(got, "CAMERA_CAPTURE_STATUS") if m.video_status == 1]
+    assert 2 <= len(recording) <= 3 and max(m.recording_time_ms for m in recording) >= 500
+    got = rig.command(mavlink.MAV_CMD_VIDEO_STOP_CAPTURE, 0)
+    assert _acks(got, mavlink.MAV_CMD_VIDEO_STOP_CAPTURE) == [mavlink.MAV_RESULT_ACCEPTED]
+    (video,) = rig.media.media_dir.glob("VID_*.mp4")
+    with av.open(str(video)) as f:
+        frames = sum(1 for _ in f.decode(video=0))
+    assert frames == 11, frames  # every frame handed over from the start to the stop: 1.1 s, one each 100 ms
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("a file where the media directory should be")
+    rig.media.media_dir = blocker / "media"
+    rig.command(mavlink.MAV_CMD_VIDEO_START_CAPTURE, 0, 0)
+    got = rig.run(0.2)
+    assert any("recording not started" in t.text for t in _of(got, "STATUSTEXT")), [t.text for t in got]
+    assert not rig.media.recording  # and a new recording may start
+    rig.media.media_dir = tmp_path / "media2"
+    got = rig.command(mavlink.MAV_CMD_VIDEO_START_CAPTURE, 0, 0)
+    assert _acks(got, mavlink.MAV_CMD_VIDEO_START_CAPTURE) == [mavlink.MAV_RESULT_ACCEPTED]

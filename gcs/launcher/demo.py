@@ -257,6 +257,14 @@ def _more_vehicles(stack: Stack) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.video is not None:  # the flight, then its video from its logs (gcs/launcher/replay.py)
+        from .replay import demo_with_video
+
+        return demo_with_video(args, _main)
+    return _main(args)
+
+
+def _main(args: argparse.Namespace) -> int:
     if threading.current_thread() is threading.main_thread():
         # a plain `kill` should clean up like Ctrl-C: SystemExit runs the finally below
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))

@@ -93,6 +93,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--wait", action="store_true", help="only start the stack and print how to connect; run until Ctrl-C"
     )
     parser.add_argument(
+        "--video", metavar="FILE.mp4", default=None,
+        help="after the flight, render its video from the logs (gcs replay: 640x360, 25 fps, the camera's view "
+        "inset); the logs are kept (in --log-dir, else a temp dir)",
+    )  # fmt: skip
+    parser.add_argument(
         "--scenario",
         choices=("square", "ugv-landing"),
         default="square",
