@@ -1,7 +1,8 @@
 """What the camera makes of its frames besides detections: the RTP video, photos and recordings.
 
 The vision companion's worker thread (:mod:`sitl.companion`) hands each frame it renders to
-:meth:`CameraMedia.frame`, with the camera's pose in the state copy the frame was rendered from; it asks
+:meth:`CameraMedia.frame`, with the camera's pose in the state copy the frame was rendered from and the marker's
+detection in it (drawn on the streamed picture with ``SIM_VID_ANNOT`` 1); it asks
 :meth:`CameraMedia.wants` first, so a frame that detection would skip (the pad wholly out of view) is
 rendered anyway while the video streams, a recording runs or a photo waits.  The camera component
 (:mod:`sitl.camera_component`, the lockstep thread) asks for photos and recordings and collects what came of
@@ -18,7 +19,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import cv2
 import numpy as np
@@ -85,6 +86,8 @@ class CameraMedia:
         self.home = home  # the vehicle's start point (deg, deg, m AMSL): the photos' geotags are from it
         self.stream = stream
         self.streaming = stream is not None  # (MAV_CMD_VIDEO_STOP_STREAMING pauses it)
+        # (rgb, the frame's detection or None) -> the picture streamed: the detection drawn (SIM_VID_ANNOT 1)
+        self.annotate: Callable[[np.ndarray, object], np.ndarray] | None = None
         self._stream_period_us = round(1e6 / (stream_fps or rate_hz))
         self._next_stream_us = 0
         self._lock = threading.RLock()
@@ -161,23 +164,23 @@ class CameraMedia:
             and time_us >= p.due_us
         )
 
-    def frame(self, rgb: np.ndarray, time_us: int, pose: CameraPose) -> None:
+    def frame(self, rgb: np.ndarray, time_us: int, pose: CameraPose, detection=None) -> None:
         """One rendered frame (RGB, uint8, height x width x 3) captured at ``time_us`` (simulated µs).  Nothing
         here may stop the flight: an unexpected error is reported once (a :class:`RecordingResult` naming it) and
         the video, photos and recordings stop."""
         if self.failed:
             return
         try:
-            self._frame(rgb, time_us, pose)
+            self._frame(rgb, time_us, pose, detection)
         except Exception as exc:
             self.failed = True
             self._report(RecordingResult(self.media_dir, 0, 0.0, f"video and photos stopped: {exc!r}"[:200]))
 
-    def _frame(self, rgb: np.ndarray, time_us: int, pose: CameraPose) -> None:
+    def _frame(self, rgb: np.ndarray, time_us: int, pose: CameraPose, detection) -> None:
         self.last_time_us = time_us
         if self.stream is not None and self.streaming and time_us >= self._next_stream_us:
             self._next_stream_us = max(self._next_stream_us + self._stream_period_us, time_us + 1)
-            self.stream.send(rgb, time_us)
+            self.stream.send(rgb if self.annotate is None else self.annotate(rgb, detection), time_us)
         with self._lock:
             photo = self._due_photo(time_us)
             path = self._recording_path

@@ -40,6 +40,14 @@ def camera_component(companion, sim, args: argparse.Namespace) -> CameraComponen
     home = sim.sensors.home
     media = CameraMedia(spec.width_px, spec.height_px, spec.rate_hz, media_dir(args), stream, fps, home)
     companion.media = media
+    if stream is not None:  # SIM_VID_ANNOT: read at each frame, so it can be turned on in flight
+        import math
+
+        from sitl.video_stream import annotated_rgb
+        from vision.camera_model import pinhole
+
+        model = pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg))
+        media.annotate = lambda rgb, det: annotated_rgb(rgb, det, model) if settings.video_annotate else rgb
     cam_id = sim.model.camera("downward").id
     camera_port = args.camera_port or ports.camera_port(args.instance)
     payload_port = args.payload_port or ports.payload_local_port(args.instance)

@@ -242,13 +242,13 @@ class LockstepCompanion:
             st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
             return b"", CameraFrame(time_us, rpy, rendered=False)
         frame = camera.capture(data, noise)
-        if media is not None:
-            media.frame(camera.last_rgb, time_us, self._pose(data))  # type: ignore[arg-type]
         mount = self._mount_at_capture(mount, joints)
         q_ned_frd = _attitude(data)
         t0 = time.perf_counter()
         det = detector.detect(frame, expected_normal_cam(mount.rotation_frd_cam, q_ned_frd))
         st.detect_s += time.perf_counter() - t0
+        if media is not None:  # (the video drawn with the detection when SIM_VID_ANNOT is 1)
+            media.frame(camera.last_rgb, time_us, self._pose(data), det)  # type: ignore[arg-type]
         st.frames, st.render_s = camera.frames, camera.render_s
         if self.save_dir is not None and st.frames % self.save_every == 1:
             self._save(frame, det, detector, time_us)

@@ -331,6 +331,10 @@ class CameraSettings:
         "SIM_VID_FPS", 0.0, 0.0, 60.0, "Hz", "Frame rate of the video stream (0: the camera's; read at start)",
         start_only=True,
     )  # fmt: skip
+    video_annotate: int = sim_param(
+        "SIM_VID_ANNOT", 0, 0, 1, "", "1: the video shows the companion's detections (markers outlined, pose)",
+        ParamType.INT32,
+    )  # fmt: skip
     video_kbps: int = sim_param(
         "SIM_VID_KBPS", 2000, 100, 20000, "kbit/s", "Bit rate of the video stream (read at start)",
         ParamType.INT32, True,

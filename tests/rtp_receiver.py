@@ -143,15 +143,15 @@ def h264_access_units(datagrams: list[bytes]) -> list[bytes]:
     return units
 
 
-def decode_h264(units: list[bytes]) -> list[np.ndarray]:
-    """The greyscale frames PyAV's H.264 decoder makes of access units (those before the first key frame give
-    nothing: a receiver that joins a stream late waits for its next key frame)."""
+def decode_h264(units: list[bytes], pixels: str = "gray") -> list[np.ndarray]:
+    """The frames (``pixels``: PyAV's format, "gray" or "rgb24") PyAV's H.264 decoder makes of access units (those
+    before the first key frame give nothing: a receiver that joins a stream late waits for its next key frame)."""
     codec = av.CodecContext.create("h264", "r")
     frames: list[np.ndarray] = []
     for unit in units:
         try:
             for packet in codec.parse(unit):
-                frames += [f.to_ndarray(format="gray") for f in codec.decode(packet)]
+                frames += [f.to_ndarray(format=pixels) for f in codec.decode(packet)]
         except av.error.InvalidDataError:
             continue  # (a unit that refers to a key frame not received)
     return frames

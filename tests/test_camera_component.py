@@ -92,6 +92,7 @@ def test_heartbeat_and_the_camera_information_on_request(rig):
     got = rig.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_CAMERA_INFORMATION)
     assert _acks(got, mavlink.MAV_CMD_REQUEST_MESSAGE) == [mavlink.MAV_RESULT_ACCEPTED]
     (info,) = _of(got, "CAMERA_INFORMATION")
+    assert len(_of(got, "VIDEO_STREAM_INFORMATION")) == 1  # the stream's next, unasked (MAVSDK asks every 20 s)
     assert (info.resolution_h, info.resolution_v) == (160, 120)
     assert (
         info.flags & mavlink.CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM and info.flags & mavlink.CAMERA_CAP_FLAGS_CAPTURE_IMAGE

@@ -7,10 +7,10 @@ video RTP H.264 on UDP 5600+N.
 * MAVSDK 4's native Camera plugin lists the camera and its video stream (the URI), takes a photo (a JPEG on
   disk; CAMERA_IMAGE_CAPTURED's position within a metre of the simulator's truth) and records a video (an MP4
   that decodes, as long as the simulated time it recorded).
-* The gRPC MAVSDK-Python does the same as its upstream ``camera.py`` example writes it (camera list, mode,
-  take a photo, capture info; start and stop a video).
+* The gRPC MAVSDK-Python does the same as its upstream ``camera.py`` example writes it (camera list, the
+  stream's URI, mode, take a photo, capture info; start and stop a video).
 * A receiver on UDP 5600+N decodes the stream with PyAV and finds the landing marker in the frames, the
-  vehicle hovering above the parked ground vehicle.
+  vehicle hovering above the parked ground vehicle; the companion's detections are drawn on it (SIM_VID_ANNOT).
 
 Clients act in wall time against a stack at CLIENT_SPEED: only settled states and answers are asserted.
 """
@@ -28,6 +28,7 @@ import pytest
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
 import av  # noqa: E402
 import cv2  # noqa: E402
+import numpy as np  # noqa: E402
 from mavsdk.asyncio.plugins.camera import CameraAsync  # noqa: E402
 from mavsdk_session import ground_station  # noqa: E402
 
@@ -56,8 +57,8 @@ STREAM_S = 2.0  # simulated seconds of stream received
 @pytest.fixture(scope="module")
 def camera_stack(inst, tmp_path_factory):
     media = tmp_path_factory.mktemp("media")
-    sim_args = ["--param", "SIM_UGV_EN=1", "--param", "SIM_UGV_SPD=0", "--param", "SIM_UGV_X=0",
-                "--param", f"SIM_UGV_Y={UGV_EAST_M}", "--media-dir", str(media)]  # fmt: skip
+    params = ["SIM_UGV_EN=1", "SIM_UGV_SPD=0", "SIM_UGV_X=0", f"SIM_UGV_Y={UGV_EAST_M}"]
+    sim_args = [a for p in params for a in ("--param", p)] + ["--media-dir", str(media)]
     with (
         SimClient(ports.sim_component_port(inst)) as truth,
         Stack(instance=inst, speed=CLIENT_SPEED, extra_sitl_args=sim_args, flight_logs=False) as s,
@@ -158,6 +159,10 @@ async def _grpc_example(stack, truth, inst: int) -> dict:
             out["cameras"] = camera_list.cameras
             break
     component_id = out["cameras"][0].component_id
+    async for update in drone.camera.video_stream_info():
+        if update.component_id == component_id and update.video_stream_info.settings.uri:
+            out["uri"] = update.video_stream_info.settings.uri
+            break
     await drone.camera.set_mode(component_id, mavsdk_grpc.camera.Mode.PHOTO)
     captures = drone.camera.capture_info()
     await drone.camera.take_photo(component_id)
@@ -175,6 +180,7 @@ def test_mavsdk_grpc_camera_example_takes_a_photo_and_a_video(camera_stack, inst
     before = set(media.glob("*"))
     out = asyncio.run(asyncio.wait_for(_grpc_example(stack, truth, inst), 3 * WAIT_S))
     assert [c.component_id for c in out["cameras"]] == [CAMERA]
+    assert out["uri"] == f"udp://127.0.0.1:{ports.video_port(inst)}"
     c = out["capture"]
     assert c.is_success
     assert cv2.imread(c.file_url.removeprefix("file://")) is not None
@@ -191,6 +197,27 @@ def test_the_rtp_stream_decodes_and_shows_the_marker(camera_stack, inst):
         arm(client)
         client.takeoff(client.home().alt_amsl_m + HOVER_M, timeout_s=10).check()
         wait_hovering(client, HOVER_M)
+    frames = _stream_frames(truth, inst, STREAM_S)
+    assert len(frames) >= 0.5 * 20 * STREAM_S, len(frames)  # from the first key frame on
+    detector = cv2.aruco.ArucoDetector(dictionary())
+    grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in frames]
+    seen = sum(1 for g in grey if (ids := detector.detectMarkers(g)[1]) is not None and MARKER_ID in ids.ravel())
+    assert seen >= 0.8 * len(frames), (seen, len(frames))
+    assert not any(_green_outline(f) for f in frames)
+    # SIM_VID_ANNOT=1 (set in flight): the companion's detections drawn on the video (the markers outlined in green)
+    assert truth.set("SIM_VID_ANNOT", 1) == 1
+    frames = _stream_frames(truth, inst, STREAM_S / 2)
+    outlined = sum(1 for f in frames if _green_outline(f))
+    assert outlined >= 0.8 * len(frames) > 0, (outlined, len(frames))
+
+
+def _green_outline(rgb: np.ndarray) -> bool:
+    """Some green outline (vision/annotate.py draws the markers' in pure green) in the picture."""
+    return np.count_nonzero((rgb[..., 1] > 180) & (rgb[..., 0] < 90) & (rgb[..., 2] < 90)) > 50
+
+
+def _stream_frames(truth, inst: int, sim_s: float) -> list[np.ndarray]:
+    """The RGB frames decoded from what UDP 5600+N receives for ``sim_s`` simulated seconds."""
     rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
     rx.bind(("127.0.0.1", ports.video_port(inst)))
@@ -208,11 +235,7 @@ def test_the_rtp_stream_decodes_and_shows_the_marker(camera_stack, inst):
     reader = threading.Thread(target=receive, daemon=True)
     with rx:
         reader.start()
-        asyncio.run(sim_sleep(truth, STREAM_S))
+        asyncio.run(sim_sleep(truth, sim_s))
         done.set()
         reader.join(WAIT_S)
-    frames = decode_h264(h264_access_units(datagrams))
-    assert len(frames) >= 0.5 * 20 * STREAM_S, (len(datagrams), len(frames))  # from the first key frame on
-    detector = cv2.aruco.ArucoDetector(dictionary())
-    seen = sum(1 for f in frames if (ids := detector.detectMarkers(f)[1]) is not None and MARKER_ID in ids.ravel())
-    assert seen >= 0.8 * len(frames), (seen, len(frames))
+    return decode_h264(h264_access_units(datagrams), "rgb24")
