@@ -189,3 +189,24 @@ def test_a_recording_is_an_mp4_of_the_simulated_time_and_a_failed_one_says_why(r
     rig.media.media_dir = tmp_path / "media2"
     got = rig.command(mavlink.MAV_CMD_VIDEO_START_CAPTURE, 0, 0)
     assert _acks(got, mavlink.MAV_CMD_VIDEO_START_CAPTURE) == [mavlink.MAV_RESULT_ACCEPTED]
+
+
+def test_fov_status_puts_the_image_centre_where_the_optical_axis_meets_the_ground():
+    """CAMERA_FOV_STATUS from the camera's pose: straight down from 5 m the centre is below it; pitched to -45 deg
+    and turned East it is 5 m East; level, it never meets the ground (INT32_MAX)."""
+    from sitl.camera_messages import NO_POSITION, CameraDescription, camera_messages
+
+    desc = CameraDescription(SPEC, "udp://127.0.0.1:5600", 20.0, 2000)
+    msgs = camera_messages(desc, 1_000_000, 0, True, False, None, 0.0, 0, 100.0)
+    above = np.array([0.0, 0.0, -5.0])
+    cases = (
+        (from_euler(0.0, math.radians(-90.0), 0.0), (0.0, 0.0)),
+        (from_euler(0.0, math.radians(-45.0), math.radians(90.0)), (0.0, 5.0)),
+    )
+    for q, (north, east) in cases:
+        fov = msgs.fov_status(CameraPose(above, q, HOME))
+        lat, lon, _ = ned_to_geodetic(np.array([north, east, 0.0]), *HOME)
+        assert abs(fov.lat_image - lat * 1e7) <= 1 and abs(fov.lon_image - lon * 1e7) <= 1, (north, east, fov)
+        assert fov.alt_camera == 493000 and fov.hfov == 90.0
+    level = msgs.fov_status(CameraPose(above, from_euler(0.0, 0.0, 0.0), HOME))
+    assert level.lat_image == level.lon_image == NO_POSITION
