@@ -16,7 +16,7 @@ It answers the camera protocol v2 ([MAV] common.xml) as PX4's camera manager doe
 * MAV_CMD_VIDEO_START_CAPTURE (param2: CAMERA_CAPTURE_STATUS per second while recording) / STOP: an MP4;
 * MAV_CMD_VIDEO_START_STREAMING / STOP_STREAMING, MAV_CMD_SET_CAMERA_MODE (image 0, video 1).
 
-Anything else gets MAV_RESULT_UNSUPPORTED; parameters out of range MAV_RESULT_DENIED and a STATUSTEXT saying
+Anything else addressed to it gets MAV_RESULT_UNSUPPORTED (a broadcast it does not know it leaves to the others); parameters out of range MAV_RESULT_DENIED and a STATUSTEXT saying
 which.  A photo or recording that cannot be written (a full disk) gets a STATUSTEXT and, for a photo,
 CAMERA_IMAGE_CAPTURED with capture_result 0; the flight goes on.  Time is simulated (the lockstep's).
 """
@@ -129,6 +129,8 @@ class CameraComponent:
         self._resent = getattr(msg, "confirmation", 0) > 0  # (COMMAND_LONG sent again, its ACK lost)
         self._sender = (msg.get_srcSystem(), msg.get_srcComponent())
         handler = self._handlers.get(msg.command)
+        if handler is None and msg.target_component == 0:  # a broadcast not for a camera: the others answer it
+            return
         result, after = mavlink.MAV_RESULT_UNSUPPORTED, None
         if handler is not None:
             result = handler(params)

@@ -153,6 +153,8 @@ def test_bad_input_is_denied_with_a_reason_and_a_failed_write_goes_on(rig, tmp_p
     assert _acks(got, mavlink.MAV_CMD_SET_CAMERA_MODE) == [mavlink.MAV_RESULT_DENIED]
     got = rig.command(mavlink.MAV_CMD_DO_DIGICAM_CONTROL, 1)
     assert _acks(got, mavlink.MAV_CMD_DO_DIGICAM_CONTROL) == [mavlink.MAV_RESULT_UNSUPPORTED]
+    got = rig.command(mavlink.MAV_CMD_DO_LAND_START, component=0)  # a broadcast for the autopilot (MAVProxy's land)
+    assert _acks(got, mavlink.MAV_CMD_DO_LAND_START) == []
     blocker = tmp_path / "not_a_dir"
     blocker.write_text("a file where the media directory should be")
     rig.media.media_dir = blocker / "media"  # every write fails (as on a full disk)
