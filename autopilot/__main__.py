@@ -50,7 +50,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="local UDP port of the onboard payload link, where a MAVLink camera talks (default 14280+N)",
     )  # fmt: skip
     p.add_argument("--camera-port", type=port_number, help="UDP port of the MAVLink camera (default 14030+N)")
-    p.add_argument("--sysid", type=system_id, help="MAVLink system id 1-255 (default 1+N)")
+    p.add_argument(
+        "--sysid", type=system_id,
+        help="MAVLink system id 1-255 (default: the MAV_SYS_ID parameter, 1+N unless --state-dir kept another); "
+        "given, it also sets MAV_SYS_ID",
+    )  # fmt: skip
     # -- parameters (autopilot/param_storage.py)
     p.add_argument(
         "--params",
@@ -96,8 +100,7 @@ def _resolve_ports(args: argparse.Namespace) -> None:
         "api_port": ports.api_port(n),
         "gcs_local_port": ports.gcs_local_port(n),
         "api_local_port": ports.api_local_port(n),
-        "sysid": ports.system_id(n),
-    }
+    }  # (the system id comes from MAV_SYS_ID once the parameters are loaded: autopilot.system_id)
     for name, default in defaults.items():
         if getattr(args, name) is None:
             setattr(args, name, default)
@@ -196,11 +199,19 @@ def _start(args: argparse.Namespace, parts: list) -> tuple:
         check_readable("--params", args.params)
     if not args.no_log:  # before anything is opened: a log directory that cannot be created stops the start
         make_dir("--log-dir", args.log_dir)
+    from autopilot.system_id import set_instance_default, system_id_at_start
+
     params = default_store()
+    set_instance_default(params, args.instance)  # MAV_SYS_ID 1+N, before a saved value is read
     warnings: list[str] = []
     saver = _prepare_parameters(params, args, spec.name, warnings)
     if saver is not None:
         parts.append(saver)
+    args.sysid, note = system_id_at_start(params, args.sysid)
+    if note is not None:
+        print(f"autopilot: {note}", file=sys.stderr)
+    if saver is not None:
+        saver.request_save()  # (MAV_SYS_ID set by --sysid: on the disk now; nothing written when unchanged)
     fc = FlightController(spec, params, sysid=args.sysid)
     fc.commander.inputs.on_wall_clock = args.input_clock == "sim+wall"
     from pymavlink.dialects.v20.common import MAV_SEVERITY_CRITICAL

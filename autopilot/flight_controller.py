@@ -378,7 +378,7 @@ class FlightController:
             vel_ned_m_s=vel,
             acc_ned_m_s2=acc,
             yaw_rad=yaw,
-            q_sp_wxyz=self.q_sp.copy(),
+            q_sp_wxyz=self.q_sp.copy() if self.rate_override is None else np.full(4, np.nan),  # rates: no attitude
             rate_sp_frd_rad_s=self.rate_sp.copy(),
             thrust_frac=thrust_frac,
         )

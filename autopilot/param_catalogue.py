@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from autopilot import flight_controller, flight_recorder, landing_target_input
+from autopilot import flight_controller, flight_recorder, landing_target_input, system_id, telemetry_extras
 from autopilot.commander import commander, failsafes, failure_detector, health
 from autopilot.control import gains_from_params
 from autopilot.estimation import ekf, estimator, mag_fusion, mahony, position_kf
@@ -74,6 +74,8 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     landing_target_estimator.PARAMS,
     landing_target_input.PARAMS,
     flight_recorder.PARAMS,
+    system_id.PARAMS,
+    telemetry_extras.PARAMS,
     failure_injection.PARAMS,
     gimbal_control.PARAMS,
     autotune.PARAMS,

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from autopilot.control.gimbal_pointing import NO_GIMBAL_REQUEST, GimbalRequest
+from autopilot.manual_input import ManualInput as ManualInput  # the sticks' record (re-exported: it lives there)
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
@@ -231,8 +232,8 @@ class ControlSetpoints:
     """What the controllers are aiming at (ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED).
 
     Position components are NaN where the position is not controlled.  ``q_sp_wxyz``
-    takes FRD vectors to NED like the estimate; ``thrust_frac`` is the collective
-    thrust setpoint as a fraction of the maximum (0..1).
+    takes FRD vectors to NED like the estimate (NaN while body rates are flown: no attitude
+    setpoint then); ``thrust_frac`` is the collective thrust setpoint as a fraction of the maximum (0..1).
     """
 
     timestamp_us: int
@@ -285,25 +286,6 @@ def input_age_s(received_us: int, received_wall_s: float, now_us: int, wall_s: f
     if wall_s is None:
         return sim_age
     return min(sim_age, wall_s - received_wall_s)
-
-
-@dataclass(frozen=True, slots=True)
-class ManualInput:
-    """One MANUAL_CONTROL message (a joystick, QGroundControl's virtual sticks, MAVSDK ManualControl).
-
-    Sticks as fractions: ``pitch`` forward +1, ``roll`` right +1, ``yaw`` clockwise +1 (each -1..1),
-    ``throttle`` 0..1 (0.5 centred: MANUAL_CONTROL.z 0..1000).  ``received_us`` is the simulated
-    time it arrived, ``received_wall_s`` the wall clock's (time.monotonic): the loss timers measure
-    both, because a client sends on the wall clock while the simulation may run faster.
-    """
-
-    received_us: int
-    received_wall_s: float
-    pitch: float
-    roll: float
-    throttle: float
-    yaw: float
-    buttons: int = 0
 
 
 class OffboardKind(IntEnum):

@@ -259,8 +259,8 @@ def _fence_items(doc: dict, name: str) -> list[MissionItem]:
         center = _member(circle, "center", f"{where}.circle", name, list)
         x, y, _ = _point(center, 2, command, f"{where}.circle.center", name)
         radius = _number(circle.get("radius"), f"{where}.circle.radius", name, null_ok=False)
-        if not (math.isfinite(radius) and radius > 0):
-            _fail(name, f"{where}.circle.radius", f"{radius!r} is not a positive radius (metres)")
+        if not (math.isfinite(radius) and radius >= 0):  # (0: a circle that encloses nothing, as PX4 stores it)
+            _fail(name, f"{where}.circle.radius", f"{radius!r} is not a radius (metres, 0 or more)")
         items.append(_fence_item(len(items), command, radius, x, y))
     return items
 

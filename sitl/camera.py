@@ -6,6 +6,9 @@ reflections, no skybox, no multisampling (about 2-3 ms per 640x480 frame on a 2-
 against ~30 ms with MuJoCo's defaults).  Frames are greyscale ``uint8`` (height, width), what
 the marker detector reads, with optional Gaussian pixel noise drawn from a seeded bank, so
 the same seed gives the same frames.
+
+``SIM_CAM_RENDER`` 1 draws the same scene without OpenGL instead (:mod:`sitl.deck_render`, the deck and the ground
+only); :func:`open_camera` builds the one the setting asks for.  Both add the same noise (:class:`FrameNoise`).
 """
 
 from __future__ import annotations
@@ -19,6 +22,35 @@ import numpy as np
 from params.vehicle import CameraSpec
 
 NOISE_BANK = 4  # noise images drawn once at start; each frame adds one of them, rolled
+RENDER_MUJOCO, RENDER_FAST = 0, 1  # SIM_CAM_RENDER
+
+
+class FrameNoise:
+    """The pixel noise of a camera seeded ``seed``: a bank of noise images drawn at start, one of them rolled by a
+    random number of rows added to each frame.  A frame not rendered makes the same draws (:meth:`skip`), so the
+    frames after it are the same whether it was rendered or not."""
+
+    def __init__(self, spec: CameraSpec, seed: int) -> None:
+        self.height_px = spec.height_px
+        self._rng = np.random.default_rng(seed * 104729 + 5)
+        self._noise = [
+            self._rng.standard_normal((spec.height_px, spec.width_px)).astype(np.float32) for _ in range(NOISE_BANK)
+        ]
+
+    def add(self, grey: np.ndarray, noise_grey: float) -> np.ndarray:
+        """``grey`` (uint8) with the next noise image times ``noise_grey`` added (as it is when that is 0)."""
+        if noise_grey <= 0.0:
+            return grey
+        k = int(self._rng.integers(NOISE_BANK))
+        shift = int(self._rng.integers(grey.shape[0]))
+        noise = np.roll(self._noise[k], shift, axis=0)
+        return cv2.convertScaleAbs(cv2.scaleAdd(noise, noise_grey, grey.astype(np.float32)))
+
+    def skip(self, noise_grey: float) -> None:
+        """The draws :meth:`add` makes, without a frame."""
+        if noise_grey > 0.0:
+            self._rng.integers(NOISE_BANK)
+            self._rng.integers(self.height_px)
 
 
 class DownwardCamera:
@@ -31,10 +63,7 @@ class DownwardCamera:
         for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
             self.renderer.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
         self._camera = model.camera("downward").id
-        self._rng = np.random.default_rng(seed * 104729 + 5)
-        self._noise = [
-            self._rng.standard_normal((spec.height_px, spec.width_px)).astype(np.float32) for _ in range(NOISE_BANK)
-        ]
+        self.noise = FrameNoise(spec, seed)
         self.frames = 0
         self.render_s = 0.0
         self.last_rgb: np.ndarray | None = None  # the latest capture in colour (RGB, height x width x 3)
@@ -47,12 +76,7 @@ class DownwardCamera:
         for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
             r.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
         self.last_rgb = rgb = r.render()  # (the video, photos and recordings use the colour frame, without noise)
-        grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        if noise_grey > 0.0:
-            k = int(self._rng.integers(NOISE_BANK))
-            shift = int(self._rng.integers(grey.shape[0]))
-            noise = np.roll(self._noise[k], shift, axis=0)
-            grey = cv2.convertScaleAbs(cv2.scaleAdd(noise, noise_grey, grey.astype(np.float32)))
+        grey = self.noise.add(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), noise_grey)
         self.frames += 1
         self.render_s += time.perf_counter() - t0
         return grey
@@ -60,10 +84,18 @@ class DownwardCamera:
     def skip(self, noise_grey: float = 0.0) -> None:
         """A frame not rendered (nothing it could show is wanted): counted, with the noise draws a capture
         makes, so the frames after it are the same as if it had been rendered."""
-        if noise_grey > 0.0:
-            self._rng.integers(NOISE_BANK)
-            self._rng.integers(self.spec.height_px)
+        self.noise.skip(noise_grey)
         self.frames += 1
 
     def close(self) -> None:
         self.renderer.close()
+
+
+def open_camera(model: mujoco.MjModel, spec: CameraSpec, seed: int = 0, render: int = RENDER_MUJOCO):
+    """The camera ``SIM_CAM_RENDER`` (``render``) asks for: MuJoCo's render (:class:`DownwardCamera`, 0) or the
+    deck-and-ground renderer (:class:`sitl.deck_render.DeckCamera`, 1); the same interface, the same noise."""
+    if int(render) == RENDER_FAST:
+        from sitl.deck_render import DeckCamera
+
+        return DeckCamera(model, spec, seed)
+    return DownwardCamera(model, spec, seed)

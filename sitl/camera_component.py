@@ -16,7 +16,8 @@ It answers the camera protocol v2 ([MAV] common.xml) as PX4's camera manager doe
 * MAV_CMD_VIDEO_START_CAPTURE (param2: CAMERA_CAPTURE_STATUS per second while recording) / STOP: an MP4;
 * MAV_CMD_VIDEO_START_STREAMING / STOP_STREAMING, MAV_CMD_SET_CAMERA_MODE (image 0, video 1).
 
-Anything else addressed to it gets MAV_RESULT_UNSUPPORTED (a broadcast it does not know it leaves to the others); parameters out of range MAV_RESULT_DENIED and a STATUSTEXT saying
+Anything else addressed to it gets MAV_RESULT_UNSUPPORTED (a broadcast it does not know it leaves to
+the others); parameters out of range MAV_RESULT_DENIED and a STATUSTEXT saying
 which.  A photo or recording that cannot be written (a full disk) gets a STATUSTEXT and, for a photo,
 CAMERA_IMAGE_CAPTURED with capture_result 0; the flight goes on.  Time is simulated (the lockstep's).
 """

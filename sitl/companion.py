@@ -4,8 +4,8 @@ A real companion computer grabs a frame, finds the marker and sends LANDING_TARG
 flight controller some tens of milliseconds later.  Here the simulator plays both the
 camera and that computer, with the companion's own code (:mod:`vision`): at each capture
 time (``rate_hz`` of the vehicle file's [camera], simulated time) the state is copied; a
-worker thread renders the frame (:mod:`sitl.camera`), runs the detector and builds the
-message; the message goes out on the simulator link in the first period at or after
+worker thread renders the frame (:mod:`sitl.camera`; :mod:`sitl.deck_render` with ``SIM_CAM_RENDER`` 1), runs the
+detector and builds the message; the message goes out on the simulator link in the first period at or after
 capture + ``SIM_CAM_LAT_MS``, before that period's HIL_SENSOR.  The worker runs while the
 simulator waits for the flight controller, so rendering costs little wall time, and nothing
 depends on thread timing: the frame is rendered from the copy taken at capture, and the
@@ -43,7 +43,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from params.vehicle import CameraSpec
-from sitl.camera import DownwardCamera
+from sitl.camera import DownwardCamera, open_camera
 from sitl.camera_media import CameraMedia, CameraPose, camera_pose
 from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
@@ -195,7 +195,7 @@ class LockstepCompanion:
     def _work(self) -> None:
         """Owns the renderer (its GL context belongs to this thread) and the detector."""
         try:
-            camera = DownwardCamera(self.model, self.spec, self._seed)
+            camera = open_camera(self.model, self.spec, self._seed, int(self.settings.render))  # SIM_CAM_RENDER
             spec = self.spec
             detector = MarkerDetector(
                 pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad, rendered=True

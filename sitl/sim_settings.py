@@ -323,6 +323,13 @@ class CameraSettings:
         True,
     )
 
+    render: int = sim_param(
+        "SIM_CAM_RENDER", 1, 0, 1, "",
+        "Camera renderer: 0 MuJoCo's OpenGL render of the whole world, 1 the deck and the ground drawn with OpenCV "
+        "(sitl/deck_render.py: the same detections at a third of the cost) (read at start)",
+        ParamType.INT32, True,
+    )  # fmt: skip
+
     video: int = sim_param(
         "SIM_VID_EN", 1, 0, 1, "", "1: the camera's video goes out as RTP H.264 to UDP 5600+N (read at start)",
         ParamType.INT32, True,

@@ -6,7 +6,8 @@ radians on the wire) ends at the point facing east by the simulator's truth;
 ``do_orbit`` (DO_ORBIT) circles a centre at the radius (truth); ``reboot``
 (PREFLIGHT_REBOOT_SHUTDOWN) comes back disarmed, healthy and armable, with the parameters
 (``set_return_to_launch_altitude``) kept; ``terminate``
-(DO_FLIGHTTERMINATION) stops the motors in the air and refuses arming afterwards.  With
+(DO_FLIGHTTERMINATION) stops the motors in the air and refuses arming afterwards, and MAVSDK's health
+then shows the vehicle not armable (the pre-arm checks say why: issue 36).  With
 pymavlink: GET_HOME_POSITION answers HOME_POSITION; DO_MOTOR_TEST on the ground spins one
 motor, seen in SERVO_OUTPUT_RAW and applied by the simulator (its truth log), for its timeout.
 
@@ -266,6 +267,11 @@ def test_terminate_stops_the_motors_in_the_air_and_arming_is_refused(stack, trut
         await until(fell, 60, "on the ground, disarmed")
         with pytest.raises(ActionError):
             await action.arm()
+
+        async def not_armable():  # SYS_STATUS's PREARM_CHECK bit, cleared by "flight terminated" until a reboot
+            return not (await tel.health()).is_armable
+
+        await until(not_armable, 30, "MAVSDK's health: not armable after the termination")
         return await tel.armed()
 
     assert asyncio.run(_session(stack, body)) is False

@@ -10,7 +10,10 @@ ground vehicle's broadcast (issue 17, item 9).
    function of the simulated time (read from the simulator's truth port), but when each message arrives is
    the wall clock's, so this flight asserts only what does not depend on the machine's load: the parameters
    set, the modes, and that the vehicle settles at FLW_TGT_DST behind the standing target at FLW_TGT_HT and
-   holds after ``stop()``.
+   holds after ``stop()``.  Before ``stop()`` (issue 36): ``FollowAltitudeMode.TARGET_GPS`` and the target
+   reported 8 m below home, as a phone's GPS altitude may be; it took the vehicle to the ground ("Landing
+   detected", disarmed).  Now it never goes under 1 m above home by the truth (the task's floor is 1.5 m),
+   settles there still following, and says so once.
 2. The same target flown in simulated time (below): a ground station's FOLLOW_TARGET, as MAVSDK sends it,
    5 times a simulated second: the distance and height through the straight, the turn and after it are
    its figures.
@@ -68,6 +71,7 @@ HOME_ALT_M = 488.0  # the simulator's home altitude (AMSL): the target walks on 
 DST_M, HT_M = 6.0, 9.0  # FLW_TGT_DST, FLW_TGT_HT (PX4's and MAVSDK's minimum height is 8 m)
 SPEED_M_S = 2.0
 MAVSDK_SPEED = 5  # real-time factor of the MAVSDK flight: a 0.5 s stall of the client is 2.5 simulated s
+LOW_M = 8.0  # the target reported this far below home (issue 36)
 START_NE = (8.0, 0.0)  # the target's start, m north and east of the vehicle's take-off point
 NORTH_S, EAST_S = 24.0, 16.0  # seconds driving north, then east
 SETTLE_S = 14.0  # from the target's start: climbed to the height and caught up
@@ -145,13 +149,38 @@ async def _drive_target(fm, truth) -> tuple[int, tuple[float, float]]:
     return t0, stand
 
 
+async def _target_below_home(fm, truth, stand: tuple[float, float], ground_down: float) -> int:
+    """The standing target's location reported LOW_M below home (``set_target_location``, about 20 times a wall
+    second) until the vehicle has held its height for 2 s, near the floor; the phase's start (sim ms)."""
+    t0 = sim_ms(truth)
+    lat, lon = latlon(*stand)
+
+    def settled() -> bool:
+        now = sim_ms(truth)
+        heights = [ground_down - s.pos_ned_m[2] for s in truth.since(now - 2000)]
+        return now > t0 + 4000 and len(heights) > 50 and max(heights) - min(heights) < 0.2 and max(heights) < 2.5
+
+    deadline = time.monotonic() + WAIT_S
+    while not settled():
+        assert time.monotonic() < deadline, "the vehicle did not settle over a target below home"
+        await fm.set_target_location(TargetLocation(lat, lon, HOME_ALT_M - LOW_M, 0.0, 0.0, 0.0))
+        await asyncio.sleep(0.05)
+    return t0
+
+
 async def _mavsdk_flight(stack, truth) -> dict:
-    out: dict = {}
+    out: dict = {"texts": []}
     async with ground_station() as sdk:  # tests/mavsdk_session.py: plugins released first
         await sdk.add_any_connection(f"udpin://0.0.0.0:{stack.api_port}")
         system = await sdk.first_autopilot(timeout_s=30.0)
         assert system is not None, "MAVSDK found no autopilot"
         tel, action, fm, param = TelemetryAsync(system), ActionAsync(system), FollowMeAsync(system), ParamAsync(system)
+
+        async def collect():
+            async for st in tel.subscribe_status_text():
+                out["texts"].append(st.text)
+
+        listener = asyncio.ensure_future(collect())
 
         async def ready():
             h = await tel.health()
@@ -160,6 +189,7 @@ async def _mavsdk_flight(stack, truth) -> dict:
         await until(ready, WAIT_S, "health: position, home, armable")
         await fm.set_config(Config(HT_M, DST_M, 0.1, Config.FollowAltitudeMode.CONSTANT, 5.0, 180.0))
         out["params"] = [await param.get_param_float(n) for n in ("FLW_TGT_HT", "FLW_TGT_DST", "FLW_TGT_FA")]
+        ground_down = truth.now().pos_ned_m[2]  # where home is, by the truth
         await action.arm()
         await action.takeoff()
 
@@ -171,21 +201,38 @@ async def _mavsdk_flight(stack, truth) -> dict:
         await _mode(tel, FlightMode.FOLLOW_ME)
         await until(fm.is_active, WAIT_S, "FollowMe active")
         out["t0"], out["stand"] = await _drive_target(fm, truth)
+        # issue 36: the target's GPS altitude tracked (FLW_TGT_ALT_M 2) and reported 8 m below home
+        await fm.set_config(Config(8.0, DST_M, 0.1, Config.FollowAltitudeMode.TARGET_GPS, 5.0, 180.0))
+        t_low = await _target_below_home(fm, truth, out["stand"], ground_down)
+        low = truth.since(t_low)
+        out["low_heights"] = [ground_down - s.pos_ned_m[2] for s in low]
+        out["low_dist"] = math.dist(low[-1].pos_ned_m[:2], out["stand"])
+        out["low_mode"], out["low_armed"] = await tel.flight_mode(), await tel.armed()
         await fm.stop()  # MAVSDK: back to Hold
         await _mode(tel, FlightMode.HOLD)
         t_hold = await sim_sleep(truth, 2.0)
         await sim_sleep(truth, 3.0)
         out["hold"] = [s.pos_ned_m for s in truth.since(t_hold)]
+        listener.cancel()
     return out
 
 
 def test_mavsdk_follow_me_follows_and_settles_behind_the_target_and_stop_holds(mavsdk_stack):
     """The figures of this flight (distance and height through the drive and the turn) are the stepped
-    flight's below: here the wall clock decides when each target message arrives."""
+    flight's below: here the wall clock decides when each target message arrives.  Then a target reported 8 m
+    below home with TARGET_GPS (issue 36): never under 1 m above home, still following, said once."""
     stack, truth = mavsdk_stack
     out = asyncio.run(_mavsdk_flight(stack, truth))
     stack.check_alive()
     assert out["params"] == pytest.approx([HT_M, DST_M, 180.0])  # set_config set PX4's parameters
+    low = out["low_heights"]
+    print(f"target {LOW_M:g} m below home: lowest {min(low):.2f} m above home, settled at {low[-1]:.2f} m, ", end="")
+    print(f"{out['low_dist']:.2f} m from the target")
+    assert min(low) >= 1.0 and low[-1] < 2.5  # came down from FLW_TGT_HT to the floor, never under 1 m
+    assert out["low_mode"] == FlightMode.FOLLOW_ME and out["low_armed"]  # no landing, no disarm
+    assert abs(out["low_dist"] - DST_M) <= 1.0  # still following
+    floor = [t for t in out["texts"] if "following at the minimum" in t]
+    assert len(floor) == 1, out["texts"]  # said once, not every cycle
     # settled behind the standing target (asserted while flying: _drive_target) and then, in Hold, held: it
     # was at rest when stop() came, whenever that was, and Hold is the flight controller's alone.
     hold = out["hold"]

@@ -1,11 +1,12 @@
 """Missions from the other clients on the real stack: MAVProxy's ``wp``, ``gcs mission``, a lossy link.
 
 MAVProxy loads a QGC WPL 110 file, lists it back and the mission is flown after ``long
-DO_SET_MODE``; ``gcs mission upload`` sends a QGroundControl ``.plan`` with mission, fence and
-rally points, and a return then goes to the rally point; a broken file is refused naming its
-line and leaves the vehicle's plan as it was; through a proxy that drops every fifth datagram in
-each direction, upload and download still complete.  Positions are checked against the
-simulator's ground truth.
+DO_SET_MODE``, until MAVProxy's ``land`` (MAV_CMD_DO_LAND_START) takes it to its landing
+sequence; a return with RTL_TYPE 1 flies a mission's landing too; ``gcs mission upload`` sends a
+QGroundControl ``.plan`` with mission, fence and rally points, and a return then goes to the
+rally point; a broken file is refused naming its line and leaves the vehicle's plan as it was;
+through a proxy that drops every fifth datagram in each direction, upload and download still
+complete.  Positions are checked against the simulator's ground truth.
 """
 
 from __future__ import annotations
@@ -48,37 +49,88 @@ def vehicle(stack):
         yield c
 
 
-def test_mavproxy_wp_load_list_and_fly(stack, truth, vehicle, tmp_path):
-    points = [(0, 0), (12, 0), (12, 12), (0, 12)]
+def test_mavproxy_wp_load_list_fly_and_land_skips_to_the_mission_landing(stack, truth, vehicle, tmp_path):
+    """A mission with a landing sequence (DO_LAND_START, an approach point, NAV_LAND) after a survey; MAVProxy's
+    ``land`` (MAV_CMD_DO_LAND_START to component 0) during the hold at the first survey point: the vehicle leaves
+    the survey and lands where the mission's landing says, in AUTO.MISSION, as PX4 does."""
+    survey = [(0, 0), (12, 0), (12, 12), (0, 12)]
+    landing = (6.0, 6.0)
     lines = ["QGC WPL 110"]
-    for k, (n, e) in enumerate(points):
+    for k, (n, e) in enumerate(survey):
         lat, lon = latlon(n, e)
-        command, alt = (22, 5.0) if k == 0 else (16, 5.0)
-        lines.append(f"{k}\t0\t3\t{command}\t0\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t{alt}\t1")
-    lat, lon = latlon(*points[-1])
-    lines.append(f"{len(points)}\t0\t3\t21\t0\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t0\t1")
-    path = tmp_path / "square.waypoints"
+        command, hold = (22, 0) if k == 0 else (16, 60 if k == 1 else 0)  # a long hold at item 1: land arrives in it
+        lines.append(f"{k}\t0\t3\t{command}\t{hold}\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t5.0\t1")
+    lat, lon = latlon(*landing)
+    lines.append(f"{len(survey)}\t0\t2\t189\t0\t0\t0\t0\t0\t0\t0\t1")  # DO_LAND_START, MAV_FRAME_MISSION
+    lines.append(f"{len(survey) + 1}\t0\t3\t16\t0\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t5.0\t1")
+    lines.append(f"{len(survey) + 2}\t0\t3\t21\t0\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t0\t1")
+    path = tmp_path / "survey.waypoints"
     path.write_text("\n".join(lines) + "\n")
     start_ms = truth.latest().time_ms
-    mavproxy = MavproxySession(f"udpin:127.0.0.1:{stack.gcs_port}", modules="wp,cmdlong")
+    n_texts = len(vehicle.statustexts)
+    mavproxy = MavproxySession(f"udpin:127.0.0.1:{stack.gcs_port}", modules="wp,cmdlong,misc")
     try:
         mavproxy.expect(rf"online system {stack.sysid}\b")
         mavproxy.send(f"wp load {path}")
         mavproxy.expect(r"ACCEPTED")
         mavproxy.send("wp list")
-        listed = [mavproxy.expect(r"^(16|21|22) 3 (\d+\.\d+) (\d+\.\d+)") for _ in range(len(points) + 1)]
+        listed = [mavproxy.expect(r"^(16|21|22|189) \d+ (-?\d+\.\d+) (-?\d+\.\d+)") for _ in range(len(lines) - 1)]
         mavproxy.send("long DO_SET_MODE 1 4 4")  # custom mode: AUTO (4) . MISSION (4)
         mavproxy.send("long COMPONENT_ARM_DISARM 1 0")
         vehicle.wait_armed(True, 30)
+        reached_1 = lambda: any(st.text == "Mission: item 1 reached" for st in vehicle.statustexts[n_texts:])  # noqa: E731
+        vehicle.wait_until(reached_1, 120, "the hold at the first survey point")
+        mavproxy.send("land")
+        mavproxy.expect(r"Got COMMAND_ACK: DO_LAND_START: ACCEPTED")
         vehicle.wait_until(lambda: not vehicle.armed(), 180, "the mission's landing and disarm")
     finally:
         mavproxy.close()
-    assert [int(m.group(1)) for m in listed] == [22, 16, 16, 16, 21]
+    texts = [st.text for st in vehicle.statustexts[n_texts:]]
+    assert [int(m.group(1)) for m in listed] == [22, 16, 16, 16, 189, 16, 21]
     assert float(listed[2].group(2)) == pytest.approx(latlon(12, 0)[0], abs=1e-7)
-    for n, e in points:
-        assert closest_approach(truth, start_ms, n, e) < 2.0, (n, e)
+    assert "Mission landing: from item 4, landing at item 6" in texts and "Mission finished: landed" in texts
+    assert not any(t.startswith("Mode ") and "MISSION" not in t for t in texts), texts  # in AUTO.MISSION throughout
+    assert closest_approach(truth, start_ms, 12, 0) < 2.0
+    assert closest_approach(truth, start_ms, 12, 12) > 5.0 and closest_approach(truth, start_ms, 0, 12) > 5.0
     end = truth.now().pos_ned_m  # after the reader caught up: latest() may be from before the landing
-    assert math.hypot(end[0] - 0, end[1] - 12) < 1.5 and abs(end[2]) < 0.5
+    assert math.hypot(end[0] - landing[0], end[1] - landing[1]) < 1.0 and abs(end[2]) < 0.5, (end, texts)
+
+
+def _item(seq: int, command: int, north: float, east: float, alt: float, p1: float = 0.0) -> mi.MissionItem:
+    lat, lon = latlon(north, east)
+    return mi.MissionItem(seq, 3, command, p1, 0, 0, float("nan"), round(lat * 1e7), round(lon * 1e7), alt)
+
+
+def test_return_with_rtl_type_1_flies_the_mission_landing(stack, truth, vehicle):
+    """RTL_TYPE 1 (PX4: return through the mission's landing when there is one): a return during the mission's
+    hold climbs to RTL_RETURN_ALT, flies the landing sequence and lands where the mission says, not at home."""
+    landing = (6.0, 6.0)
+    items = [_item(0, mi.NAV_TAKEOFF, 0, 0, 4.0), _item(1, mi.NAV_WAYPOINT, 2, 0, 4.0, p1=60.0),  # a long hold
+             _item(2, mi.NAV_WAYPOINT, -10, 0, 4.0), mi.MissionItem(3, 2, mi.DO_LAND_START),
+             _item(4, mi.NAV_WAYPOINT, *landing, 4.0), _item(5, mi.NAV_LAND, *landing, 0.0)]  # fmt: skip
+    return_alt = vehicle.param_get("RTL_RETURN_ALT", timeout_s=10)
+    n_texts = len(vehicle.statustexts)
+    try:
+        vehicle.param_set("RTL_TYPE", 1, timeout_s=10)
+        vehicle.param_set("RTL_RETURN_ALT", 5.0, timeout_s=10)
+        upload(vehicle, items, mi.MISSION)
+        vehicle.set_mode("MISSION").check()
+        vehicle.arm().check()
+        reached_1 = lambda: any(st.text == "Mission: item 1 reached" for st in vehicle.statustexts[n_texts:])  # noqa: E731
+        vehicle.wait_until(reached_1, 120, "the hold at item 1")
+        start_ms = truth.caught_up()
+        vehicle.return_to_launch().check()
+        vehicle.wait_until(lambda: not vehicle.armed(), 120, "landed after the return")
+    finally:
+        vehicle.param_set("RTL_TYPE", 0, timeout_s=10)
+        vehicle.param_set("RTL_RETURN_ALT", return_alt, timeout_s=10)
+    texts = [st.text for st in vehicle.statustexts[n_texts:]]
+    assert "Return: through the mission landing (items 3-5)" in texts, texts
+    assert closest_approach(truth, start_ms, -10, 0) > 8.0  # straight to the landing, not along the mission
+    top = min(s.pos_ned_m[2] for s in truth.since(start_ms))
+    assert -5.6 < top < -4.5, top  # climbed to RTL_RETURN_ALT (5 m) before the landing sequence
+    end = truth.now().pos_ned_m
+    assert math.hypot(end[0] - landing[0], end[1] - landing[1]) < 1.0 and abs(end[2]) < 0.5, (end, texts)
 
 
 def _plan_text(rally_ne: tuple[float, float]) -> str:

@@ -3,7 +3,8 @@
 What a MAVSDK user does with the Mission, MissionRaw and Geofence plugins: upload a
 10-waypoint square with a speed change, download it back unchanged, start it and follow
 ``mission_progress`` to the end; upload a raw plan with a DO_JUMP; upload an inclusion
-polygon and fly toward it: the vehicle stops inside.  Where the vehicle went is checked
+polygon (with the circle of radius 0 MAVSDK's users add for "no circle") and fly toward it: the
+vehicle stops inside.  Where the vehicle went is checked
 against the simulator's ground truth, not against what the flight controller says.
 """
 
@@ -21,7 +22,6 @@ from mavsdk.asyncio.plugins.geofence import GeofenceAsync  # noqa: E402
 from mavsdk.asyncio.plugins.mission import MissionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
-from mavsdk.plugins import geofence as gf  # noqa: E402
 from mavsdk.plugins import mission_raw as raw  # noqa: E402
 from mavsdk.plugins.mission import MissionItem, MissionPlan  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode  # noqa: E402
@@ -167,13 +167,33 @@ def test_mavsdk_raw_mission_with_do_jump_repeats_and_lands(stack, truth):
     assert abs(end.pos_ned_m[2]) < 0.5
 
 
+def fence_items(corners: list[tuple[float, float]]) -> list:
+    """The items MAVSDK's Geofence plugin makes of ``GeofenceData([inclusion polygon], [circle of radius 0 at (0,
+    0)])`` (its geofence_impl.cpp: polygon vertices, then circles; the first item current, autocontinue 0)."""
+    n, fence_type = len(corners), 1  # MAV_MISSION_TYPE_FENCE
+    items = [raw.MissionItem(k, 5, 5001, int(k == 0), 0, float(n), 0.0, 0.0, 0.0, round(lat * 1e7),
+                             round(lon * 1e7), 0.0, fence_type) for k, (lat, lon) in enumerate(corners)]  # fmt: skip
+    return [*items, raw.MissionItem(n, 5, 5003, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0, fence_type)]
+
+
 def test_mavsdk_geofence_stops_the_vehicle_at_an_inclusion_polygon(stack, truth):
+    """An inclusion polygon with the circle of radius 0 at (0, 0) that MAVSDK's users send for "no circle" (issue
+    36): stored, as PX4 stores it, the circle said to be ignored; the polygon then stops a go-to 60 m north.
+    MAVSDK's Geofence plugin (4.0.5 and 4.1.0) refuses such a GeofenceData itself (INVALID_ARGUMENT, nothing
+    sent), so the items it would send go through MissionRaw's ``upload_geofence``."""
     half = 15.0
     corners = [latlon(n, e) for n, e in ((-half, -half), (half, -half), (half, half), (-half, half))]
-    fence = gf.GeofenceData([gf.Polygon([gf.Point(lat, lon) for lat, lon in corners], gf.FenceType.INCLUSION)], [])
+    texts: list[str] = []
 
     async def body(system, tel):
-        await GeofenceAsync(system).upload_geofence(fence)
+        async def collect():
+            async for st in tel.subscribe_status_text():
+                texts.append(st.text)
+
+        listener = asyncio.ensure_future(collect())
+        await asyncio.sleep(0.5)  # subscribed before the upload
+        await MissionRawAsync(system).upload_geofence(fence_items(corners))
+        texts.append(f"downloaded {len(await MissionRawAsync(system).download_geofence())}")
         action = ActionAsync(system)
         await action.set_takeoff_altitude(5.0)
         await action.arm()
@@ -195,9 +215,11 @@ def test_mavsdk_geofence_stops_the_vehicle_at_an_inclusion_polygon(stack, truth)
         await asyncio.sleep(3.0)  # let it brake and settle
         await GeofenceAsync(system).clear_geofence()
         await _land_and_disarm(system, tel)
+        listener.cancel()
         return start_ms
 
     start_ms = asyncio.run(_session(stack, body))
     stack.check_alive()
+    assert "Fence item 4: circle of radius 0 ignored" in texts and "downloaded 5" in texts, texts  # stored whole
     farthest = max(s.pos_ned_m[0] for s in truth.since(start_ms))
     assert 5.0 < farthest < half, f"went {farthest:.1f} m north: the fence is at {half} m"

@@ -18,13 +18,23 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.mavlink import commands
 from autopilot.mavlink.follow_target_input import FollowTargetInput, decode_follow_target
-from autopilot.navigation.follow_target import approach, follow_point, orbit_limits, step_angle
+from autopilot.navigation.follow_target import (
+    EMERGENCY_ASCENT_M_S,
+    FLOOR_M,
+    FollowTargetTask,
+    approach,
+    follow_point,
+    orbit_limits,
+    step_angle,
+)
 from autopilot.navigation.follow_target_estimator import (
     TARGET_TIMEOUT_S,
     FollowTargetFix,
     TargetEstimator,
     filter_gains,
 )
+from autopilot.param_catalogue import default_store
+from autopilot.topics import VehicleEstimate
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.px4_modes import Mode, lookup_mode
 from sitl.sim_settings import UgvSettings
@@ -36,9 +46,11 @@ from test_commander import ACCEPTED, DENIED, ORIGIN, Bench
 NAN3 = [math.nan] * 3
 
 
-def follow_msg(north: float, east: float, vel=(math.nan,) * 3, caps: int = 1, q=(1.0, math.nan, math.nan, math.nan)):
+def follow_msg(
+    north: float, east: float, vel=(math.nan,) * 3, caps: int = 1, q=(1.0, math.nan, math.nan, math.nan), down=0.0
+):
     """A FOLLOW_TARGET as MAVSDK's FollowMe sends it (POS bit only, velocity filled), from system 245."""
-    lat, lon, alt = ned_to_geodetic(np.array([north, east, 0.0]), *ORIGIN)
+    lat, lon, alt = ned_to_geodetic(np.array([north, east, down]), *ORIGIN)
     msg = mavlink.MAVLink_follow_target_message(
         0, caps, round(lat * 1e7), round(lon * 1e7), alt, list(vel), NAN3, list(q), NAN3, NAN3, 0
     )
@@ -182,6 +194,7 @@ class FollowBench(Bench):
         self.svc = FollowTargetInput(self.cmd.inputs, lambda: self.t_us, lambda sev, text: None, lambda: 0.0)
         self.target = np.array([20.0, 0.0])
         self.speed, self.course, self.sending = 0.0, 0.0, True
+        self.target_down = 0.0  # the target's GPS altitude, m below home
 
     def fly(self, seconds: float) -> list[np.ndarray]:
         """Fly; the vehicle's horizontal offsets from the true target, one per 50 Hz step."""
@@ -189,7 +202,8 @@ class FollowBench(Bench):
         for _ in range(round(seconds * 50)):
             vel = self.speed * np.array([math.cos(self.course), math.sin(self.course)])
             if self.sending and self.t_us % 200_000 == 0:  # where the target is now, stamped now
-                self.svc.handlers()["FOLLOW_TARGET"](None, follow_msg(*self.target, vel=(*vel, 0.0)))
+                msg = follow_msg(*self.target, vel=(*vel, 0.0), down=self.target_down)
+                self.svc.handlers()["FOLLOW_TARGET"](None, msg)
             self.target = self.target + vel * 0.02
             self.run(0.02)
             offsets.append(self.pos[:2] - self.target)
@@ -282,6 +296,53 @@ def test_stop_hold_leaves_follow_mode():
     main, sub = Mode.AUTO_LOITER.value
     assert commands.handle_set_mode(b.cmd, 129, main << 16 | sub << 24) == ACCEPTED  # MAVSDK's stop()
     assert b.cmd.status.mode is Mode.AUTO_LOITER
+
+
+def test_a_target_below_home_is_followed_at_the_minimum_height_and_said_once():
+    """Issue 36: FLW_TGT_ALT_M 2 (MAVSDK's TARGET_GPS) and a target reported 8 m below home took the vehicle to
+    the ground.  It follows at FLOOR_M above home instead, horizontally too, and says so once."""
+    b = follow_bench(ht=8.0)
+    b.params.set("FLW_TGT_ALT_M", 2)
+    b.target_down, b.speed = 8.0, 1.0
+    b.command(mavlink.MAV_CMD_DO_SET_MODE, 129, *Mode.AUTO_FOLLOW_TARGET.value)
+    heights = []
+    for _ in range(300):
+        b.fly(0.1)
+        heights.append(-b.pos[2])
+    assert min(heights) > FLOOR_M - 0.02 and heights[-1] == pytest.approx(FLOOR_M)  # (approach's last step)
+    assert float(np.hypot(*(b.pos[:2] - b.target))) == pytest.approx(6.0, abs=0.1)  # still following
+    floor = [t for t in b.texts() if "following at the minimum" in t]
+    assert floor == ["Follow target: 0.0 m above home asked: following at the minimum, 1.5 m"]
+    assert b.cmd.status.armed and b.cmd.status.mode is Mode.AUTO_FOLLOW_TARGET
+    b.target_down = -4.0  # the target's altitude back above home: FLW_TGT_HT above it
+    b.fly(20.0)
+    assert -b.pos[2] == pytest.approx(12.0)
+
+
+def test_under_the_minimum_safety_altitude_it_stops_and_climbs_at_half_a_metre_a_second():
+    """PX4's emergency ascent: under MIN_SAFETY_ALT_M above home (the vehicle entered the mode that low), no
+    horizontal position control, the height setpoint rising at EMERGENCY_ASCENT_M_S; said once."""
+    said: list[str] = []
+    fix = FollowTargetFix(0, 0.0, (245, 190), *ned_to_geodetic(np.array([20.0, 0.0, 0.0]), *ORIGIN), np.zeros(3))
+    task = FollowTargetTask(default_store(), lambda: fix, 0.0, lambda sev, text: said.append(text))
+
+    def at(down: float, k: int):  # the vehicle moving north at 2 m/s, ``down`` m NED, at step k (50 Hz)
+        e = VehicleEstimate(k * 20_000, np.array([1.0, 0, 0, 0]), np.zeros(3), np.zeros(3), np.array([0, 0, down]),
+                            np.array([2.0, 0, 0]), True, True, *ORIGIN)  # fmt: skip
+        return task.update(e, k * 20_000) if k else task.activate(e, 0)
+
+    at(-0.6, 0)
+    downs = []
+    for k in range(1, 51):
+        sp = at(-0.6, k)
+        assert np.all(np.isnan(sp.pos_ned_m[:2])) and sp.vel_ned_m_s.tolist() == [0.0, 0.0, -EMERGENCY_ASCENT_M_S]
+        downs.append(sp.pos_ned_m[2])
+    assert downs[-1] - downs[0] == pytest.approx(-EMERGENCY_ASCENT_M_S * 49 * 0.02)  # 0.5 m/s up
+    assert said.count("Follow target: under 1 m above home: climbing at 0.5 m/s") == 1
+    sp = at(-1.1, 51)  # above the minimum: on to FLW_TGT_HT (8 m) from where it is, still climbing
+    assert sp.pos_ned_m[:2].tolist() == [0.0, 0.0] and sp.pos_ned_m[2] < downs[-1]
+    assert at(-0.6, 52).vel_ned_m_s[2] == -EMERGENCY_ASCENT_M_S
+    assert sum("climbing" in t for t in said) == 1  # once per activation
 
 
 # --------------------------------------------------------------------------- the ground vehicle's radio

@@ -151,6 +151,36 @@ def test_a_broken_fence_polygon_is_refused(make_harness, inst):
     assert download(h, c, FENCE) == []
 
 
+def test_mavsdks_polygon_and_zero_circle_is_stored_and_broken_circles_and_polygons_refused(make_harness, inst):
+    """Issue 36: MAVSDK's GeofenceData sends polygons and circles together, a circle of radius 0 at (0, 0) for
+    none: stored as PX4 stores it, the circle said to be ignored.  A negative radius, a polygon of two vertices:
+    refused, each with its MAV_MISSION error and a STATUSTEXT, the stored fence unchanged."""
+    h = make_harness(inst)
+    c = h.connect("gcs")
+    g, vertex = mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    corners = [(-50, -50), (50, -50), (50, 50), (-50, 50)]
+    fence = [item(k, vertex, (4, 0, 0, 0), n, e, 0.0, g, FENCE) for k, (n, e) in enumerate(corners)]
+
+    def circle(seq: int, radius: float):
+        return mavlink.MAVLink_mission_item_int_message(
+            1, 1, seq, g, mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 0, 1, radius, 0, 0, 0, 0, 0, 0.0, FENCE
+        )
+
+    got = upload(h, c, [*fence, circle(4, 0.0)], FENCE)
+    assert ack_types(got) == [mavlink.MAV_MISSION_ACCEPTED]
+    texts = [t.text for t in of_type(got, "STATUSTEXT")]
+    assert "Fence item 4: circle of radius 0 ignored" in texts and "Fence plan: 5 items stored" in texts
+    stored = download(h, c, FENCE)[4]  # stored as sent
+    assert (stored.command, stored.param1, stored.x, stored.y) == (mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 0, 0, 0)
+    two = [item(k, vertex, (2, 0, 0, 0), k, k, 0.0, g, FENCE) for k in range(2)]
+    for bad, error in (([*fence, circle(4, -1.0)], mavlink.MAV_MISSION_INVALID_PARAM1),
+                       (two, mavlink.MAV_MISSION_INVALID_PARAM1)):  # fmt: skip
+        got = upload(h, c, bad, FENCE)
+        assert ack_types(got) == [error]
+        assert "Fence upload refused" in "".join(t.text for t in of_type(got, "STATUSTEXT"))
+        assert len(download(h, c, FENCE)) == 5
+
+
 def test_legacy_mission_item_upload_is_answered_with_mission_request(make_harness, inst):
     h = make_harness(inst)
     c = h.connect("gcs")

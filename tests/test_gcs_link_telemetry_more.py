@@ -23,6 +23,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
+from autopilot.manual_input import ManualInput  # noqa: E402
 from autopilot.mavlink import identity, protocol_version  # noqa: E402
 from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US  # noqa: E402
 from autopilot.mavlink.telemetry_more import BUILDERS, DEFAULT_STREAM_RATES_HZ  # noqa: E402
@@ -68,7 +69,8 @@ ACCEPTED, UNSUPPORTED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_UNSUPPOR
 def full_snapshot():
     """The harness's flying snapshot (yaw 90 deg, 10/20/-5 m NED, 1/2/-0.5 m/s, home at the origin) with the
     IMU, clock, flight times, EKF status, setpoints and motors: every builder has something to say."""
-    extras = TelemetryExtras(IMU, UTC0_US, ARMED_US, TAKEOFF_US, 0, FLIGHT)
+    sticks = ManualInput(0, 0.0, pitch=0.5, roll=0.0, throttle=0.5, yaw=0.0)  # (MANUAL_CONTROL's echo)
+    extras = TelemetryExtras(IMU, UTC0_US, ARMED_US, TAKEOFF_US, 0, FLIGHT, sticks)
     return dataclasses.replace(
         make_snapshot(), extras=extras, estimator_status=EKF, control=CONTROL, motor_outputs=(0.5,) * 4
     )

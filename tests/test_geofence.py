@@ -194,6 +194,20 @@ def test_polygon_and_circle_inclusions_are_named_together():
     assert check(f, at(0, 50)) == Breach("Geofence: outside the inclusion fence", False)
 
 
+def zero_circle_at_0_0(seq: int, command: int = CINC) -> MissionItem:
+    """What MAVSDK's users send for "no circle" (its GeofenceData carries polygons and circles together)."""
+    return MissionItem(seq, mi.FRAME_GLOBAL_INT, command, 0.0, x=0, y=0, mission_type=mi.FENCE)
+
+
+def test_a_circle_of_radius_0_encloses_nothing_and_is_left_out():
+    """Issue 36: a polygon with MAVSDK's zero circle at (0, 0) is the polygon's fence; zero circles alone, none."""
+    f = fence(square(INC, 10.0) + [zero_circle_at_0_0(4)])
+    assert f.inside(at(5, 5)) and not f.inside(at(0, 50))
+    assert check(f, at(0, 50)) == Breach("Geofence: outside the inclusion polygon", False)  # a polygon's only
+    alone = fence([zero_circle_at_0_0(0), zero_circle_at_0_0(1, CEXC)])
+    assert alone.empty and not alone.has_inclusion and alone.inside(at(0, 0))
+
+
 def test_consecutive_polygons_of_the_same_kind():
     f = fence(square(EXC, 5.0, (20, 0)) + square(EXC, 5.0, (-20, 0), seq0=4))
     assert len(f.exclusion_polygons) == 2
@@ -264,7 +278,7 @@ def bow_tie() -> list[MissionItem]:
         ([item(0, INC, float("nan"), 0, 0)] * 3, 0, ">= 3"),
         ([*square(INC, 10.0)[:3], item(3, INC, 5, 10, -10)], 0, "only 3"),  # a count that differs
         (bow_tie(), 0, "not simple"),
-        ([item(0, CINC, 50.0, 0, 0), item(1, CINC, 0.0, 0, 0)], 1, "radius"),
+        ([item(0, CINC, 50.0, 0, 0), item(1, CINC, -0.5, 0, 0)], 1, "radius"),
         ([item(0, CEXC, -5.0, 0, 0)], 0, "radius"),
         ([item(0, CINC, float("nan"), 0, 0)], 0, "radius"),
         ([item(0, CEXC, float("inf"), 0, 0)], 0, "radius"),

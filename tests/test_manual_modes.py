@@ -24,6 +24,7 @@ from autopilot.navigation.manual_modes import (
     deadzone,
     thrust_curve,
 )
+from autopilot.navigation.stick_expo import expo
 from autopilot.param_catalogue import default_store
 from autopilot.topics import AttitudeSetpoint, ManualInput, VehicleEstimate
 from mavsim_core import quaternion as quat
@@ -147,8 +148,11 @@ def test_posctl_full_stick_flies_mpc_vel_manual_in_the_heading_frame():
     sp = p.step(1.0)
     assert math.hypot(*sp.vel_ned_m_s[:2]) == pytest.approx(1.0)
     p.params.set("MPC_VEL_MANUAL", 3.0)
-    p.input = sticks(pitch=0.55)  # half the travel beyond the deadzone
+    p.input = sticks(pitch=0.55)  # half the travel beyond the deadzone, then PX4's expo (MPC_XY_MAN_EXPO 0.6)
     sp = p.step(1.0)
+    assert sp.vel_ned_m_s[:2] == pytest.approx(heading(3.0 * (0.4 * 0.5 + 0.6 * 0.5**3), 0.0))  # 0.825 m/s
+    p.params.set("MPC_XY_MAN_EXPO", 0.0)  # linear: half the speed
+    sp = p.step(2.0)
     assert sp.vel_ned_m_s[:2] == pytest.approx(heading(1.5, 0.0))
 
 
@@ -302,9 +306,9 @@ def test_stabilized_sticks_set_roll_pitch_and_the_throttle_sets_thrust():
 
 def test_stabilized_yaw_stick_integrates_the_heading():
     p = Pilot(StabilizedTask, hover_thrust_frac=HOVER)
-    p.input = sticks(yaw=0.5)
+    p.input = sticks(yaw=0.55)  # half the travel beyond MPC_HOLD_DZ, then MPC_YAW_EXPO 0.6 (PX4's mc_att_control)
     sp = p.step(2.0)
-    rate = 0.5 * math.radians(p.params.get("MPC_MAN_Y_MAX"))
+    rate = expo(0.5, 0.6) * math.radians(p.params.get("MPC_MAN_Y_MAX"))
     assert sp.yaw_rate_rad_s == pytest.approx(rate)
     assert quat.to_euler(sp.q_wxyz)[2] == pytest.approx(YAW + 2.0 * rate, abs=1e-6)
 

@@ -55,7 +55,7 @@ def test_table_covers_the_commands_of_px4_identity():
         mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_CMD_DO_SET_HOME, mavlink.MAV_CMD_GET_HOME_POSITION,
         mavlink.MAV_CMD_CONDITION_YAW, mavlink.MAV_CMD_DO_PAUSE_CONTINUE, mavlink.MAV_CMD_DO_FLIGHTTERMINATION,
         mavlink.MAV_CMD_PREFLIGHT_STORAGE, mavlink.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, mavlink.MAV_CMD_DO_MOTOR_TEST,
-        mavlink.MAV_CMD_DO_ORBIT, mavlink.MAV_CMD_DO_AUTOTUNE_ENABLE,
+        mavlink.MAV_CMD_DO_ORBIT, mavlink.MAV_CMD_DO_AUTOTUNE_ENABLE, mavlink.MAV_CMD_DO_LAND_START,
     }  # fmt: skip
     assert set(commands.COMMANDS) == expected
     by_link = {c for c, row in commands.COMMANDS.items() if row.by is commands.By.LINK}

@@ -224,7 +224,7 @@ def _set(path: str, value):
         (_set("geoFence.polygons.0.polygon", [[47.39, 8.54], [47.4, 8.55]]), "geoFence.polygons[0].polygon", "3 vert"),
         (_set("geoFence.polygons.0.polygon.2", [47.39]), "geoFence.polygons[0].polygon[2]", "list of 2 numbers"),
         (_set("geoFence.polygons.0.inclusion", 1), "geoFence.polygons[0].inclusion", "true or false"),
-        (_set("geoFence.circles.0.circle.radius", 0), "geoFence.circles[0].circle.radius", "positive radius"),
+        (_set("geoFence.circles.0.circle.radius", -1), "geoFence.circles[0].circle.radius", "0 or more"),
         (_set("geoFence.circles.0.circle.radius", None), "geoFence.circles[0].circle.radius", "must be a number"),
         (_set("rallyPoints.points.1.1", 200), "rallyPoints.points[1][1]", "longitude 200"),
         (_set("mission.version", 1), "mission.version", "not supported"),

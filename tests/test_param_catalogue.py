@@ -46,6 +46,7 @@ UNITS = {
     "rad/s^2",
     "deg",
     "deg/s",
+    "deg/s^2",  # MPC_YAWRAUTO_ACC (PX4's unit)
     "1/s",
     "1/s^2",
     "%",

@@ -12,7 +12,6 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander.vehicle_commands import MOTOR_TEST_TIMEOUT_MAX_S
 from autopilot.flight_controller import FlightController
-from autopilot.mavlink import commands
 from autopilot.navigation.orbit import OrbitTask
 from autopilot.param_catalogue import default_store
 from autopilot.param_storage import ParamSaver
@@ -26,7 +25,6 @@ from params.vehicle import load_vehicle
 from test_commander import ACCEPTED, DENIED, NAN7, ORIGIN, UNSUPPORTED, Bench
 
 C = mavlink
-TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 
 
 def flying() -> Bench:
@@ -48,7 +46,7 @@ def test_reposition_yaw_is_radians_nan_keeps_and_infinities_are_refused():
     assert b.command(C.MAV_CMD_DO_REPOSITION, 4.0, 0, 0, math.pi / 2, lat, lon, math.nan) == ACCEPTED
     assert b.cmd.task.yaw_rad == pytest.approx(math.pi / 2)  # east, not 90 radians
     assert b.cmd.task.cruise_m_s == 4.0  # param1: ground speed
-    b.run(1.0)
+    b.run(3.0)  # (the heading turns at MPC_YAWRAUTO_MAX, speeding up and slowing down at MPC_YAWRAUTO_ACC: 2.75 s)
     assert b.cmd.setpoint.yaw_rad == pytest.approx(math.pi / 2)
     b.run(10.0)
     np.testing.assert_allclose(b.pos[:2], [20.0, 0.0], atol=1e-6)
@@ -118,7 +116,7 @@ def test_change_speed_in_a_mission():
     assert "Mission: item 0 reached" in b.texts()
 
 
-# --------------------------------------------------------------------------- DO_SET_HOME, GET_HOME_POSITION
+# ------------------------------------------------------------- DO_SET_HOME (GET_HOME_POSITION: test_px4_leftovers.py)
 
 
 def test_set_home_here_or_at_a_point():
@@ -141,23 +139,6 @@ def test_set_home_here_or_at_a_point():
     assert b.texts()[-1] == "Set home denied: latitude/longitude 91, 8.54565 out of range"
 
 
-class FakeLink:
-    def __init__(self, result: int) -> None:
-        self.result, self.requests = result, []
-
-    def request_message(self, msg_id: int, param2: float) -> int:
-        self.requests.append(msg_id)
-        return self.result
-
-
-def test_get_home_position_is_a_link_row_sending_home_position():
-    link = FakeLink(TEMPORARILY_REJECTED)  # before home is set
-    assert commands.run(C.MAV_CMD_GET_HOME_POSITION, NAN7, 0, link, None) == TEMPORARILY_REJECTED
-    link.result = ACCEPTED
-    assert commands.run(C.MAV_CMD_GET_HOME_POSITION, NAN7, 0, link, None) == ACCEPTED
-    assert link.requests == [C.MAVLINK_MSG_ID_HOME_POSITION] * 2
-
-
 # --------------------------------------------------------------------------- CONDITION_YAW
 
 
@@ -169,9 +150,9 @@ def test_condition_yaw_turns_in_place_at_the_rate():
     b.fly_up()
     held = b.pos.copy()
     assert b.command(C.MAV_CMD_CONDITION_YAW, 90, 30, 0, 0) == ACCEPTED  # absolute 90 deg at 30 deg/s
-    b.run(1.5)
-    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(45.0, abs=1.0)
-    b.run(2.0)
+    b.run(1.5)  # at 30 deg/s after speeding up at MPC_YAWRAUTO_ACC (60 deg/s^2) for 0.5 s: 45 - 7.5 deg
+    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(37.5, abs=1.0)
+    b.run(2.5)  # (slowing down to stop on it: 3.5 s in all)
     assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(90.0)
     np.testing.assert_allclose(b.pos, held, atol=1e-9)  # in place
     # relative, counter-clockwise: 90 -> 30 deg; speed 0: MPC_YAWRAUTO_MAX
@@ -180,9 +161,9 @@ def test_condition_yaw_turns_in_place_at_the_rate():
     assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(30.0)
     # clockwise the long way: 30 -> 0 deg through 180
     assert b.command(C.MAV_CMD_CONDITION_YAW, 0, 90, 1, 0) == ACCEPTED
-    b.run(2.0)
-    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(210.0 - 360.0, abs=1.0)
-    b.run(3.0)
+    b.run(2.0)  # 1.5 s speeding up to 90 deg/s (67.5 deg), 0.5 s at it: 30 + 112.5 deg, clockwise
+    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(142.5, abs=1.0)
+    b.run(3.5)  # (330 deg: 5.2 s in all)
     assert b.cmd.setpoint.yaw_rad == pytest.approx(0.0, abs=1e-9)
     assert b.command(C.MAV_CMD_CONDITION_YAW, math.nan, 0, 0, 0) == DENIED
     assert b.texts()[-1] == "Yaw denied: param1 (angle) not given"

@@ -21,6 +21,7 @@ import math
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot import telemetry_extras
 from autopilot.commander import failsafes, health, mission_control, mode_entry, prearm_checks, precision_landing
 from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.commander.failure_detector import FailureDetector, check_failures
@@ -165,6 +166,7 @@ class Commander(FlightCommands, VehicleCommands):
             self.estimator_checks,
             p.get("COM_ARM_TILT_MAX"),
             p.get("BAT_LOW_THR"),
+            self.terminated,
         ) + mission_control.fence_prearm_failures(self)
 
     @property
@@ -302,6 +304,7 @@ class Commander(FlightCommands, VehicleCommands):
             self._set_home(self.est)
         self.armed = True
         self.armed_at_us = self.now_us
+        telemetry_extras.count_flight(self.params)  # COM_FLIGHT_UUID: this flight's number (saved with the params)
         self.land_detector.on_arm(float(self.est.pos_ned_m[2]))
         self.land_detector.landed_since_us = self.now_us
         self.task = None

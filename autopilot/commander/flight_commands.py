@@ -2,7 +2,7 @@
 
 :class:`FlightCommands` is a base class of :class:`autopilot.commander.commander.Commander`;
 its methods are the typed commands the MAVLink command table
-(:mod:`autopilot.mavlink.commands`) calls for NAV_TAKEOFF, NAV_LAND,
+(:mod:`autopilot.mavlink.commands`) calls for NAV_TAKEOFF, NAV_LAND, DO_LAND_START,
 NAV_RETURN_TO_LAUNCH and DO_REPOSITION.  Each returns a MAV_RESULT, says why in a
 STATUSTEXT when it refuses, and (:func:`publishes`) has the commander publish its status
 afterwards.  They act through the commander's state (``est``, ``home``, ``armed``,
@@ -22,6 +22,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.navigation import GotoTask, started
+from autopilot.navigation.heading_smoothing import HeadingLimits
 from autopilot.navigation.mission_checks import HARD_CEILING_M
 from autopilot.navigation.precland import PrecLandMode
 from mavsim_core.geodesy import geodetic_to_ned
@@ -137,6 +138,13 @@ class FlightCommands:
         return self._enter(Mode.AUTO_LAND)
 
     @publishes
+    def land_start(self) -> int:
+        """Fly the mission from its landing sequence (MAV_CMD_DO_LAND_START; :mod:`.mission_landing`)."""
+        from autopilot.commander import mission_landing
+
+        return mission_landing.land_start(self)  # type: ignore[arg-type]
+
+    @publishes
     def set_mission_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]:
         """Make mission item ``seq`` the current one (MISSION_SET_CURRENT, DO_SET_MISSION_CURRENT); a mission
         being flown goes there at once.  ``reset_jumps``: DO_JUMP counters start again.  (done, why not)."""
@@ -214,8 +222,11 @@ class FlightCommands:
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
         self.mode = Mode.AUTO_LOITER
+        turns = HeadingLimits.from_params(self.params)  # the heading turns at MPC_YAWRAUTO_MAX/_ACC, stops on the yaw
         self.task = started(
-            GotoTask(goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start, self.params.get("MPC_JERK_AUTO"), v0, a0),
+            GotoTask(
+                goal, yaw, speed, self.params.get("MPC_ACC_HOR"), start, self.params.get("MPC_JERK_AUTO"), v0, a0, turns
+            ),
             e,
             self.now_us,
         )

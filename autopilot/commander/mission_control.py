@@ -5,10 +5,11 @@ uploads and downloads, checks them (:mod:`autopilot.navigation.mission_checks`, 
 geofence's own geometry checks), keeps the mission's progress (current item, DO_JUMP
 counters, MISSION_STATE) and saves them with ``--state-dir``.  The functions below are what the
 commander calls: start AUTO.MISSION (:func:`start_mission`), run it (:func:`step`: the runner's
-requests for a return, a precision landing or a new home), pause it when another mode takes
-over, check the geofence every update (:func:`check_geofence`, GF_ACTION as in PX4) and choose
-where a return goes (:func:`return_destination`: the closest of home and the rally points, as
-PX4's RTL_TYPE 0).
+requests for a return, a precision landing (flown inside AUTO.MISSION, as PX4 does) or a new
+home), pause it when another mode takes over, check the geofence every update
+(:func:`check_geofence`, GF_ACTION as in PX4) and choose where a direct return goes
+(:func:`return_destination`: the closest of home and the rally points, as PX4's RTL_TYPE 0; the
+other return types: :mod:`autopilot.commander.mission_landing`).
 
 Frames: NED metres relative to the estimator origin; plans in MAVLink's units (degE7, m).
 """
@@ -20,6 +21,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
+from autopilot.commander import precision_landing
 from autopilot.navigation import LoiterTask, mission_checks, started
 from autopilot.navigation.geofence import FenceError, Geofence, GfAction, stop_point
 from autopilot.navigation.mission import MissionTask, item_position
@@ -153,24 +155,35 @@ def start_mission(cmd: Commander) -> int:
 
 
 def step(cmd: Commander, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
-    """One update of the mission: the runner's setpoint, its progress and its requests."""
+    """One update of the mission (or of a return flown through it): the runner's setpoint, its progress and
+    its requests; once a precision landing has started, that landing's update."""
+    if task.precland is not None:
+        return _precland_step(cmd, task, est, now_us)
     setpoint = task.update(est, now_us)
-    _sync(cmd, task)
+    if task.follows_plan:
+        _sync(cmd, task)
     request, task.request = task.request, None
     if request is None:
         return setpoint
     if request[0] == "rtl":
         cmd._enter(Mode.AUTO_RTL)
-    elif request[0] == "precland":
+    elif request[0] == "precland":  # PX4's mission flies it in AUTO.MISSION (and its RTL in AUTO.RTL)
         from autopilot.navigation.precland import PrecLandMode
 
-        cmd.precland_mode = PrecLandMode(request[1])
-        cmd._enter(Mode.AUTO_PRECLAND)
+        task.precland = started(precision_landing.new_task(cmd, PrecLandMode(request[1])), est, now_us)
+        return _precland_step(cmd, task, est, now_us)
     elif request[0] == "home":
         item = request[1]
         pos = est.pos_ned_m if item is None else item_position(item, est, cmd.home)
         cmd._set_home_at(pos)
     return cmd.task.update(est, now_us) if cmd.task is not task and cmd.task is not None else setpoint
+
+
+def _precland_step(cmd: Commander, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
+    setpoint = precision_landing.step(cmd, task.precland, est, now_us)
+    if not cmd.armed and task.follows_plan:  # docked: the motors are cut, the mission is over
+        on_landed(cmd)
+    return setpoint
 
 
 def _sync(cmd: Commander, task: MissionTask) -> None:
@@ -257,15 +270,18 @@ def fence_prearm_failures(cmd: Commander) -> list[str]:
     return [] if fence is None or fence.inside(est.pos_ned_m) else ["vehicle outside the geofence"]
 
 
-def return_destination(cmd: Commander, est: VehicleEstimate) -> np.ndarray:
-    """Where a return goes (m NED): home or the closest rally point, whichever is closer (RTL_TYPE 0).
-    The rally point's ground is taken at home's height (the simulated world is flat)."""
+def rally_points_ned(cmd: Commander, est: VehicleEstimate) -> list[np.ndarray]:
+    """The rally points (m NED), their ground at home's height (the simulated world is flat)."""
     assert cmd.home is not None
-    best = cmd.home.pos_ned_m.astype(float).copy()
-    best_d = float(np.linalg.norm(best[:2] - est.pos_ned_m[:2]))
+    out = []
     for item in cmd.plans.items[mi.RALLY]:
         pos = geodetic_to_ned(item.lat_deg, item.lon_deg, 0.0, est.origin_lat_deg, est.origin_lon_deg, 0.0)
-        d = float(np.linalg.norm(pos[:2] - est.pos_ned_m[:2]))
-        if d < best_d:
-            best_d, best = d, np.array([pos[0], pos[1], cmd.home.pos_ned_m[2]])
-    return best
+        out.append(np.array([pos[0], pos[1], cmd.home.pos_ned_m[2]]))
+    return out
+
+
+def return_destination(cmd: Commander, est: VehicleEstimate) -> np.ndarray:
+    """Where a direct return goes (m NED): home or the closest rally point, whichever is closer (RTL_TYPE 0)."""
+    assert cmd.home is not None
+    points = [cmd.home.pos_ned_m.astype(float).copy(), *rally_points_ned(cmd, est)]
+    return min(points, key=lambda p: float(np.linalg.norm(p[:2] - est.pos_ned_m[:2])))

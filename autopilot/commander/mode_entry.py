@@ -17,12 +17,11 @@ from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander import mission_control
-from autopilot.navigation import LandTask, LoiterTask, ReturnTask, TakeoffTask, started
+from autopilot.commander import mission_control, mission_landing, precision_landing
+from autopilot.navigation import LandTask, LoiterTask, TakeoffTask, started
 from autopilot.navigation.follow_target import FollowTargetTask, fresh_target
 from autopilot.navigation.manual_modes import AcroTask, AltCtlTask, PosCtlTask, StabilizedTask
 from autopilot.navigation.offboard import OffboardTask, offboard_refusal
-from autopilot.navigation.precland import PrecLandConfig, PrecLandTask
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
@@ -98,17 +97,14 @@ def enter(c: Commander, mode: Mode, takeoff_down_m: float | None = None) -> int:
     elif mode is Mode.AUTO_LAND:
         c.task = started(LandTask(c.home.pos_ned_m[2] if c.home else e.pos_ned_m[2], c.params), e, c.now_us)
     elif mode is Mode.AUTO_RTL:
-        c.task = started(ReturnTask(mission_control.return_destination(c, e), c.params), e, c.now_us)
+        c.task = started(mission_landing.return_task(c, e), e, c.now_us)  # as RTL_TYPE says
     elif mode is Mode.AUTO_MISSION and (result := mission_control.start_mission(c)) != S.MAV_RESULT_ACCEPTED:
         return result
     elif mode is Mode.AUTO_PRECLAND:
         if not (c.armed and c.in_air):
             c.say(S.MAV_SEVERITY_CRITICAL, "Precision landing denied: vehicle not flying")
             return S.MAV_RESULT_DENIED
-        ground = c.home.pos_ned_m[2] if c.home else e.pos_ned_m[2]
-        cfg = PrecLandConfig.from_store(c.params)
-        task = PrecLandTask(ground, c.params, cfg, c.precland_mode, feet_below_m=c.feet_below_m)
-        c.task = started(task, e, c.now_us)
+        c.task = started(precision_landing.new_task(c, c.precland_mode), e, c.now_us)
     elif mode is Mode.AUTO_FOLLOW_TARGET:
         if not (c.armed and c.in_air):
             c.say(S.MAV_SEVERITY_CRITICAL, "Follow target denied: vehicle not flying")

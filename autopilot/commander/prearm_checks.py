@@ -48,6 +48,11 @@ def battery_check(battery: BatteryState, low_thr: float) -> list[str]:
     return [f"battery low ({remaining:.0%})"] if 0 <= remaining < low_thr else []
 
 
+def termination_check(terminated: bool) -> list[str]:
+    """DO_FLIGHTTERMINATION holds until a reboot (PX4: arming refused while flight termination is set)."""
+    return ["flight terminated (reboot to clear)"] if terminated else []
+
+
 def prearm_failures(
     est: VehicleEstimate | None,
     gps: GpsSample | None,
@@ -56,9 +61,10 @@ def prearm_failures(
     estimator_failures: tuple[str, ...] | list[str],
     tilt_max_deg: float,
     battery_low_thr: float,
+    terminated: bool = False,
 ) -> list[str]:
     """Every reason arming would be refused now; ``estimator_failures`` are the EKF's own (empty when
-    another filter flies)."""
+    another filter flies); ``terminated``: DO_FLIGHTTERMINATION was given (until a reboot)."""
     return (
         attitude_check(est)
         + gps_check(gps)
@@ -67,4 +73,5 @@ def prearm_failures(
         + home_check(home)
         + level_check(est, tilt_max_deg)
         + battery_check(battery, battery_low_thr)
+        + termination_check(terminated)
     )

@@ -142,7 +142,8 @@ class VehicleCommands:
         vel = sp.vel_ned_m_s if sp is not None else None
         acc = sp.acc_ned_m_s2 if sp is not None else None
         accel, jerk = self.params.get("MPC_ACC_HOR"), self.params.get("MPC_JERK_AUTO")
-        return started(GotoTask(old.goal, old.yaw_rad, speed, accel, pos, jerk, vel, acc), e, self.now_us)
+        turns = old.heading.limits  # (the heading on from the vehicle's, at the same rate and acceleration)
+        return started(GotoTask(old.goal, old.yaw_rad, speed, accel, pos, jerk, vel, acc, turns), e, self.now_us)
 
     def _mission_leg_at_new_speed(self, task: MissionTask, speed: float) -> None:
         """The rest of the mission leg being flown (not a take-off's climb) at ``speed``, from its setpoint at
@@ -193,7 +194,8 @@ class VehicleCommands:
             turn = turn_angle(start, angle_rad, direction)
         default, limit = (math.radians(self.params.get(n)) for n in ("MPC_YAWRAUTO_MAX", "MC_YAWRATE_MAX"))
         rate = min(rate_rad_s, limit) if rate_rad_s is not None else default
-        self.task = started(YawTurn(inner, start, turn, rate), e, self.now_us)
+        acc = math.radians(self.params.get("MPC_YAWRAUTO_ACC"))  # speeds up and slows down to stop on the heading
+        self.task = started(YawTurn(inner, start, turn, rate, acc), e, self.now_us)
         return S.MAV_RESULT_ACCEPTED
 
     # -- DO_PAUSE_CONTINUE ---------------------------------------------------------------

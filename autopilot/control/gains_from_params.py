@@ -45,6 +45,14 @@ ATTITUDE_PARAMS: tuple[ParamDef, ...] = (
     param("MC_ROLL_P", 6.5, 0.0, 12.0, "1/s", "Roll angle proportional gain"),
     param("MC_PITCH_P", 6.5, 0.0, 12.0, "1/s", "Pitch angle proportional gain"),
     param("MC_YAW_P", 2.8, 0.0, 12.0, "1/s", "Yaw angle proportional gain"),
+    param(
+        "MC_YAW_WEIGHT",
+        0.4,
+        0.0,
+        1.0,
+        "norm",
+        "Yaw weight: the fraction of a heading error corrected beside the tilt (yaw after roll and pitch)",
+    ),
     param("MC_ROLLRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum roll rate"),
     param("MC_PITCHRATE_MAX", 220.0, 0.0, 1800.0, "deg/s", "Maximum pitch rate"),
     param("MC_YAWRATE_MAX", 200.0, 0.0, 1800.0, "deg/s", "Maximum yaw rate"),
@@ -132,9 +140,10 @@ def rate_gains(g: Getter) -> RateGains:
 
 
 def attitude_gains(g: Getter) -> AttitudeGains:
-    """The attitude controller's gains from MC_ROLL_P ... and MC_*RATE_MAX (deg/s -> rad/s)."""
+    """The attitude controller's gains from MC_ROLL_P ..., MC_*RATE_MAX (deg/s -> rad/s) and MC_YAW_WEIGHT."""
     r0, r1, r2 = (math.radians(g(f"MC_{a}RATE_MAX")) for a in _AXES)
-    return AttitudeGains(p_per_s=(g("MC_ROLL_P"), g("MC_PITCH_P"), g("MC_YAW_P")), rate_max_rad_s=(r0, r1, r2))
+    p = (g("MC_ROLL_P"), g("MC_PITCH_P"), g("MC_YAW_P"))
+    return AttitudeGains(p_per_s=p, rate_max_rad_s=(r0, r1, r2), yaw_weight=g("MC_YAW_WEIGHT"))
 
 
 def gyro_filter_settings(g: Getter) -> GyroFilterSettings:

@@ -57,6 +57,8 @@ class LinkCommands(Protocol):
     def send_autopilot_version(self) -> int:
         """Send AUTOPILOT_VERSION."""
 
+    def say(self, severity: int, text: str) -> None: ...  # a STATUSTEXT to the endpoint the command came in on
+
 
 class CommanderCommands(Protocol):
     """The typed command methods of :class:`autopilot.commander.Commander` (each returns a MAV_RESULT)."""
@@ -68,6 +70,7 @@ class CommanderCommands(Protocol):
     def disarm(self, force: bool = False) -> int: ...
     def takeoff(self, rel_alt_m: float | None = None) -> int: ...
     def land(self, precision: int = 0) -> int: ...
+    def land_start(self) -> int: ...
     def return_to_launch(self) -> int: ...
     def set_mode(self, mode: Mode) -> int: ...
     def set_mission_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]: ...
@@ -240,8 +243,11 @@ def _set_home(cmd: CommanderCommands, p: Params) -> int:
 
 
 def _get_home_position(link: LinkCommands, p: Params) -> int:
-    """HOME_POSITION once (TEMPORARILY_REJECTED before home is set), as REQUEST_MESSAGE 242."""
-    return link.request_message(mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0.0)
+    """HOME_POSITION once, as REQUEST_MESSAGE 242; before home is set TEMPORARILY_REJECTED, and a STATUSTEXT why."""
+    result = link.request_message(mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0.0)
+    if result == mavlink.MAV_RESULT_TEMPORARILY_REJECTED:
+        link.say(mavlink.MAV_SEVERITY_WARNING, "Home position not set: waiting for a position fix")
+    return result
 
 
 def _condition_yaw(cmd: CommanderCommands, p: Params) -> int:
@@ -343,6 +349,7 @@ COMMANDS: dict[int, Command] = {
     mavlink.MAV_CMD_NAV_TAKEOFF: Command(By.VEHICLE, _takeoff, "Takeoff"),
     mavlink.MAV_CMD_NAV_LAND: Command(By.VEHICLE, _land, "Land"),
     mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: Command(By.VEHICLE, _return_to_launch, "Return"),
+    mavlink.MAV_CMD_DO_LAND_START: Command(By.VEHICLE, lambda cmd, p: cmd.land_start(), "Mission landing"),
     mavlink.MAV_CMD_DO_SET_MODE: Command(By.VEHICLE, _do_set_mode, "Mode change"),
     mavlink.MAV_CMD_DO_REPOSITION: Command(By.VEHICLE, _reposition, "Reposition"),
     mavlink.MAV_CMD_DO_SET_MISSION_CURRENT: Command(By.VEHICLE, _set_mission_current, "Set current mission item"),

@@ -222,3 +222,7 @@ class EndpointCommands:
     def send_autopilot_version(self) -> int:
         self.ep.send(self.link._autopilot_version())
         return mavlink.MAV_RESULT_ACCEPTED
+
+    def say(self, severity: int, text: str) -> None:
+        """A STATUSTEXT on this endpoint (why a command of the link's was refused)."""
+        self.link.send_statustext(severity, text, self.ep.name)

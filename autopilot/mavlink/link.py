@@ -104,7 +104,7 @@ class GcsLink:
             os_sw_version=os_sw_version, board_version=board_version, flight_custom_version=flight_custom_version,
             vendor_id=vendor_id, product_id=product_id, uid=uid, uid2=uid2,
         )  # fmt: skip
-        builders = link_builders(self.identity)
+        builders = link_builders(self.identity, sysid)
         unknown = set(stream_rates_hz or {}) - set(builders)
         if unknown:
             raise ValueError(f"gcs_link cannot stream message ids {sorted(unknown)}; streams: {sorted(builders)}")

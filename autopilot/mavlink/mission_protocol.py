@@ -169,6 +169,8 @@ class MissionService:
         result, reason = self.plans.check_item(item)
         if result != mavlink.MAV_MISSION_ACCEPTED:
             return self._fail(result, reason)
+        if reason:  # accepted with a note (a fence circle of radius 0: ignored)
+            self.say(mavlink.MAV_SEVERITY_WARNING, f"{mi.TYPE_NAMES[up.mission_type].capitalize()} {reason}")
         up.items.append(item)
         up.retries = 0  # progress: the retry budget is per item
         if len(up.items) < up.count:

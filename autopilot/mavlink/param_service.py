@@ -2,10 +2,13 @@
 
 PARAM_REQUEST_LIST (served PARAM_BURST values per link update), PARAM_REQUEST_READ (by
 name or index), PARAM_SET (set, then the value is broadcast: the new one, or the old one
-with a STATUSTEXT saying why the set was refused), and every accepted change made
+with a STATUSTEXT saying why the set was refused; a parameter that applies at the next start,
+e.g. MAV_SYS_ID, says so in a STATUSTEXT), and every accepted change made
 elsewhere (a parameter file, another ground station) broadcast at the next update.
 A name or index that does not exist is answered with PARAM_ERROR (MAV_PARAM_ERROR_DOES_NOT_EXIST)
-and a STATUSTEXT.
+and a STATUSTEXT; those STATUSTEXTs are rate-limited per endpoint (:data:`UNKNOWN_TEXT_PERIOD_S` of wall
+time: a client flooding reads of unknown names must not flood the pilot's screen), the ones held back
+counted in one STATUSTEXT once the period is over.
 
 Saved before acknowledged: with ``persist`` set (the process's state saver, ``--state-dir``:
 :class:`autopilot.param_storage.ParamSaver`), the changes since the last update are handed to the
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import math
 import struct
+import time
 from typing import Callable, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -32,6 +36,7 @@ from autopilot.parameters import ParamError, ParameterStore
 from mavsim_core.param_encoding import ParamType, decode_param_bytes, encode_param_bytes, raw_param_value
 
 PARAM_BURST = 20  # PARAM_VALUEs sent per update() while a list request is being served
+UNKNOWN_TEXT_PERIOD_S = 1.0  # at most one "unknown parameter" STATUSTEXT per endpoint this often (wall s)
 
 
 class _ParamValueMessage(mavlink.MAVLink_param_value_message):
@@ -103,6 +108,9 @@ class ParamService:
         self.closed = False
         # The process's saver: changes are on the disk before they are acknowledged; None: not saved.
         self.persist: ParamPersistence | None = None
+        # "unknown parameter" STATUSTEXTs per endpoint: (wall s of the last sent, how many held back since)
+        self.clock: Callable[[], float] = time.monotonic
+        self._unknown_said: dict[str, tuple[float, int]] = {}
         store.subscribe(self._on_param_changed)
 
     def _on_param_changed(self, name: str, value: float) -> None:
@@ -114,6 +122,7 @@ class ParamService:
         """Once per link update: save changed values, broadcast the saved ones, continue list requests (PARAM_BURST
         values each)."""
         self._advance_saves()
+        self._report_held_back()
         for name in list(self._ready)[:PARAM_BURST]:
             del self._ready[name]
             self._broadcast(param_value(self.store, name))
@@ -185,7 +194,25 @@ class ParamService:
         error = mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST
         index = max(-1, min(index, 32767))  # int16 on the wire
         ep.send(mavlink.MAVLink_param_error_message(msg.get_srcSystem(), msg.get_srcComponent(), name_b, index, error))
+        last = self._unknown_said.get(ep.name)
+        if last is not None and self.clock() - last[0] < UNKNOWN_TEXT_PERIOD_S:
+            self._unknown_said[ep.name] = (last[0], last[1] + 1)  # held back: counted in _report_held_back
+            return
+        self._unknown_said[ep.name] = (self.clock(), 0)
         self._statustext(mavlink.MAV_SEVERITY_ERROR, text, ep.name)
+
+    def _report_held_back(self) -> None:
+        """Once an endpoint's period is over: how many "unknown parameter" STATUSTEXTs were held back in it."""
+        now = self.clock()
+        for name, (said_s, held) in list(self._unknown_said.items()):
+            if now - said_s < UNKNOWN_TEXT_PERIOD_S:
+                continue
+            if held:
+                self._unknown_said[name] = (now, 0)  # (a period starts: the next unknown name waits for it)
+                more = "request" if held == 1 else "requests"
+                self._statustext(mavlink.MAV_SEVERITY_ERROR, f"{held} more {more} for unknown parameters", name)
+            else:
+                del self._unknown_said[name]
 
     def on_set(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         """Set, then broadcast the value: the new one (via the store listener) or, if refused, the old one."""
@@ -199,10 +226,13 @@ class ParamService:
         except ValueError:  # an 8-byte type: refused by the store's type check below
             value = math.nan
         try:
-            store.set(name, value, param_type_name(msg.param_type))
+            old, new = store.get(name), store.set(name, value, param_type_name(msg.param_type))
         except ParamError as e:
             self._broadcast(param_value(store, name))
             self._statustext(mavlink.MAV_SEVERITY_ERROR, str(e), ep.name)
+            return
+        if store.definition(name).reboot_required and new != old:  # (as PX4: stored and reported, used later)
+            self._statustext(mavlink.MAV_SEVERITY_INFO, f"{name} {new:g} applies at the next start", ep.name)
 
     def request_message(self, ep: LinkEndpoint, index: float) -> int:
         """MAV_CMD_REQUEST_MESSAGE for PARAM_VALUE: the parameter at ``index`` (param2); a MAV_RESULT."""

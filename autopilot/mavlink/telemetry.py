@@ -160,14 +160,20 @@ def attitude_quaternion(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_me
 
 
 def attitude_target(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:
-    """The attitude, body-rate and collective-thrust setpoints of the cascade (type_mask 0: all valid)."""
+    """The attitude, body-rate and collective-thrust setpoints of the cascade.  type_mask 0 (all valid, as PX4
+    always sends) while an attitude is flown; while body rates are flown (ACRO, offboard rates) there is no
+    attitude setpoint: ATTITUDE_IGNORE set and q the vehicle's own attitude (PX4 sends type_mask 0 and its last
+    attitude setpoint, or zeros, then)."""
     c = s.control
     if c is None:
         return None
-    q = floats(c.q_sp_wxyz)
+    q, mask = floats(c.q_sp_wxyz), 0
+    if not all(math.isfinite(v) for v in q):
+        mask = mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE
+        q = floats(s.estimate.q_wxyz) if s.estimate is not None else [1.0, 0.0, 0.0, 0.0]
     p, q_rate, r = floats(c.rate_sp_frd_rad_s)
     thrust = min(max(c.thrust_frac, 0.0), 1.0) if math.isfinite(c.thrust_frac) else 0.0
-    return mavlink.MAVLink_attitude_target_message(time_boot_ms(now_us), 0, q, p, q_rate, r, thrust)
+    return mavlink.MAVLink_attitude_target_message(time_boot_ms(now_us), mask, q, p, q_rate, r, thrust)
 
 
 def position_target_local_ned(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message | None:

@@ -120,13 +120,31 @@ def gps_global_origin(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_mess
 def flight_information(s: TelemetrySnapshot, now_us: int) -> mavlink.MAVLink_message:
     """FLIGHT_INFORMATION of the latest flight, as the spec and PX4 fill it: arming and take-off times in µs
     since boot (the fields named "_utc" are not UTC), landing time in ms since boot (0: not yet, reset on
-    arming) and flight_uuid = the flight's number (0 before the first arming)."""
+    arming) and flight_uuid = the flight's number (COM_FLIGHT_UUID: one more at each arming, kept with
+    --state-dir; 0 before the first)."""
     x = s.extras
     if x is None:
         return mavlink.MAVLink_flight_information_message(time_boot_ms(now_us), 0, 0, 0, 0)
     return mavlink.MAVLink_flight_information_message(
         time_boot_ms(now_us), x.armed_us, x.takeoff_us, x.flight_number, time_boot_ms(x.landed_us)
     )
+
+
+def manual_control(s: TelemetrySnapshot, now_us: int, sysid: int = 1) -> mavlink.MAVLink_message | None:
+    """MANUAL_CONTROL: the sticks the vehicle read last, as PX4's stream echoes its manual_control_setpoint
+    (target our system id; x, y, r -1000..1000, z 0..1000; aux1..aux6 with their enabled_extensions bits where
+    known), and also what PX4 drops (buttons, buttons2, s, t) as received; None before any sticks came.  (PX4
+    sends each new sample once; this stream repeats the latest at its rate.)"""
+    m = s.extras.manual if s.extras is not None else None
+    if m is None:
+        return None
+    mask, ext = 0, []
+    for bit, v in enumerate((m.s, m.t, *m.aux)):
+        known = math.isfinite(v)
+        mask |= (1 << bit) if known else 0
+        ext.append(clamp_int(v * 1000.0, -1000, 1000, 0))
+    sticks = [clamp_int(v * 1000.0, -1000, 1000, 0) for v in (m.pitch, m.roll, m.throttle, m.yaw)]
+    return mavlink.MAVLink_manual_control_message(sysid, *sticks, m.buttons & 0xFFFF, m.buttons2 & 0xFFFF, mask, *ext)
 
 
 def utm_global_position(s: TelemetrySnapshot, now_us: int, uas_id: bytes = bytes(18)) -> mavlink.MAVLink_message | None:
@@ -183,13 +201,15 @@ DEFAULT_STREAM_RATES_HZ: dict[int, float] = {
 }
 
 
-def link_builders(identity: Identity) -> dict[int, Builder]:
+def link_builders(identity: Identity, sysid: int = 1) -> dict[int, Builder]:
     """Every message the link can stream or send on request: :data:`BUILDERS`, AUTOPILOT_VERSION of
-    ``identity`` and UTM_GLOBAL_POSITION with its ``uid2`` as the UAS id (PX4 sends its board GUID)."""
+    ``identity``, UTM_GLOBAL_POSITION with its ``uid2`` as the UAS id (PX4 sends its board GUID) and the
+    MANUAL_CONTROL echo addressed as from ``sysid``."""
     version = autopilot_version(identity)
     uas_id = identity.uid2
     extra: dict[int, Callable] = {
         mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda s, now_us: version,
         mavlink.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION: lambda s, now_us: utm_global_position(s, now_us, uas_id),
+        mavlink.MAVLINK_MSG_ID_MANUAL_CONTROL: lambda s, now_us: manual_control(s, now_us, sysid),
     }
     return {**BUILDERS, **extra}

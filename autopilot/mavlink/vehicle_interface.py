@@ -134,7 +134,7 @@ class FlightControllerVehicle:
         self.params = fc.params
         # SYSTEM_TIME's clock, as PX4 SITL's: the wall clock at the first step, advancing with simulated time
         self.utc_at_zero_us = 0  # (UTC µs at simulated time 0; 0 unknown, before the first step)
-        self.flight_times = FlightTimes()
+        self.flight_times = FlightTimes(lambda: int(fc.params.get("COM_FLIGHT_UUID")))
 
     def snapshot(self) -> TelemetrySnapshot:
         fc = self.fc
@@ -142,7 +142,7 @@ class FlightControllerVehicle:
         if not self.utc_at_zero_us and fc.last_us is not None:
             self.utc_at_zero_us = time.time_ns() // 1000 - fc.last_us
         self.flight_times.update(status)
-        extras = self.flight_times.extras(fc.last_imu, self.utc_at_zero_us)
+        extras = self.flight_times.extras(fc.last_imu, self.utc_at_zero_us, fc.commander.inputs.manual)
         snap = telemetry_snapshot(
             status, fc.actuators, fc.control_setpoints(), estimator.status(), estimator.use_ekf, extras
         )

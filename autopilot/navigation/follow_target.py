@@ -17,6 +17,11 @@ The target is what FOLLOW_TARGET messages say (a ground station's GPS, MAVSDK's
   here: the ground is flat at home's altitude) or above the target (2), approached at 70 % of
   MPC_Z_VEL_MAX_UP / _DN; as PX4, the vehicle moves horizontally only within
   :data:`ALT_ACCEPTANCE_M` of that height;
+- never lower than :data:`FLOOR_M` above home (a target reported below home, as a phone's GPS
+  altitude often is, would otherwise take the vehicle to the ground: it landed and disarmed); and
+  when the vehicle is below PX4's minimum safety altitude (:data:`MIN_SAFETY_ALT_M` above home), it
+  stops moving horizontally and climbs at :data:`EMERGENCY_ASCENT_M_S` until above it, as PX4's
+  emergency ascent does.  Each is said once per activation;
 - the position setpoint's velocity goes towards the follow point's velocity (the target's, plus the
   orbit's) plus a closing speed on any gap (up to MPC_XY_CRUISE, braking at MPC_ACC_HOR), changing by
   no more than MPC_ACC_HOR: taking up the position from afar and swinging round a turning target are
@@ -76,6 +81,12 @@ YAW_MIN_DISTANCE_M = 1.0  # closer than this the heading is held (PX4: MINIMUM_D
 ALT_ACCEPTANCE_M = 3.0  # PX4's ALT_ACCEPTANCE_THRESHOLD: horizontal following starts this close to the height
 CATCH_UP_GAIN_PER_S = 1.0  # below the braking profile, a gap closes at this rate
 ALT_TRACK_TARGET = 2  # FLW_TGT_ALT_M
+MIN_SAFETY_ALT_M = 1.0  # PX4's MINIMUM_SAFETY_ALTITUDE above home: below it, stop horizontally and climb ...
+EMERGENCY_ASCENT_M_S = 0.5  # ... at this speed (PX4's EMERGENCY_ASCENT_SPEED)
+# The lowest height flown (above home).  PX4 plans down to the target's height and only the emergency ascent
+# stops it at 1 m, so it hovers on that threshold, stopping and starting its horizontal following; half a metre
+# above it the height and position estimates' errors and the height loop's undershoot stay clear of it.
+FLOOR_M = MIN_SAFETY_ALT_M + 0.5
 SEVERITY_WARNING, SEVERITY_INFO = 4, 6  # MAV_SEVERITY values of what the task says
 
 
@@ -152,6 +163,8 @@ class FollowTargetTask:
         self.yaw_rad = est.yaw_rad
         self.alpha, self.alpha_rate = 0.0, 0.0  # the orbit angle (rad from north) and its rate (rad/s)
         self.last_us = now_us
+        self.ascending = False  # in PX4's emergency ascent (below MIN_SAFETY_ALT_M above home)
+        self._said: set[str] = set()  # what is said once per activation
 
     def update(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
         dt = min(max((now_us - self.last_us) * 1e-6, 0.0), 0.1)
@@ -207,8 +220,15 @@ class FollowTargetTask:
         )
         point = follow_point(tgt, self.alpha, dist)
         point_vel = tgt_vel[:2] + self.alpha_rate * dist * np.array([-math.sin(self.alpha), math.cos(self.alpha)])
-        ground = tgt[2] if int(p.get("FLW_TGT_ALT_M")) == ALT_TRACK_TARGET else self.home_down_m
-        goal_down = ground - p.get("FLW_TGT_HT")
+        to_target = tgt[:2] - est.pos_ned_m[:2]
+        if math.hypot(*to_target) > YAW_MIN_DISTANCE_M:
+            self.yaw_rad = math.atan2(to_target[1], to_target[0])
+        if self.home_down_m - float(est.pos_ned_m[2]) < MIN_SAFETY_ALT_M:
+            return self._ascend(est, dt)
+        if self.ascending:  # back above the minimum: take the following up from where the vehicle is
+            self.ascending = False
+            self.sp_xy, self.sp_vel = est.pos_ned_m[:2].astype(float).copy(), est.vel_ned_m_s[:2].astype(float).copy()
+        goal_down = self._goal_down(tgt)
         v_max = 0.7 * (p.get("MPC_Z_VEL_MAX_DN") if goal_down > self.down else p.get("MPC_Z_VEL_MAX_UP"))
         self.down, self.v_down = approach(self.down, self.v_down, goal_down, v_max, p.get("MPC_ACC_HOR"), dt)
         acc_xy = np.zeros(2)
@@ -216,11 +236,41 @@ class FollowTargetTask:
             acc_xy = self._track(point, point_vel, dt)
         else:  # climb (or descend) to the height first, where the vehicle is
             self.sp_vel = np.zeros(2)
-        to_target = tgt[:2] - est.pos_ned_m[:2]
-        if math.hypot(*to_target) > YAW_MIN_DISTANCE_M:
-            self.yaw_rad = math.atan2(to_target[1], to_target[0])
         pos = np.array([*self.sp_xy, self.down])
         return PositionSetpoint(pos, np.array([*self.sp_vel, self.v_down]), self.yaw_rad, np.array([*acc_xy, 0.0]))
+
+    def _goal_down(self, tgt: np.ndarray) -> float:
+        """The height to follow at (m NED down): FLW_TGT_HT above home or the target, never below FLOOR_M above home."""
+        p = self.params
+        ground = tgt[2] if int(p.get("FLW_TGT_ALT_M")) == ALT_TRACK_TARGET else self.home_down_m
+        goal_down = ground - p.get("FLW_TGT_HT")
+        floor_down = self.home_down_m - FLOOR_M
+        if goal_down > floor_down:
+            asked = self.home_down_m - goal_down
+            text = f"Follow target: {asked:.1f} m above home asked: following at the minimum, {FLOOR_M:g} m"
+            self._say_once("floor", text)
+            return floor_down
+        return goal_down
+
+    def _ascend(self, est: VehicleEstimate, dt: float) -> PositionSetpoint:
+        """PX4's emergency ascent: no horizontal position control (the velocity brought to zero: it stops where it
+        can), the height setpoint rising at EMERGENCY_ASCENT_M_S from the vehicle (or the setpoint, if higher)."""
+        if not self.ascending:
+            self.ascending = True
+            self.down = min(self.down, float(est.pos_ned_m[2]))
+            text = f"Follow target: under {MIN_SAFETY_ALT_M:g} m above home: climbing at {EMERGENCY_ASCENT_M_S:g} m/s"
+            self._say_once("ascent", text)
+        self.v_down = -EMERGENCY_ASCENT_M_S
+        self.down += self.v_down * dt
+        self.sp_vel = np.zeros(2)
+        pos = np.array([math.nan, math.nan, self.down])
+        return PositionSetpoint(pos, np.array([0.0, 0.0, self.v_down]), self.yaw_rad, np.zeros(3))
+
+    def _say_once(self, key: str, text: str) -> None:
+        """A warning said once per activation of the mode, however long its cause lasts."""
+        if key not in self._said:
+            self._said.add(key)
+            self.say(SEVERITY_WARNING, text)
 
     def _track(self, point: np.ndarray, point_vel: np.ndarray, dt: float) -> np.ndarray:
         """Move the setpoint one step towards the follow point; its acceleration (m/s^2 NED, horizontal).

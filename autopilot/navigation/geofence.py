@@ -4,7 +4,9 @@ Mirrors PX4's geofence (``src/modules/navigator/geofence.cpp`` and its GF_* para
 
 - the fence plan (MAV_MISSION_TYPE_FENCE) holds inclusion and exclusion polygons (runs of
   NAV_FENCE_POLYGON_VERTEX_* items, each carrying the polygon's vertex count in param1) and
-  circles (NAV_FENCE_CIRCLE_*, radius in param1); altitudes of fence items are not used;
+  circles (NAV_FENCE_CIRCLE_*, radius in param1); altitudes of fence items are not used; a circle
+  of radius 0 (MAVSDK's users send one at (0, 0) when they want none; PX4 stores it) encloses
+  nothing and is left out, whether inclusion or exclusion;
 - the vehicle must be inside the union of the inclusions (when there is one) and outside every
   exclusion, no farther than GF_MAX_HOR_DIST from home and no higher than GF_MAX_VER_DIST above
   home (0 disables either limit);
@@ -144,7 +146,7 @@ class Geofence:
         """The fence of a fence plan, placed relative to the origin; :class:`FenceError` if the items are not one.
 
         A polygon is a run of consecutive items with the same command whose length equals their
-        param1 (the vertex count, >= 3); a circle is one item with its radius (m) in param1.
+        param1 (the vertex count, >= 3); a circle is one item with its radius (m) in param1 (0: left out).
         """
         polys: dict[int, list[Polygon]] = {c: [] for c in POLYGONS}
         circles: dict[int, list[tuple[float, float, float]]] = {c: [] for c in CIRCLES}
@@ -165,7 +167,8 @@ class Geofence:
                 polys[item.command].append(_polygon(run, origin_lat_deg, origin_lon_deg))
                 i += n
             elif item.command in CIRCLES:
-                circles[item.command].append(_circle(item, origin_lat_deg, origin_lon_deg))
+                if item.param1 != 0:  # radius 0: nothing (mission_checks says so at upload)
+                    circles[item.command].append(_circle(item, origin_lat_deg, origin_lon_deg))
                 i += 1
             else:
                 raise FenceError(f"item {item.seq} ({item.name}): not a fence item")

@@ -7,6 +7,10 @@ speed along the way to the cruise speed, the acceleration to ``accel_m_s2`` and 
 setpoint moves smoothly; it ends exactly on the goal with zero velocity and acceleration.  From
 rest it is a straight line with an S-shaped speed profile; started from a moving state (a new goal
 mid-move: ``start_vel_ned_m_s``, ``start_acc_ned_m_s2``) it bends smoothly onto the new goal.
+The heading turns to ``yaw_rad`` the same way, never in a step: from the vehicle's heading and yaw rate at
+activation, at most MPC_YAWRAUTO_MAX and MPC_YAWRAUTO_ACC (``heading``;
+:class:`autopilot.navigation.heading_smoothing.HeadingSmoothing`), its rate fed forward as the setpoint's
+``yaw_rate_rad_s`` (PX4's yawspeed setpoint), so that it stops on the heading instead of overshooting it.
 Positions are metres NED relative to the estimator origin; time is simulated microseconds.
 """
 
@@ -16,7 +20,9 @@ import math
 
 import numpy as np
 
+from autopilot.navigation import heading_smoothing
 from autopilot.navigation.flight_task import PositionSetpoint
+from autopilot.navigation.heading_smoothing import HeadingLimits, HeadingSmoothing, yaw_rate_of
 from autopilot.navigation.trajectory import Limits, Move
 from autopilot.parameters import ParamDef, param
 from autopilot.topics import VehicleEstimate
@@ -26,10 +32,12 @@ P_ACC_HOR = param("MPC_ACC_HOR", 4.0, 0.5, 10.0, "m/s^2", "Horizontal accelerati
 
 # The parameters of automatic moves (listed in autopilot/param_catalogue.py); whoever builds a
 # GotoTask reads them (the commander for DO_REPOSITION, the return-to-launch), and MPC_JERK_AUTO
-# (declared with the position controller's parameters, which slews its feed-forward with it too).
+# (declared with the position controller's parameters, which slews its feed-forward with it too);
+# the heading's turns: MPC_YAWRAUTO_ACC here, MPC_YAWRAUTO_MAX with the mission runner's.
 PARAMS: tuple[ParamDef, ...] = (
     P_XY_CRUISE,
     P_ACC_HOR,
+    *heading_smoothing.PARAMS,
 )
 
 ARRIVE_RADIUS_M = 0.3  # the move has arrived when its profile has ended and the vehicle is this close
@@ -42,7 +50,8 @@ class GotoTask:
     ``start_ned_m`` None starts from the vehicle's position at activation; ``start_vel_ned_m_s`` and
     ``start_acc_ned_m_s2`` (None: at rest) are the state the move starts from (the setpoint of the move it
     replaces).  Limits on the norms: speed ``cruise_m_s`` m/s, acceleration ``accel_m_s2`` m/s^2, jerk
-    ``jerk_m_s3`` m/s^3.
+    ``jerk_m_s3`` m/s^3.  ``heading``: how fast the heading turns to ``yaw_rad`` (None: PX4's defaults; the
+    builder passes :meth:`HeadingLimits.from_params`).
     """
 
     def __init__(
@@ -55,6 +64,7 @@ class GotoTask:
         jerk_m_s3: float = DEFAULT_JERK_M_S3,
         start_vel_ned_m_s: np.ndarray | None = None,
         start_acc_ned_m_s2: np.ndarray | None = None,
+        heading: HeadingLimits | None = None,
     ) -> None:
         self.goal = goal_ned_m.astype(float).copy()
         self.yaw_rad = yaw_rad
@@ -65,6 +75,8 @@ class GotoTask:
         self.start_vel = np.zeros(3) if start_vel_ned_m_s is None else np.nan_to_num(start_vel_ned_m_s.astype(float))
         self.start_acc = np.zeros(3) if start_acc_ned_m_s2 is None else np.nan_to_num(start_acc_ned_m_s2.astype(float))
         self._done = False
+        self.heading = HeadingSmoothing(heading or HeadingLimits())
+        self._last_us = 0
 
     def activate(self, est: VehicleEstimate, now_us: int) -> None:
         """Plan the move at ``now_us``, from ``start_ned_m`` or else the estimated position."""
@@ -75,12 +87,18 @@ class GotoTask:
         self.move = Move(self.start, self.start_vel, self.start_acc, self.goal, limits)
         self.duration_s = self.move.duration_s
         self._done = False
+        self.heading.reset(est.yaw_rad, yaw_rate_of(est.q_wxyz, est.rate_frd_rad_s))
+        self._last_us = now_us
 
     def update(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
-        """The point of the move at ``now_us``, with its velocity and acceleration as feed-forward."""
+        """The point of the move at ``now_us``, with its velocity and acceleration as feed-forward, and the
+        heading on its way to ``yaw_rad`` with its rate."""
         self._done = self.arrived(now_us, est)
         pos, vel, acc = self.move.sample((now_us - self.t0_us) * 1e-6)
-        return PositionSetpoint(pos, vel, self.yaw_rad, acc)
+        h = self.heading
+        yaw = h.update(self.yaw_rad, (now_us - self._last_us) * 1e-6)
+        self._last_us = now_us
+        return PositionSetpoint(pos, vel, yaw, acc, yaw_rate_rad_s=h.rate_rad_s)
 
     def finished(self, now_us: int) -> bool:
         """The move has ended (the setpoint is the goal)."""

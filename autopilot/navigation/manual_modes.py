@@ -4,7 +4,10 @@ and acro paths of its attitude and rate controllers).
 Sticks are :class:`~autopilot.topics.ManualInput`: ``pitch`` forward +1, ``roll`` right +1, ``yaw``
 clockwise +1 (each -1..1), ``throttle`` 0..1 with 0.5 centred.  In POSCTL and ALTCTL a stick within
 MPC_HOLD_DZ of centre counts as centred and the travel beyond it is rescaled, so a full stick still
-gives the full value; STABILIZED and ACRO take roll, pitch and throttle as they come.
+gives the full value; STABILIZED and ACRO take roll, pitch and throttle as they come.  The sticks are then
+shaped as PX4 shapes them (:mod:`autopilot.navigation.stick_expo`): MPC_XY_MAN_EXPO on POSCTL's horizontal
+sticks, MPC_Z_MAN_EXPO on the climb rate, MPC_YAW_EXPO on the yaw rate (with the deadzone in STABILIZED too),
+MC_ACRO_EXPO(_Y) and MC_ACRO_SUPEXPO(Y) on ACRO's rates; ALTCTL's tilt and STABILIZED's angles stay linear.
 
 - POSCTL (:class:`PosCtlTask`): the horizontal sticks command a velocity in the heading frame (full
   stick MPC_VEL_MANUAL m/s, changing at most MPC_ACC_HOR_MAX m/s^2); centred, the vehicle brakes and
@@ -36,6 +39,7 @@ from typing import Callable
 import numpy as np
 
 from autopilot.control import gains_from_params
+from autopilot.navigation import stick_expo
 from autopilot.navigation.flight_task import PositionSetpoint, defined_in
 from autopilot.parameters import ParamDef, ParameterStore, param
 from autopilot.topics import AttitudeSetpoint, ManualInput, VehicleEstimate
@@ -64,9 +68,10 @@ PARAMS: tuple[ParamDef, ...] = (
     defined_in(gains_from_params.POSITION_PARAMS, "MPC_Z_VEL_MAX_UP"),
     defined_in(gains_from_params.POSITION_PARAMS, "MPC_Z_VEL_MAX_DN"),
     defined_in(gains_from_params.POSITION_PARAMS, "MPC_THR_MAX"),
+    *stick_expo.PARAMS,
 )  # fmt: skip
 
-TAKEOFF_STICK = 0.3  # zero-centred throttle (-1..1, after the deadzone) that lifts off in POSCTL / ALTCTL
+TAKEOFF_STICK = 0.3  # zero-centred throttle (-1..1, after the deadzone, before the expo) lifting off in POSCTL / ALTCTL
 THROTTLE_BOTTOM = 0.05  # throttle stick (0..1) at or below which STABILIZED / ACRO idle on the ground
 STOPPED_M_S = 0.15  # centred sticks: the position (altitude) is held once the speed is below this ...
 BRAKE_MAX_S = 2.0  # ... or after braking this long (so a noisy speed estimate cannot keep it from holding)
@@ -123,6 +128,10 @@ class _PilotedTask:
         last, self._last_us = self._last_us, now_us
         return 0.0 if last is None else min(max((now_us - last) * 1e-6, 0.0), MAX_DT_S)
 
+    def _shaped(self, x: float, expo_param: str) -> float:
+        """A stick after the deadzone (MPC_HOLD_DZ), then the expo curve of ``expo_param`` (PX4's expo_deadzone)."""
+        return stick_expo.expo(deadzone(x, self.params.get("MPC_HOLD_DZ")), self.params.get(expo_param))
+
     def _turn(self, est: VehicleEstimate, yaw_stick: float, dt: float) -> None:
         """Integrate the yaw stick's rate into the heading setpoint (reset to the vehicle's on the ground)."""
         if self.on_ground:
@@ -174,8 +183,8 @@ class _HeightHoldTask(_PilotedTask):
             if up <= TAKEOFF_STICK:
                 return None
         else:
-            self._turn(est, self._dz(s.yaw) if s is not None else 0.0, dt)
-        pos_d, vel_d = self._vertical(est, up, dt)
+            self._turn(est, self._shaped(s.yaw, "MPC_YAW_EXPO") if s is not None else 0.0, dt)
+        pos_d, vel_d = self._vertical(est, stick_expo.expo(up, self.params.get("MPC_Z_MAN_EXPO")), dt)
         pos, vel, acc = self._horizontal(est, s, dt)
         pos[2], vel[2], acc[2] = pos_d, vel_d, 0.0
         return PositionSetpoint(pos, vel, self.yaw_rad, acc)
@@ -189,7 +198,7 @@ class _HeightHoldTask(_PilotedTask):
         return not speed >= STOPPED_M_S or self.braking_s[axis] >= BRAKE_MAX_S
 
     def _vertical(self, est: VehicleEstimate, up: float, dt: float) -> tuple[float, float]:
-        """(down position or NaN, down velocity) from the zero-centred throttle after the deadzone."""
+        """(down position or NaN, down velocity) from the zero-centred throttle after the deadzone and the expo."""
         p = self.params
         if up != 0.0:
             self.hold[2], self.braking_s[1] = math.nan, 0.0
@@ -234,7 +243,8 @@ class PosCtlTask(_HeightHoldTask):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p = self.params
         nan = math.nan
-        fwd, right = (0.0, 0.0) if s is None or self.on_ground else unit_disc(self._dz(s.pitch), self._dz(s.roll))
+        xy = (0.0, 0.0) if s is None or self.on_ground else (s.pitch, s.roll)
+        fwd, right = unit_disc(*(self._shaped(v, "MPC_XY_MAN_EXPO") for v in xy))
         want = heading_to_ned(fwd, right, est.yaw_rad) * p.get("MPC_VEL_MANUAL")
         step = want - self.vel_xy
         max_step = p.get("MPC_ACC_HOR_MAX") * dt
@@ -301,7 +311,7 @@ class StabilizedTask(_ThrottleTask):
         if s is None:
             self._turn(est, 0.0, dt)
             return None
-        self._turn(est, min(max(s.yaw, -1.0), 1.0), dt)
+        self._turn(est, self._shaped(s.yaw, "MPC_YAW_EXPO"), dt)
         tilt_max = math.radians(self.params.get("MPC_MAN_TILT_MAX"))
         roll, pitch = unit_disc(s.roll, -s.pitch)  # rotation about forward (roll) and right (pitch) axes
         angle = math.hypot(roll, pitch) * tilt_max
@@ -315,7 +325,8 @@ class StabilizedTask(_ThrottleTask):
 
 
 class AcroTask(_ThrottleTask):
-    """ACRO: body rates from the sticks (MC_ACRO_*_MAX), thrust as STABILIZED."""
+    """ACRO: body rates from the sticks (MC_ACRO_*_MAX, shaped by MC_ACRO_EXPO(_Y) and MC_ACRO_SUPEXPO(Y)), thrust as
+    STABILIZED."""
 
     def update(self, est: VehicleEstimate, now_us: int) -> AttitudeSetpoint | None:
         self._dt(now_us)
@@ -324,8 +335,12 @@ class AcroTask(_ThrottleTask):
             return None
         p = self.params
 
-        def rate(stick: float, name: str) -> float:
-            return min(max(stick, -1.0), 1.0) * math.radians(p.get(name))
+        def rate(stick: float, name: str, expo: str, sup: str) -> float:
+            return stick_expo.superexpo(stick, p.get(expo), p.get(sup)) * math.radians(p.get(name))
 
-        rates = np.array([rate(s.roll, "MC_ACRO_R_MAX"), rate(-s.pitch, "MC_ACRO_P_MAX"), rate(s.yaw, "MC_ACRO_Y_MAX")])
+        rp = ("MC_ACRO_EXPO", "MC_ACRO_SUPEXPO")
+        rates = np.array([
+            rate(s.roll, "MC_ACRO_R_MAX", *rp), rate(-s.pitch, "MC_ACRO_P_MAX", *rp),
+            rate(s.yaw, "MC_ACRO_Y_MAX", "MC_ACRO_EXPO_Y", "MC_ACRO_SUPEXPOY"),
+        ])  # fmt: skip
         return AttitudeSetpoint(None, rates, self._thrust(s.throttle))

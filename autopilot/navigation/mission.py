@@ -12,8 +12,9 @@ at once and the runner goes on to the next item in the same step:
   the ground without one climbs first to the higher of MIS_TAKEOFF_ALT and the first item's altitude;
 - NAV_LOITER_UNLIM / NAV_LOITER_TIME (param1 s): fly there and hold (for ever / for the time);
 - NAV_DELAY (param1 s): hold where the vehicle is;
-- NAV_LAND: fly above the point (none given: here), then land; param2 1/2 hands the landing to
-  precision landing (``request``); NAV_RETURN_TO_LAUNCH hands over to the return (``request``);
+- NAV_LAND: fly above the point (none given: here), then land; param2 1/2 asks for a precision landing
+  (``request``), which the commander flies as ``precland`` without leaving AUTO.MISSION, as PX4 does;
+  NAV_RETURN_TO_LAUNCH hands over to the return (``request``);
 - DO_CHANGE_SPEED (param2 m/s, -1 default), DO_JUMP (param1 target, param2 repeats, -1 for ever),
   DO_SET_HOME (param1 1: here, else the position; ``request``), DO_LAND_START (a marker),
   CONDITION_YAW (param1 deg, param4 1 relative: hold position and turn).
@@ -27,6 +28,7 @@ at its AMSL altitude.  Time is simulated microseconds.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -95,6 +97,8 @@ class MissionTask:
         self.land: LandTask | None = None
         self.yaw_target: float | None = None  # CONDITION_YAW: turning in place
         self.pending: MissionItem | None = None  # the nav item the leg flies to
+        self.precland: Any = None  # the precision landing the commander flies for a NAV_LAND param2 1/2
+        self.follows_plan = True  # the stored mission's progress (False: a return's own list of items)
 
     # -- the flight-task interface ---------------------------------------------------------
     def activate(self, est: VehicleEstimate, now_us: int) -> None:
@@ -144,14 +148,18 @@ class MissionTask:
 
     @property
     def landing(self) -> bool:
-        return self.land is not None
+        return self.land is not None or self.precland is not None
+
+    @property
+    def phase(self) -> Any:
+        """The precision landing's phase while one is flown (the flight log's), else None."""
+        return None if self.precland is None else self.precland.phase
 
     def shift(self, delta_ned_m: np.ndarray) -> None:
         self.sp += delta_ned_m
-        if self.leg is not None:
-            self.leg.shift(delta_ned_m)
-        if self.land is not None:
-            self.land.shift(delta_ned_m)
+        for part in (self.leg, self.land, self.precland):
+            if part is not None:
+                part.shift(delta_ned_m)
 
     # -- items -----------------------------------------------------------------------------
     def _advance(self, seq: int, now_us: int) -> None:

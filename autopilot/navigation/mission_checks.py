@@ -6,7 +6,10 @@ ceiling; the whole plan when the transfer completes (:func:`check_plan`): DO_JUM
 fence polygons whose vertex counts do not add up.  Each check returns a MAV_MISSION_RESULT
 (numbers from :mod:`mavsim_core.mission_items`) and a reason for the STATUSTEXT; anything but
 ACCEPTED means nothing is stored, so an unsupported item is refused at upload and never
-skipped in flight.
+skipped in flight.  ACCEPTED with a reason is a note the protocol says: a fence circle of
+radius 0, which MAVSDK's users send at (0, 0) when they want no circle (its ``GeofenceData``
+carries polygons and circles together), is stored as PX4 stores it and ignored by the
+geofence (it encloses nothing); a negative radius is refused.
 
 Units: latitude/longitude degE7 (``x``/``y``), altitudes in metres (AMSL in the global
 frames, above home in the relative ones), speeds m/s, times s, angles degrees (as MAVLink's
@@ -56,10 +59,10 @@ def check_item(item: MissionItem, home_alt_amsl_m: float | None, ceiling_m: floa
 
 
 def _check_position(item: MissionItem, home_alt_amsl_m: float | None, ceiling_m: float) -> Result:
+    if item.command == mi.DO_LAND_START and item.x == 0 and item.y == 0:
+        return OK  # a marker without a position, in any frame (QGroundControl's plans also use MAV_FRAME_MISSION)
     if item.frame not in mi.POSITION_FRAMES:
         return mi.UNSUPPORTED_FRAME, f"item {item.seq} ({item.name}): frame {item.frame} not supported (use 0, 3, 5, 6)"
-    if item.command == mi.DO_LAND_START and item.x == 0 and item.y == 0:
-        return OK  # a marker without a position
     if not abs(item.x) <= 90 * mi.DEG_E7:
         return mi.INVALID_PARAM1 + 4, f"item {item.seq} ({item.name}): latitude {item.x / mi.DEG_E7:g} out of range"
     if not abs(item.y) <= 180 * mi.DEG_E7:
@@ -111,8 +114,10 @@ def _check_params(item: MissionItem) -> Result:  # noqa: C901 - one branch per c
         if not (_finite(p1) and 0 <= p1 <= 360):
             return _param_error(1, item, "heading must be 0-360 deg")
     elif c in (mi.FENCE_CIRCLE_INCLUSION, mi.FENCE_CIRCLE_EXCLUSION):
-        if not (_finite(p1) and 0 < p1 <= 100000):
+        if not (_finite(p1) and 0 <= p1 <= 100000):
             return _param_error(1, item, "radius must be 0-100000 m")
+        if p1 == 0:
+            return mi.ACCEPTED, f"item {item.seq}: circle of radius 0 ignored"  # it encloses nothing
     elif c in (mi.FENCE_POLYGON_INCLUSION, mi.FENCE_POLYGON_EXCLUSION):
         if not (_finite(p1) and p1 >= 3 and p1 == int(p1)):
             return _param_error(1, item, "vertex count must be 3 or more")

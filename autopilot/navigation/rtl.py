@@ -3,7 +3,8 @@
 Phases (:class:`RtlPhase`): CLIMB straight up to the return height (the higher of the
 current height and RTL_RETURN_ALT above home), RETURN at that height to above home,
 LOITER there for RTL_LAND_DELAY seconds (-1: hold for good, the return is then ``done``),
-LAND over home.  Each phase is a go-to, a loiter or a land task; the next phase starts
+LAND over home (a direct return; the returns through the mission's landing, RTL_TYPE 1-3:
+:mod:`.rtl_mission`).  Each phase is a go-to, a loiter or a land task; the next phase starts
 from the previous one's goal when the vehicle has arrived.  Vertical legs fly at 0.7
 MPC_Z_VEL_MAX_UP with 1 m/s^2, horizontal ones at MPC_XY_CRUISE with MPC_ACC_HOR; all with MPC_JERK_AUTO.
 Positions are metres NED relative to the estimator origin; time is simulated microseconds.
@@ -28,12 +29,20 @@ P_RETURN_ALT = param("RTL_RETURN_ALT", 10.0, 0.0, 150.0, "m", "Return altitude a
 P_LAND_DELAY = param(
     "RTL_LAND_DELAY", 0.0, -1.0, 300.0, "s", "Hover time over home before landing (-1: do not land)", ParamType.REAL32
 )
+P_RTL_TYPE = param(
+    "RTL_TYPE", 0, 0, 3, "",
+    "Return type: 0 closest of home and rally points; 1 mission landing (or closest rally point), else home;"
+    " 2 along the mission to its landing, else the mission backwards to home; 3 closest of home, mission landing"
+    " and rally points (autopilot/navigation/rtl_mission.py)",
+    ParamType.INT32,
+)  # fmt: skip
 
 # The parameters the return reads (listed in autopilot/param_catalogue.py); the go-to's and the
 # position controller's are their definitions, not copies.  The LAND phase reads the land's.
 PARAMS: tuple[ParamDef, ...] = (
     P_RETURN_ALT,
     P_LAND_DELAY,
+    P_RTL_TYPE,
     goto.P_XY_CRUISE,
     goto.P_ACC_HOR,
     defined_in(gains_from_params.POSITION_PARAMS, "MPC_Z_VEL_MAX_UP"),

@@ -1,0 +1,123 @@
+"""The commander's side of the mission's landing: MAV_CMD_DO_LAND_START and the return types (RTL_TYPE).
+
+:func:`land_start` is MAV_CMD_DO_LAND_START sent as a command (MAVProxy's ``land``): as PX4's navigator,
+the mission goes on from its landing sequence (:func:`autopilot.navigation.rtl_mission.landing_sequence`)
+in AUTO.MISSION; a vehicle not flying, or a mission without a landing, is refused with a STATUSTEXT
+(MAV_RESULT_DENIED: PX4 1.14 answers ACCEPTED and only warns on its console, later versions CANCELLED).
+
+:func:`return_task` builds the task of AUTO.RTL as RTL_TYPE says (:func:`.rtl_mission.choose_return`):
+a direct return (:class:`autopilot.navigation.rtl.ReturnTask`) or the mission runner on a return's own
+list of items (the mission landing, the rest of the mission, or the mission backwards), which the
+commander steps as a mission (:func:`autopilot.commander.mission_control.step`) without touching the
+stored mission's progress.  Each return through the mission says which in a STATUSTEXT.
+
+Frames: NED metres from the estimator origin.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20 import common as S
+
+from autopilot.commander import mission_control
+from autopilot.navigation.mission import MissionTask, item_position
+from autopilot.navigation.rtl import ReturnTask
+from autopilot.navigation.rtl_mission import (
+    ReturnKind,
+    choose_return,
+    closest_item,
+    forward_items,
+    has_position,
+    landing_items,
+    landing_sequence,
+    reverse_items,
+)
+from autopilot.topics import MissionState, VehicleEstimate
+from mavsim_core import mission_items as mi
+from mavsim_core.px4_modes import Mode
+
+if TYPE_CHECKING:
+    from autopilot.commander.commander import Commander
+
+
+def land_start(cmd: Commander) -> int:
+    """MAV_CMD_DO_LAND_START: fly the mission from its landing sequence (AUTO.MISSION); a MAV_RESULT."""
+    items = cmd.plans.items[mi.MISSION]
+    seq = landing_sequence(items)
+    if not (cmd.armed and cmd.in_air):
+        return _deny(cmd, "Mission landing denied: vehicle not flying")
+    if seq is None:
+        return _deny(cmd, "Mission landing denied: the mission has no landing (DO_LAND_START, NAV_LAND)")
+    start, land = seq
+    task = cmd.task
+    if (
+        cmd.mode is Mode.AUTO_MISSION
+        and isinstance(task, MissionTask)
+        and task.follows_plan
+        and start <= task.current <= land
+    ):
+        cmd.say(S.MAV_SEVERITY_INFO, "Mission landing: already flying it")
+        return S.MAV_RESULT_ACCEPTED
+    cmd.plans.set_current(start)
+    if cmd.mode is Mode.AUTO_MISSION:
+        result = mission_control.start_mission(cmd)
+    else:
+        result = cmd._enter(Mode.AUTO_MISSION)
+    if result == S.MAV_RESULT_ACCEPTED:
+        cmd.say(S.MAV_SEVERITY_INFO, f"Mission landing: from item {start}, landing at item {land}")
+    return result
+
+
+def _deny(cmd: Commander, why: str) -> int:
+    cmd.say(S.MAV_SEVERITY_CRITICAL, why)
+    return S.MAV_RESULT_DENIED
+
+
+def return_task(cmd: Commander, est: VehicleEstimate) -> ReturnTask | MissionTask:
+    """The task of AUTO.RTL for RTL_TYPE (not started; the commander has a home)."""
+    assert cmd.home is not None
+    home, params = cmd.home, cmd.params
+    items = cmd.plans.items[mi.MISSION]
+    seq = landing_sequence(items)
+    rtl_type = int(params.get("RTL_TYPE"))
+    landing = None  # a NAV_LAND "here" (lat/lon 0/0) is no place to return to straight, but a mission's end
+    if seq is not None and (rtl_type == 2 or has_position(items[seq[1]])):
+        landing = item_position(items[seq[1]], est, home)
+    kind, point = choose_return(
+        rtl_type,
+        est.pos_ned_m,
+        home.pos_ned_m,
+        mission_control.rally_points_ned(cmd, est),
+        landing,
+        any(has_position(it) for it in items),
+    )
+    if kind is ReturnKind.DIRECT:
+        return ReturnTask(point, params)
+    assert seq is not None or kind is ReturnKind.MISSION_REVERSE
+    in_mission = cmd.mode is Mode.AUTO_MISSION and cmd.plans.state is MissionState.ACTIVE
+    if kind is ReturnKind.MISSION_LANDING:
+        assert seq is not None
+        return_down = home.pos_ned_m[2] - params.get("RTL_RETURN_ALT")
+        climb = est.origin_alt_amsl_m - return_down if est.pos_ned_m[2] > return_down else None
+        route = landing_items(items, seq, climb)
+        text = f"Return: through the mission landing (items {seq[0]}-{seq[1]})"
+    elif kind is ReturnKind.MISSION_FORWARD:
+        assert seq is not None
+        start = cmd.plans.current if in_mission and cmd.plans.current <= seq[1] else None
+        if start is None:
+            start = closest_item(items, est, home, seq[1])
+        start = seq[1] if start is None else start
+        route = forward_items(items, start, seq[1])
+        text = f"Return: along the mission from item {start} to its landing (item {seq[1]})"
+    else:
+        start = cmd.plans.current - 1 if in_mission else None
+        if start is None or start < 0:
+            start = closest_item(items, est, home, len(items) - 1)
+        start = 0 if start is None else start
+        route = reverse_items(items, start, home)
+        text = f"Return: the mission backwards from item {start}, then home"
+    cmd.say(S.MAV_SEVERITY_INFO, text)
+    task = MissionTask(route, 0, home, params, {}, on_ground=False)
+    task.follows_plan = False
+    return task
