@@ -68,9 +68,7 @@ def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: d
         camera=cell["camera"],
         pad=cell["pad"],
         radius_m=float(cell.get("ugv_radius_m", 2.0)),
-        # No video stream (nobody watches a campaign's landings; 9 % of a landing's time, the landing the same):
-        # a campaign file's [sim_params] SIM_VID_EN = 1 turns it on.
-        extra_sim_params={"SIM_VID_EN": 0, **(extra_sim_params or {})},
+        extra_sim_params=dict(extra_sim_params or {}),  # (no video unless they set SIM_VID_EN: LandingSetup.video)
     )
 
 

@@ -283,7 +283,7 @@ def _main(args: argparse.Namespace) -> int:
     if args.scenario == "ugv-landing":
         from .landing_run import LandingSetup  # MuJoCo's UGV model: imported only for this flight
 
-        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1, deterministic=False)  # flown as people do
+        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1, deterministic=False, video=True)  # as people
     stack = _make_stack(args, speed, landing)
     demo = None
     client = None

@@ -86,6 +86,7 @@ class LandingSetup:
     camera: str | None = None
     pad: str | None = None
     extra_sim_params: dict[str, float] = field(default_factory=dict)
+    video: bool = False  # the camera's RTP video (SIM_VID_EN): for a person watching (the demo), not for a campaign
     deterministic: bool = True  # start held and fly through holds: reproducible (see the module docstring)
 
     @property
@@ -104,6 +105,7 @@ class LandingSetup:
             "SIM_UGV_PATH": PATH_CODES[self.path],
             "SIM_UGV_RAD": self.radius_m,
             "SIM_UGV_SPD": 0.0,
+            "SIM_VID_EN": int(self.video),  # (9 % of a landing's time; the landing the same either way)
         }
         if self.deterministic:
             p["SIM_HOLD_MS"] = START_HOLD_MS
