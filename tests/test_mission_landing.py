@@ -207,12 +207,7 @@ def test_rtl_type_2_flies_the_rest_of_the_mission_to_its_landing():
         b.run(0.1)
     assert b.set_mode(Mode.AUTO_RTL) == ACCEPTED
     assert "Return: along the mission from item 2 to its landing (item 6)" in b.texts()
-    track = []
-    for _ in range(600):
-        b.run(0.2)
-        track.append(b.pos.copy())
-        if not b.cmd.armed:
-            break
+    track = _fly_until_disarmed(b)
     assert closest(track, 20, 20) < 2.0 and closest(track, 40, 20) < 2.0  # items 2 and 3 flown ...
     assert np.allclose(b.pos, [10, 10, 0], atol=0.3) and b.cmd.mode is Mode.AUTO_RTL  # ... then the landing
 
@@ -228,12 +223,7 @@ def test_rtl_type_2_without_a_landing_flies_the_mission_backwards_then_lands_at_
         b.run(0.1)
     assert b.set_mode(Mode.AUTO_RTL) == ACCEPTED
     assert "Return: the mission backwards from item 2, then home" in b.texts()
-    track = []
-    for _ in range(600):
-        b.run(0.2)
-        track.append(b.pos.copy())
-        if not b.cmd.armed:
-            break
+    track = _fly_until_disarmed(b)
     assert closest(track, 20, 0) < 1.0 and closest(track, 40, 20) > 15.0  # back through item 1, not on to 3
     assert np.allclose(b.pos, [0, 0, 0], atol=0.3) and not b.cmd.armed
 
@@ -266,3 +256,14 @@ def test_a_missions_precision_landing_stays_in_auto_mission_and_docks():
     assert "Disarmed (docked on the landing target)" in b.texts() and "Mission finished: landed" in b.texts()
     assert np.linalg.norm(b.pos[:2] - pad[:2]) < 0.05
     assert b.cmd.status.mission.state.name == "COMPLETE"
+
+
+def _fly_until_disarmed(b, most_s: float = 120.0) -> list:
+    """The positions every 0.2 simulated seconds until the vehicle disarms (at most ``most_s``)."""
+    track = []
+    for _ in range(round(most_s / 0.2)):
+        b.run(0.2)
+        track.append(b.pos.copy())
+        if not b.cmd.armed:
+            break
+    return track

@@ -31,28 +31,6 @@ from mavsim_core.mavlink_udp import UdpEndpoint
 CAMERA_COMPID = mavlink.MAV_COMP_ID_CAMERA  # 100
 CAMERA_TIMEOUT_US = 3_000_000  # a camera unheard this long (simulated time) is gone, as MAVSDK times components out
 READ_MAX = 64  # datagrams read from the payload link per update
-# The camera protocol's commands ([MAV] common.xml): what a client sends a camera
-CAMERA_COMMANDS = frozenset(
-    (
-        mavlink.MAV_CMD_IMAGE_START_CAPTURE,
-        mavlink.MAV_CMD_IMAGE_STOP_CAPTURE,
-        mavlink.MAV_CMD_VIDEO_START_CAPTURE,
-        mavlink.MAV_CMD_VIDEO_STOP_CAPTURE,
-        mavlink.MAV_CMD_VIDEO_START_STREAMING,
-        mavlink.MAV_CMD_VIDEO_STOP_STREAMING,
-        mavlink.MAV_CMD_SET_CAMERA_MODE,
-        mavlink.MAV_CMD_SET_CAMERA_ZOOM,
-        mavlink.MAV_CMD_SET_CAMERA_FOCUS,
-        mavlink.MAV_CMD_STORAGE_FORMAT,
-        mavlink.MAV_CMD_RESET_CAMERA_SETTINGS,
-        mavlink.MAV_CMD_REQUEST_CAMERA_INFORMATION,
-        mavlink.MAV_CMD_REQUEST_CAMERA_SETTINGS,
-        mavlink.MAV_CMD_REQUEST_STORAGE_INFORMATION,
-        mavlink.MAV_CMD_REQUEST_CAMERA_CAPTURE_STATUS,
-        mavlink.MAV_CMD_REQUEST_VIDEO_STREAM_INFORMATION,
-        mavlink.MAV_CMD_REQUEST_VIDEO_STREAM_STATUS,
-    )
-)
 CAMERA_REQUESTS = frozenset(  # requests for a camera's information (not actions)
     (
         mavlink.MAV_CMD_REQUEST_CAMERA_INFORMATION,
@@ -63,6 +41,20 @@ CAMERA_REQUESTS = frozenset(  # requests for a camera's information (not actions
         mavlink.MAV_CMD_REQUEST_VIDEO_STREAM_STATUS,
     )
 )
+# The camera protocol's commands ([MAV] common.xml): what a client sends a camera, the requests and the actions
+CAMERA_COMMANDS = CAMERA_REQUESTS | {
+    mavlink.MAV_CMD_IMAGE_START_CAPTURE,
+    mavlink.MAV_CMD_IMAGE_STOP_CAPTURE,
+    mavlink.MAV_CMD_VIDEO_START_CAPTURE,
+    mavlink.MAV_CMD_VIDEO_STOP_CAPTURE,
+    mavlink.MAV_CMD_VIDEO_START_STREAMING,
+    mavlink.MAV_CMD_VIDEO_STOP_STREAMING,
+    mavlink.MAV_CMD_SET_CAMERA_MODE,
+    mavlink.MAV_CMD_SET_CAMERA_ZOOM,
+    mavlink.MAV_CMD_SET_CAMERA_FOCUS,
+    mavlink.MAV_CMD_STORAGE_FORMAT,
+    mavlink.MAV_CMD_RESET_CAMERA_SETTINGS,
+}
 NO_CAMERA = "No camera on this vehicle"  # (a STATUSTEXT: one chunk)
 
 
