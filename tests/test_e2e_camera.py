@@ -49,6 +49,7 @@ GRPC_BASE = 50100  # mavsdk_server's gRPC port: this plus the instance, as tests
 WAIT_S = 60.0  # wall-clock safety net of each wait
 CAMERA = 100
 RECORD_S = 2.0  # simulated seconds of video recorded
+PHOTO_TRIES = 20  # the gRPC test's photos until its capture_info() stream shows one (see _grpc_example)
 HOVER_M = 3.0  # the RTP test's hover: the parked deck (UGV_EAST_M east) is in view from there
 UGV_EAST_M = 1.8
 STREAM_S = 2.0  # simulated seconds of stream received
@@ -111,6 +112,7 @@ async def _native(stack, truth, media: Path) -> dict:
                 captures.append(c)
 
         collector = asyncio.ensure_future(collect())
+        await asyncio.sleep(0)  # the collector runs to its first wait: subscribed (synchronously) before the photo
         await cam.take_photo(CAMERA)
 
         async def captured():
@@ -164,11 +166,27 @@ async def _grpc_example(stack, truth, inst: int) -> dict:
             out["uri"] = update.video_stream_info.settings.uri
             break
     await drone.camera.set_mode(component_id, mavsdk_grpc.camera.Mode.PHOTO)
-    captures = drone.camera.capture_info()
-    await drone.camera.take_photo(component_id)
-    async for capture in captures:
-        out["capture"] = capture
-        break
+    # The example reads capture_info() after take_photo(); a gRPC stream exists only once mavsdk_server has
+    # registered it, and a CAMERA_IMAGE_CAPTURED that came before is not replayed (on a loaded machine the
+    # subscription lost that race and the test waited for good: fresh clone, 2026-12-05).  So the stream is read
+    # from before the photo, and the photo taken again each simulated second until the stream has shown one.
+    captures: list = []
+
+    async def collect():
+        async for capture in drone.camera.capture_info():
+            captures.append(capture)
+
+    collector = asyncio.ensure_future(collect())
+    for _ in range(PHOTO_TRIES):
+        await drone.camera.take_photo(component_id)
+        end_ms = await asyncio.get_running_loop().run_in_executor(None, truth.caught_up) + 1000
+        while not captures and truth.latest().time_ms < end_ms:
+            await asyncio.sleep(0.02)
+        if captures:
+            break
+    collector.cancel()
+    assert captures, f"no capture_info() in {PHOTO_TRIES} photos"
+    out["capture"] = captures[0]
     await drone.camera.start_video(component_id)
     await sim_sleep(truth, 1.0)
     await drone.camera.stop_video(component_id)
