@@ -138,13 +138,15 @@ class CameraMedia:
             return self._recording_path
 
     def stop_recording(self) -> None:
-        """End the recording (its result comes from :meth:`pop_results`)."""
+        """End the recording (its result comes from :meth:`pop_results`).  The file is closed under the lock the
+        worker holds while it adds a frame: closing FFmpeg's encoder in the middle of an ``add`` on the other
+        thread crashed the simulator (SIGSEGV, a fresh clone's test run, 2026-12-05)."""
         with self._lock:
             path, self._recording_path = self._recording_path, None
             self.recording_started_us = None
             recorder, self._recorder = self._recorder, None
-        if path is not None:
-            self._report(self._close_recorder(path, recorder))
+            if path is not None:
+                self._report(self._close_recorder(path, recorder))
 
     def pop_results(self) -> list[PhotoResult | RecordingResult]:
         with self._lock:
@@ -183,22 +185,21 @@ class CameraMedia:
             self.stream.send(rgb if self.annotate is None else self.annotate(rgb, detection), time_us)
         with self._lock:
             photo = self._due_photo(time_us)
+        if photo is not None:
+            self._report(self._save_photo(rgb, photo, time_us, pose))
+        with self._lock:  # (the recorder is opened, fed and closed under the lock: see stop_recording)
             path = self._recording_path
             if path is not None and self._recorder is None:
                 self._recorder = self._open_recorder(path)
             recorder = self._recorder
-        if photo is not None:
-            self._report(self._save_photo(rgb, photo, time_us, pose))
-        if recorder is not None and path is not None:
-            from sitl.video_stream import VideoWriteError
+            if recorder is not None and path is not None:
+                from sitl.video_stream import VideoWriteError
 
-            try:
-                recorder.add(rgb, time_us)
-            except VideoWriteError as exc:  # (a full disk): reported now, the recording ends
-                with self._lock:
-                    if self._recorder is recorder:
-                        self._recorder = self._recording_path = self.recording_started_us = None
-                self._report(RecordingResult(path, 0, 0.0, f"recording failed: {exc}"))
+                try:
+                    recorder.add(rgb, time_us)
+                except VideoWriteError as exc:  # (a full disk): reported now, the recording ends
+                    self._recorder = self._recording_path = self.recording_started_us = None
+                    self._report(RecordingResult(path, 0, 0.0, f"recording failed: {exc}"))
 
     def _report(self, result: PhotoResult | RecordingResult) -> None:
         with self._lock:
