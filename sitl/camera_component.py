@@ -77,9 +77,6 @@ class CameraComponent:
         self._next_status_us = 0
         self._last_sequence: tuple = ()  # (sender, IMAGE_START_CAPTURE param4) of the last single capture
         self._resent, self._sender = False, (0, 0)  # the command being handled: resent? from whom?
-        # A message sent after the answer: VIDEO_STREAM_INFORMATION follows CAMERA_INFORMATION, as a client that
-        # finds the camera wants it next (MAVSDK asks for it only every 20 s of its own; QGroundControl asks at once)
-        self._then: mavlink.MAVLink_message | None = None
         self._captured: dict[int, mavlink.MAVLink_camera_image_captured_message] = {}  # index -> its message
         self._handlers: dict[int, Callable[[tuple], int]] = {
             mavlink.MAV_CMD_REQUEST_MESSAGE: self._request_message,
@@ -139,11 +136,8 @@ class CameraComponent:
                 result, after = result
         src = (msg.get_srcSystem(), msg.get_srcComponent())
         self.mav.send(mavlink.MAVLink_command_ack_message(msg.command, result, 0, 0, *src))
-        if after is not None:
-            self.mav.send(after)
-        if self._then is not None:
-            self.mav.send(self._then)
-            self._then = None
+        for m in after if isinstance(after, list) else [after] if after is not None else []:
+            self.mav.send(m)
 
     def _statustext(self, severity: int, text: str) -> None:
         self.mav.statustext_send(severity, text[:50].encode())
@@ -176,8 +170,10 @@ class CameraComponent:
         build = self._messages().by_id().get(msg_id)
         if build is None:
             return mavlink.MAV_RESULT_UNSUPPORTED
-        if msg_id == mavlink.MAVLINK_MSG_ID_CAMERA_INFORMATION:  # (after it, the stream's, unasked: see below)
-            self._then = self._messages().stream_information()
+        if msg_id == mavlink.MAVLINK_MSG_ID_CAMERA_INFORMATION:
+            # the stream's next, unasked, as a client that finds the camera wants it next (MAVSDK asks for it only
+            # every 20 s of its own; QGroundControl asks at once)
+            return mavlink.MAV_RESULT_ACCEPTED, [build(), self._messages().stream_information()]
         return mavlink.MAV_RESULT_ACCEPTED, build()
 
     def _old_request(self, msg_id: int) -> Callable[[tuple], object]:

@@ -173,12 +173,7 @@ def test_rtl_type_1_climbs_then_flies_the_mission_landing_in_auto_rtl():
     b = airborne_with(SURVEY, {"RTL_TYPE": 1, "RTL_RETURN_ALT": 8.0})
     assert b.set_mode(Mode.AUTO_RTL) == ACCEPTED
     assert "Return: through the mission landing (items 4-6)" in b.texts()
-    track = []
-    for _ in range(600):
-        b.run(0.2)
-        track.append(b.pos.copy())
-        if not b.cmd.armed:
-            break
+    track = _fly_until_disarmed(b)
     assert b.cmd.mode is Mode.AUTO_RTL and np.allclose(b.pos, [10, 10, 0], atol=0.3) and not b.cmd.armed
     assert min(p[2] for p in track) == pytest.approx(-8.0, abs=0.3)  # climbed to RTL_RETURN_ALT first ...
     climb_end = next(k for k, p in enumerate(track) if p[2] < -7.9)
@@ -196,16 +191,22 @@ def test_rtl_type_1_without_a_mission_landing_goes_home_and_type_0_ignores_the_l
         assert np.allclose(b.pos, [0, 0, 0], atol=0.3) and not b.cmd.armed, rtl_type
 
 
-def test_rtl_type_2_flies_the_rest_of_the_mission_to_its_landing():
+def _rtl_type_2_after(mission: list, reached: int):
+    """A bench flying ``mission`` with RTL_TYPE 2, switched to AUTO.RTL once item ``reached`` is reached."""
     b = Bench()
     b.params.set("RTL_TYPE", 2)
     b.run(1.0)
-    b.cmd.plans.replace(mi.MISSION, SURVEY, False)
+    b.cmd.plans.replace(mi.MISSION, mission, False)
     b.cmd.arm()
     b.set_mode(Mode.AUTO_MISSION)
-    while "Mission: item 1 reached" not in b.texts():
+    while f"Mission: item {reached} reached" not in b.texts():
         b.run(0.1)
     assert b.set_mode(Mode.AUTO_RTL) == ACCEPTED
+    return b
+
+
+def test_rtl_type_2_flies_the_rest_of_the_mission_to_its_landing():
+    b = _rtl_type_2_after(SURVEY, 1)
     assert "Return: along the mission from item 2 to its landing (item 6)" in b.texts()
     track = _fly_until_disarmed(b)
     assert closest(track, 20, 20) < 2.0 and closest(track, 40, 20) < 2.0  # items 2 and 3 flown ...
@@ -213,15 +214,7 @@ def test_rtl_type_2_flies_the_rest_of_the_mission_to_its_landing():
 
 
 def test_rtl_type_2_without_a_landing_flies_the_mission_backwards_then_lands_at_home():
-    b = Bench()
-    b.params.set("RTL_TYPE", 2)
-    b.run(1.0)
-    b.cmd.plans.replace(mi.MISSION, SURVEY[:4], False)
-    b.cmd.arm()
-    b.set_mode(Mode.AUTO_MISSION)
-    while "Mission: item 2 reached" not in b.texts():
-        b.run(0.1)
-    assert b.set_mode(Mode.AUTO_RTL) == ACCEPTED
+    b = _rtl_type_2_after(SURVEY[:4], 2)
     assert "Return: the mission backwards from item 2, then home" in b.texts()
     track = _fly_until_disarmed(b)
     assert closest(track, 20, 0) < 1.0 and closest(track, 40, 20) > 15.0  # back through item 1, not on to 3

@@ -80,7 +80,6 @@ class PayloadLink:
         self._now_us = 0
         self.cameras: dict[int, int] = {}  # component id -> simulated time (µs) its HEARTBEAT was last heard
         self.forwarded_up = self.forwarded_down = self.rx_damaged = 0
-        self._command_number = 0  # the camera command being refused here
 
     # -- the LinkService protocol
     def handlers(self) -> dict[str, Handler]:
@@ -89,11 +88,7 @@ class PayloadLink:
     def commands(self) -> dict[int, ServiceCommand]:
         """Camera commands addressed to the flight controller, or to all components while no camera is present
         (:meth:`route` keeps those for the camera otherwise): refused (:meth:`_no_camera`)."""
-        return {cmd: (lambda ep, p, f, cmd=cmd: self._refused_here(cmd, ep, p, f)) for cmd in CAMERA_COMMANDS}
-
-    def _refused_here(self, command: int, ep: LinkEndpoint, params: tuple, frame: int) -> int:
-        self._command_number = command
-        return self._no_camera(ep, params, frame)
+        return {cmd: (lambda ep, p, f, cmd=cmd: self._no_camera(cmd)) for cmd in CAMERA_COMMANDS}
 
     def update(self, now_us: int) -> None:
         """What the payload link sent since the last call, forwarded to the ground stations."""
@@ -132,25 +127,28 @@ class PayloadLink:
             return False
         if target_comp == 0:  # a broadcast: ours too, but a camera command is the camera's when there is one
             return camera and _command(msg) in CAMERA_COMMANDS
-        if target_comp == CAMERA_COMPID and not camera and (command := _command(msg)) is not None:
-            self._refuse(ep, msg, quiet=command in CAMERA_REQUESTS or command == mavlink.MAV_CMD_REQUEST_MESSAGE)
+        if target_comp == CAMERA_COMPID and not camera and _command(msg) is not None:
+            self._refuse(ep, msg)
         return True
 
-    def _refuse(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, quiet: bool) -> None:
+    def _refuse(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         """A command for a camera that is not there: MAV_RESULT_UNSUPPORTED (from the flight controller, which
-        routes for it) and, unless ``quiet`` (a request for information), the reason."""
+        routes for it) and, unless it asked for information, the reason."""
         src = msg.get_srcSystem(), msg.get_srcComponent()
         ep.send(mavlink.MAVLink_command_ack_message(msg.command, mavlink.MAV_RESULT_UNSUPPORTED, 0, 0, *src))
-        if not quiet:
-            self._statustext(mavlink.MAV_SEVERITY_WARNING, NO_CAMERA)
+        self._say_why(msg.command)
 
-    def _no_camera(self, ep: LinkEndpoint, params: tuple, frame: int) -> int:
+    def _no_camera(self, command: int) -> int:
         """A camera command the flight controller runs itself (to it, or to all with no camera present): it has
         no camera of its own (PX4 answers so too).  An action (a capture, a video) says why; a request for a
         camera's information is how clients look for cameras, so it is refused quietly."""
-        if self._command_number not in CAMERA_REQUESTS:
-            self._statustext(mavlink.MAV_SEVERITY_WARNING, NO_CAMERA)
+        self._say_why(command)
         return mavlink.MAV_RESULT_UNSUPPORTED
+
+    def _say_why(self, command: int) -> None:
+        """The STATUSTEXT of a refused camera command, unless it only asked for information."""
+        if command not in CAMERA_REQUESTS and command != mavlink.MAV_CMD_REQUEST_MESSAGE:
+            self._statustext(mavlink.MAV_SEVERITY_WARNING, NO_CAMERA)
 
     def close(self) -> None:
         self.ep.close()
