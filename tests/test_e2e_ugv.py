@@ -48,7 +48,7 @@ def _ugv(inst: int, seconds_of_sim: float = 0.0):
 
 
 def test_ugv_is_driven_by_keys_set_by_parameters_and_refuses_a_restart_parameter(inst):
-    args = ["--param", "SIM_UGV_EN=1", "--param", "SIM_UGV_X=3", "--param", "SIM_UGV_PATH=0"]
+    args = ["--param", "SIM_UGV_EN=1", "--param", "SIM_UGV_X=3", "--param", "SIM_UGV_PATH=0", "--param", "SIM_VID_EN=0"]
     with Stack(instance=inst, speed=CLIENT_SPEED, extra_sitl_args=args, flight_logs=False):
         parked, _ = _ugv(inst)
         assert parked.pos_ned_m[0] == pytest.approx(3.0, abs=0.05) and abs(parked.pos_ned_m[1]) < 0.05

@@ -27,7 +27,8 @@ from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
 
 WAIT_S = 90.0
 SIZE, FPS = (160, 96), 10.0
-UGV_AHEAD = ["--param", "SIM_UGV_EN=1", "--param", "SIM_UGV_X=1.2", "--param", "SIM_UGV_SPD=0"]
+# the parked ground vehicle ahead; no video stream (nobody watches it here)
+UGV_AHEAD = [a for p in ("SIM_UGV_EN=1", "SIM_UGV_X=1.2", "SIM_UGV_SPD=0", "SIM_VID_EN=0") for a in ("--param", p)]
 
 
 def _decode(path: Path) -> tuple[list[np.ndarray], float, str, str]:
