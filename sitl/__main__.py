@@ -6,6 +6,7 @@ import argparse
 import math
 import signal
 import sys
+import time
 from copy import deepcopy
 from pathlib import Path
 
@@ -250,6 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         return startup_failed("sitl", exc, args.instance)
     if isinstance(server, int):
         return server
+    wall0, cpu0 = time.monotonic(), time.process_time()
     try:
         server.run(args.duration)
     except KeyboardInterrupt:
@@ -259,7 +261,16 @@ def main(argv: list[str] | None = None) -> int:
         for vehicle in getattr(server, "servers", [server]):  # a WorldLockstep: each vehicle's server
             if vehicle.truth_log is not None:
                 vehicle.truth_log.close()
+        _print_totals(getattr(server, "servers", [server])[0].sim.time_us / 1e6, wall0, cpu0)
     return 0
+
+
+def _print_totals(sim_s: float, wall0: float, cpu0: float) -> None:
+    """The run's last log line: simulated seconds, wall seconds and this process's CPU seconds (what a suite
+    or a campaign spends where: docs/testing.md, "Time")."""
+    wall_s, cpu_s = time.monotonic() - wall0, time.process_time() - cpu0
+    rtf = f"{sim_s / wall_s:.1f}x" if wall_s > 0 else "-"
+    print(f"[sitl] simulated {sim_s:.1f} s in {wall_s:.1f} wall s ({rtf}), {cpu_s:.1f} CPU s", flush=True)
 
 
 def _start(args: argparse.Namespace):
