@@ -1,8 +1,8 @@
-"""The shape the code keeps: small modules with one job, short functions.
+"""The shape the code keeps: short functions.
 
-No Python file of the project (source, tests, benchmarks) is over 400 lines, and no function
-is over 80 lines, so each module can be read in one sitting and each step of the lockstep
-path on one screen.  Reads the files; runs nothing.
+No function of the project (source, tests, benchmarks) is over 80 lines, so each step of the lockstep path
+reads on one screen.  Modules are cut by meaning, not by size: their sizes are a guide that CI prints
+(``.ci/module_sizes.py``), not a test.  Reads the files; runs nothing.
 """
 
 from __future__ import annotations
@@ -11,8 +11,7 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("mavsim_core", "autopilot", "sitl", "gcs", "params", "tests", "benchmarks")
-MAX_FILE_LINES = 400
+PACKAGES = ("mavsim_core", "autopilot", "sitl", "gcs", "params", "vision", "tests", "benchmarks")
 MAX_FUNCTION_LINES = 80
 
 
@@ -22,13 +21,6 @@ def python_files() -> list[Path]:
 
 def test_there_are_files_to_check():
     assert len(python_files()) > 100
-
-
-def test_no_file_over_400_lines():
-    long = {
-        str(p.relative_to(ROOT)): n for p in python_files() if (n := len(p.read_text().splitlines())) > MAX_FILE_LINES
-    }
-    assert long == {}
 
 
 def test_no_function_over_80_lines():
