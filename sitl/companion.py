@@ -43,7 +43,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from params.vehicle import CameraSpec
-from sitl.camera import DownwardCamera, open_camera
+from sitl.camera import RENDER_FAST, DownwardCamera, open_camera
 from sitl.camera_media import CameraMedia, CameraPose, camera_pose
 from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
@@ -233,7 +233,7 @@ class LockstepCompanion:
         rpy = None if joints is None else (joints[1], joints[2], joints[0])  # (yaw, roll, pitch) -> roll, pitch, yaw
         saved = self.save_dir is not None and (camera.frames + 1) % self.save_every == 1
         media = self.media if self.media is not None and self.media.wants(time_us) else None
-        if view is not None and not saved and view.out_of_view(data):  # it could not show the marker
+        if view is not None and not saved and not self._could_show(view, data):  # it could not show the marker
             if media is None:
                 camera.skip(noise)
             else:  # (rendered for the video alone: the same noise draws as a skip, so the same frames after it)
@@ -264,6 +264,15 @@ class LockstepCompanion:
         packed = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) % 256
         return packed, CameraFrame(time_us, rpy, rendered=True, marker_ids=tuple(int(i) for i in det.marker_ids))
+
+    def _could_show(self, view: MarkerView, data: mujoco.MjData) -> bool:
+        """Whether the frame rendered from ``data`` could show a marker the detector finds: some marker in view;
+        with the fast camera (``SIM_CAM_RENDER`` 1) also one whole and large enough to decode (issue 38: the frames
+        it skips more are a quarter of a landing's renders, none with a marker found; ``SIM_CAM_RENDER`` 0 renders
+        them all, as before)."""
+        if view.out_of_view(data):
+            return False
+        return int(self.settings.render) != RENDER_FAST or view.detectable(data)
 
     def _pose(self, data: mujoco.MjData) -> CameraPose:
         """The camera's pose in the state copy a frame is rendered from (a photo's geotag and attitude)."""

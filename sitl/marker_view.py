@@ -22,9 +22,15 @@ import numpy as np
 
 from sitl.ugv import UgvGeometry
 from vision.camera_model import CameraModel
+from vision.marker import marker_corners_3d
 from vision.pad import PadLayout
 
 MARGIN_PX = 8.0  # the sphere's image must miss the frame by more than this to count as out of view
+# :meth:`MarkerView.detectable`: ArUco keeps a marker only with all four corners at least 3 px inside the image
+# (minDistanceToBorder) and a perimeter of at least 0.03 of the image's larger side (minMarkerPerimeterRate).
+# The test asks less, by these margins, so that it never skips a frame the detector could find a marker in.
+CORNER_SLACK_PX = 2.0  # a corner may lie this far outside the image and the marker still count as findable
+PERIMETER_RATE = 0.5 * 0.03  # half OpenCV's default minimum perimeter, as a fraction of the larger side
 
 
 def deck_centre_enu(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -47,6 +53,12 @@ class MarkerView:
         # each marker's centre on the deck (the UGV's body frame, FLU m) and its bounding sphere's radius (m)
         self._centres_flu_m = [np.array((m.x_m, m.y_m, 0.0)) for m in pad.markers]
         self._radii_m = [m.size_m / math.sqrt(2.0) for m in pad.markers]
+        # each marker's four corners on the deck (FLU m, around the square: the same polygon whichever way the
+        # marker's own axes turn), (n, 4, 3)
+        self._corners_flu_m = np.array(
+            [marker_corners_3d(m.size_m) + c for m, c in zip(pad.markers, self._centres_flu_m)]
+        )
+        self._min_perimeter_px = PERIMETER_RATE * max(camera.width_px, camera.height_px)
 
     def out_of_view(self, data: mujoco.MjData) -> bool:
         """True if no part of any marker can be in the frame rendered from ``data``."""
@@ -58,6 +70,30 @@ class MarkerView:
             self._sphere_out_of_view(rot.T @ (deck + ugv_rot @ c - eye), r)
             for c, r in zip(self._centres_flu_m, self._radii_m)
         )
+
+    def detectable(self, data: mujoco.MjData) -> bool:
+        """False if the detector cannot find any marker in the frame rendered from ``data``: no marker has all
+        four corners inside the image (within CORNER_SLACK_PX) and a perimeter of at least PERIMETER_RATE of the
+        image's larger side; each marker's corners projected exactly as the renderer draws them (pinhole).  Stricter
+        than :meth:`out_of_view` (which asks whether any part of a marker can be in the frame): a marker cut by the
+        frame's edge, or too small to decode from afar, is in view but cannot be found."""
+        deck = deck_centre_enu(self.model, data)
+        ugv_rot = data.xmat[self._ugv].reshape(3, 3)
+        rot = data.cam_xmat[self.camera_id].reshape(3, 3)
+        cam = (deck + self._corners_flu_m @ ugv_rot.T - data.cam_xpos[self.camera_id]) @ rot  # (n, 4, 3) camera
+        k, slack = self.cam, CORNER_SLACK_PX
+        for corners in cam:
+            depth = -corners[:, 2]
+            if np.any(depth <= 1e-3):
+                continue
+            u, v = k.cx + k.fx * corners[:, 0] / depth, k.cy - k.fy * corners[:, 1] / depth
+            if u.min() < -slack or v.min() < -slack or u.max() > k.width_px - 1 + slack:
+                continue
+            if v.max() > k.height_px - 1 + slack:
+                continue
+            if float(np.hypot(u - np.roll(u, 1), v - np.roll(v, 1)).sum()) >= self._min_perimeter_px:
+                return True
+        return False
 
     def _sphere_out_of_view(self, centre_cam_m: np.ndarray, r: float) -> bool:
         """A sphere of radius ``r`` (m) at ``centre_cam_m`` (MuJoCo's camera frame, m) wholly outside the image."""

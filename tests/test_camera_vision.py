@@ -157,6 +157,27 @@ def test_a_frame_the_view_test_skips_is_one_without_the_marker(world):
     assert not view.out_of_view(sim.data)
 
 
+def test_a_frame_the_stricter_view_test_skips_is_one_without_a_marker_found(world):
+    """sitl.marker_view's ``detectable`` (the fast camera skips what it rejects): a frame in view but with no marker
+    whole and large enough is one in which the detector finds nothing; and it does reject some frames in view (the
+    pad cut by the frame's edge, or small from afar), and keeps those the pad is found in."""
+    sim, cam, det = world
+    view = MarkerView(sim.model, "downward", det.camera, det.layout)
+    rng = np.random.default_rng(11)
+    rejected = found = 0
+    for _ in range(90):
+        north, east = 3.0 + rng.uniform(-2.5, 2.5), 1.0 + rng.uniform(-2.5, 2.5)
+        _place(sim, north, east, rng.uniform(0.5, 7.0), rng.uniform(0, 360), rng.uniform(-25, 25))
+        if view.out_of_view(sim.data):
+            continue
+        seen = det.detect(cam.capture(sim.data, noise_grey=2.0)) is not None
+        if not view.detectable(sim.data):
+            rejected += 1
+            assert not seen, (north, east)
+        found += seen
+    assert rejected >= 10 and found >= 10, (rejected, found)
+
+
 def test_a_skipped_frame_leaves_the_next_frames_as_they_were(world):
     sim, _, _ = world
     _place(sim, 2.8, 0.9, 2.5, 0)
