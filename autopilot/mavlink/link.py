@@ -36,13 +36,13 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.mavlink import commands
 from autopilot.mavlink.autotune_command import autotune_progress
 from autopilot.mavlink.command_retries import RetransmittedCommands
-from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, EndpointCommands, LinkEndpoint
-from autopilot.mavlink.identity import Identity, autopilot_version, instance_identity
+from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, LinkEndpoint
+from autopilot.mavlink.identity import Identity, instance_identity
 from autopilot.mavlink.link_service import Handler, LinkService, ServiceCommand
-from autopilot.mavlink.message_requests import MessageRequests
+from autopilot.mavlink.message_requests import EndpointCommands, MessageRequests, OneShotMessages
 from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
-from autopilot.mavlink.rx_drain import RxDrain
+from autopilot.mavlink.rx_drain import RxCounters, RxDrain
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION
 from autopilot.mavlink.telemetry_more import DEFAULT_STREAM_RATES_HZ, link_builders
 from autopilot.mavlink.telemetry_streams import TelemetryStreams
@@ -122,9 +122,10 @@ class GcsLink:
         except OSError:
             self.close()
             raise
-        self.rx_errors = self.rx_messages = 0  # damaged input and failed handlers; good messages handled
-        self.rx_dropped = self.rx_foreign = 0  # dropped unparsed: no time left in a call; for other systems
-        self._rx = RxDrain(sysid, self._endpoints, self._handle_datagram, self)
+        self.rx_messages = 0  # good messages handled
+        # damaged input and failed handlers; dropped unparsed: no time left in a call, for other systems
+        self._rx_counts = RxCounters()
+        self._rx = RxDrain(sysid, self._endpoints, self._handle_datagram, self._rx_counts)
         self._now_us = 0
         self._streams = TelemetryStreams(vehicle, self._endpoints, builders)
         self._statustext = StatustextChunker()
@@ -136,12 +137,13 @@ class GcsLink:
         self._services: list[LinkService] = []
         self._service_commands: dict[int, ServiceCommand] = {}
         self._retransmitted = RetransmittedCommands()  # COMMAND_LONG resent with confirmation > 0 (command_retries)
+        self._messages = OneShotMessages(self._params, self._streams, self.identity, lambda: self._now_us)
         # Messages a service sends on MAV_CMD_REQUEST_MESSAGE (message id -> send(endpoint) -> MAV_RESULT),
         # before the streamed ones: e.g. COMPONENT_METADATA (autopilot/mavlink/component_metadata.py).
-        self.requestable: dict[int, Callable[[LinkEndpoint], int]] = {}
+        self.requestable: dict[int, Callable[[LinkEndpoint], int]] = self._messages.requestable
         self.command_source: tuple[int, int] = (0, 0)  # (sysid, compid) of the command being run, for services
         self.router: Callable[[LinkEndpoint, mavlink.MAVLink_message], bool] | None = None  # (payload_link.py)
-        self.add_service(MessageRequests(self))  # GET_MESSAGE_INTERVAL and the old one-message requests
+        self.add_service(MessageRequests(self._messages))  # GET_MESSAGE_INTERVAL and the old one-message requests
 
     def _message_handlers(self) -> dict[str, Handler]:
         """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
@@ -203,6 +205,29 @@ class GcsLink:
     @property
     def tx_errors(self) -> int:
         return sum(ep.tx_errors for ep in self._endpoints)
+
+    @property
+    def rx_errors(self) -> int:
+        """Damaged datagrams and failed handlers."""
+        return self._rx_counts.rx_errors
+
+    @rx_errors.setter
+    def rx_errors(self, value: int) -> None:
+        self._rx_counts.rx_errors = value
+
+    @property
+    def rx_dropped(self) -> int:
+        """Datagrams for us dropped unparsed: no time left in a call (or a full backlog)."""
+        return self._rx_counts.rx_dropped
+
+    @rx_dropped.setter
+    def rx_dropped(self, value: int) -> None:
+        self._rx_counts.rx_dropped = value
+
+    @property
+    def rx_foreign(self) -> int:
+        """Datagrams addressed to other systems only, dropped unparsed."""
+        return self._rx_counts.rx_foreign
 
     def set_traffic_tap(self, tap: Callable[[int, str, bool, bytes], None] | None) -> None:
         """Hand every packet the link sends or receives to ``tap(now_us, endpoint, sent, packet)`` (a .tlog).
@@ -301,7 +326,7 @@ class GcsLink:
 
     def _handle_datagram(self, ep: LinkEndpoint, data: bytes, addr: tuple[str, int]) -> None:
         msgs, damaged = ep.incoming(data, addr)
-        self.rx_errors += damaged
+        self._rx_counts.rx_errors += damaged
         for msg in msgs:
             mtype = msg.get_type()
             if self._tap is not None and mtype != "SETUP_SIGNING":  # (a signing key stays out of the logs)
@@ -313,7 +338,7 @@ class GcsLink:
             try:
                 handler(ep, msg)
             except Exception:
-                self.rx_errors += 1
+                self._rx_counts.rx_errors += 1
                 log.exception("gcs_link %s: error handling %s from %s", ep.name, mtype, addr)
 
     def _for_us(self, handler: Handler) -> Handler:
@@ -340,7 +365,8 @@ class GcsLink:
             if service is not None:
                 result = int(service(ep, params, frame))
             else:
-                result = commands.run(command, params, frame, EndpointCommands(self, ep), self.vehicle)
+                link_commands = EndpointCommands(self._messages, ep, self._now_us, self.send_statustext)
+                result = commands.run(command, params, frame, link_commands, self.vehicle)
         except Exception:
             log.exception("gcs_link: command %d failed", command)
             result = mavlink.MAV_RESULT_FAILED
@@ -392,6 +418,3 @@ class GcsLink:
     def _broadcast(self, msg: mavlink.MAVLink_message) -> None:
         for ep in self._endpoints:
             ep.send(msg)
-
-    def _autopilot_version(self) -> mavlink.MAVLink_message:
-        return autopilot_version(self.identity)
