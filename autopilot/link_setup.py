@@ -33,10 +33,12 @@ def add_link_services(
     log_dir = None if args.no_log or recorder is None else Path(args.log_dir)
     link.add_service(LogService(log_dir, args.instance, lambda: recorder.writing if recorder is not None else None))
 
-    from autopilot.mavlink.file_services import add_file_services
+    from autopilot.mavlink.file_services import file_services
 
     # MAVLink FTP, read-only (/log: the same directory; /component_metadata) and COMPONENT_METADATA.
-    add_file_services(link, fc.params, log_dir, fc.spec.name)
+    files = file_services(fc.params, log_dir, fc.spec.name, lambda: link.now_us)
+    link.add_service(files.ftp)
+    link.requestable.update(files.requestable)
 
     from autopilot.mavlink.follow_target_input import FollowTargetInput
 

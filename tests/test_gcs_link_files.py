@@ -21,7 +21,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from autopilot.mavlink import component_metadata as cm  # noqa: E402
-from autopilot.mavlink.file_services import add_file_services  # noqa: E402
+from autopilot.mavlink.file_services import file_services  # noqa: E402
 from autopilot.mavlink.ftp_service import MAX_SESSIONS, SESSION_IDLE_US  # noqa: E402
 from mavsim_core.mavftp import MAX_DATA, Err, FtpPayload, Op, decode, encode  # noqa: E402
 
@@ -50,8 +50,10 @@ def files(make_harness, tmp_path, inst):
     (tmp_path / "secret.txt").write_text("outside the tree")
     (log_dir / "link.txt").symlink_to(tmp_path / "secret.txt")
     h = make_harness(inst)
-    svc = add_file_services(h.link, h.vehicle.params, log_dir, "test_quad")
-    return h, h.connect("gcs"), svc, log_dir
+    served = file_services(h.vehicle.params, log_dir, "test_quad", lambda: h.link.now_us)
+    h.link.add_service(served.ftp)
+    h.link.requestable.update(served.requestable)
+    return h, h.connect("gcs"), served.ftp, log_dir
 
 
 def request(h, client, op: Op, path: str = "", *, seq: int = 7, session: int = 0, offset: int = 0, size=None,

@@ -2,8 +2,11 @@
 
 * :mod:`~autopilot.mavlink.link`: :class:`~autopilot.mavlink.link.GcsLink`, the two UDP
   endpoints to ground stations and APIs (PX4 SITL ports), peers, heartbeats, stream
-  scheduling, message intervals, the traffic tap;
+  scheduling, the traffic tap; it composes the modules below and is imported by none of
+  them (an import contract in pyproject.toml: no cycle inside this package);
 * :mod:`~autopilot.mavlink.endpoint`: one UDP endpoint with its send batching and streams;
+* :mod:`~autopilot.mavlink.command_dispatch`: one command in, one COMMAND_ACK out;
+* :mod:`~autopilot.mavlink.message_requests`: message intervals and messages sent once on request;
 * :mod:`~autopilot.mavlink.telemetry`: telemetry messages as pure functions of the
   vehicle's state (:class:`autopilot.topics.TelemetrySnapshot`) and time;
 * :mod:`~autopilot.mavlink.commands`: the one table from MAV_CMD to handler;

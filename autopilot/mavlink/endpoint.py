@@ -18,16 +18,13 @@ from __future__ import annotations
 import math
 import socket
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core.mavlink_signing import SigningParser, SigningState
 from mavsim_core.mavlink_udp import UdpEndpoint
 from mavsim_core.sim_api_codec import MessageLayout, numeric_layout
-
-if TYPE_CHECKING:
-    from autopilot.mavlink.link import GcsLink
 
 MAX_DATAGRAM_BYTES = 1400  # packets of one update() share datagrams up to this size (under an Ethernet MTU)
 RX_SOCKET_BUFFER_BYTES = 1 << 20  # asked for (Linux: doubled, capped at 2 x net.core.rmem_max)
@@ -189,40 +186,3 @@ class LinkEndpoint(UdpEndpoint):
         while len(out) < most and (got := self.recv()) is not None:
             out.append(got)
         return out
-
-
-class EndpointCommands:
-    """The link's own commands (:class:`commands.LinkCommands`) on the endpoint a command came in on."""
-
-    def __init__(self, link: "GcsLink", ep: LinkEndpoint) -> None:
-        self.link, self.ep = link, ep
-
-    def set_message_interval(self, msg_id: int, interval_us: int) -> int:
-        return self.ep.set_interval(msg_id, interval_us, self.link._now_us)
-
-    def request_message(self, msg_id: int, param2: float) -> int:
-        """MAV_CMD_REQUEST_MESSAGE: send the message once on this endpoint (``param2``: PARAM_VALUE's index,
-        MESSAGE_INTERVAL's message id); any message the link streams (telemetry_more.link_builders)."""
-        link, ep = self.link, self.ep
-        if msg_id == mavlink.MAVLINK_MSG_ID_PARAM_VALUE:
-            return link._params.request_message(ep, param2)
-        if msg_id == mavlink.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
-            return ep.report_interval(param2)
-        if msg_id in link.requestable:  # a service's message (GcsLink.requestable)
-            return link.requestable[msg_id](ep)
-        builder = link._streams.builders.get(msg_id)
-        if builder is None:
-            return mavlink.MAV_RESULT_UNSUPPORTED
-        msg = builder(link._streams.snapshot(), link._now_us)
-        if msg is None:  # e.g. HOME_POSITION before home is set
-            return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
-        ep.send(msg)
-        return mavlink.MAV_RESULT_ACCEPTED
-
-    def send_autopilot_version(self) -> int:
-        self.ep.send(self.link._autopilot_version())
-        return mavlink.MAV_RESULT_ACCEPTED
-
-    def say(self, severity: int, text: str) -> None:
-        """A STATUSTEXT on this endpoint (why a command of the link's was refused)."""
-        self.link.send_statustext(severity, text, self.ep.name)

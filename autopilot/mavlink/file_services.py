@@ -1,4 +1,4 @@
-"""MAVLink FTP and component metadata on the link (docs/ftp_and_metadata.md): wired once at start-up.
+"""MAVLink FTP and component metadata (docs/ftp_and_metadata.md): built once at start-up, served by the link.
 
 The FTP tree (:class:`autopilot.mavlink.ftp_files.FileTree`), read-only:
 
@@ -6,15 +6,17 @@ The FTP tree (:class:`autopilot.mavlink.ftp_files.FileTree`), read-only:
 * ``/component_metadata``: ``general.json`` and ``parameters.json``
   (:mod:`autopilot.mavlink.component_metadata`).
 
-COMPONENT_METADATA and COMPONENT_INFORMATION are answered to MAV_CMD_REQUEST_MESSAGE through the
-link's ``requestable`` table.
+COMPONENT_METADATA and COMPONENT_INFORMATION are answered to MAV_CMD_REQUEST_MESSAGE: the process adds
+:attr:`FileServices.ftp` to the link's services and :attr:`FileServices.requestable` to its ``requestable``
+table (``autopilot/link_setup.py``).
 """
 
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -26,31 +28,36 @@ from autopilot.parameters import ParameterStore
 
 if TYPE_CHECKING:
     from autopilot.mavlink.endpoint import LinkEndpoint
-    from autopilot.mavlink.link import GcsLink
 
 VENDOR = "mavsim"
 LOG_MOUNT = "log"
 
 
-def add_file_services(
-    link: GcsLink,
+@dataclass(frozen=True)
+class FileServices:
+    """The FTP service, and the component metadata messages (message id -> ``send(endpoint)`` -> MAV_RESULT)."""
+
+    ftp: FtpService
+    requestable: dict[int, Callable[[LinkEndpoint], int]]
+
+
+def file_services(
     params: ParameterStore,
     log_dir: Path | None,
     model: str,
+    now_us: Callable[[], int],
     flight_sw_version: int = DEFAULT_FLIGHT_SW_VERSION,
-) -> FtpService:
-    """Serve FTP over ``link`` (``log_dir``: the flight logs, None without) and the component metadata of
-    ``params`` (``model``: the vehicle's name); returns the FTP service."""
+) -> FileServices:
+    """FTP (``log_dir``: the flight logs, None without) and the component metadata of ``params`` (``model``: the
+    vehicle's name); ``now_us()``: the link's simulated time (µs)."""
     meta = cm.metadata_files(params, VENDOR, model, cm.firmware_version(flight_sw_version))
-    service = FtpService(FileTree({LOG_MOUNT: log_dir}, {cm.MOUNT: meta.files}), lambda: link.now_us)
-    link.add_service(service)
+    service = FtpService(FileTree({LOG_MOUNT: log_dir}, {cm.MOUNT: meta.files}), now_us)
 
     def send(ep: LinkEndpoint, msg_id: int) -> int:
-        msg = cm.metadata_message(msg_id, meta.general_crc, link.now_us)
+        msg = cm.metadata_message(msg_id, meta.general_crc, now_us())
         assert msg is not None
         ep.send(msg)
         return mavlink.MAV_RESULT_ACCEPTED
 
-    for msg_id in (cm.MSG_ID_COMPONENT_METADATA, cm.MSG_ID_COMPONENT_INFORMATION):
-        link.requestable[msg_id] = functools.partial(send, msg_id=msg_id)
-    return service
+    ids = (cm.MSG_ID_COMPONENT_METADATA, cm.MSG_ID_COMPONENT_INFORMATION)
+    return FileServices(service, {msg_id: functools.partial(send, msg_id=msg_id) for msg_id in ids})

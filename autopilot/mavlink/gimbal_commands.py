@@ -1,35 +1,56 @@
 """The gimbal manager's commands and messages (:mod:`autopilot.mavlink.gimbal_manager`): each decodes MAVLink's
-fields and units (degrees, NaN = not given) and acts on the manager.  A command's refusal raises FieldError (DENIED
-with a STATUSTEXT by the manager), which runs them only once its device has reported; a message's refusal (no
-ACK) is said once per client and kind until control changes.
+fields and units (degrees, NaN = not given) and acts on the manager through :class:`Gimbal`, the part of it they
+use.  A command's refusal raises FieldError (DENIED with a STATUSTEXT by the manager), which runs them only once
+its device has reported; a message's refusal (no ACK) is said once per client and kind until control changes.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Callable
+from typing import Callable, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.control.gimbal_pointing import CameraAttitude, attitude_from_quaternion
 from autopilot.mavlink import command_fields as f
 from autopilot.mavlink.command_fields import FieldError
-from autopilot.mavlink.gimbal_control import Roi
-
-if TYPE_CHECKING:
-    from autopilot.mavlink.gimbal_manager import GimbalManager
+from autopilot.mavlink.gimbal_control import GimbalControl, Roi, Source
+from autopilot.parameters import ParameterStore
 
 _TO_NEUTRAL = mavlink.GIMBAL_MANAGER_FLAGS_RETRACT | mavlink.GIMBAL_MANAGER_FLAGS_NEUTRAL
 _YAW_EARTH = mavlink.GIMBAL_MANAGER_FLAGS_YAW_LOCK | mavlink.GIMBAL_MANAGER_FLAGS_YAW_IN_EARTH_FRAME
 
 
-def check_device(m: GimbalManager, value: float, name: str) -> None:
+class Gimbal(Protocol):
+    """What the commands and messages read and set of the gimbal manager
+    (:class:`autopilot.mavlink.gimbal_manager.GimbalManager`)."""
+
+    params: ParameterStore
+    control: GimbalControl  # who is in control
+    own: Source  # the autopilot's (sysid, compid)
+    roi: Roi | None
+    rates_rad_s: tuple[float, float] | None
+    sent: CameraAttitude | None  # what the device was last sent (None: send at the next update)
+
+    @property
+    def advertised(self) -> bool: ...
+    @property
+    def device_compid(self) -> int: ...
+    def command_source(self) -> Source: ...
+    def point(self, sender: Source, att: CameraAttitude | None, rates: tuple[float, float] | None) -> str | None: ...
+    def set_control(self, control: GimbalControl) -> None: ...
+    def neutral(self) -> None: ...
+    def allows(self, sender: Source) -> bool: ...
+    def tell_once(self, sender: Source, what: str, text: str) -> None: ...
+
+
+def check_device(m: Gimbal, value: float, name: str) -> None:
     device = f.whole(value, name, 0, 255, nan=0)
     if device not in (0, m.device_compid):
         raise FieldError(f"{name} {device} is not this vehicle's gimbal device ({m.device_compid})")
 
 
-def pitchyaw(m: GimbalManager, p: tuple, frame: int) -> int:
+def pitchyaw(m: Gimbal, p: tuple, frame: int) -> int:
     """param1 pitch deg, param2 yaw deg (NaN: rates), param3/4 pitch/yaw rate deg/s, param5 flags,
     param7 gimbal device id."""
     check_device(m, p[6], "param7 (gimbal device id)")
@@ -50,7 +71,7 @@ def pitchyaw(m: GimbalManager, p: tuple, frame: int) -> int:
     return mavlink.MAV_RESULT_ACCEPTED
 
 
-def configure(m: GimbalManager, p: tuple, frame: int) -> int:
+def configure(m: Gimbal, p: tuple, frame: int) -> int:
     """param1/2 primary sysid/compid, param3/4 secondary (NaN: -1, unchanged), param7 gimbal device id."""
     check_device(m, p[6], "param7 (gimbal device id)")
     names = ("param1 (primary sysid)", "param2 (primary compid)", "param3 (secondary sysid)",
@@ -60,7 +81,7 @@ def configure(m: GimbalManager, p: tuple, frame: int) -> int:
     return mavlink.MAV_RESULT_ACCEPTED
 
 
-def roi_location(m: GimbalManager, p: tuple, frame: int) -> int:
+def roi_location(m: Gimbal, p: tuple, frame: int) -> int:
     """param1 gimbal device id, param5/6 lat/lon deg, param7 altitude AMSL m whatever the COMMAND_INT frame, as
     PX4's navigator reads it (MAVSDK's Gimbal.set_roi_location sends AMSL in a MAV_FRAME_GLOBAL_RELATIVE_ALT
     COMMAND_INT; QGroundControl sends AMSL in MAV_FRAME_GLOBAL)."""
@@ -74,7 +95,7 @@ def roi_location(m: GimbalManager, p: tuple, frame: int) -> int:
     return mavlink.MAV_RESULT_ACCEPTED
 
 
-def roi_none(m: GimbalManager, p: tuple, frame: int) -> int:
+def roi_none(m: Gimbal, p: tuple, frame: int) -> int:
     """param1 gimbal device id: back to neutral."""
     check_device(m, p[0], "param1 (gimbal device id)")
     m.neutral()
@@ -93,7 +114,7 @@ TABLE: dict[int, tuple[Callable[..., int], str]] = {
 # --------------------------------------------------------------------------- messages (no ACK)
 
 
-def _message(m: GimbalManager, msg, name: str, att: CameraAttitude | None, rates: tuple[float, float] | None) -> None:
+def _message(m: Gimbal, msg, name: str, att: CameraAttitude | None, rates: tuple[float, float] | None) -> None:
     sender = (msg.get_srcSystem(), msg.get_srcComponent())
     if not m.advertised or int(msg.gimbal_device_id) not in (0, m.device_compid):
         return
@@ -102,7 +123,7 @@ def _message(m: GimbalManager, msg, name: str, att: CameraAttitude | None, rates
         m.tell_once(sender, "control" if not m.allows(sender) else "refused", f"{name} ignored: {why}")
 
 
-def set_attitude(m: GimbalManager, ep, msg) -> None:
+def set_attitude(m: Gimbal, ep, msg) -> None:
     """GIMBAL_MANAGER_SET_ATTITUDE: ``q`` (NaN: rates only, angular_velocity_y/z rad/s), flags."""
     flags = int(msg.flags)
     att = attitude_from_quaternion(msg.q, bool(flags & _YAW_EARTH))
@@ -112,19 +133,19 @@ def set_attitude(m: GimbalManager, ep, msg) -> None:
     _message(m, msg, "Gimbal set attitude", att, rates)
 
 
-def set_pitchyaw(m: GimbalManager, ep, msg) -> None:
+def set_pitchyaw(m: Gimbal, ep, msg) -> None:
     """GIMBAL_MANAGER_SET_PITCHYAW: pitch, yaw rad (NaN: rates pitch_rate, yaw_rate rad/s), flags."""
     _pitch_yaw(m, msg, "Gimbal set pitch/yaw", float(msg.pitch), float(msg.yaw), 1.0, 1.0)
 
 
-def set_manual_control(m: GimbalManager, ep, msg) -> None:
+def set_manual_control(m: Gimbal, ep, msg) -> None:
     """GIMBAL_MANAGER_SET_MANUAL_CONTROL: pitch, yaw rad, or rates -1..1 of MNT_RATE_PITCH/YAW."""
     scale_p = math.radians(float(m.params.get("MNT_RATE_PITCH")))
     scale_y = math.radians(float(m.params.get("MNT_RATE_YAW")))
     _pitch_yaw(m, msg, "Gimbal manual control", float(msg.pitch), float(msg.yaw), scale_p, scale_y)
 
 
-def _pitch_yaw(m: GimbalManager, msg, name: str, pitch: float, yaw: float, scale_p: float, scale_y: float) -> None:
+def _pitch_yaw(m: Gimbal, msg, name: str, pitch: float, yaw: float, scale_p: float, scale_y: float) -> None:
     flags = int(msg.flags)
     if flags & _TO_NEUTRAL:
         return _message(m, msg, name, None, None)

@@ -9,14 +9,17 @@ Two UDP endpoints, with the ports of PX4's multi-vehicle scheme for instance i
 
 Whoever talks to an endpoint becomes (also) a destination of it, so replies reach clients on
 any port.  The link has no flight logic: telemetry comes from :meth:`VehicleInterface.snapshot`
-through the pure builders of :mod:`autopilot.mavlink.telemetry`, commands go through the one
-command table (:mod:`autopilot.mavlink.commands`), parameters are served by
+through the pure builders of :mod:`autopilot.mavlink.telemetry`, commands are run with one
+COMMAND_ACK each by :mod:`autopilot.mavlink.command_dispatch` through the one command table
+(:mod:`autopilot.mavlink.commands`), message intervals and one-shot messages (REQUEST_MESSAGE,
+AUTOPILOT_VERSION) are :mod:`autopilot.mavlink.message_requests`', parameters are served by
 :mod:`autopilot.mavlink.param_service`, mission, fence and rally plans by
-:mod:`autopilot.mavlink.mission_protocol`.  The link keeps the sockets
-(:mod:`autopilot.mavlink.endpoint`), the stream schedules, message intervals and requests,
-AUTOPILOT_VERSION, TIMESYNC, STATUSTEXT, MISSION_ITEM_REACHED and the traffic tap; what arrives is
-read by :mod:`autopilot.mavlink.rx_drain` (every socket drained each call, a CPU-time budget for
-handling, commands first past it: a flood cannot block LAND).
+:mod:`autopilot.mavlink.mission_protocol`.  The link composes them: it keeps the sockets
+(:mod:`autopilot.mavlink.endpoint`), the stream schedules (:mod:`autopilot.mavlink.telemetry_streams`),
+TIMESYNC, STATUSTEXT, MISSION_ITEM_REACHED and the traffic tap, and hands each helper what it needs (an
+endpoint, the builders, a send function, the clock), never itself.  What arrives is read by
+:mod:`autopilot.mavlink.rx_drain` (every socket drained each call, a CPU-time budget for handling, commands
+first past it: a flood cannot block LAND).
 
 :meth:`GcsLink.update` (50 Hz) receives, answers and streams; :meth:`GcsLink.poll` (the other
 steps) only answers what has arrived.  What one call sends to a destination goes out packed
@@ -34,15 +37,14 @@ from typing import Callable
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.mavlink import commands
-from autopilot.mavlink.autotune_command import autotune_progress
-from autopilot.mavlink.command_retries import RetransmittedCommands
-from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, EndpointCommands, LinkEndpoint
-from autopilot.mavlink.identity import Identity, autopilot_version, instance_identity
-from autopilot.mavlink.link_service import Handler, LinkService, ServiceCommand
-from autopilot.mavlink.message_requests import MessageRequests
+from autopilot.mavlink.command_dispatch import CommandDispatch
+from autopilot.mavlink.endpoint import MIN_STREAM_INTERVAL_US, LinkEndpoint
+from autopilot.mavlink.identity import Identity, instance_identity
+from autopilot.mavlink.link_service import Handler, LinkService
+from autopilot.mavlink.message_requests import EndpointCommands, MessageRequests, OneShotMessages
 from autopilot.mavlink.mission_protocol import MissionService
 from autopilot.mavlink.param_service import ParamService
-from autopilot.mavlink.rx_drain import RxDrain
+from autopilot.mavlink.rx_drain import RxCounters, RxDrain
 from autopilot.mavlink.telemetry import DEFAULT_FLIGHT_SW_VERSION
 from autopilot.mavlink.telemetry_more import DEFAULT_STREAM_RATES_HZ, link_builders
 from autopilot.mavlink.telemetry_streams import TelemetryStreams
@@ -122,9 +124,10 @@ class GcsLink:
         except OSError:
             self.close()
             raise
-        self.rx_errors = self.rx_messages = 0  # damaged input and failed handlers; good messages handled
-        self.rx_dropped = self.rx_foreign = 0  # dropped unparsed: no time left in a call; for other systems
-        self._rx = RxDrain(sysid, self._endpoints, self._handle_datagram, self)
+        self.rx_messages = 0  # good messages handled
+        # damaged input and failed handlers; dropped unparsed: no time left in a call, for other systems
+        self._rx_counts = RxCounters()
+        self._rx = RxDrain(sysid, self._endpoints, self._handle_datagram, self._rx_counts)
         self._now_us = 0
         self._streams = TelemetryStreams(vehicle, self._endpoints, builders)
         self._statustext = StatustextChunker()
@@ -132,16 +135,15 @@ class GcsLink:
         self._missions = MissionService(vehicle, self.send_statustext, sysid, compid)
         self._missions.on_current_changed = lambda: self._streams.due_now(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
         self._tap: Callable[[int, str, bool, bytes], None] | None = None
-        self._handlers = self._message_handlers()
         self._services: list[LinkService] = []
-        self._service_commands: dict[int, ServiceCommand] = {}
-        self._retransmitted = RetransmittedCommands()  # COMMAND_LONG resent with confirmation > 0 (command_retries)
+        self._messages = OneShotMessages(self._params, self._streams, self.identity, lambda: self._now_us)
+        self._commands = CommandDispatch(sysid, vehicle, self._link_commands)
         # Messages a service sends on MAV_CMD_REQUEST_MESSAGE (message id -> send(endpoint) -> MAV_RESULT),
         # before the streamed ones: e.g. COMPONENT_METADATA (autopilot/mavlink/component_metadata.py).
-        self.requestable: dict[int, Callable[[LinkEndpoint], int]] = {}
-        self.command_source: tuple[int, int] = (0, 0)  # (sysid, compid) of the command being run, for services
+        self.requestable: dict[int, Callable[[LinkEndpoint], int]] = self._messages.requestable
+        self._handlers = self._message_handlers()
         self.router: Callable[[LinkEndpoint, mavlink.MAVLink_message], bool] | None = None  # (payload_link.py)
-        self.add_service(MessageRequests(self))  # GET_MESSAGE_INTERVAL and the old one-message requests
+        self.add_service(MessageRequests(self._messages))  # GET_MESSAGE_INTERVAL and the old one-message requests
 
     def _message_handlers(self) -> dict[str, Handler]:
         """Message type -> handler; those wrapped in _for_us only see messages addressed to this system and
@@ -155,12 +157,12 @@ class GcsLink:
             "SET_ATTITUDE_TARGET": self._on_control,
             "PING": lambda ep, msg: None,
             "COMMAND_LONG": self._for_us(
-                lambda ep, msg: self._run_command(ep, msg, commands.command_long_params(msg), mavlink.MAV_FRAME_GLOBAL)
+                lambda ep, msg: self._commands.run(ep, msg, commands.command_long_params(msg), mavlink.MAV_FRAME_GLOBAL)
             ),
             "COMMAND_INT": self._for_us(
-                lambda ep, msg: self._run_command(ep, msg, commands.command_int_params(msg), msg.frame)
+                lambda ep, msg: self._commands.run(ep, msg, commands.command_int_params(msg), msg.frame)
             ),
-            "SET_MODE": self._on_set_mode,
+            "SET_MODE": self._commands.set_mode,
             "PARAM_REQUEST_LIST": self._for_us(self._params.on_request_list),
             "PARAM_REQUEST_READ": self._for_us(self._params.on_request_read),
             "PARAM_SET": self._for_us(self._params.on_set),
@@ -177,7 +179,7 @@ class GcsLink:
         """Serve ``service`` (:mod:`autopilot.mavlink.link_service`): its messages addressed to us, its
         commands before the command table's, its ``update`` in every :meth:`update` and :meth:`poll`."""
         self._handlers.update({name: self._for_us(h) for name, h in service.handlers().items()})
-        self._service_commands.update(service.commands())
+        self._commands.service_commands.update(service.commands())
         self._services.append(service)
 
     @property
@@ -189,6 +191,11 @@ class GcsLink:
     def param_service(self) -> ParamService:
         """The parameter protocol (the process sets its ``persist``: changes saved before acknowledged)."""
         return self._params
+
+    @property
+    def command_source(self) -> tuple[int, int]:
+        """The (sysid, compid) of the command being run (or the last one), for services."""
+        return self._commands.source
 
     @property
     def now_us(self) -> int:
@@ -203,6 +210,29 @@ class GcsLink:
     @property
     def tx_errors(self) -> int:
         return sum(ep.tx_errors for ep in self._endpoints)
+
+    @property
+    def rx_errors(self) -> int:
+        """Damaged datagrams and failed handlers."""
+        return self._rx_counts.rx_errors
+
+    @rx_errors.setter
+    def rx_errors(self, value: int) -> None:
+        self._rx_counts.rx_errors = value
+
+    @property
+    def rx_dropped(self) -> int:
+        """Datagrams for us dropped unparsed: no time left in a call (or a full backlog)."""
+        return self._rx_counts.rx_dropped
+
+    @rx_dropped.setter
+    def rx_dropped(self, value: int) -> None:
+        self._rx_counts.rx_dropped = value
+
+    @property
+    def rx_foreign(self) -> int:
+        """Datagrams addressed to other systems only, dropped unparsed."""
+        return self._rx_counts.rx_foreign
 
     def set_traffic_tap(self, tap: Callable[[int, str, bool, bytes], None] | None) -> None:
         """Hand every packet the link sends or receives to ``tap(now_us, endpoint, sent, packet)`` (a .tlog).
@@ -299,9 +329,13 @@ class GcsLink:
 
     # ------------------------------------------------------------------ receiving
 
+    def _link_commands(self, ep: LinkEndpoint) -> EndpointCommands:
+        """The link's own rows of the command table, on the endpoint a command came in on."""
+        return EndpointCommands(self._messages, ep, self._now_us, self.send_statustext)
+
     def _handle_datagram(self, ep: LinkEndpoint, data: bytes, addr: tuple[str, int]) -> None:
         msgs, damaged = ep.incoming(data, addr)
-        self.rx_errors += damaged
+        self._rx_counts.rx_errors += damaged
         for msg in msgs:
             mtype = msg.get_type()
             if self._tap is not None and mtype != "SETUP_SIGNING":  # (a signing key stays out of the logs)
@@ -313,7 +347,7 @@ class GcsLink:
             try:
                 handler(ep, msg)
             except Exception:
-                self.rx_errors += 1
+                self._rx_counts.rx_errors += 1
                 log.exception("gcs_link %s: error handling %s from %s", ep.name, mtype, addr)
 
     def _for_us(self, handler: Handler) -> Handler:
@@ -325,43 +359,6 @@ class GcsLink:
                 handler(ep, msg)
 
         return checked
-
-    def _run_command(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, params: commands.Params, frame: int) -> None:
-        """Execute a command through the command table and send exactly one COMMAND_ACK."""
-        command = msg.command
-        sender, long = (msg.get_srcSystem(), msg.get_srcComponent()), msg.get_type() == "COMMAND_LONG"
-        earlier = self._retransmitted.earlier_result(sender, command, params, msg.confirmation) if long else None
-        if earlier is not None:  # a copy of a command carried out, its ACK lost: that answer again, nothing else
-            self._ack(ep, msg, command, earlier)
-            return
-        self.command_source = sender
-        try:
-            service = self._service_commands.get(command)
-            if service is not None:
-                result = int(service(ep, params, frame))
-            else:
-                result = commands.run(command, params, frame, EndpointCommands(self, ep), self.vehicle)
-        except Exception:
-            log.exception("gcs_link: command %d failed", command)
-            result = mavlink.MAV_RESULT_FAILED
-        if long:
-            self._retransmitted.carried_out(sender, command, params, result)
-        autotune = command == mavlink.MAV_CMD_DO_AUTOTUNE_ENABLE  # its ACK carries the run's progress (per cent)
-        self._ack(ep, msg, command, result, autotune_progress(self.vehicle) if autotune else 0)
-
-    def _ack(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int, progress: int = 0):
-        src = (msg.get_srcSystem(), msg.get_srcComponent())
-        ep.send(mavlink.MAVLink_command_ack_message(command, result, progress, 0, *src))
-
-    def _on_set_mode(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
-        if msg.target_system not in (0, self.sysid):
-            return
-        try:
-            result = int(self.vehicle.handle_set_mode(msg.base_mode, msg.custom_mode))
-        except Exception:
-            log.exception("gcs_link: SET_MODE failed")
-            result = mavlink.MAV_RESULT_FAILED
-        self._ack(ep, msg, mavlink.MAVLINK_MSG_ID_SET_MODE, result)
 
     def _on_heartbeat(self, ep: LinkEndpoint, msg: mavlink.MAVLink_message) -> None:
         """A ground station's HEARTBEAT keeps the data link alive (COM_DL_LOSS_T); others only register a peer.
@@ -392,6 +389,3 @@ class GcsLink:
     def _broadcast(self, msg: mavlink.MAVLink_message) -> None:
         for ep in self._endpoints:
             ep.send(msg)
-
-    def _autopilot_version(self) -> mavlink.MAVLink_message:
-        return autopilot_version(self.identity)

@@ -28,7 +28,8 @@ from __future__ import annotations
 import select
 import time
 from collections import deque
-from typing import Callable, Protocol, Sequence
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 from autopilot.mavlink.endpoint import LinkEndpoint
 from autopilot.mavlink.rx_triage import Kind, triage
@@ -50,12 +51,13 @@ Address = tuple[str, int]
 Handle = Callable[[LinkEndpoint, bytes, Address], None]
 
 
-class RxCounters(Protocol):
-    """Where the counts go (the link's counters)."""
+@dataclass(slots=True)
+class RxCounters:
+    """What the receive loop counts (the link reports them as its own counters)."""
 
-    rx_errors: int  # damaged datagrams
-    rx_dropped: int  # datagrams for us dropped unparsed: no time left (or a full backlog)
-    rx_foreign: int  # datagrams addressed to other systems only, dropped unparsed
+    rx_errors: int = 0  # damaged datagrams
+    rx_dropped: int = 0  # datagrams for us dropped unparsed: no time left (or a full backlog)
+    rx_foreign: int = 0  # datagrams addressed to other systems only, dropped unparsed
 
 
 class RxDrain:
