@@ -11,9 +11,9 @@ time constants: a torque is one rotor speeding up while another slows down); the
 answered before the physics steps).  The position loops fly on the estimator's output predictor (GPS
 delay compensated), so their plant has only the 50 Hz hold.
 
-Every loop is then designed (:mod:`mavsim_core.loop_design`, :mod:`mavsim_core.cascade_design`), its
+Every loop is then designed (:mod:`mavsim_core.loop_design`, :mod:`sitl.cascade_design`), its
 gains, crossover, margins and bandwidth printed with the predicted 10 m steps
-(:mod:`mavsim_core.cascade_sim`), and the gains written in QGroundControl's format (``--out``) or into
+(:mod:`sitl.cascade_sim`), and the gains written in QGroundControl's format (``--out``) or into
 the marked block of ``params/vehicles/VEHICLE.params`` (``--update``).  The flight-controller settings
 the design assumes (its defaults) are options.  Errors: argparse's one ``error:`` line, exit 2.
 """
@@ -28,7 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mavsim_core.cascade_design import (
+from mavsim_core.cli_checks import number_in, positive_number
+from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
+from mavsim_core.loop_design import LoopFilters, Margins, PidGains, RatePlant, design_rate_pid, rate_loop_response
+from params.param_file import ParamEntry, atomic_write_text, format_qgc
+from params.vehicle import VehicleSpec, load_vehicle, vehicle_path
+from params.vehicle_arg import vehicle_argument
+from sitl.cascade_design import (
     OuterLoop,
     design_attitude,
     design_position,
@@ -36,13 +42,7 @@ from mavsim_core.cascade_design import (
     design_velocity_z,
     outer_grid_hz,
 )
-from mavsim_core.cascade_sim import OuterGains, StepResult, simulate_xy_step, simulate_z_step, step_metrics
-from mavsim_core.cli_checks import number_in, positive_number
-from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
-from mavsim_core.loop_design import LoopFilters, Margins, PidGains, RatePlant, design_rate_pid, rate_loop_response
-from params.param_file import ParamEntry, atomic_write_text, format_qgc
-from params.vehicle import VehicleSpec, load_vehicle, vehicle_path
-from params.vehicle_arg import vehicle_argument
+from sitl.cascade_sim import OuterGains, StepResult, simulate_xy_step, simulate_z_step, step_metrics
 
 BEGIN, END = "# BEGIN design-gains", "# END design-gains"
 REAL32 = 9

@@ -7,8 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from mavsim_core.cascade_design import design_attitude, design_position, design_velocity_xy, outer_grid_hz
-from mavsim_core.cascade_sim import OuterGains, simulate_xy_step, step_metrics
 from mavsim_core.loop_design import (
     LoopFilters,
     PidGains,
@@ -17,6 +15,8 @@ from mavsim_core.loop_design import (
     rate_loop_margins,
     rate_loop_response,
 )
+from sitl.cascade_design import design_attitude, design_position, design_velocity_xy, outer_grid_hz
+from sitl.cascade_sim import OuterGains, simulate_xy_step, step_metrics
 
 QUAD = RatePlant(effectiveness=1.0, motor_tau_s=0.01875, delay_s=0.0)
 
