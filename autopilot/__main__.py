@@ -75,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--log-dir",
         default="logs",
         metavar="DIR",
-        help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs); a directory "
+        help="write a .tlog and a ULog (.ulg) per arming here (default ./logs); a directory "
         "that cannot be created stops the start (exit 1)",
     )
     p.add_argument("--no-log", action="store_true", help="write no flight logs")

@@ -11,7 +11,7 @@ simulator listens on its TCP port (4560 + instance, :mod:`mavsim_core.ports`), c
 ``/proc/net/tcp``: a probe connection would hold its accept up to the handshake timeout.  Each
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
 ``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given); the
-flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.fc.npy`` from
+flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.ulg`` from
 the flight controller, ``.truth.npy`` from the simulator), unless ``flight_logs`` is False.
 Children run in their own session so a Ctrl-C in the terminal reaches only
 us; :meth:`Stack.stop` ends them (SIGTERM, then SIGKILL), always: on leaving
