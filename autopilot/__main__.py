@@ -232,7 +232,7 @@ def _start(args: argparse.Namespace, parts: list) -> tuple:
         local_api_port=args.api_local_port,
     )
     parts.insert(0, link)
-    recorder = None  # flight logs: one .tlog + control-rate log per arming
+    recorder = None  # flight logs: one .tlog + ULog per arming
     if not args.no_log:
         from autopilot.flight_recorder import FlightRecorder
 

@@ -100,7 +100,7 @@ class Stack:
     home: ``"LAT,LON,ALT"`` for the simulator, or None for its default.
     seed: simulator random seed, or None for its default.
     log_dir: where the child logs and the flight logs go; a new temp dir if None (kept after stop).
-    flight_logs: pass ``--log-dir log_dir`` to both children (tlog, control-rate and truth logs);
+    flight_logs: pass ``--log-dir log_dir`` to both children (tlog, ULog and truth logs);
         False: no flight logs at all (``autopilot --no-log``).
     start_timeout_s: wall seconds for the simulator to start listening.
     python: the interpreter for the children.
