@@ -1,7 +1,7 @@
 """What the flight controller writes into a flight's ULog: PX4's topics, field names and units.
 
 :class:`FlightULog` writes one file (:mod:`mavsim_core.ulog_writer`) from the records the flight
-controller publishes, read after each control step as :mod:`autopilot.flight_log` reads them.
+controller, the commander and the estimator publish, read after each control step (nothing in them changes).
 The topics carry PX4's names so pyulog, Flight Review and PlotJuggler treat the file as a PX4
 log; each holds the PX4 fields this flight controller can fill (others are left out, not faked).
 Frames as PX4's: NED world, FRD body, quaternions (w, x, y, z) FRD -> NED; SI units; timestamps
