@@ -75,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--log-dir",
         default="logs",
         metavar="DIR",
-        help="write a .tlog and a control-rate log (.fc.npy) per arming here (default ./logs); a directory "
+        help="write a .tlog and a ULog (.ulg) per arming here (default ./logs); a directory "
         "that cannot be created stops the start (exit 1)",
     )
     p.add_argument("--no-log", action="store_true", help="write no flight logs")
@@ -232,7 +232,7 @@ def _start(args: argparse.Namespace, parts: list) -> tuple:
         local_api_port=args.api_local_port,
     )
     parts.insert(0, link)
-    recorder = None  # flight logs: one .tlog + control-rate log per arming
+    recorder = None  # flight logs: one .tlog + ULog per arming
     if not args.no_log:
         from autopilot.flight_recorder import FlightRecorder
 

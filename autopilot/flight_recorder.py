@@ -1,4 +1,4 @@
-"""Flight logs of the flight-controller process: one ``.tlog`` and one control-rate log per arming.
+"""Flight logs of the flight-controller process: one ``.tlog`` and one ULog per arming.
 
 ``autopilot --log-dir DIR`` (default ``./logs``) writes, for every arming:
 
@@ -8,11 +8,10 @@
   has two UDP endpoints (ground stations, APIs) that mostly carry the same
   telemetry; the API endpoint's copy of a message the ground-station endpoint has
   just sent with the same content is left out, so each message is logged once.
-* ``DIR/<same stem>.fc.npy``: setpoints, estimates and motor outputs of every
-  control step (:mod:`autopilot.flight_log`);
-* ``DIR/<same stem>.ulg``: the flight as PX4 logs it (ULog, :mod:`autopilot.ulog_topics`), for
-  pyulog, Flight Review and PlotJuggler, served over MAVLink by
-  :mod:`autopilot.mavlink.log_service`; ``SDLOG_MODE`` -1 leaves it out.
+* ``DIR/<same stem>.ulg``: the flight as PX4 logs it (ULog, :mod:`autopilot.ulog_topics`): estimates,
+  setpoints, motor outputs, modes and the precision landing, for pyulog, Flight Review, PlotJuggler
+  and ``gcs plot``, served over MAVLink by :mod:`autopilot.mavlink.log_service`; ``SDLOG_MODE`` -1
+  leaves it out (the tlog is still written).
 
 Names use the local wall-clock time of arming (like QGroundControl's tlogs); a
 second flight in the same second gets ``_2``, ``_3``...  This is process-loop code:
@@ -29,7 +28,7 @@ from collections import deque
 from pathlib import Path
 from typing import Callable
 
-from autopilot import flight_log, ulog_topics
+from autopilot import ulog_topics
 from autopilot.parameters import ParamDef, param
 from autopilot.topics import ImuSample
 from mavsim_core import ports, tlog
@@ -56,7 +55,7 @@ def _say(text: str) -> None:
 
 
 class FlightRecorder:
-    """Watches arming; writes the tlog (fed by :meth:`tap`) and the control log (fed by :meth:`on_step`).
+    """Watches arming; writes the tlog (fed by :meth:`tap`) and the ULog (fed by :meth:`on_step`).
 
     Wire it with ``link.set_traffic_tap(recorder.tap)`` and call ``recorder.on_step(imu)``
     after every ``FlightController.step``; :meth:`close` at exit.  ``sysid`` (default: the
@@ -68,7 +67,6 @@ class FlightRecorder:
         log_dir: str | Path,
         fc,
         instance: int = 0,
-        every: int = 1,
         say: Callable[[str], None] = _say,
         epoch_s: Callable[[], float] = time.time,
         sysid: int | None = None,
@@ -77,14 +75,13 @@ class FlightRecorder:
         self.log_dir = Path(log_dir)
         self.fc = fc
         self.instance = instance
-        self.every = every
         self.say = say
         self._epoch_s = epoch_s
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self._pre: deque[tuple[int, bytes]] = deque(maxlen=PREARM_MAX_PACKETS)
         self._prearm_us = int(PREARM_S * 1e6)
         self._tlog: tlog.TlogWriter | None = None
-        self._flog: flight_log.FlightLogWriter | None = None
+        self._flying = False  # a flight's files are open (the ULog among them unless SDLOG_MODE is -1)
         self._clock: tlog.SimEpochClock | None = None
         self._close_at_us: int | None = None
         self._gcs_sent: dict[int, bytes] = {}  # message id -> payload last sent on the "gcs" endpoint
@@ -127,13 +124,12 @@ class FlightRecorder:
         try:
             now = self.fc.last_us or 0
             armed = self.fc.commander.status.armed
-            if armed and (self._flog is None or self._close_at_us is not None):
+            if armed and (not self._flying or self._close_at_us is not None):
                 self._close()  # re-armed during the tail of the previous flight: a new flight
                 self._open(now)
-            elif not armed and self._flog is not None and self._close_at_us is None:
+            elif not armed and self._flying and self._close_at_us is None:
                 self._close_at_us = now + int(POST_DISARM_S * 1e6)
-            if self._flog is not None:
-                self._flog.record()
+            if self._flying:
                 if self._ulog is not None:
                     self._ulog.record(imu)
                 if self._close_at_us is not None and now >= self._close_at_us:
@@ -152,7 +148,7 @@ class FlightRecorder:
 
     @property
     def active(self) -> bool:
-        return self._flog is not None
+        return self._flying
 
     @property
     def writing(self) -> Path | None:
@@ -161,10 +157,10 @@ class FlightRecorder:
 
     def _open(self, now_us: int) -> None:
         epoch = self._epoch_s()
-        stem = flight_stem(self.log_dir, epoch, self.instance, (tlog.SUFFIX, flight_log.SUFFIX, ulog_topics.SUFFIX))
+        stem = flight_stem(self.log_dir, epoch, self.instance, (tlog.SUFFIX, ulog_topics.SUFFIX))
         self._clock = tlog.SimEpochClock(now_us, int(epoch * 1e6))
         self._tlog = tlog.TlogWriter(self.log_dir / (stem + tlog.SUFFIX))
-        self._flog = flight_log.FlightLogWriter(self.log_dir / (stem + flight_log.SUFFIX), self.fc, self.every)
+        self._flying = True
         self._close_at_us = None
         if self.fc.params.get("SDLOG_MODE") >= 0:
             self._ulog = ulog_topics.FlightULog(
@@ -183,22 +179,21 @@ class FlightRecorder:
                     self._ulog.statustext(t_us, ip[1])
         self._pre.clear()
         self.flights.append(stem)
-        suffixes = ",".join((tlog.SUFFIX, flight_log.SUFFIX) + ((ulog_topics.SUFFIX,) if self._ulog else ()))
+        suffixes = ",".join((tlog.SUFFIX,) + ((ulog_topics.SUFFIX,) if self._ulog else ()))
         self.say(f"logging the flight to {self.log_dir / stem}{{{suffixes}}}")
 
     def _close(self) -> None:
-        t, f, u = self._tlog, self._flog, self._ulog
-        self._tlog = self._flog = self._ulog = None
+        t, u = self._tlog, self._ulog
+        self._tlog = self._ulog = None
+        self._flying = False
         self._close_at_us = None
         try:
             if t is not None:
                 t.close()
+        finally:
             if u is not None:
                 u.close()
-        finally:
-            if f is not None:
-                f.close()
-                self.say(f"flight log closed: {f.path} ({f.writer.rows_written} rows)")
+                self.say(f"flight log closed: {u.path} ({u.writer.bytes_written} bytes)")
 
     def _fail(self, exc: BaseException) -> None:
         self.disabled = True

@@ -1,7 +1,7 @@
 """What the flight controller writes into a flight's ULog: PX4's topics, field names and units.
 
 :class:`FlightULog` writes one file (:mod:`mavsim_core.ulog_writer`) from the records the flight
-controller publishes, read after each control step as :mod:`autopilot.flight_log` reads them.
+controller, the commander and the estimator publish, read after each control step (nothing in them changes).
 The topics carry PX4's names so pyulog, Flight Review and PlotJuggler treat the file as a PX4
 log; each holds the PX4 fields this flight controller can fill (others are left out, not faked).
 Frames as PX4's: NED world, FRD body, quaternions (w, x, y, z) FRD -> NED; SI units; timestamps
@@ -18,12 +18,21 @@ outputs, actuator_motors                      setpoint, motor commands 0..1
 vehicle_global_position,              10 Hz   position as latitude/longitude, barometer,
 vehicle_air_data, battery_status              battery
 vehicle_gps_position                  each    every new GPS fix the commander used
-vehicle_status, vehicle_land_         5 Hz    arming state, PX4 nav_state, landed state
-detected                                      (and at once on a change)
+vehicle_status, vehicle_land_         5 Hz    arming state, PX4 nav_state, landed state; PX4's
+detected, flight_mode                         custom main and sub mode (our own topic: nav_state
+                                              cannot tell every mode apart) (and at once on a
+                                              change)
+control_allocator_status             50 Hz   the collective thrust the mixer could not deliver
+                                              (setpoint minus delivered, as PX4's)
+landing_target_pose, precision_      50 Hz   a precision landing: the target relative to the
+landing (our own topic)                       vehicle, the landing's phase, the measurements
+                                              fused, the target's velocity over the ground
 ===================================  =======  ==================================================
 
 Setpoint topics are written only while the cascade flies (as PX4 publishes them); the
-STATUSTEXTs the vehicle sends become logged strings, parameter changes 'P' messages.
+STATUSTEXTs the vehicle sends become logged strings, parameter changes 'P' messages.  This file is
+the flight controller's only flight log: ``gcs plot``, the replay and the benchmarks read it with
+pyulog (:mod:`gcs.flight_logs`).
 """
 
 from __future__ import annotations
@@ -54,6 +63,7 @@ SYNC_US = 1_000_000  # a sync marker, and the file flushed to disk (a download s
 SLACK_US = 1_000  # a step early counts as due (steps are 4 ms: 12 ms is every third step)
 N_OUTPUTS, N_MOTORS = 16, 12  # actuator_outputs.output[16], actuator_motors.control[12]
 R_AIR = 287.05  # J/(kg K), specific gas constant of dry air
+THRUST_ACHIEVED = 1e-3  # control_allocator_status: the thrust setpoint delivered to this fraction of the maximum
 
 # PX4's vehicle_status.nav_state for our (main, sub) modes (PX4's vehicle_status.msg)
 NAV_STATE: dict[tuple[int, int], int] = {
@@ -103,7 +113,16 @@ FORMATS: tuple[ULogFormat, ...] = (
         "uint8_t nav_state", "uint8_t vehicle_type", "bool failsafe", "uint8_t system_type", "uint8_t system_id",
         "uint8_t component_id", "bool rc_signal_lost", "bool gcs_connection_lost")),
     ULogFormat("vehicle_land_detected", (_T, "bool ground_contact", "bool maybe_landed", "bool landed")),
+    ULogFormat("flight_mode", (_T, "uint8_t main_mode", "uint8_t sub_mode")),  # ours: PX4's custom_mode halves
+    ULogFormat("control_allocator_status", (_T, "bool thrust_setpoint_achieved", "float[3] unallocated_thrust")),
+    ULogFormat("landing_target_pose", (
+        _T, "bool is_static", "bool rel_pos_valid", "bool rel_vel_valid", "float x_rel", "float y_rel", "float z_rel",
+        "float vx_rel", "float vy_rel", "float cov_x_rel", "float cov_y_rel", "bool abs_pos_valid", "float x_abs",
+        "float y_abs", "float z_abs")),
+    ULogFormat("precision_landing", (  # ours: PX4 logs no precision-landing state
+        _T, "uint8_t phase", "uint32_t measurements", "float target_vx", "float target_vy")),
 )  # fmt: skip
+PRECLAND_PHASES = ("preparation", "tracking", "approaching", "docking", "search", "fallback", "done")  # 1..7; 0 none
 _NAN3 = (math.nan,) * 3
 _NO_RESET = (0.0, 0.0, 0.0, 0.0, 0)  # delta_q_reset[4], quat_reset_counter
 
@@ -241,6 +260,9 @@ class FlightULog:
             mt = fc.max_thrust_n
             x, y, z = fc.thrust_vec.tolist()
             thrust = (x / mt, y / mt, z / mt)
+            missing = fc.actuators.throttle_frac - math.hypot(*thrust)  # unallocated: setpoint - delivered, z down
+            topics += ("control_allocator_status",)
+            values += (*h["control_allocator_status"], now, abs(missing) < THRUST_ACHIEVED, 0.0, 0.0, missing)
             if isinstance(sp, PositionSetpoint):
                 pos, yaw = sp.pos_ned_m.tolist(), sp.yaw_rad
                 acc_ff = sp.acc_ned_m_s2.tolist() if sp.acc_ned_m_s2 is not None else _NAN3
@@ -254,6 +276,26 @@ class FlightULog:
                 values += (*h["vehicle_local_position_setpoint"], now, *_NAN3, *_NAN3, *_NAN3, *thrust, math.nan,
                            math.nan)  # fmt: skip
         self._write(topics, values)
+        self._landing(now)
+
+    def _landing(self, now: int) -> None:
+        """landing_target_pose while the target is estimated, precision_landing while a precision landing runs."""
+        fc, w, s = self.fc, self.writer, self.subs
+        lt = fc.landing_target
+        e = lt.estimate
+        phase = getattr(fc.commander.task, "phase", None)
+        code = PRECLAND_PHASES.index(phase.value) + 1 if phase is not None and phase.value in PRECLAND_PHASES else 0
+        valid = e is not None and e.valid
+        if valid:
+            rel, rel_v = e.rel_pos_ned_m.tolist(), e.rel_vel_ned_m_s.tolist()
+            var = e.rel_pos_var_m2.tolist()
+            est = fc.commander.status.estimate
+            pos = est.pos_ned_m.tolist() if est is not None else _NAN3
+            w.write(s["landing_target_pose"], now, bool(e.is_static), True, True, *rel, rel_v[0], rel_v[1], var[0],
+                    var[1], est is not None, pos[0] + rel[0], pos[1] + rel[1], pos[2] + rel[2])  # fmt: skip
+        if code or valid:
+            tv = e.target_vel_ned_m_s.tolist() if valid and e.target_vel_ned_m_s is not None else _NAN3
+            w.write(s["precision_landing"], now, code, lt.accepted, tv[0], tv[1])
 
     def _slow(self, now: int, imu: ImuSample | None) -> None:
         fc, w, s = self.fc, self.writer, self.subs
@@ -303,6 +345,7 @@ class FlightULog:
                 self.sysid, self.compid, fs.rc_lost, fs.gcs_lost)  # fmt: skip
         landed = not status.in_air
         w.write(s["vehicle_land_detected"], now, status.ground_contact, landed, landed)
+        w.write(s["flight_mode"], now, *status.mode.value)
 
     # -- events ---------------------------------------------------------------------
     def statustext(self, now_us: int, payload: bytes) -> None:

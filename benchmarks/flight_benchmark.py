@@ -10,7 +10,9 @@ vehicle was armed).  Then it flies the demo square and lands.  It prints:
 - the estimator's position error against truth during the hover;
 - the real-time factor (simulated seconds per wall second) of the hover and of
   the whole flight;
-- the landing error from the take-off point.
+- the landing error from the take-off point;
+- the size of each flight log (the flight controller's ``.ulg`` and ``.tlog``, the simulator's
+  ``.truth.npy``) per simulated minute, the minutes those of the truth log (arming to 1 s after disarming).
 
 A progress bar (stderr) counts the flight's phases (ready, take-off, settle, hover, four corners,
 landing) and shows the simulated seconds flown.  ``--param SDLOG_MODE=-1``: the flight without its
@@ -155,7 +157,21 @@ def fly(args, extra: list[str], progress: Progress) -> int:
         f"real-time factor: hover {hover_rtf:.1f}x, whole flight (take-off, hover, square, landing) {flight_rtf:.1f}x"
     )
     print(f"landing error from the take-off point: {land_err:.2f} m")
+    print(log_sizes(Path(stack.log_dir)))
     return 0
+
+
+def log_sizes(log_dir: Path) -> str:
+    """The flight's log files, in kB per simulated minute of its truth log."""
+    truth = sorted(log_dir.glob("*.truth.npy"))
+    if not truth:
+        return f"flight logs: no truth log in {log_dir}"
+    t = np.load(truth[-1], mmap_mode="r")["time_us"]
+    minutes = (int(t[-1]) - int(t[0])) / 60e6
+    sizes = [(sfx, sum(f.stat().st_size for f in log_dir.glob("*" + sfx))) for sfx in (".ulg", ".tlog", ".truth.npy")]
+    total = sum(size for _, size in sizes)
+    parts = ", ".join(f"{sfx} {size / 1e3 / minutes:.0f}" for sfx, size in sizes + [("total", total)])
+    return f"flight logs, kB per simulated minute ({minutes * 60:.0f} s logged): {parts}"
 
 
 if __name__ == "__main__":

@@ -235,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
         "--fc-param", action="append", default=[], metavar="NAME=VALUE",
         help="a flight-controller parameter from the start (e.g. MPC_YAWRAUTO_MAX=60), repeatable",
     )  # fmt: skip
-    ap.add_argument("--keep-logs", type=Path, metavar="DIR", help="keep each flight's logs (.ulg, .fc.npy ...) here")
+    ap.add_argument("--keep-logs", type=Path, metavar="DIR", help="keep each flight's logs (.ulg, .tlog ...) here")
     args = ap.parse_args(argv)
     if args.keep_logs:
         args.keep_logs = args.keep_logs.resolve()

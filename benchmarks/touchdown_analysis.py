@@ -1,7 +1,7 @@
 """Benchmark: what happened in the last second of each landing of a campaign, from its kept logs.
 
 Reads a landing campaign's results CSV and the logs it kept (``campaign run FILE --keep-logs DIR``: one
-``DIR/<run id>/logs/`` per landing with the simulator's ``.truth.npy`` and the flight controller's ``.fc.npy``)
+``DIR/<run id>/logs/`` per landing with the simulator's ``.truth.npy`` and the flight controller's ``.ulg``)
 and prints, per landing, from the simulator's truth:
 
 - ``contact``: the first foot's touch on the deck (the lowest foot within 5 mm of the deck's top; the feet from
@@ -16,7 +16,8 @@ and prints, per landing, from the simulator's truth:
 
 and one summary line per campaign cell: landings, successes, mean tilt at contact, mean |slide|, mean deck
 velocity error.  Frames: NED from the multicopter's start point; the deck frame is the UGV's (x forward, y
-right).  It reads only what ``sitl/truth_log.py`` and ``autopilot/flight_log.py`` write.
+right).  It reads only what ``sitl/truth_log.py`` and ``autopilot/ulog_topics.py`` write (the ULog through
+``gcs.flight_logs``, pyulog: its precision_landing topic, at 50 Hz).
 
 Usage: ``python benchmarks/touchdown_analysis.py RESULTS.csv LOGDIR``
 """
@@ -31,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gcs.flight_logs import load_ulog
 from gcs.launcher.deck_stance import deck_frame, feet_ned
 from mavsim_core import quaternion as quat
 from params.vehicle import load_vehicle
@@ -38,7 +40,7 @@ from params.vehicle import load_vehicle
 from _cli import parser
 
 CONTACT_M = 0.005  # the lowest foot this close to the deck's top: touching
-TRACK_PHASES = (2, 3, 4)  # precland_phase in .fc.npy: tracking, approaching, docking
+TRACK_PHASES = (2, 3, 4)  # precision_landing.phase in the ULog: tracking, approaching, docking
 VEL_WINDOW_US = 4_000_000  # the deck velocity error is taken over the last 4 s before the cut
 
 
@@ -62,11 +64,20 @@ def _lowest_foot_m(truth: np.ndarray, i: int, legs: tuple) -> float:
     return float(truth["ugv_d_m"][i] - feet[:, 2].max())
 
 
+def _landing(ulog: Path) -> dict[str, np.ndarray]:
+    """The precision landing's samples in the flight controller's ULog (none without a precision landing)."""
+    landing = load_ulog(ulog).landing
+    if landing is None:
+        return {k: np.zeros(0) for k in ("time_us", "precland_phase", "tgt_vn_m_s", "tgt_ve_m_s")}
+    return dict(landing.cols, time_us=np.round(landing.t_s * 1e6).astype(np.int64))
+
+
 def analyse(run_dir: Path, legs: tuple) -> dict | None:
     """One landing's figures (see the module docstring); None without its logs or a cut."""
-    truth, fc = _one(run_dir, ".truth.npy"), _one(run_dir, ".fc.npy")
-    if truth is None or fc is None or "ugv_n_m" not in (truth.dtype.names or ()):
+    truth, ulogs = _one(run_dir, ".truth.npy"), sorted(run_dir.glob("*.ulg"))
+    if truth is None or not ulogs or "ugv_n_m" not in (truth.dtype.names or ()):
         return None
+    fc = _landing(ulogs[0])
     armed = np.flatnonzero(truth["armed"] > 0)
     if armed.size == 0 or armed[-1] >= len(truth) - 1:
         return None

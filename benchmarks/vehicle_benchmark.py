@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--jobs", type=int, default=1, help="vehicles flown at a time (more: lower real-time factors)")
     ap.add_argument("--out", type=Path, help="keep the results CSV here (default: a temporary file)")
-    ap.add_argument("--keep-logs", type=Path, metavar="DIR", help="keep each flight's logs (.ulg, .fc.npy ...) here")
+    ap.add_argument("--keep-logs", type=Path, metavar="DIR", help="keep each flight's logs (.ulg, .tlog ...) here")
     args = ap.parse_args(argv)
     if args.jobs < 1 or args.instance + args.jobs - 1 > ports.MAX_INSTANCE:
         ap.error(f"argument --jobs: 1 to {ports.MAX_INSTANCE - args.instance + 1} with -i {args.instance}")

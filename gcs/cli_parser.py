@@ -88,7 +88,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     plot.add_arguments(
         sub.add_parser(
-            "plot", help="write PNG figures (setpoint vs estimate vs truth, motors) of a flight log (.fc.npy or .tlog)"
+            "plot", help="write PNG figures (setpoint vs estimate vs truth, motors) of a flight log (.ulg or .tlog)"
         )
     )
     from .launcher import replay  # gcs replay (gcs/launcher/replay.py): a flight's video from its logs

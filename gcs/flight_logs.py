@@ -2,12 +2,13 @@
 
 Either log of a flight:
 
-* the flight controller's control-rate log (``*.fc.npy``, :mod:`autopilot.flight_log`):
-  setpoints, estimates and motor commands at 250 Hz;
+* the flight controller's ULog (``*.ulg``, :mod:`autopilot.ulog_topics`), read with pyulog:
+  setpoints, estimates, motor commands, modes and the precision landing at the rates PX4's
+  topics are logged (attitude 83 Hz, position and motors 50 Hz);
 * a telemetry log (``*.tlog``, any ground station's or the flight controller's own):
   ATTITUDE against ATTITUDE_TARGET, LOCAL_POSITION_NED against
   POSITION_TARGET_LOCAL_NED, SERVO_OUTPUT_RAW or ACTUATOR_OUTPUT_STATUS for the motors;
-* a directory: its newest ``*.fc.npy`` (else ``*.tlog``).
+* a directory: its newest ``*.ulg`` (else ``*.tlog``).
 
 Ground truth comes from the simulator's log of the same flight (``sitl --log-dir``,
 ``*.truth.npy``): given explicitly, or found beside the log (same name, or the
@@ -17,8 +18,8 @@ Every series is on simulated seconds (the vehicle's clock).  Positions are metre
 in the estimator's frame (origin: the first GPS fix), altitude up; angles degrees.
 The truth's origin is the start point on the ground (horizontally a few centimetres
 away; its altitude is taken above its value at arming, as the estimator's is).
-Files are read with the shared core's readers (:mod:`mavsim_core.npy_log`, pymavlink
-for tlogs); nothing here draws.
+Files are read with pyulog (ULogs), pymavlink (tlogs) and the shared core's
+:mod:`mavsim_core.npy_log` (the truth); nothing here draws.
 """
 
 from __future__ import annotations
@@ -31,13 +32,14 @@ from typing import Iterable
 
 import numpy as np
 from pymavlink import mavutil
+from pyulog import ULog
 
 from mavsim_core.npy_log import read_npy_log
 from mavsim_core.px4_modes import custom_mode_to_name, decode_custom_mode, encode_custom_mode
 
 from .frame_log import frames_beside
 
-FC_SUFFIX, TRUTH_SUFFIX, TLOG_SUFFIX = ".fc.npy", ".truth.npy", ".tlog"
+FC_SUFFIX, TRUTH_SUFFIX, TLOG_SUFFIX = ".ulg", ".truth.npy", ".tlog"  # FC: the flight controller's ULog
 VEHICLE_COMPID = 1  # the autopilot; its system id (1 + instance) is that of the first such message
 TRUTH_MATCH_S = 120.0  # a truth log's name time within this of the log's (wall clock at arming)
 TLOG_KINDS = (
@@ -100,50 +102,95 @@ def _mode_changes(t_s: np.ndarray, custom_modes: Iterable[int]) -> list[tuple[fl
     return out
 
 
-# --------------------------------------------------------------------------- the .npy logs
+# --------------------------------------------------------------------------- the flight controller's ULog
+
+ULOG_TOPICS = (
+    "vehicle_attitude",
+    "vehicle_attitude_setpoint",
+    "vehicle_local_position",
+    "vehicle_local_position_setpoint",
+    "actuator_motors",
+    "flight_mode",
+    "landing_target_pose",
+    "precision_landing",
+)
 
 
-def load_fc_log(path: Path) -> FlightData:
-    """The flight controller's control-rate log: setpoints, estimates, motors and modes."""
-    a = read_npy_log(path)
-    if a.size == 0:
-        raise FlightLogError(f"{path}: the log holds no rows")
-    t = a["time_us"] / 1e6
-    f = lambda name: a[name].astype(float)  # noqa: E731
-    roll_sp, pitch_sp, yaw_sp = quat_to_euler_deg(f("q_sp_w"), f("q_sp_x"), f("q_sp_y"), f("q_sp_z"))
-    roll, pitch, yaw = quat_to_euler_deg(f("q_w"), f("q_x"), f("q_y"), f("q_z"))
-    motors = sorted((n for n in a.dtype.names if n.startswith("motor_")), key=lambda n: int(n.split("_")[1]))
-    return FlightData(
-        name=path.name,
-        setpoint=Series(
-            t,
-            dict(
-                alt_m=-f("pos_sp_d_m"),
-                n_m=f("pos_sp_n_m"),
-                e_m=f("pos_sp_e_m"),
-                roll_deg=roll_sp,
-                pitch_deg=pitch_sp,
-                yaw_deg=yaw_sp,
-            ),
-        ),
-        estimate=Series(
-            t,
-            dict(alt_m=-f("pos_d_m"), n_m=f("pos_n_m"), e_m=f("pos_e_m"), roll_deg=roll, pitch_deg=pitch, yaw_deg=yaw),
-        ),
-        motors=Series(t, {n: f(n) for n in motors}) if motors else None,
-        modes=_mode_changes(t, (encode_custom_mode(m, s) for m, s in zip(a["main_mode"], a["sub_mode"]))),
-        source="flight controller log (250 Hz)",
-        landing=_landing_series(a, t),
-    )
+def read_ulog_topics(path: Path, names: Iterable[str] = ULOG_TOPICS) -> dict[str, dict[str, np.ndarray]]:
+    """The fields of each of ``names`` (instance 0) in a ULog, read with pyulog: {topic: {field: array}}; a topic
+    the file does not hold is left out."""
+    try:
+        ulog = ULog(str(path), list(names))
+    except Exception as exc:
+        raise FlightLogError(f"{path}: cannot read as a ULog: {exc}") from exc
+    return {d.name: d.data for d in ulog.data_list if d.multi_id == 0}
 
 
-def _landing_series(a: np.ndarray, t: np.ndarray) -> Series | None:
-    """The precision landing's columns (autopilot/flight_log.py), if the flight had one."""
-    names = a.dtype.names or ()
-    if "precland_phase" not in names or not np.any(a["precland_phase"] > 0):
+def _timed(topic: dict[str, np.ndarray] | None, fields: Iterable[str]) -> tuple[np.ndarray, np.ndarray] | None:
+    """(times in s, rows of ``fields``) of a topic, or None."""
+    if topic is None or topic["timestamp"].size == 0:
         return None
-    cols = {k: a[k].astype(float) for k in ("tgt_n_m", "tgt_e_m", "precland_phase")}
-    return Series(t, cols)
+    return topic["timestamp"] / 1e6, np.column_stack([topic[f].astype(float) for f in fields])
+
+
+def _euler_rows(rows: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Quaternion rows (w, x, y, z) as roll, pitch, yaw rows in degrees."""
+    if rows is None:
+        return None
+    q = rows[1]
+    return rows[0], np.column_stack(quat_to_euler_deg(q[:, 0], q[:, 1], q[:, 2], q[:, 3]))
+
+
+def load_ulog(path: Path) -> FlightData:
+    """The flight controller's ULog (:mod:`autopilot.ulog_topics`): setpoints, estimates, motors, modes and the
+    precision landing, each topic at its logging rate."""
+    t = read_ulog_topics(path)
+    q4 = [f"q[{i}]" for i in range(4)]
+    att, pos = _euler_rows(_timed(t.get("vehicle_attitude"), q4)), _timed(t.get("vehicle_local_position"), "xyz")
+    if att is None and pos is None:
+        raise FlightLogError(f"{path}: no vehicle_attitude or vehicle_local_position in this ULog")
+    att_sp = _euler_rows(_timed(t.get("vehicle_attitude_setpoint"), [f"q_d[{i}]" for i in range(4)]))
+    data = FlightData(
+        name=path.name,
+        estimate=_merge(att, pos, euler=False),
+        setpoint=_merge(att_sp, _timed(t.get("vehicle_local_position_setpoint"), "xyz"), euler=False),
+        source="flight controller ULog",
+        landing=_ulog_landing(t),
+    )
+    motors = t.get("actuator_motors")
+    if motors is not None and motors["timestamp"].size:
+        cols = [k for k in motors if k.startswith("control[")]
+        cols = [k for k in sorted(cols, key=lambda k: int(k[8:-1])) if not np.all(np.isnan(motors[k]))]
+        data.motors = Series(
+            motors["timestamp"] / 1e6, {f"motor_{i}": motors[k].astype(float) for i, k in enumerate(cols)}
+        )
+    mode = t.get("flight_mode")
+    if mode is not None:
+        custom = (encode_custom_mode(int(m), int(s)) for m, s in zip(mode["main_mode"], mode["sub_mode"]))
+        data.modes = _mode_changes(mode["timestamp"] / 1e6, custom)
+    return data
+
+
+def _ulog_landing(t: dict[str, dict[str, np.ndarray]]) -> Series | None:
+    """The precision landing (precision_landing, with landing_target_pose of the same instants), if the flight had
+    one: tgt_n_m, tgt_e_m (target minus vehicle), tgt_vn_m_s, tgt_ve_m_s (over the ground), precland_phase."""
+    pl = t.get("precision_landing")
+    if pl is None or not np.any(pl["phase"] > 0):
+        return None
+    ts = pl["timestamp"]
+    cols = {"tgt_n_m": np.full(ts.shape, np.nan), "tgt_e_m": np.full(ts.shape, np.nan)}
+    pose = t.get("landing_target_pose")
+    if pose is not None and pose["timestamp"].size:
+        k = np.minimum(np.searchsorted(pose["timestamp"], ts), pose["timestamp"].size - 1)
+        same = pose["timestamp"][k] == ts  # written in the same step as the landing's sample
+        cols["tgt_n_m"][same] = pose["x_rel"][k[same]]
+        cols["tgt_e_m"][same] = pose["y_rel"][k[same]]
+    cols.update(
+        tgt_vn_m_s=pl["target_vx"].astype(float),
+        tgt_ve_m_s=pl["target_vy"].astype(float),
+        precland_phase=pl["phase"].astype(float),
+    )
+    return Series(ts / 1e6, cols)
 
 
 def load_truth_log(path: Path) -> Series:
@@ -307,7 +354,7 @@ _STEM = re.compile(r"^(\d{4}-\d{2}-\d{2}_\d{2}-\d{2}-\d{2})(?:_i(\d+))?(?:_\d+)?
 
 
 def log_stem(path: Path) -> str:
-    """The flight's name: the file name without ``.fc.npy``, ``.truth.npy`` or ``.tlog``."""
+    """The flight's name: the file name without ``.ulg``, ``.truth.npy`` or ``.tlog``."""
     name = path.name
     for sfx in (FC_SUFFIX, TRUTH_SUFFIX, TLOG_SUFFIX):
         if name.endswith(sfx):
@@ -361,12 +408,12 @@ def resolve_log(path: Path) -> Path:
 
 
 def load(log: Path, truth: Path | None = None, find: bool = True) -> FlightData:
-    """Read a flight controller log or a tlog, and the ground truth if given or found."""
+    """Read a flight controller's ULog or a tlog, and the ground truth if given or found."""
     if log.name.endswith(FC_SUFFIX):
-        data = load_fc_log(log)
+        data = load_ulog(log)
     elif log.name.endswith(TRUTH_SUFFIX):
         raise FlightLogError(
-            f"{log}: this is the simulator's truth log; give the flight's .fc.npy or .tlog "
+            f"{log}: this is the simulator's truth log; give the flight's .ulg or .tlog "
             "(the truth log is found beside it, or pass --truth)"
         )
     else:

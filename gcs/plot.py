@@ -1,7 +1,7 @@
 """``gcs plot LOG``: PNG figures of a flight, setpoint against estimate (and ground truth).
 
 Like [Q]'s tuning plots (errors in altitude, roll and pitch over time).  The
-logs (``*.fc.npy``, ``*.tlog``, a directory, and the simulator's ``*.truth.npy``)
+logs (the flight controller's ``*.ulg``, ``*.tlog``, a directory, and the simulator's ``*.truth.npy``)
 are read into series by :mod:`gcs.flight_logs`; this module only draws them.
 
 Figures written to ``--out`` (default ``<log dir>/<log name>_plots``): ``overview.png``
@@ -294,7 +294,7 @@ def write_figures(data: FlightData, out_dir: Path, dpi: int = 100) -> list[Path]
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("log", metavar="LOG", help="a .fc.npy or .tlog flight log, or a directory (its newest flight)")
+    p.add_argument("log", metavar="LOG", help="a .ulg or .tlog flight log, or a directory (its newest flight)")
     p.add_argument("--out", metavar="DIR", default=None, help="where to write the PNGs (default <log>_plots)")
     p.add_argument(
         "--truth",

@@ -1,6 +1,6 @@
 """File names of flight logs: ``YYYY-MM-DD_HH-MM-SS`` of arming, as QGroundControl names its tlogs.
 
-Shared by the flight controller's logs (``.tlog``, ``.fc.npy``) and the simulator's ground-truth
+Shared by the flight controller's logs (``.tlog``, ``.ulg``) and the simulator's ground-truth
 log (``.truth.npy``) so that the files of one flight sort and pair by name.
 """
 

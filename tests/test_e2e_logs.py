@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK is in the test extras: pip install '.[test]'")
-pyulog = pytest.importorskip("pyulog", reason="pyulog is in the test extras: pip install '.[test]'")
+pyulog = pytest.importorskip("pyulog", reason="pyulog is a dependency: pip install .")
 os.environ.setdefault("MAVLINK20", "1")
 from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.log_files import LogFilesAsync  # noqa: E402

@@ -1,4 +1,4 @@
-"""``gcs plot`` (control log, truth log, .tlog), and the logs a real flight leaves, plotted.
+"""``gcs plot`` (the flight controller's ULog, truth log, .tlog), and the logs a real flight leaves, plotted.
 
 Unit tests write files in pytest's tmp_path; the end-to-end test (marked ``e2e``) flies the
 real processes (``Stack``) on a free instance (``free_instance``, tests/conftest.py) and reads the logs they
@@ -21,13 +21,15 @@ import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
+from pyulog import ULog  # noqa: E402
 
-from autopilot import flight_log  # noqa: E402
+from autopilot import ulog_topics  # noqa: E402
 from gcs import plot  # noqa: E402
 from gcs.__main__ import main as gcs_main  # noqa: E402
 from mavsim_core import tlog  # noqa: E402
 from mavsim_core.npy_log import NpyLogWriter  # noqa: E402
 from mavsim_core.quaternion import from_euler  # noqa: E402
+from mavsim_core.ulog_writer import ULogWriter  # noqa: E402
 from sitl.truth_log import CameraFrame, frame_log_fields, truth_log_fields  # noqa: E402
 
 from e2e_flight_helpers import CLIENT_SPEED  # tests/e2e_flight_helpers.py
@@ -35,52 +37,35 @@ from flight_log_helpers import EPOCH0_US, make_mav, read_tlog  # tests/flight_lo
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+TOPICS = ("vehicle_attitude", "vehicle_local_position", "actuator_motors", "flight_mode", "vehicle_attitude_setpoint",
+          "vehicle_local_position_setpoint")  # fmt: skip
 
 
 # --------------------------------------------------------------------------- plots
 
 
 def _synthetic_flight(tmp_path: Path, stem: str = "2026-01-02_03-04-05") -> tuple[Path, Path]:
-    """A 20 s control log (take-off to 3 m and a roll wobble) and its truth log."""
+    """A 20 s flight controller's ULog (take-off to 3 m and a roll wobble) and its truth log."""
     t_us = np.arange(0, 20_000_000, 4000)
     alt = np.clip((t_us / 1e6 - 2.0) * 1.0, 0.0, 3.0)
     roll = 0.05 * np.sin(t_us / 1e6 * 3.0)
-    fc_path, truth_path = tmp_path / (stem + ".fc.npy"), tmp_path / (stem + ".truth.npy")
-    w = NpyLogWriter(fc_path, flight_log.flight_log_fields(4), chunk_rows=500)
-    for k, t in enumerate(t_us):
-        q = from_euler(float(roll[k]), 0.0, 0.2)
-        q_sp = from_euler(float(roll[k]) * 1.2, 0.0, 0.2)
-        sp = (
-            [1.0, 0.0, -3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.2, *q_sp, 0.0, 0.0, 0.0, 0.5]
-            if t > 2e6
-            else [math.nan] * 18
-        )
-        w.append(
-            int(t),
-            1,
-            4,
-            2 if t < 8e6 else 3,
-            *sp,
-            0.5,
-            0.9,
-            0.0,
-            -alt[k],
-            0.0,
-            0.0,
-            0.0,
-            *q,
-            0.0,
-            0.0,
-            0.0,
-            0.5,
-            0.52,
-            0.48,
-            0.5,
-            *[math.nan] * 5,  # no landing target
-            0,
-            0,
-        )
-    w.close()
+    fc_path, truth_path = tmp_path / (stem + ".ulg"), tmp_path / (stem + ".truth.npy")
+    with ULogWriter(fc_path, 0) as w:  # the flight controller's topics (autopilot/ulog_topics.py), every 4 ms
+        for fmt in ulog_topics.FORMATS:
+            w.add_format(fmt)
+        subs = {name: w.subscribe(name) for name in TOPICS}
+        nan8 = [math.nan] * 8
+        for k, t in enumerate(t_us):
+            t = int(t)
+            q = from_euler(float(roll[k]), 0.0, 0.2)
+            w.write(subs["vehicle_attitude"], t, t, *q, 0.0, 0.0, 0.0, 0.0, 0)
+            w.write(subs["vehicle_local_position"], t, t, *[True] * 4, 0.9, 0.0, -alt[k], *[0.0] * 6, 0.2, 0, 0,
+                    False, False, math.nan, math.nan, math.nan)  # fmt: skip
+            w.write(subs["actuator_motors"], t, t, 0, 0.5, 0.52, 0.48, 0.5, *nan8)
+            w.write(subs["flight_mode"], t, 4, 2 if t < 8e6 else 3)
+            if t > 2e6:  # setpoints once the cascade flies
+                w.write(subs["vehicle_attitude_setpoint"], t, *from_euler(float(roll[k]) * 1.2, 0.0, 0.2), 0, 0, -0.5)
+                w.write(subs["vehicle_local_position_setpoint"], t, 1.0, 0.0, -3.0, *[0.0] * 9, 0.2, math.nan)
     w = NpyLogWriter(truth_path, truth_log_fields(4), chunk_rows=500)
     for k, t in enumerate(t_us):
         w.append(
@@ -172,10 +157,10 @@ def test_gcs_plot_tlog(tmp_path):
 
 
 def test_gcs_plot_reports_a_bad_log(tmp_path, capsys):
-    assert gcs_main(["plot", str(tmp_path / "missing.fc.npy")]) == 1
+    assert gcs_main(["plot", str(tmp_path / "missing.ulg")]) == 1
     assert "no such file" in capsys.readouterr().err
     assert gcs_main(["plot", str(tmp_path)]) == 1  # an empty directory
-    assert "no *.fc.npy or *.tlog" in capsys.readouterr().err
+    assert "no *.ulg or *.tlog" in capsys.readouterr().err
 
 
 # --------------------------------------------------------------------------- end to end
@@ -205,10 +190,11 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path, free_insta
         codes = stack.stop()
     assert codes == {"autopilot": 143, "sitl": 143}  # SIGTERM: both closed their logs and exited
 
-    tlogs, fcs, truths = (sorted(logs.glob("*" + sfx)) for sfx in (".tlog", ".fc.npy", ".truth.npy"))
+    tlogs, fcs, truths = (sorted(logs.glob("*" + sfx)) for sfx in (".tlog", ".ulg", ".truth.npy"))
     assert len(tlogs) == len(fcs) == len(truths) == 1, sorted(p.name for p in logs.iterdir())
     assert tlogs[0].name.endswith(f"_i{stack.instance}.tlog")
-    assert fcs[0].name == tlogs[0].name.replace(".tlog", ".fc.npy")
+    assert fcs[0].name == tlogs[0].name.replace(".tlog", ".ulg")
+    assert not list(logs.glob("*.fc.npy"))  # the ULog is the flight controller's only flight log
 
     msgs = read_tlog(tlogs[0])
     types = Counter(m.get_type() for m in msgs)
@@ -233,16 +219,17 @@ def test_e2e_flight_leaves_tlog_control_log_truth_and_plots(tmp_path, free_insta
     assert 0.4 < thrust < 0.75  # hover: 57 % of full thrust for quad_x
     assert max(abs(m.roll) for m in msgs if m.get_type() == "ATTITUDE") < math.radians(15)
 
-    log = np.load(fcs[0])
-    assert log["armed"][0] == 1 and log["armed"][-1] == 0
-    steps = np.diff(log["time_us"])
-    assert (steps == 4000).all()  # every 250 Hz step, none lost
-    assert -np.nanmin(log["pos_sp_d_m"]) == pytest.approx(alt_m, abs=0.3)
-    assert -np.nanmin(log["pos_d_m"]) == pytest.approx(alt_m, abs=0.5)
+    log = {d.name: d.data for d in ULog(str(fcs[0])).data_list if d.multi_id == 0}
+    status = log["vehicle_status"]["arming_state"]
+    assert status[0] == ulog_topics.ARMING_STATE_ARMED and status[-1] == ulog_topics.ARMING_STATE_DISARMED
+    att_t = log["vehicle_attitude"]["timestamp"]
+    assert (np.diff(att_t) == 12_000).all()  # every third 250 Hz step, none lost
+    assert -np.nanmin(log["vehicle_local_position_setpoint"]["z"]) == pytest.approx(alt_m, abs=0.3)
+    assert -np.nanmin(log["vehicle_local_position"]["z"]) == pytest.approx(alt_m, abs=0.5)
     truth = np.load(truths[0])
     climb = -(truth["pos_d_m"] - truth["pos_d_m"][0])
     assert climb.max() == pytest.approx(alt_m, abs=0.5)
-    assert abs(len(truth) - len(log)) < 50  # the same flight, both at 250 Hz
+    assert abs(len(truth) - 3 * len(att_t)) < 50  # the same flight: the truth at 250 Hz, the attitude at 83 Hz
 
     out = tmp_path / "png"
     proc = subprocess.run(

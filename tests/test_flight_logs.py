@@ -1,4 +1,4 @@
-"""Flight logs: the .tlog writer, the flight recorder, the control-rate log and its .npy format.
+"""Flight logs: the .tlog writer, the flight recorder, what the ULog holds of the control loops, the .npy format.
 
 Unit tests writing files in pytest's tmp_path; no process, no socket.  The setpoint streams
 the logs record are tested in tests/test_setpoint_streams.py, ``gcs plot`` and a real flight's
@@ -22,8 +22,9 @@ import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
+from pyulog import ULog  # noqa: E402
 
-from autopilot import flight_log, flight_recorder  # noqa: E402
+from autopilot import flight_recorder, ulog_topics  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
 from autopilot.param_catalogue import default_store
@@ -139,54 +140,76 @@ def test_recorder_one_tlog_per_arming_with_prearm_traffic_and_no_duplicates(tmp_
         EPOCH0_US,
         EPOCH0_US + 500_000,
     ]
-    log = np.load(tmp_path / (stems[0] + ".fc.npy"))
-    assert log["time_us"][0] == 2_000_000
-    assert log["armed"][0] == 1 and log["armed"][-1] == 0
-    assert log["time_us"][-1] == 3_400_000  # 1 s after the disarm
+    status = _topics(tmp_path / (stems[0] + ".ulg"))["vehicle_status"]
+    assert status["timestamp"][0] == 2_000_000
+    assert status["arming_state"][0] == ulog_topics.ARMING_STATE_ARMED
+    assert status["arming_state"][-1] == ulog_topics.ARMING_STATE_DISARMED
+    assert status["timestamp"][-1] == 3_400_000  # 1 s after the disarm
 
 
-def test_control_log_round_trip(tmp_path):
+def _topics(path: Path) -> dict[str, dict[str, np.ndarray]]:
+    """Every topic of a ULog (instance 0) as pyulog reads it: {topic: {field: array}}."""
+    return {d.name: d.data for d in ULog(str(path)).data_list if d.multi_id == 0}
+
+
+def _ulog(path: Path, fc: FlightController) -> ulog_topics.FlightULog:
+    return ulog_topics.FlightULog(path, fc, 0, EPOCH0_US, sysid=1)
+
+
+def test_the_ulog_holds_what_the_control_loops_did(tmp_path):
+    """Everything the control-rate log held (modes, the position, velocity, acceleration, yaw, attitude and rate
+    setpoints, the thrust asked and delivered, the motors, the estimate) is in the ULog's topics."""
     fc = _flight_controller()
-    w = flight_log.FlightLogWriter(tmp_path / "x.fc.npy", fc, chunk_rows=7)
+    w = _ulog(tmp_path / "x.ulg", fc)
     fc.last_us = 0
-    w.record()  # disarmed, no estimate yet: NaN setpoints and positions
-    _fly(fc, 4000)
+    w.record()  # disarmed, no estimate yet: no setpoint topics
+    _fly(fc, 20_000)
+    fc.actuators = replace(fc.actuators, throttle_frac=0.4)
     w.record()
     w.close()
-    log = np.load(tmp_path / "x.fc.npy")
-    assert log.dtype.names == tuple(name for name, _ in flight_log.flight_log_fields(4))
-    assert len(log) == 2
-    idle, fly = log
-    assert idle["armed"] == 0 and math.isnan(idle["pos_sp_d_m"]) and math.isnan(idle["q_sp_w"])
-    assert fly["time_us"] == 4000 and fly["armed"] == 1
-    assert (fly["main_mode"], fly["sub_mode"]) == fc.commander.mode.value
-    assert [fly["pos_sp_n_m"], fly["pos_sp_e_m"], fly["pos_sp_d_m"]] == [1.0, 2.0, -5.0]
-    assert fly["vel_sp_d_m_s"] == pytest.approx(-0.3) and fly["acc_sp_e_m_s2"] == pytest.approx(0.1)
-    assert fly["yaw_sp_rad"] == pytest.approx(0.5)
-    assert [fly[f"q_sp_{c}"] for c in "wxyz"] == pytest.approx(list(fc.q_sp), abs=1e-6)
-    assert [fly[f"rate_sp_{c}_rad_s"] for c in "pqr"] == pytest.approx([0.3, -0.1, 0.05], abs=1e-6)
-    max_thrust = 4 * fc.spec.max_thrust_per_rotor_n
-    assert fly["thrust_sp"] == pytest.approx(13.7 / max_thrust, rel=1e-5)
-    assert [fly[f"motor_{i}"] for i in range(4)] == pytest.approx([0.5, 0.55, 0.6, 0.65])
-    assert fly["q_w"] == pytest.approx(1.0)  # the estimator has not moved
+    t = _topics(tmp_path / "x.ulg")
+    mode = t["flight_mode"]
+    assert (mode["main_mode"][-1], mode["sub_mode"][-1]) == fc.commander.mode.value
+    assert list(t["vehicle_status"]["arming_state"]) == [1, 2]
+    lps, traj = t["vehicle_local_position_setpoint"], t["trajectory_setpoint"]
+    assert list(lps["timestamp"]) == [20_000]  # setpoints only while the cascade flies
+    assert [lps["x"][0], lps["y"][0], lps["z"][0]] == [1.0, 2.0, -5.0]
+    assert [traj[f"position[{i}]"][0] for i in range(3)] == [1.0, 2.0, -5.0]
+    assert lps["vz"][0] == pytest.approx(-0.3) and lps["acceleration[1]"][0] == pytest.approx(0.1)
+    assert lps["yaw"][0] == pytest.approx(0.5)
+    att_sp, rates_sp = t["vehicle_attitude_setpoint"], t["vehicle_rates_setpoint"]
+    assert [att_sp[f"q_d[{i}]"][0] for i in range(4)] == pytest.approx(list(fc.q_sp), abs=1e-6)
+    assert [rates_sp[c][0] for c in ("roll", "pitch", "yaw")] == pytest.approx([0.3, -0.1, 0.05], abs=1e-6)
+    thrust_sp = 13.7 / (4 * fc.spec.max_thrust_per_rotor_n)
+    assert -rates_sp["thrust_body[2]"][0] == pytest.approx(thrust_sp, rel=1e-5)
+    alloc = t["control_allocator_status"]  # the thrust delivered: the setpoint minus what was not allocated
+    assert alloc["unallocated_thrust[2]"][0] == pytest.approx(0.4 - thrust_sp, rel=1e-5)
+    assert not alloc["thrust_setpoint_achieved"][0]
+    motors = t["actuator_motors"]
+    assert [motors[f"control[{i}]"][-1] for i in range(4)] == pytest.approx([0.5, 0.55, 0.6, 0.65])
+    assert np.isnan(motors["control[4]"][-1])  # a quad: four motors
+    assert t["vehicle_attitude"]["q[0]"][-1] == pytest.approx(1.0)  # the estimator has not moved
 
 
-def test_control_log_goes_on_while_an_attitude_is_flown(tmp_path):
+def test_the_ulog_goes_on_while_an_attitude_is_flown(tmp_path):
     """Offboard attitude or body rates (an AttitudeSetpoint, no position): NaN position-loop setpoints, the
-    attitude and rate setpoints logged, and the log goes on (it stopped on the first such row, losing the rest
-    of the flight: "flight logging stopped: AttributeError", seen in an offboard e2e flight's autopilot.log)."""
+    attitude and rate setpoints logged, and the log goes on (the control-rate log once stopped on the first such
+    row, losing the rest of the flight: "flight logging stopped: AttributeError")."""
     fc = _flight_controller()
-    w = flight_log.FlightLogWriter(tmp_path / "x.fc.npy", fc)
-    _fly(fc, 4000)
+    w = _ulog(tmp_path / "x.ulg", fc)
+    _fly(fc, 0)
     fc.setpoint = AttitudeSetpoint(from_euler(0.1, 0.0, 0.0), None, 0.6)
     w.record()
-    _fly(fc, 8000)
+    _fly(fc, 20_000)
     w.record()
     w.close()
-    attitude, position = np.load(tmp_path / "x.fc.npy")
-    assert all(math.isnan(attitude[f]) for f in ("pos_sp_n_m", "vel_sp_e_m_s", "acc_sp_d_m_s2", "yaw_sp_rad"))
-    assert [attitude[f"q_sp_{c}"] for c in "wxyz"] == pytest.approx(list(fc.q_sp), abs=1e-6)
-    assert position["time_us"] == 8000 and position["pos_sp_d_m"] == -5.0
+    t = _topics(tmp_path / "x.ulg")
+    lps = t["vehicle_local_position_setpoint"]
+    assert list(lps["timestamp"]) == [0, 20_000]
+    assert all(math.isnan(lps[f][0]) for f in ("x", "vy", "acceleration[2]", "yaw"))
+    q_d = [t["vehicle_attitude_setpoint"][f"q_d[{i}]"][0] for i in range(4)]
+    assert q_d == pytest.approx(list(fc.q_sp), abs=1e-6)
+    assert lps["z"][1] == -5.0 and list(t["trajectory_setpoint"]["timestamp"]) == [20_000]
 
 
 def test_npy_log_survives_an_abrupt_kill(tmp_path):

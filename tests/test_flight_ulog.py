@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-pyulog = pytest.importorskip("pyulog", reason="pyulog is in the test extras: pip install '.[test]'")
+pyulog = pytest.importorskip("pyulog", reason="pyulog is a dependency: pip install .")
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
@@ -22,8 +23,9 @@ from autopilot import flight_recorder  # noqa: E402
 from autopilot.control.position_control import PositionSetpoint  # noqa: E402
 from autopilot.flight_controller import FlightController  # noqa: E402
 from autopilot.mavlink.identity import running_commit  # noqa: E402
+from autopilot.navigation.precland_types import PrecLandPhase  # noqa: E402
 from autopilot.param_catalogue import default_store  # noqa: E402
-from autopilot.topics import BatteryState, GpsSample, ImuSample, VehicleEstimate  # noqa: E402
+from autopilot.topics import BatteryState, GpsSample, ImuSample, LandingTargetEstimate, VehicleEstimate  # noqa: E402
 from mavsim_core.px4_modes import Mode  # noqa: E402
 from mavsim_core.statustext import StatustextChunker  # noqa: E402
 from params.vehicle import load_vehicle  # noqa: E402
@@ -135,7 +137,7 @@ def test_sdlog_mode_minus_one_writes_no_ulog(tmp_path):
     fc.last_us = T0_US
     _fly(rec, fc, 0.2)
     rec.close()
-    assert sorted(p.suffix for p in tmp_path.iterdir()) == [".npy", ".tlog"]
+    assert sorted(p.suffix for p in tmp_path.iterdir()) == [".tlog"]
 
 
 def test_logging_goes_on_when_the_simulated_clock_restarts(tmp_path):
@@ -150,3 +152,33 @@ def test_logging_goes_on_when_the_simulated_clock_restarts(tmp_path):
     log = pyulog.ULog(str(tmp_path / (rec.flights[0] + ".ulg")))
     times = log.get_dataset("vehicle_attitude").data["timestamp"]
     assert (times < T0_US).sum() == pytest.approx(0.5 / 0.012, abs=1)
+
+
+def test_a_precision_landing_is_in_the_ulog_and_gcs_reads_it_back(tmp_path):
+    """landing_target_pose (PX4's) and precision_landing (the phase, the measurements, the target's velocity over
+    the ground) while a precision landing runs; ``gcs plot``'s reader pairs them (gcs/flight_logs.py)."""
+    from gcs.flight_logs import load_ulog
+
+    fc = FlightController(load_vehicle("quad_x"), default_store())
+    rec = flight_recorder.FlightRecorder(tmp_path, fc, say=lambda t: None)
+    fc.last_us = T0_US
+    _fly(rec, fc, 0.2)  # no precision landing: neither topic
+    fc.commander.task = SimpleNamespace(phase=PrecLandPhase.TRACKING)
+    fc.landing_target.accepted = 7
+    fc.landing_target.estimate = LandingTargetEstimate(
+        T0_US, np.array([0.3, -0.4, 5.0]), np.array([0.5, 0.0, 0.0]), True, False, np.array([1.5, 0.25, 0.0])
+    )
+    _fly(rec, fc, 0.2)
+    rec.close()
+    path = tmp_path / (rec.flights[0] + ".ulg")
+    log = pyulog.ULog(str(path))
+    pose, pl = (log.get_dataset(name).data for name in ("landing_target_pose", "precision_landing"))
+    assert len(pl["timestamp"]) == pytest.approx(0.2 / 0.02, abs=1) and (pl["timestamp"] >= T0_US + 200_000).all()
+    assert list(pose["timestamp"]) == list(pl["timestamp"])  # written together, at 50 Hz
+    assert pose["x_rel"][0] == pytest.approx(0.3) and pose["vx_rel"][0] == pytest.approx(0.5)
+    assert (pose["x_abs"][0], pose["y_abs"][0]) == pytest.approx((1.3, 1.6))  # the vehicle at 1, 2 plus the target
+    assert set(pl["phase"]) == {2} and set(pl["measurements"]) == {7}  # 2: tracking
+    landing = load_ulog(path).landing
+    assert landing is not None and set(landing.cols["precland_phase"]) == {2.0}
+    assert landing.cols["tgt_n_m"][0] == pytest.approx(0.3) and landing.cols["tgt_e_m"][0] == pytest.approx(-0.4)
+    assert landing.cols["tgt_vn_m_s"][0] == pytest.approx(1.5) and landing.cols["tgt_ve_m_s"][0] == pytest.approx(0.25)

@@ -43,7 +43,7 @@ def _decode(path: Path) -> tuple[list[np.ndarray], float, str, str]:
 
 
 def test_replay_of_a_folder_without_a_truth_log_says_so_in_one_line(tmp_path, capsys):
-    (tmp_path / "2026-01-02_03-04-05.fc.npy").write_bytes(b"")  # a flight controller's log is not enough
+    (tmp_path / "2026-01-02_03-04-05.ulg").write_bytes(b"")  # a flight controller's log is not enough
     rc = gcs_main(["replay", str(tmp_path), "--video", str(tmp_path / "out.mp4")])
     out = capsys.readouterr()
     assert rc == 1

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-pyulog = pytest.importorskip("pyulog", reason="pyulog is in the test extras: pip install '.[test]'")
+pyulog = pytest.importorskip("pyulog", reason="pyulog is a dependency: pip install .")
 
 from mavsim_core.ulog_writer import (  # noqa: E402
     DEFAULT_CONFIGURATION,

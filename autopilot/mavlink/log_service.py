@@ -11,7 +11,8 @@
   not in the list, is answered with one LOG_DATA of count 0 (the protocol's "end of log"; PX4 is
   silent on an unknown id).
 * LOG_ERASE: every listed log of this instance is deleted (the flight's ``.ulg`` with its ``.tlog``
-  and ``.fc.npy``), except the one being written; ids start again from 0 at the next listing.
+  and, of a flight logged before the ULog was the only log, its ``.fc.npy``), except the one being written; ids
+  start again from 0 at the next listing.
 * LOG_REQUEST_END: the endpoint's transfer stops.
 
 The log being written (the flight in progress, or its second after disarming) is listed like the
@@ -50,7 +51,7 @@ BURST_BYTES = 364 * LOG_DATA_LEN
 ENTRIES_PER_UPDATE = 200  # LOG_ENTRY messages per endpoint and update
 TO_THE_END = 0xFFFFFFFF
 SUFFIX = ".ulg"
-COMPANIONS = (".tlog", ".fc.npy")  # the same flight's other files, erased with it
+COMPANIONS = (".tlog", ".fc.npy")  # the same flight's other files, erased with it (.fc.npy: older flights')
 _NAME = re.compile(r"^(\d{4}-\d\d-\d\d_\d\d-\d\d-\d\d)(?:_i(\d+))?(?:_(\d+))?\.ulg$")
 _ZEROS = bytes(LOG_DATA_LEN)
 

@@ -221,7 +221,7 @@ def logs_line(stack: Stack) -> str:
     the camera's frames, only when the simulator wrote one: a flight with the camera)."""
     plot = f"{console_script('gcs')} plot {stack.log_dir}"
     frames = f", {FRAMES_SUFFIX}" if any(Path(stack.log_dir).glob(f"*{FRAMES_SUFFIX}")) else ""
-    return f"flight logs (.ulg, .tlog, .fc.npy, .truth.npy{frames}) in {stack.log_dir}; plot them: {plot}"
+    return f"flight logs (.ulg, .tlog, .truth.npy{frames}) in {stack.log_dir}; plot them: {plot}"
 
 
 def connection_help(stack: Stack) -> str:

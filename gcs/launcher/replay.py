@@ -3,11 +3,11 @@
 The simulator's logs of the flight (``<stem>.truth.npy``, ``<stem>.frames.npy``, ``<stem>.sim.json``) pose and
 build its world; the renderer is the simulator's own (:mod:`sitl.replay_video`: MuJoCo, PyAV), which is why this
 lives in the launcher, the one part of ``gcs`` that may import ``sitl``.  The flight controller's log of the same
-flight (``.fc.npy``, else the ``.tlog``; paired with the truth log as ``gcs plot`` pairs them,
+flight (its ULog ``.ulg``, else the ``.tlog``; paired with the truth log as ``gcs plot`` pairs them,
 :mod:`gcs.flight_logs`) gives the status line its flight mode and precision-landing phase.
 
 LOG is a directory (its newest truth log: the latest flight), a file of the flight (any of ``.truth.npy``,
-``.fc.npy``, ``.tlog``, ``.ulg``, ``.frames.npy``, ``.sim.json``: the truth log of the same stem) or the flight's
+``.ulg``, ``.tlog``, ``.frames.npy``, ``.sim.json``: the truth log of the same stem) or the flight's
 path without a suffix (``logs/2026-12-05_19-31-33_i61``).  ``flight-demo --video FILE.mp4`` flies through
 :func:`demo_with_video`, which renders the flight once it is over.  Exit codes: 0 written, 1 no truth log or a
 log that cannot be rendered (one line on stderr), 2 usage error (neither --video nor --preview).
@@ -24,11 +24,11 @@ from typing import Callable
 from mavsim_core.cli_args import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from mavsim_core.cli_checks import number_in
 
-from ..flight_logs import FC_SUFFIX, TLOG_SUFFIX, FlightData, FlightLogError, find_truth, load_fc_log, load_tlog
+from ..flight_logs import FC_SUFFIX, TLOG_SUFFIX, FlightData, FlightLogError, find_truth, load_tlog, load_ulog
 from ..plot_landing import PHASES
 
 TRUTH_SUFFIX = ".truth.npy"
-FLIGHT_SUFFIXES = (TRUTH_SUFFIX, FC_SUFFIX, TLOG_SUFFIX, ".ulg", ".frames.npy", ".sim.json")
+FLIGHT_SUFFIXES = (TRUTH_SUFFIX, FC_SUFFIX, TLOG_SUFFIX, ".frames.npy", ".sim.json")
 DEFAULT_SIZE, DEFAULT_FPS = (640, 360), 25.0
 
 
@@ -59,7 +59,7 @@ def video_size(text: str) -> tuple[int, int]:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "log", metavar="LOG",
-        help="a log directory (its latest flight), a file of the flight (.truth.npy, .fc.npy, .tlog, .ulg ...) "
+        help="a log directory (its latest flight), a file of the flight (.truth.npy, .ulg, .tlog ...) "
         "or the flight's path without its suffix",
     )  # fmt: skip
     p.add_argument("--video", metavar="FILE.mp4", help="the MP4 (H.264) to write")
@@ -117,7 +117,7 @@ def find_flight(path: Path) -> Path:
         return truth
     if name.endswith((FC_SUFFIX, TLOG_SUFFIX)) and path.exists():  # a log of another stem: paired as gcs plot does
         try:
-            data = load_fc_log(path) if name.endswith(FC_SUFFIX) else load_tlog(path)
+            data = load_ulog(path) if name.endswith(FC_SUFFIX) else load_tlog(path)
             series = [s for s in (data.estimate, data.setpoint) if s is not None and s.t_s.size]
             if series and (paired := find_truth(path, _span(series))) is not None:
                 return paired
@@ -132,7 +132,7 @@ def _span(series) -> tuple[float, float]:
 
 def status_track(truth: Path):
     """The flight controller's mode and landing phase over the flight (:class:`sitl.replay_video.StatusTrack`),
-    from its ``.fc.npy`` of the same flight, else its ``.tlog`` (modes only); empty when neither is found."""
+    from its ``.ulg`` of the same flight, else its ``.tlog`` (modes only); empty when neither is found."""
     from sitl.replay_video import StatusTrack
 
     data = _fc_data(truth)
@@ -149,14 +149,14 @@ def status_track(truth: Path):
 
 
 def _fc_data(truth: Path) -> FlightData | None:
-    """The flight controller's log of the truth log's flight: the same stem's (.fc.npy, else .tlog), else one
+    """The flight controller's log of the truth log's flight: the same stem's (.ulg, else .tlog), else one
     of the directory's whose truth log this is (paired by name time and span, as ``gcs plot`` pairs them)."""
     stem = truth.name[: -len(TRUTH_SUFFIX)]
     own = [truth.with_name(stem + sfx) for sfx in (FC_SUFFIX, TLOG_SUFFIX)]
     others = [p for sfx in (FC_SUFFIX, TLOG_SUFFIX) for p in sorted(truth.parent.glob("*" + sfx)) if p not in own]
     for path in [p for p in own if p.exists()] + others:
         try:
-            data = load_fc_log(path) if path.name.endswith(FC_SUFFIX) else load_tlog(path)
+            data = load_ulog(path) if path.name.endswith(FC_SUFFIX) else load_tlog(path)
         except (FlightLogError, OSError, ValueError, KeyError):
             continue
         series = [s for s in (data.estimate, data.setpoint) if s is not None and s.t_s.size]

@@ -11,7 +11,7 @@ simulator listens on its TCP port (4560 + instance, :mod:`mavsim_core.ports`), c
 ``/proc/net/tcp``: a probe connection would hold its accept up to the handshake timeout.  Each
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
 ``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given); the
-flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.fc.npy`` from
+flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.ulg`` from
 the flight controller, ``.truth.npy`` from the simulator), unless ``flight_logs`` is False.
 Children run in their own session so a Ctrl-C in the terminal reaches only
 us; :meth:`Stack.stop` ends them (SIGTERM, then SIGKILL), always: on leaving
@@ -100,7 +100,7 @@ class Stack:
     home: ``"LAT,LON,ALT"`` for the simulator, or None for its default.
     seed: simulator random seed, or None for its default.
     log_dir: where the child logs and the flight logs go; a new temp dir if None (kept after stop).
-    flight_logs: pass ``--log-dir log_dir`` to both children (tlog, control-rate and truth logs);
+    flight_logs: pass ``--log-dir log_dir`` to both children (tlog, ULog and truth logs);
         False: no flight logs at all (``autopilot --no-log``).
     start_timeout_s: wall seconds for the simulator to start listening.
     python: the interpreter for the children.
