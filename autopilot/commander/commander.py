@@ -24,6 +24,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot import telemetry_extras
 from autopilot.commander import failsafes, health, mission_control, mode_entry, prearm_checks, precision_landing
 from autopilot.commander.external_inputs import ExternalInputs
+from autopilot.commander.failsafe_actions import FailsafeActions
 from autopilot.commander.failure_detector import FailureDetector, check_failures
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.commander.mission_control import Plans
@@ -71,7 +72,7 @@ S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
 MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
 
 
-class Commander(FlightCommands, VehicleCommands):
+class Commander(FlightCommands, VehicleCommands, FailsafeActions):
     """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
 
     at_rest: bool = True  # the flight controller's rest detector (autopilot/estimation/rest_detector.py) sets it
@@ -142,7 +143,7 @@ class Commander(FlightCommands, VehicleCommands):
             prearm_failures=() if armed else tuple(self.prearm_failures()),
             position_setpoint_ned_m=getattr(self.setpoint, "pos_ned_m", None),
             mission=self.plans.status(mode),  # (the previous records again while nothing in them changed)
-            failsafe=failsafes.status(self, warning),
+            failsafe=failsafes.status(self.failsafe, armed, mode, self.inputs.manual is not None, warning),
             gimbal_request=precision_landing.gimbal_request(self.task, self.est, self.params),
         )
 
@@ -235,7 +236,7 @@ class Commander(FlightCommands, VehicleCommands):
             )
             if reason:
                 self._disarm(reason)
-        failsafes.check(self, now_us)
+        self._check_failsafes(now_us)
         check_failures(self, now_us, actuators)
         if (
             self.armed

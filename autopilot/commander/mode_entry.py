@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander import mission_control, mission_landing, precision_landing
+from autopilot.commander import mission_control, mission_landing, mode_requirements, precision_landing
+from autopilot.commander.mode_requirements import NEEDS_STICKS, EstimateValidity
 from autopilot.navigation import LandTask, LoiterTask, TakeoffTask, started
 from autopilot.navigation.follow_target import FollowTargetTask, fresh_target
 from autopilot.navigation.manual_modes import AcroTask, AltCtlTask, PosCtlTask, StabilizedTask
@@ -27,32 +28,19 @@ from mavsim_core.px4_modes import Mode
 if TYPE_CHECKING:
     from autopilot.commander.commander import Commander
 
-HEIGHT_ONLY = (Mode.ALTCTL, Mode.AUTO_LAND)  # modes that fly on a height estimate without a position
-ATTITUDE_ONLY = (Mode.STABILIZED, Mode.ACRO)  # modes that need nothing but an attitude
-NEEDS_STICKS = (Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO)
-
 
 def estimate_refusal(c: Commander, mode: Mode) -> str | None:
     """Why the estimate cannot fly ``mode`` now, or None."""
-    e = c.est
-    if e is None:
-        return "no estimate"
-    if mode in ATTITUDE_ONLY:
-        return None if e.attitude_valid else "no attitude estimate"
-    if mode in HEIGHT_ONLY:
-        return None if (e.position_valid or e.height_valid) else "no height estimate"
-    return None if e.position_valid else "no position estimate"
+    return mode_requirements.estimate_refusal(mode, EstimateValidity.of(c.est))
 
 
 def input_refusal(c: Commander, mode: Mode) -> str | None:
     """Why ``mode`` lacks its outside input now (sticks, an offboard setpoint stream), or None; armed or not."""
-    if mode in NEEDS_STICKS:
-        age = c.inputs.manual_age_s(c.now_us, c.wall_s)
-        if age is None or age > c.params.get("COM_RC_LOSS_T"):
-            return "no manual control input"
-    if mode is Mode.OFFBOARD:
+    manual_age_s = c.inputs.manual_age_s(c.now_us, c.wall_s) if mode in NEEDS_STICKS else None
+    why = mode_requirements.sticks_refusal(mode, manual_age_s, c.params.get("COM_RC_LOSS_T"))
+    if why is None and mode is Mode.OFFBOARD:
         return offboard_refusal(c.inputs, c.now_us, c.wall_s, c.params)
-    return None
+    return why
 
 
 def enter(c: Commander, mode: Mode, takeoff_down_m: float | None = None) -> int:
