@@ -25,7 +25,7 @@ from autopilot import telemetry_extras
 from autopilot.commander import failsafes, health, mission_control, mode_entry, prearm_checks, precision_landing
 from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.commander.failsafe_actions import FailsafeActions
-from autopilot.commander.failure_detector import FailureDetector, check_failures
+from autopilot.commander.failure_detector import FailureDetector
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.commander.mission_control import Plans
 from autopilot.commander.vehicle_commands import VehicleCommands
@@ -111,7 +111,7 @@ class Commander(FlightCommands, VehicleCommands, FailsafeActions):
         self.wall_s: float | None = None  # wall clock (s) of the latest update, for the input-loss timers
         self.hover_thrust_frac = 0.5  # weight / maximum thrust (the flight controller sets the vehicle's)
         self.failsafe = failsafes.FailsafeState()
-        self.failure_detector = FailureDetector(params)  # loss of control, crash check
+        self.failure_detector = FailureDetector()  # loss of control, crash check
         self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
@@ -237,7 +237,7 @@ class Commander(FlightCommands, VehicleCommands, FailsafeActions):
             if reason:
                 self._disarm(reason)
         self._check_failsafes(now_us)
-        check_failures(self, now_us, actuators)
+        self._check_failures(now_us, actuators)
         if (
             self.armed
             and self.mode is Mode.AUTO_TAKEOFF

@@ -1,19 +1,22 @@
-"""Where the commander applies what the failsafes decide (:mod:`.failsafes`), as methods of the :class:`Commander`.
+"""Where the commander applies what the failsafes (:mod:`.failsafes`) and the failure detector
+(:mod:`.failure_detector`) decide, as methods of the :class:`Commander`.
 
 Each update the commander builds the failsafes' snapshot (:meth:`FailsafeActions._failsafe_inputs`), calls the
 pure :func:`.failsafes.decide` with their memory, says the decision's STATUSTEXTs and takes its action: a mode
 switch through ``Commander._enter`` (a refused mode falls back: Return or Hold -> Land -> Descend), the descend
-task, or a forced disarm.  This is the only place a failsafe changes the vehicle.
+task, or a forced disarm.  The failure detector's decision (:meth:`FailsafeActions._check_failures`) is applied
+the same way.  This is the only place a failsafe changes the vehicle.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import failsafes, health
 from autopilot.commander.failsafes import DESCEND, PHRASE, TERMINATE, Alarm, FailsafeInputs, FailsafeParams, Target
+from autopilot.commander.failure_detector import FailureDetector, FailureInputs, FailureParams, StopMotors
 from autopilot.commander.mode_requirements import EstimateValidity
 from autopilot.navigation import offboard, started
 from autopilot.navigation.descend import DescendTask
@@ -21,8 +24,9 @@ from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
     from autopilot.commander.external_inputs import ExternalInputs
+    from autopilot.navigation.land_detector import LandDetector
     from autopilot.parameters import ParameterStore
-    from autopilot.topics import BatteryState, VehicleEstimate
+    from autopilot.topics import ActuatorStatus, BatteryState, VehicleEstimate
 
 
 class FailsafeActions:
@@ -34,13 +38,17 @@ class FailsafeActions:
     armed: bool
     mode: Mode
     now_us: int
-    task: object
+    task: Any
     events: list[tuple[int, str]]
     battery: BatteryState
     inputs: ExternalInputs
     wall_s: float | None
     hover_thrust_frac: float
     failsafe: failsafes.FailsafeState
+    failure_detector: FailureDetector
+    land_detector: LandDetector
+    armed_at_us: int
+    vel_sp_down_m_s: float
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
 
@@ -127,3 +135,25 @@ class FailsafeActions:
         """A failsafe stops the motors (a forced disarm): HEARTBEAT EMERGENCY until the next arming."""
         self._disarm(why)
         self.failsafe.terminated, self.failsafe.in_force = True, None
+
+    def _check_failures(self, now_us: int, actuators: ActuatorStatus) -> None:
+        """Feed the failure detector this update and apply its decision (STATUSTEXTs, motors stopped)."""
+        inputs = FailureInputs(
+            now_us=now_us,
+            armed=self.armed,
+            armed_at_us=self.armed_at_us,
+            in_air=self.in_air,
+            mode=self.mode,
+            est=self.est,
+            actuators=actuators,
+            vel_sp_down_m_s=self.vel_sp_down_m_s,
+            ground_down_m=self.land_detector.ground_down_m,
+            params=FailureParams.from_store(self.params),
+        )
+        decision = self.failure_detector.step(inputs)
+        for step in decision.steps:
+            if isinstance(step, StopMotors):
+                self._stop_motors(step.why)
+            else:
+                self.say(*step)
+        self.failsafe.critical_failure = decision.critical_failure
