@@ -157,16 +157,18 @@ class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, Fails
     def prearm_failures(self) -> list[str]:
         """Why arming would be refused now (:mod:`autopilot.commander.prearm_checks`)."""
         p = self.params
-        return prearm_checks.prearm_failures(
-            self.est,
-            self.gps,
-            self.home,
-            self.battery,
-            self.estimator_checks,
-            p.get("COM_ARM_TILT_MAX"),
-            p.get("BAT_LOW_THR"),
-            self.terminated,
-        ) + mission_control.fence_prearm_failures(self.plans, self.est)
+        inputs = prearm_checks.PrearmInputs(
+            est=self.est,
+            gps=self.gps,
+            home=self.home,
+            battery=self.battery,
+            estimator_failures=tuple(self.estimator_checks),
+            tilt_max_deg=p.get("COM_ARM_TILT_MAX"),
+            battery_low_thr=p.get("BAT_LOW_THR"),
+            terminated=self.terminated,
+            fence_failures=tuple(mission_control.fence_prearm_failures(self.plans, self.est)),
+        )
+        return prearm_checks.prearm_failures(inputs)
 
     @property
     def in_air(self) -> bool:
@@ -292,13 +294,11 @@ class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, Fails
     def _arm(self, force: bool) -> int:
         if self.armed:
             return S.MAV_RESULT_ACCEPTED
-        fails = self.prearm_failures()
-        if fails and not force:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Arming denied: " + "; ".join(fails))
+        refusal = prearm_checks.arming_refusal(self.prearm_failures(), force, self.est is not None)
+        if refusal is not None:
+            self.say(S.MAV_SEVERITY_CRITICAL, refusal)
             return S.MAV_RESULT_DENIED
-        if self.est is None:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Arming denied: no sensor data")
-            return S.MAV_RESULT_DENIED
+        assert self.est is not None  # (refused without one)
         if self.est.position_valid:
             self._set_home(self.est)
         self.armed = True
