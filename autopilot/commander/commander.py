@@ -31,7 +31,7 @@ from autopilot.commander.mission_control import Plans
 from autopilot.commander.mission_flight import MissionFlight
 from autopilot.commander.mode_entry import ModeEntry
 from autopilot.commander.mode_requirements import AVAILABLE
-from autopilot.commander.vehicle_commands import VehicleCommands
+from autopilot.commander.vehicle_commands import MAV_TYPES, VehicleCommands
 from autopilot.control.position_control import PositionSetpoint
 from autopilot.navigation import LoiterTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
@@ -67,7 +67,6 @@ CLIMBS_FROM_GROUND = (Mode.AUTO_TAKEOFF, Mode.AUTO_MISSION)  # modes that take o
 FLY_FROM_GROUND = (*CLIMBS_FROM_GROUND, Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO, Mode.OFFBOARD)
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
-MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
 
 
 class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, FailsafeActions):
