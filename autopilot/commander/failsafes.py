@@ -162,7 +162,7 @@ Watch = Callable[[FailsafeInputs, FailsafeMemory], tuple[FailsafeMemory, tuple[t
 
 def decide(s: FailsafeInputs, m: FailsafeMemory, start: int = 0) -> tuple[FailsafeDecision, FailsafeMemory]:
     """The failsafes' decision in this situation, from watch ``start`` on (0: a new update), and the new memory."""
-    if start == 0 and not s.armed:
+    if start == 0 and not s.armed and m.battery_level is not BatteryWarning.NONE:
         m = replace(m, battery_level=BatteryWarning.NONE)
     if s.estimate is None:
         return FailsafeDecision(), m
@@ -179,7 +179,8 @@ def _estimator(s: FailsafeInputs, m: FailsafeMemory):
     e = s.estimate
     assert e is not None
     if e.attitude:
-        m = replace(m, attitude_lost=False)
+        if m.attitude_lost:
+            m = replace(m, attitude_lost=False)
     elif s.flying and not m.attitude_lost:
         return replace(m, attitude_lost=True), (), Alarm(S.MAV_SEVERITY_CRITICAL, "Attitude estimate lost", DESCEND)
     if e.position:
@@ -198,7 +199,7 @@ def _estimator(s: FailsafeInputs, m: FailsafeMemory):
 
 def _offboard(s: FailsafeInputs, m: FailsafeMemory):
     if s.mode is not Mode.OFFBOARD or not s.armed or not s.offboard_lost:
-        return replace(m, offboard_lost=False), (), None
+        return (replace(m, offboard_lost=False) if m.offboard_lost else m), (), None
     if m.offboard_lost:
         return m, (), None
     alarm = Alarm(S.MAV_SEVERITY_CRITICAL, "Offboard control lost", s.params.offboard_fallback)
@@ -243,6 +244,8 @@ def _battery(s: FailsafeInputs, m: FailsafeMemory):
     if not s.armed:
         return m, (), None
     level = s.battery_level
+    if level is m.battery_level:
+        return m, (), None
     m, raised = replace(m, battery_level=level), level > m.battery_level
     if not raised:
         return m, (), None
