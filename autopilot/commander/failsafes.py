@@ -223,13 +223,17 @@ def _input_loss(m: FailsafeMemory, age_s: float | None, timeout_s: float, flag: 
     reported once and acted on (``target``), its return reported; ``flag`` names its FailsafeMemory field."""
     if age_s is None:
         return m, (), None
-    was_lost = getattr(m, flag)
+    was_lost: bool = getattr(m, flag)
     if age_s <= timeout_s:
         if was_lost:
-            return replace(m, **{flag: False}), ((S.MAV_SEVERITY_INFO, f"{what} regained"),), None
+            return _flagged(m, flag, False), ((S.MAV_SEVERITY_INFO, f"{what} regained"),), None
     elif not was_lost:
-        return replace(m, **{flag: True}), (), Alarm(S.MAV_SEVERITY_CRITICAL, f"{what} lost", target)
+        return _flagged(m, flag, True), (), Alarm(S.MAV_SEVERITY_CRITICAL, f"{what} lost", target)
     return m, (), None
+
+
+def _flagged(m: FailsafeMemory, flag: str, value: bool) -> FailsafeMemory:
+    return replace(m, rc_lost=value) if flag == "rc_lost" else replace(m, gcs_lost=value)
 
 
 BATTERY_WORDS = {

@@ -197,7 +197,7 @@ class FailureDetector:
             self.reset()
             return FailureDecision()
         steps: list[Step] = []
-        armed = s.armed
+        armed: bool = s.armed
         controlled = s.mode is not Mode.ACRO and est.attitude_valid  # PX4: only while the attitude is controlled
         if not controlled:
             self.clear()

@@ -59,8 +59,13 @@ def land_start(items: list[MissionItem], flying: bool, mode: Mode, task: object)
     if seq is None:
         return LandStart("Mission landing denied: the mission has no landing (DO_LAND_START, NAV_LAND)")
     start, land = seq
-    flown = mode is Mode.AUTO_MISSION and isinstance(task, MissionTask) and task.follows_plan
-    return LandStart(None, flown and start <= task.current <= land, start, land)  # type: ignore[union-attr]
+    flown = (
+        mode is Mode.AUTO_MISSION
+        and isinstance(task, MissionTask)
+        and task.follows_plan
+        and start <= task.current <= land
+    )
+    return LandStart(None, flown, start, land)
 
 
 def return_task(

@@ -101,10 +101,10 @@ class ModeEntry:
             self.task = started(LandTask(self._ground_down_m(e), self.params), e, self.now_us)
         elif mode is Mode.AUTO_RTL:
             assert self.home is not None
-            task, text = mission_landing.return_task(self.plans, self.params, self.home, self.mode, e)  # RTL_TYPE
+            route, text = mission_landing.return_task(self.plans, self.params, self.home, self.mode, e)  # RTL_TYPE
             if text is not None:
                 self.say(S.MAV_SEVERITY_INFO, text)
-            self.task = started(task, e, self.now_us)
+            self.task = started(route, e, self.now_us)
         elif mode is Mode.AUTO_MISSION and (result := self._start_mission()) != S.MAV_RESULT_ACCEPTED:
             return result
         elif mode is Mode.AUTO_PRECLAND:
