@@ -1,15 +1,16 @@
 """The commander's side of the mission's landing: MAV_CMD_DO_LAND_START and the return types (RTL_TYPE).
 
-:func:`land_start` is MAV_CMD_DO_LAND_START sent as a command (MAVProxy's ``land``): as PX4's navigator,
-the mission goes on from its landing sequence (:func:`autopilot.navigation.rtl_mission.landing_sequence`)
-in AUTO.MISSION; a vehicle not flying, or a mission without a landing, is refused with a STATUSTEXT
-(MAV_RESULT_DENIED: PX4 1.14 answers ACCEPTED and only warns on its console, later versions CANCELLED).
+:func:`land_start` decides MAV_CMD_DO_LAND_START sent as a command (MAVProxy's ``land``; the commander does
+it, ``FlightCommands.land_start``): as PX4's navigator, the mission goes on from its landing sequence
+(:func:`autopilot.navigation.rtl_mission.landing_sequence`) in AUTO.MISSION; a vehicle not flying, or a
+mission without a landing, is refused with a STATUSTEXT (MAV_RESULT_DENIED: PX4 1.14 answers ACCEPTED and
+only warns on its console, later versions CANCELLED).
 
 :func:`return_task` builds the task of AUTO.RTL as RTL_TYPE says (:func:`.rtl_mission.choose_return`):
 a direct return (:class:`autopilot.navigation.rtl.ReturnTask`) or the mission runner on a return's own
 list of items (the mission landing, the rest of the mission, or the mission backwards), which the
-commander steps as a mission (:func:`autopilot.commander.mission_control.step`) without touching the
-stored mission's progress.  Each return through the mission says which in a STATUSTEXT.
+commander steps as a mission (``MissionFlight._step_mission``) without touching the stored mission's
+progress.  Each return through the mission comes with the STATUSTEXT saying which.
 
 Frames: NED metres from the estimator origin.
 """
