@@ -5,7 +5,9 @@ The task (:class:`autopilot.navigation.precland.PrecLandTask`) flies the phases;
 changes into STATUSTEXTs ("Precland: tracking (...)"), reports once a required landing that found no
 target, and says when the docking point is reached (a :class:`PrecLandStep`); the commander says the texts
 and then disarms the vehicle, as [F 3] cuts the motors there (``Commander._step_precland``).  Nothing here
-takes the commander: each function is given what it reads.  A mission's NAV_LAND with param2 1/2 flies the same task inside AUTO.MISSION (the runner's
+takes the commander: each function is given what it reads.
+
+A mission's NAV_LAND with param2 1/2 flies the same task inside AUTO.MISSION (the runner's
 ``precland``, as PX4's mission keeps its mode): :func:`landing_of` finds it in either.  Frames: NED, m/s.
 """
 
