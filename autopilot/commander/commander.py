@@ -22,12 +22,16 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot import telemetry_extras
-from autopilot.commander import failsafes, health, mission_control, mode_entry, prearm_checks, precision_landing
+from autopilot.commander import failsafes, health, mission_control, prearm_checks, precision_landing
 from autopilot.commander.external_inputs import ExternalInputs
-from autopilot.commander.failure_detector import FailureDetector, check_failures
+from autopilot.commander.failsafe_actions import FailsafeActions
+from autopilot.commander.failure_detector import FailureDetector
 from autopilot.commander.flight_commands import FlightCommands, publishes
 from autopilot.commander.mission_control import Plans
-from autopilot.commander.vehicle_commands import VehicleCommands
+from autopilot.commander.mission_flight import MissionFlight
+from autopilot.commander.mode_entry import ModeEntry
+from autopilot.commander.mode_requirements import AVAILABLE
+from autopilot.commander.vehicle_commands import MAV_TYPES, VehicleCommands
 from autopilot.control.position_control import PositionSetpoint
 from autopilot.navigation import LoiterTask, TakeoffTask, started
 from autopilot.navigation.land_detector import LandDetector, Landed
@@ -58,20 +62,14 @@ PARAMS: tuple[ParamDef, ...] = (
     ),
 )
 
-# Modes this flight controller can fly (POSCTL without sticks holds position).
-AVAILABLE = {
-    Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO, Mode.OFFBOARD, Mode.AUTO_TAKEOFF, Mode.AUTO_LOITER,
-    Mode.AUTO_MISSION, Mode.AUTO_RTL, Mode.AUTO_LAND, Mode.AUTO_PRECLAND, Mode.AUTO_FOLLOW_TARGET,
-}  # fmt: skip
 CLIMBS_FROM_GROUND = (Mode.AUTO_TAKEOFF, Mode.AUTO_MISSION)  # modes that take off by themselves
 # Modes whose task flies from the ground too: the pilot's sticks or offboard setpoints lift off.
 FLY_FROM_GROUND = (*CLIMBS_FROM_GROUND, Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO, Mode.OFFBOARD)
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_*, MAV_TYPE_* constants
-MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
 
 
-class Commander(FlightCommands, VehicleCommands):
+class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, FailsafeActions):
     """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
 
     at_rest: bool = True  # the flight controller's rest detector (autopilot/estimation/rest_detector.py) sets it
@@ -110,7 +108,7 @@ class Commander(FlightCommands, VehicleCommands):
         self.wall_s: float | None = None  # wall clock (s) of the latest update, for the input-loss timers
         self.hover_thrust_frac = 0.5  # weight / maximum thrust (the flight controller sets the vehicle's)
         self.failsafe = failsafes.FailsafeState()
-        self.failure_detector = FailureDetector(params)  # loss of control, crash check
+        self.failure_detector = FailureDetector()  # loss of control, crash check
         self.status = self._make_status()
 
     # -- events ---------------------------------------------------------------------
@@ -142,7 +140,7 @@ class Commander(FlightCommands, VehicleCommands):
             prearm_failures=() if armed else tuple(self.prearm_failures()),
             position_setpoint_ned_m=getattr(self.setpoint, "pos_ned_m", None),
             mission=self.plans.status(mode),  # (the previous records again while nothing in them changed)
-            failsafe=failsafes.status(self, warning),
+            failsafe=failsafes.status(self.failsafe, armed, mode, self.inputs.manual is not None, warning),
             gimbal_request=precision_landing.gimbal_request(self.task, self.est, self.params),
         )
 
@@ -158,16 +156,18 @@ class Commander(FlightCommands, VehicleCommands):
     def prearm_failures(self) -> list[str]:
         """Why arming would be refused now (:mod:`autopilot.commander.prearm_checks`)."""
         p = self.params
-        return prearm_checks.prearm_failures(
-            self.est,
-            self.gps,
-            self.home,
-            self.battery,
-            self.estimator_checks,
-            p.get("COM_ARM_TILT_MAX"),
-            p.get("BAT_LOW_THR"),
-            self.terminated,
-        ) + mission_control.fence_prearm_failures(self)
+        inputs = prearm_checks.PrearmInputs(
+            est=self.est,
+            gps=self.gps,
+            home=self.home,
+            battery=self.battery,
+            estimator_failures=tuple(self.estimator_checks),
+            tilt_max_deg=p.get("COM_ARM_TILT_MAX"),
+            battery_low_thr=p.get("BAT_LOW_THR"),
+            terminated=self.terminated,
+            fence_failures=tuple(mission_control.fence_prearm_failures(self.plans, self.est)),
+        )
+        return prearm_checks.prearm_failures(inputs)
 
     @property
     def in_air(self) -> bool:
@@ -227,7 +227,7 @@ class Commander(FlightCommands, VehicleCommands):
             self.say(S.MAV_SEVERITY_INFO, "Takeoff detected" if state is Landed.IN_AIR else "Landing detected")
             if state is Landed.ON_GROUND and self.mode in (Mode.AUTO_LAND, Mode.AUTO_RTL, Mode.AUTO_MISSION):
                 if self.mode is Mode.AUTO_MISSION:
-                    mission_control.on_landed(self)
+                    self._say_all(mission_control.on_landed(self.plans))
                 self.task = None
         if self.armed and state is Landed.ON_GROUND:  # (the auto-disarm timers run on the ground only)
             reason = health.auto_disarm_reason(
@@ -235,8 +235,8 @@ class Commander(FlightCommands, VehicleCommands):
             )
             if reason:
                 self._disarm(reason)
-        failsafes.check(self, now_us)
-        check_failures(self, now_us, actuators)
+        self._check_failsafes(now_us)
+        self._check_failures(now_us, actuators)
         if (
             self.armed
             and self.mode is Mode.AUTO_TAKEOFF
@@ -254,12 +254,12 @@ class Commander(FlightCommands, VehicleCommands):
             self.setpoint = None
             return None
         if self.in_air:
-            mission_control.check_geofence(self, est, now_us)
+            self._check_geofence(est, now_us)
         if isinstance(self.task, MissionTask):
-            self.setpoint = mission_control.step(self, self.task, est, now_us)
+            self.setpoint = self._step_mission(self.task, est, now_us)
             return self.setpoint
         if isinstance(self.task, PrecLandTask):
-            self.setpoint = precision_landing.step(self, self.task, est, now_us)
+            self.setpoint = self._step_precland(self.task, est, now_us)
             return self.setpoint
         if hasattr(self.task, "on_ground"):
             self.task.on_ground = not self.in_air  # stick and offboard tasks stay idle until lift-off
@@ -293,13 +293,11 @@ class Commander(FlightCommands, VehicleCommands):
     def _arm(self, force: bool) -> int:
         if self.armed:
             return S.MAV_RESULT_ACCEPTED
-        fails = self.prearm_failures()
-        if fails and not force:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Arming denied: " + "; ".join(fails))
+        refusal = prearm_checks.arming_refusal(self.prearm_failures(), force, self.est is not None)
+        if refusal is not None:
+            self.say(S.MAV_SEVERITY_CRITICAL, refusal)
             return S.MAV_RESULT_DENIED
-        if self.est is None:
-            self.say(S.MAV_SEVERITY_CRITICAL, "Arming denied: no sensor data")
-            return S.MAV_RESULT_DENIED
+        assert self.est is not None  # (refused without one)
         if self.est.position_valid:
             self._set_home(self.est)
         self.armed = True
@@ -313,9 +311,9 @@ class Commander(FlightCommands, VehicleCommands):
         self.say(S.MAV_SEVERITY_INFO, "Armed")
         if self.mode in FLY_FROM_GROUND and self.mode not in CLIMBS_FROM_GROUND:
             mode = self.mode  # the stick and offboard modes fly from the ground: their task starts now
-            if mode_entry.enter(self, mode) != S.MAV_RESULT_ACCEPTED:
+            if self._enter(mode) != S.MAV_RESULT_ACCEPTED:
                 self.mode = Mode.AUTO_LOITER
-        if self.mode is Mode.AUTO_MISSION and mission_control.start_mission(self) != S.MAV_RESULT_ACCEPTED:
+        if self.mode is Mode.AUTO_MISSION and self._start_mission() != S.MAV_RESULT_ACCEPTED:
             self.mode = Mode.AUTO_LOITER  # armed in MISSION: the mission starts (take-off first), as in PX4
         return S.MAV_RESULT_ACCEPTED
 
@@ -344,15 +342,11 @@ class Commander(FlightCommands, VehicleCommands):
         return S.MAV_RESULT_ACCEPTED
 
     # -- modes ------------------------------------------------------------------------
-    def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int:
-        """Switch mode and start its task; refuse (with a reason) if it cannot run now (:mod:`.mode_entry`)."""
-        return mode_entry.enter(self, mode, takeoff_down_m)
-
     def _switch_mode(self, mode: Mode) -> None:
         """Change the mode (the caller has set its task): say so, and pause a mission that was flown."""
         if mode is not self.mode:
             self.say(S.MAV_SEVERITY_INFO, f"Mode {mode.label}")
-            mission_control.on_mode_change(self, self.mode, mode)
+            mission_control.on_mode_change(self.plans, self.mode, mode)
         self.mode = mode
 
     @publishes
@@ -366,7 +360,7 @@ class Commander(FlightCommands, VehicleCommands):
             return self._enter(mode)
         if self.armed or mode not in AVAILABLE:
             return self._enter(mode)  # starts the mode's task, or refuses with a reason
-        if (why := mode_entry.input_refusal(self, mode)) is not None:
+        if (why := self._input_refusal(mode)) is not None:
             self.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} denied: {why}")
             return S.MAV_RESULT_DENIED
         self.mode = mode  # on the ground, disarmed: PX4 accepts the mode; it acts once armed

@@ -1,6 +1,11 @@
 """Failsafes: what the commander does by itself when something it relies on fails (PX4's failsafe actions).
 
-:func:`check` runs in every commander update (armed or not) and watches, each with PX4's parameters:
+:func:`decide` is a pure function, as PX4's newer failsafe framework: the commander builds a frozen
+:class:`FailsafeInputs` (what the estimate, the inputs and links, the battery and the mode say now, with the
+parameters) in every update, armed or not, and passes it with the failsafes' memory (:class:`FailsafeMemory`,
+what was reported so far); it returns a :class:`FailsafeDecision` (the STATUSTEXTs to say, the action to take)
+and the new memory, and the commander alone applies it (``Commander._check_failsafes``).  It watches, each with
+PX4's parameters:
 
 - the ground station's data link: its HEARTBEATs silent for ``COM_DL_LOSS_T`` s -> ``NAV_DLL_ACT``
   (PX4 default 0: report only); only once a ground station's HEARTBEAT was seen;
@@ -18,32 +23,30 @@
 
 ``NAV_*_ACT`` values, as PX4's: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Lockdown (both
 stop the motors here: a forced disarm).  An action switches modes through ``Commander._enter``; a
-refused mode falls back (Return or Hold -> Land -> Descend), and an action never "downgrades" a
-more cautious mode already flown (Land is not turned into Return).  Each event is reported once by a
-STATUSTEXT naming the action (and again when the input is regained); it does not trigger again while
-it lasts, so the pilot may take over by switching modes, as in PX4.  Actions are taken only while
-armed and flying; on the ground the event is only reported.  Input ages use both clocks
-(:func:`autopilot.topics.input_age_s`; ``commander.wall_s`` None: simulated time only).
+refused mode falls back (Return or Hold -> Land -> Descend: :func:`fallback_chain`), and an action never
+"downgrades" a more cautious mode already flown (Land is not turned into Return: :func:`already_flown`).
+Each event is reported once by a STATUSTEXT naming the action (and again when the input is regained); it
+does not trigger again while it lasts, so the pilot may take over by switching modes, as in PX4.  Actions
+are taken only while armed and flying; on the ground the event is only reported.  Input ages use both clocks
+(:func:`autopilot.topics.input_age_s`; ``commander.wall_s`` None: simulated time only).  The watches run in
+order; one that raises an alarm stops the pass (``FailsafeDecision.resume_at``): the commander applies it and
+calls again from the next watch with a new snapshot, so each watch sees the mode the previous one left.
 :func:`status` gives the published :class:`~autopilot.topics.FailsafeStatus` (MAV_STATE_CRITICAL
 while an action is in force, MAV_STATE_EMERGENCY at battery emergency or after a termination).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable
+from dataclasses import dataclass, field, replace
+from typing import Callable
 
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander import health, mode_entry
-from autopilot.navigation import offboard, started
-from autopilot.navigation.descend import DescendTask
-from autopilot.parameters import ParamDef, ParamType, param
+from autopilot.commander.mode_requirements import EstimateValidity, estimate_refusal
+from autopilot.navigation import offboard
+from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import BatteryWarning, FailsafeStatus
 from mavsim_core.px4_modes import Mode
-
-if TYPE_CHECKING:
-    from autopilot.commander.commander import Commander
 
 _INT = ParamType.INT32
 _NAV_ACT = "0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Lockdown (motors off)"
@@ -80,9 +83,52 @@ PHRASE: dict[Target, str] = {
 RCL_EXCEPT_BITS = {Mode.AUTO_MISSION: 1, Mode.AUTO_LOITER: 2, Mode.OFFBOARD: 4}
 
 
-@dataclass
-class FailsafeState:
-    """What the failsafes have reported and done so far (so each event is said and acted on once)."""
+@dataclass(frozen=True)
+class FailsafeParams:
+    """The parameters the failsafes read (PX4's names in :data:`PARAMS`), and OFFBOARD's loss fallback."""
+
+    rc_loss_t_s: float
+    rcl_act: int
+    rcl_except: int
+    dl_loss_t_s: float
+    dll_act: int
+    low_bat_act: int
+    posctl_navl: int
+    offboard_fallback: Target  # COM_OBL_RC_ACT's mode (:func:`autopilot.navigation.offboard.loss_fallback_mode`)
+
+    @classmethod
+    def from_store(cls, params: ParameterStore) -> FailsafeParams:
+        g = params.get
+        return cls(
+            g("COM_RC_LOSS_T"), int(g("NAV_RCL_ACT")), int(g("COM_RCL_EXCEPT")), g("COM_DL_LOSS_T"),
+            int(g("NAV_DLL_ACT")), int(g("COM_LOW_BAT_ACT")), int(g("COM_POSCTL_NAVL")),
+            offboard.loss_fallback_mode(params),
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FailsafeInputs:
+    """What the vehicle says now, for :func:`decide` (ages in s, both clocks; None: never seen)."""
+
+    armed: bool
+    in_air: bool
+    mode: Mode
+    estimate: EstimateValidity | None  # None: no estimate yet (nothing is watched)
+    manual_age_s: float | None  # the pilot's sticks (MANUAL_CONTROL)
+    gcs_age_s: float | None  # the ground station's HEARTBEAT
+    offboard_lost: bool  # armed in OFFBOARD, its setpoints silent for COM_OF_LOSS_T (False otherwise)
+    battery_frac: float  # remaining charge (fraction; < 0 or NaN unknown)
+    battery_level: BatteryWarning  # its grade (:func:`.health.battery_warning`)
+    params: FailsafeParams
+
+    @property
+    def flying(self) -> bool:
+        return self.armed and self.in_air
+
+
+@dataclass(frozen=True)
+class FailsafeMemory:
+    """What the failsafes have reported so far, so each event is said and acted on once."""
 
     gcs_lost: bool = False
     rc_lost: bool = False
@@ -90,128 +136,104 @@ class FailsafeState:
     position_lost: bool = False
     attitude_lost: bool = False
     battery_level: BatteryWarning = BatteryWarning.NONE  # the highest level reported while armed
-    in_force: Mode | None = None  # the mode a failsafe action put the vehicle in (None: none in force)
-    terminated: bool = False  # the motors were stopped by a failsafe (until the next arming)
-    critical_failure: bool = False  # armed, the failure detector finds a loss of control now (failure_detector)
-    # the FailsafeStatus last published and its fields (:func:`status` publishes it again while they hold)
-    published: tuple[tuple, FailsafeStatus] | None = field(default=None, repr=False, compare=False)
 
 
-def status(c: Commander, level: BatteryWarning | None = None) -> FailsafeStatus:
-    """The failsafe part of the published status (``level``: the battery warning now, if the caller has it);
-    the record published last while its fields are the same (frozen: nobody can tell)."""
-    st = c.failsafe
-    if level is None:
-        level = health.battery_warning(c.battery.remaining_frac, c.params)
-    armed = c.armed
-    battery_emergency = armed and level is BatteryWarning.EMERGENCY
-    key = (
-        armed and st.in_force is not None and c.mode is st.in_force,  # action_in_force
-        (st.terminated and not armed) or battery_emergency or (armed and st.critical_failure),  # emergency
-        c.inputs.manual is not None,  # rc_seen
-        st.rc_lost,
-        st.gcs_lost,
-    )
-    last = st.published
-    if last is None or last[0] != key:
-        last = st.published = (key, FailsafeStatus(*key))
-    return last[1]
+@dataclass(frozen=True)
+class Alarm:
+    """A failure to report in one STATUSTEXT ``what`` (at ``severity``) and, flying, the action ``target``."""
+
+    severity: int
+    what: str
+    target: Target
 
 
-def check(c: Commander, now_us: int) -> None:
-    """Act on the failures of this update (see the module docstring)."""
-    st = c.failsafe
-    if c.armed:
-        st.terminated = False
-    else:
-        st.in_force, st.battery_level = None, BatteryWarning.NONE
-    if c.est is None:
-        return
-    _estimator(c)
-    _offboard(c, now_us)
-    _manual_control(c, now_us)
-    _data_link(c, now_us)
-    _battery(c)
-    if st.in_force is not None and c.mode is not st.in_force:
-        st.in_force = None  # the pilot took over
+@dataclass(frozen=True)
+class FailsafeDecision:
+    """What to do now: say ``texts`` (in order), then raise ``alarm`` (None: none); ``resume_at``: the watch to
+    run next in this update (None: the pass is over)."""
+
+    texts: tuple[tuple[int, str], ...] = ()
+    alarm: Alarm | None = None
+    resume_at: int | None = None
 
 
-def _flying(c: Commander) -> bool:
-    return c.armed and c.in_air
+Watch = Callable[[FailsafeInputs, FailsafeMemory], tuple[FailsafeMemory, tuple[tuple[int, str], ...], Alarm | None]]
 
 
-def _estimator(c: Commander) -> None:
-    st, e = c.failsafe, c.est
+def decide(s: FailsafeInputs, m: FailsafeMemory, start: int = 0) -> tuple[FailsafeDecision, FailsafeMemory]:
+    """The failsafes' decision in this situation, from watch ``start`` on (0: a new update), and the new memory."""
+    if start == 0 and not s.armed and m.battery_level is not BatteryWarning.NONE:
+        m = replace(m, battery_level=BatteryWarning.NONE)
+    if s.estimate is None:
+        return FailsafeDecision(), m
+    texts: tuple[tuple[int, str], ...] = ()
+    for k in range(start, len(WATCHES)):
+        m, said, alarm = WATCHES[k](s, m)
+        texts += said
+        if alarm is not None:
+            return FailsafeDecision(texts, alarm, k + 1 if k + 1 < len(WATCHES) else None), m
+    return FailsafeDecision(texts), m
+
+
+def _estimator(s: FailsafeInputs, m: FailsafeMemory):
+    e = s.estimate
     assert e is not None
-    if e.attitude_valid:
-        st.attitude_lost = False
-    elif _flying(c) and not st.attitude_lost:
-        st.attitude_lost = True
-        act(c, DESCEND, S.MAV_SEVERITY_CRITICAL, "Attitude estimate lost")
-        return
-    if e.position_valid:
-        if st.position_lost:
-            st.position_lost = False
-            c.say(S.MAV_SEVERITY_INFO, "Position estimate regained")
-        return
-    if st.position_lost or not _flying(c) or not e.attitude_valid:
-        return
-    if mode_entry.estimate_refusal(c, c.mode) is None:
-        return  # the mode flies without a position (ALTCTL, STABILIZED, ACRO, AUTO.LAND on the height)
-    st.position_lost = True
-    pilot = mode_entry.input_refusal(c, Mode.ALTCTL) is None
-    target: Target = Mode.ALTCTL if pilot and int(c.params.get("COM_POSCTL_NAVL")) == 0 else Mode.AUTO_LAND
-    if mode_entry.estimate_refusal(c, Mode.AUTO_LAND) is not None:
+    if e.attitude:
+        if m.attitude_lost:
+            m = replace(m, attitude_lost=False)
+    elif s.flying and not m.attitude_lost:
+        return replace(m, attitude_lost=True), (), Alarm(S.MAV_SEVERITY_CRITICAL, "Attitude estimate lost", DESCEND)
+    if e.position:
+        if m.position_lost:
+            return replace(m, position_lost=False), ((S.MAV_SEVERITY_INFO, "Position estimate regained"),), None
+        return m, (), None
+    if m.position_lost or not s.flying or not e.attitude or estimate_refusal(s.mode, e) is None:
+        return m, (), None  # (a mode that flies without a position: ALTCTL, STABILIZED, ACRO, AUTO.LAND)
+    p = s.params
+    pilot = s.manual_age_s is not None and s.manual_age_s <= p.rc_loss_t_s  # ALTCTL's sticks
+    target: Target = Mode.ALTCTL if pilot and p.posctl_navl == 0 else Mode.AUTO_LAND
+    if estimate_refusal(Mode.AUTO_LAND, e) is not None:
         target = DESCEND  # no height either
-    act(c, target, S.MAV_SEVERITY_CRITICAL, "Position estimate lost")
+    return replace(m, position_lost=True), (), Alarm(S.MAV_SEVERITY_CRITICAL, "Position estimate lost", target)
 
 
-def _offboard(c: Commander, now_us: int) -> None:
-    st = c.failsafe
-    if c.mode is not Mode.OFFBOARD or not c.armed:
-        st.offboard_lost = False
-        return
-    if not offboard.offboard_lost(c.inputs, now_us, c.wall_s, c.params):
-        st.offboard_lost = False
-    elif not st.offboard_lost:
-        st.offboard_lost = True
-        act(c, offboard.loss_fallback_mode(c.params), S.MAV_SEVERITY_CRITICAL, "Offboard control lost")
+def _offboard(s: FailsafeInputs, m: FailsafeMemory):
+    if s.mode is not Mode.OFFBOARD or not s.armed or not s.offboard_lost:
+        return (replace(m, offboard_lost=False) if m.offboard_lost else m), (), None
+    if m.offboard_lost:
+        return m, (), None
+    alarm = Alarm(S.MAV_SEVERITY_CRITICAL, "Offboard control lost", s.params.offboard_fallback)
+    return replace(m, offboard_lost=True), (), alarm
 
 
-def _manual_control(c: Commander, now_us: int) -> None:
-    age = c.inputs.manual_age_s(now_us, c.wall_s)
-    if age is None:  # never seen: nothing to watch
-        return
-
-    def target() -> Target:
-        excepted = int(c.params.get("COM_RCL_EXCEPT")) & RCL_EXCEPT_BITS.get(c.mode, 0)
-        return None if excepted else NAV_ACTIONS.get(int(c.params.get("NAV_RCL_ACT")))
-
-    _input_loss(c, age, c.params.get("COM_RC_LOSS_T"), "rc_lost", "Manual control", target)
+def _manual_control(s: FailsafeInputs, m: FailsafeMemory):
+    p = s.params
+    excepted = p.rcl_except & RCL_EXCEPT_BITS.get(s.mode, 0)
+    target = None if excepted else NAV_ACTIONS.get(p.rcl_act)
+    return _input_loss(m, s.manual_age_s, p.rc_loss_t_s, "rc_lost", "Manual control", target)
 
 
-def _data_link(c: Commander, now_us: int) -> None:
-    age = c.inputs.gcs_age_s(now_us, c.wall_s)
-    if age is not None:
-        target = lambda: NAV_ACTIONS.get(int(c.params.get("NAV_DLL_ACT")))  # noqa: E731
-        _input_loss(c, age, c.params.get("COM_DL_LOSS_T"), "gcs_lost", "Data link", target)
+def _data_link(s: FailsafeInputs, m: FailsafeMemory):
+    p = s.params
+    return _input_loss(m, s.gcs_age_s, p.dl_loss_t_s, "gcs_lost", "Data link", NAV_ACTIONS.get(p.dll_act))
 
 
-def _input_loss(
-    c: Commander, age_s: float | None, timeout_s: float, flag: str, what: str, target: Callable[[], Target]
-) -> None:
-    """One watched input (sticks, the data link), ``age_s`` silent (None: never seen): its loss reported once
-    and acted on (``target()``), its return reported; ``flag`` names its FailsafeState field."""
+def _input_loss(m: FailsafeMemory, age_s: float | None, timeout_s: float, flag: str, what: str, target: Target):
+    """One watched input (sticks, the data link), ``age_s`` silent (None: never seen, nothing to watch): its loss
+    reported once and acted on (``target``), its return reported; ``flag`` names its FailsafeMemory field."""
     if age_s is None:
-        return
-    was_lost = getattr(c.failsafe, flag)
+        return m, (), None
+    was_lost: bool = getattr(m, flag)
     if age_s <= timeout_s:
         if was_lost:
-            setattr(c.failsafe, flag, False)
-            c.say(S.MAV_SEVERITY_INFO, f"{what} regained")
+            return _flagged(m, flag, False), ((S.MAV_SEVERITY_INFO, f"{what} regained"),), None
     elif not was_lost:
-        setattr(c.failsafe, flag, True)
-        act(c, target(), S.MAV_SEVERITY_CRITICAL, f"{what} lost")
+        return _flagged(m, flag, True), (), Alarm(S.MAV_SEVERITY_CRITICAL, f"{what} lost", target)
+    return m, (), None
+
+
+def _flagged(m: FailsafeMemory, flag: str, value: bool) -> FailsafeMemory:
+    return replace(m, rc_lost=value) if flag == "rc_lost" else replace(m, gcs_lost=value)
 
 
 BATTERY_WORDS = {
@@ -221,66 +243,66 @@ BATTERY_WORDS = {
 }
 
 
-def _battery(c: Commander) -> None:
+def _battery(s: FailsafeInputs, m: FailsafeMemory):
     """Each level once while armed, as it is reached; a charge that rises again lowers the level reported."""
-    st = c.failsafe
-    if not c.armed:
-        return
-    level = health.battery_warning(c.battery.remaining_frac, c.params)
-    if level <= st.battery_level:
-        st.battery_level = level
-        return
-    st.battery_level = level
+    if not s.armed:
+        return m, (), None
+    level = s.battery_level
+    if level is m.battery_level:
+        return m, (), None
+    m, raised = replace(m, battery_level=level), level > m.battery_level
+    if not raised:
+        return m, (), None
     what, severity, advice = BATTERY_WORDS[level]
-    what = f"{what} ({c.battery.remaining_frac * 100:.0f}% left)"
-    action = int(c.params.get("COM_LOW_BAT_ACT"))
+    what = f"{what} ({s.battery_frac * 100:.0f}% left)"
+    action = s.params.low_bat_act
     target: Target = None
     if level is BatteryWarning.CRITICAL and action in (2, 3):
         target = Mode.AUTO_RTL if action == 3 else Mode.AUTO_LAND
     elif level is BatteryWarning.EMERGENCY and action in (2, 3):
         target = Mode.AUTO_LAND
-    if target is None or not _flying(c):
-        c.say(severity, f"{what}: {advice}")
-        return
-    act(c, target, severity, what)
+    if target is None or not s.flying:
+        return m, ((severity, f"{what}: {advice}"),), None
+    return m, (), Alarm(severity, what, target)
 
 
-def act(c: Commander, target: Target, severity: int, what: str) -> None:
-    """Report ``what`` and, flying, take the action ``target``: one STATUSTEXT "what: action", said before
-    the mode change's own messages."""
-    at = len(c.events)
-    phrase = take(c, target) if _flying(c) else None
-    c.events.insert(at, (severity, f"{what}: {phrase}" if phrase else what))
+WATCHES: tuple[Watch, ...] = (_estimator, _offboard, _manual_control, _data_link, _battery)  # in this order
 
 
-def take(c: Commander, target: Target) -> str | None:
-    """Do ``target`` (falling back when its mode is refused); what was done, in words (None: nothing)."""
-    st = c.failsafe
-    if target is None:
-        return None
-    if target == TERMINATE:
-        c._disarm("flight termination")
-        st.terminated, st.in_force = True, None
-        return "motors stopped"
-    current = DESCEND if isinstance(c.task, DescendTask) else c.mode
-    if target in RANK and RANK.get(current, 0) >= RANK[target]:
-        st.in_force = c.mode
-        return f"already {PHRASE[current]}"
-    chain = [target] + [m for m in (Mode.AUTO_LAND, DESCEND) if RANK[m] > RANK.get(target, 0)]
-    for step in chain:
-        if step == DESCEND:
-            _descend(c)
-            st.in_force = Mode.AUTO_LAND
-            return PHRASE[DESCEND]
-        assert isinstance(step, Mode)
-        if c._enter(step) == S.MAV_RESULT_ACCEPTED:
-            st.in_force = step
-            return PHRASE.get(step, f"mode {step.label}")
-    return None  # not reached: descending is never refused
+def already_flown(current: Target, target: Target) -> bool:
+    """The mode (or DESCEND) flown now is as cautious as ``target`` or more: the action keeps it."""
+    return target in RANK and RANK.get(current, 0) >= RANK[target]
 
 
-def _descend(c: Commander) -> None:
-    """Fly the descend task (level, thrust just below hover) in AUTO.LAND, as PX4 reports Descend."""
-    assert c.est is not None
-    c.task = started(DescendTask(c.hover_thrust_frac), c.est, c.now_us)
-    c._switch_mode(Mode.AUTO_LAND)
+def fallback_chain(target: Target) -> list[Target]:
+    """``target`` and what to try, in order, when it is refused: Land, then Descend (never refused)."""
+    return [target] + [m for m in (Mode.AUTO_LAND, DESCEND) if RANK[m] > RANK.get(target, 0)]
+
+
+@dataclass
+class FailsafeState:
+    """The commander's record of the failsafes: their memory, and what applying their decisions did."""
+
+    memory: FailsafeMemory = FailsafeMemory()
+    in_force: Mode | None = None  # the mode a failsafe action put the vehicle in (None: none in force)
+    terminated: bool = False  # the motors were stopped by a failsafe (until the next arming)
+    critical_failure: bool = False  # armed, the failure detector finds a loss of control now (failure_detector)
+    # the FailsafeStatus last published and its fields (:func:`status` publishes it again while they hold)
+    published: tuple[tuple, FailsafeStatus] | None = field(default=None, repr=False, compare=False)
+
+
+def status(st: FailsafeState, armed: bool, mode: Mode, rc_seen: bool, level: BatteryWarning) -> FailsafeStatus:
+    """The failsafe part of the published status (``level``: the battery warning now); the record published
+    last while its fields are the same (frozen: nobody can tell)."""
+    battery_emergency = armed and level is BatteryWarning.EMERGENCY
+    key = (
+        armed and st.in_force is not None and mode is st.in_force,  # action_in_force
+        (st.terminated and not armed) or battery_emergency or (armed and st.critical_failure),  # emergency
+        rc_seen,
+        st.memory.rc_lost,
+        st.memory.gcs_lost,
+    )
+    last = st.published
+    if last is None or last[0] != key:
+        last = st.published = (key, FailsafeStatus(*key))
+    return last[1]

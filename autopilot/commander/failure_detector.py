@@ -36,23 +36,24 @@ the position controller keeps asking for full thrust).  Either way: "Crash detec
 arming).  Requiring the loss of control or of thrust first keeps a hover in a strong wind (a steady
 tilt, at rest) from ever being taken for a crash.  Angles are radians inside, degrees in the
 parameters; times are simulated µs.
+
+:class:`FailureDetector` is fed a frozen :class:`FailureInputs` each update (its only input; its timers are its
+own) and returns a frozen :class:`FailureDecision`: the STATUSTEXTs to say and the motors to stop, in order; the
+commander applies it (``Commander._check_failures``).
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Callable
+from dataclasses import dataclass
 
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander.thrust_loss import ThrustLossCheck
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
-from autopilot.topics import NO_ACTUATORS, ActuatorStatus
+from autopilot.topics import ActuatorStatus, VehicleEstimate
 from mavsim_core.px4_modes import Mode
-
-if TYPE_CHECKING:
-    from autopilot.commander.commander import Commander
 
 CBRK_FLIGHTTERM_KEY = 121212  # CBRK_FLIGHTTERM at this value: the circuit breaker is in, no termination
 CRASH_TILT_DEG = 30.0  # ArduPilot's CRASH_CHECK_ANGLE_DEVIATION_DEG
@@ -83,12 +84,68 @@ PARAMS: tuple[ParamDef, ...] = (
 )  # fmt: skip
 
 
-class FailureDetector:
-    """The attitude checks (FD_FAIL_*), the thrust-loss check and the crash check's timer; :func:`check_failures`
-    acts on them."""
+@dataclass(frozen=True)
+class FailureParams:
+    """The parameters the failure detector reads (:data:`PARAMS`, and the land detector's LNDMC_*_VEL_MAX)."""
 
-    def __init__(self, params: ParameterStore) -> None:
-        self.params = params
+    fail_r_deg: float
+    fail_p_deg: float
+    fail_r_ttri_s: float
+    fail_p_ttri_s: float
+    flightterm_breaker: int  # CBRK_FLIGHTTERM
+    lockdown_s: float  # COM_LKDOWN_TKO
+    crash_check: int  # FS_CRASH_CHECK
+    z_vel_max_m_s: float  # LNDMC_Z_VEL_MAX
+    xy_vel_max_m_s: float  # LNDMC_XY_VEL_MAX
+
+    @classmethod
+    def from_store(cls, params: ParameterStore) -> FailureParams:
+        g = params.get
+        return cls(
+            g("FD_FAIL_R"), g("FD_FAIL_P"), g("FD_FAIL_R_TTRI"), g("FD_FAIL_P_TTRI"), int(g("CBRK_FLIGHTTERM")),
+            g("COM_LKDOWN_TKO"), int(g("FS_CRASH_CHECK")), g("LNDMC_Z_VEL_MAX"), g("LNDMC_XY_VEL_MAX"),
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FailureInputs:
+    """What the failure detector judges in one update."""
+
+    now_us: int
+    armed: bool
+    armed_at_us: int
+    in_air: bool
+    mode: Mode
+    est: VehicleEstimate | None
+    actuators: ActuatorStatus  # the flight controller's latest outputs (the thrust-loss check reads them)
+    vel_sp_down_m_s: float  # the position controller's vertical velocity (NaN: none)
+    ground_down_m: float  # the height it was armed at (m NED down, the land detector's)
+    params: FailureParams
+
+
+@dataclass(frozen=True)
+class StopMotors:
+    """Stop the motors (a forced disarm, ``why`` in its STATUSTEXT): HEARTBEAT EMERGENCY until the next arming."""
+
+    why: str
+
+
+Step = tuple[int, str] | StopMotors  # a STATUSTEXT (severity, text) to say, or the motors to stop
+
+
+@dataclass(frozen=True)
+class FailureDecision:
+    """What to do now, in order (``steps``), and whether a critical failure holds after them."""
+
+    steps: tuple[Step, ...] = ()
+    critical_failure: bool = False
+
+
+class FailureDetector:
+    """The attitude checks (FD_FAIL_*), the thrust-loss check and the crash check's timer, fed one
+    :class:`FailureInputs` per update (:meth:`step`)."""
+
+    def __init__(self) -> None:
         self.roll_failed = False
         self.pitch_failed = False
         self.lost_control = False  # a failure was found in this arming (cleared at disarm)
@@ -109,12 +166,13 @@ class FailureDetector:
         self.roll_failed = self.pitch_failed = False
         self._roll_since_us = self._pitch_since_us = None
 
-    def update(self, now_us: int, roll_rad: float, pitch_rad: float) -> bool:
+    def update(self, now_us: int, roll_rad: float, pitch_rad: float, p: FailureParams) -> bool:
         """One attitude (rad, FRD->NED Euler 3-2-1) while the checks apply; whether it is a failure now."""
-        g = self.params.get
-        self.roll_failed, self._roll_since_us = _beyond(now_us, roll_rad, g("FD_FAIL_R"), self._roll_since_us, g, "R")
+        self.roll_failed, self._roll_since_us = _beyond(
+            now_us, roll_rad, p.fail_r_deg, p.fail_r_ttri_s, self._roll_since_us
+        )
         self.pitch_failed, self._pitch_since_us = _beyond(
-            now_us, pitch_rad, g("FD_FAIL_P"), self._pitch_since_us, g, "P"
+            now_us, pitch_rad, p.fail_p_deg, p.fail_p_ttri_s, self._pitch_since_us
         )
         return self.roll_failed or self.pitch_failed
 
@@ -132,74 +190,61 @@ class FailureDetector:
     def axis(self) -> str:
         return "roll" if self.roll_failed else "pitch"
 
+    def step(self, s: FailureInputs) -> FailureDecision:
+        """Detect, react once per arming, then the crash check (the module docstring)."""
+        est, p = s.est, s.params
+        if not s.armed or est is None:
+            self.reset()
+            return FailureDecision()
+        steps: list[Step] = []
+        armed: bool = s.armed
+        controlled = s.mode is not Mode.ACRO and est.attitude_valid  # PX4: only while the attitude is controlled
+        if not controlled:
+            self.clear()
+        elif self.update(s.now_us, est.roll_rad, est.pitch_rad, p) and not self.lost_control:
+            self.lost_control = True
+            steps += _reaction(self.axis, s.now_us - s.armed_at_us, p)
+            armed = not isinstance(steps[-1], StopMotors)
+        tilt = math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
+        thrust = self.thrust
+        above_m = s.ground_down_m - float(est.pos_ned_m[2])  # above where it was armed
+        outputs, throttle = s.actuators.motor_outputs, s.actuators.throttle_frac
+        vel_down = float(est.vel_ned_m_s[2])
+        if thrust.update(
+            s.now_us, controlled and s.in_air, tilt, vel_down, outputs, throttle, s.vel_sp_down_m_s, above_m
+        ):
+            which = f", likely motor {thrust.motor}" if thrust.motor else ""
+            where = "on the ground at full throttle" if thrust.stuck else "descending at full throttle"
+            steps.append((S.MAV_SEVERITY_CRITICAL, f"Critical failure detected (thrust loss{which}): {where}"))
+        critical = armed and (self.roll_failed or self.pitch_failed or thrust.lost)
+        if not armed or p.crash_check != 1:
+            return FailureDecision(tuple(steps), critical)
+        grounded = False  # (only after a thrust loss: before one, its timer is never running)
+        if thrust.lost:
+            grounded = thrust.grounded(
+                s.now_us, above_m, est.vel_ned_m_s, est.accel_ned_m_s2, p.z_vel_max_m_s, p.xy_vel_max_m_s
+            )
+        # (the crash check's tilt timer runs only after a loss of control: before one it is never running)
+        if (self.lost_control and self.crashed(s.now_us, tilt, est.accel_ned_m_s2)) or grounded:
+            steps += [(S.MAV_SEVERITY_CRITICAL, "Crash detected: disarming"), StopMotors("crash detected")]
+            self.reset()
+        return FailureDecision(tuple(steps), critical)
 
-def _beyond(
-    now_us: int, angle_rad: float, limit_deg: float, since_us: int | None, get: Callable[[str], float], axis: str
-):
-    """(failed, since): ``angle_rad`` beyond ``limit_deg`` (> 0) for FD_FAIL_<axis>_TTRI seconds (read with
-    ``get`` only then); clears at once, as PX4's hysteresis from false to true only."""
+
+def _beyond(now_us: int, angle_rad: float, limit_deg: float, time_s: float, since_us: int | None):
+    """(failed, since): ``angle_rad`` beyond ``limit_deg`` (> 0) for ``time_s`` (FD_FAIL_<axis>_TTRI); clears
+    at once, as PX4's hysteresis from false to true only."""
     if not (limit_deg > 0 and abs(angle_rad) > math.radians(limit_deg)):
         return False, None
     since_us = now_us if since_us is None else since_us
-    return now_us - since_us >= get(f"FD_FAIL_{axis}_TTRI") * 1e6, since_us
+    return now_us - since_us >= time_s * 1e6, since_us
 
 
-def check_failures(c: Commander, now_us: int, actuators: ActuatorStatus = NO_ACTUATORS) -> None:
-    """The commander's update: detect, react once per arming, then the crash check.  ``actuators``: the
-    flight controller's latest outputs (the thrust-loss check reads them)."""
-    fd, est = c.failure_detector, c.est
-    if not c.armed or est is None:
-        fd.reset()
-        c.failsafe.critical_failure = False
-        return
-    controlled = c.mode is not Mode.ACRO and est.attitude_valid  # PX4: only while the attitude is controlled
-    if not controlled:
-        fd.clear()
-    elif fd.update(now_us, est.roll_rad, est.pitch_rad) and not fd.lost_control:
-        fd.lost_control = True
-        _react(c, now_us)
-    tilt = math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
-    checking = controlled and c.in_air
-    thrust = fd.thrust
-    vel_down = float(est.vel_ned_m_s[2])
-    outputs, throttle = actuators.motor_outputs, actuators.throttle_frac
-    above_m = c.land_detector.ground_down_m - float(est.pos_ned_m[2])  # above where it was armed
-    if thrust.update(now_us, checking, tilt, vel_down, outputs, throttle, c.vel_sp_down_m_s, above_m):
-        which = f", likely motor {thrust.motor}" if thrust.motor else ""
-        where = "on the ground at full throttle" if thrust.stuck else "descending at full throttle"
-        c.say(S.MAV_SEVERITY_CRITICAL, f"Critical failure detected (thrust loss{which}): {where}")
-    c.failsafe.critical_failure = c.armed and (fd.roll_failed or fd.pitch_failed or thrust.lost)
-    if not c.armed or int(c.params.get("FS_CRASH_CHECK")) != 1:
-        return
-    grounded = False  # (only after a thrust loss: before one, its timer is never running)
-    if thrust.lost:
-        get = c.params.get
-        grounded = thrust.grounded(
-            now_us, above_m, est.vel_ned_m_s, est.accel_ned_m_s2, get("LNDMC_Z_VEL_MAX"), get("LNDMC_XY_VEL_MAX")
-        )
-    # (the crash check's tilt timer runs only after a loss of control: before one it is never running)
-    if (fd.lost_control and fd.crashed(now_us, tilt, est.accel_ned_m_s2)) or grounded:
-        c.say(S.MAV_SEVERITY_CRITICAL, "Crash detected: disarming")
-        c._disarm("crash detected")
-        c.failsafe.terminated = True  # the motors were stopped by a failsafe: EMERGENCY until the next arming
-        fd.reset()
-
-
-def _react(c: Commander, now_us: int) -> None:
+def _reaction(axis: str, since_arming_us: int, p: FailureParams) -> list[Step]:
     """PX4's reaction to a critical failure (see the module docstring), said in one STATUSTEXT."""
-    p = c.params
-    what = f"Critical failure detected ({c.failure_detector.axis})"
-    lockdown_s = p.get("COM_LKDOWN_TKO")
-    if lockdown_s > 0 and now_us - c.armed_at_us < lockdown_s * 1e6:
-        c.say(S.MAV_SEVERITY_CRITICAL, f"{what}: lockdown")
-        _stop_motors(c, "lockdown")
-    elif int(p.get("CBRK_FLIGHTTERM")) != CBRK_FLIGHTTERM_KEY:
-        c.say(S.MAV_SEVERITY_CRITICAL, f"{what}: terminating")
-        _stop_motors(c, "flight termination")
-    else:
-        c.say(S.MAV_SEVERITY_CRITICAL, f"{what}: termination disabled (CBRK_FLIGHTTERM)")
-
-
-def _stop_motors(c: Commander, why: str) -> None:
-    c._disarm(why)
-    c.failsafe.terminated, c.failsafe.in_force = True, None
+    what = f"Critical failure detected ({axis})"
+    if p.lockdown_s > 0 and since_arming_us < p.lockdown_s * 1e6:
+        return [(S.MAV_SEVERITY_CRITICAL, f"{what}: lockdown"), StopMotors("lockdown")]
+    if p.flightterm_breaker != CBRK_FLIGHTTERM_KEY:
+        return [(S.MAV_SEVERITY_CRITICAL, f"{what}: terminating"), StopMotors("flight termination")]
+    return [(S.MAV_SEVERITY_CRITICAL, f"{what}: termination disabled (CBRK_FLIGHTTERM)")]

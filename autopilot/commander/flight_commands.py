@@ -21,10 +21,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
+from autopilot.commander import mission_landing
 from autopilot.navigation import GotoTask, started
 from autopilot.navigation.heading_smoothing import HeadingLimits
 from autopilot.navigation.mission_checks import HARD_CEILING_M
 from autopilot.navigation.precland import PrecLandMode
+from mavsim_core import mission_items as mi
 from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
 
@@ -113,6 +115,8 @@ class FlightCommands:
 
         def _publish(self) -> None: ...
 
+        def _start_mission(self) -> int: ...
+
     @publishes
     def takeoff(self, rel_alt_m: float | None = None) -> int:
         """Take off to ``rel_alt_m`` above home (None: MIS_TAKEOFF_ALT; at least 1 m)."""
@@ -140,19 +144,26 @@ class FlightCommands:
     @publishes
     def land_start(self) -> int:
         """Fly the mission from its landing sequence (MAV_CMD_DO_LAND_START; :mod:`.mission_landing`)."""
-        from autopilot.commander import mission_landing
-
-        return mission_landing.land_start(self)  # type: ignore[arg-type]
+        plan = mission_landing.land_start(self.plans.plan(mi.MISSION), self.armed and self.in_air, self.mode, self.task)
+        if plan.refusal is not None:
+            self.say(S.MAV_SEVERITY_CRITICAL, plan.refusal)
+            return S.MAV_RESULT_DENIED
+        if plan.already:
+            self.say(S.MAV_SEVERITY_INFO, "Mission landing: already flying it")
+            return S.MAV_RESULT_ACCEPTED
+        self.plans.set_current(plan.start)
+        result = self._start_mission() if self.mode is Mode.AUTO_MISSION else self._enter(Mode.AUTO_MISSION)
+        if result == S.MAV_RESULT_ACCEPTED:
+            self.say(S.MAV_SEVERITY_INFO, f"Mission landing: from item {plan.start}, landing at item {plan.land}")
+        return result
 
     @publishes
     def set_mission_current(self, seq: int, reset_jumps: bool = False) -> tuple[bool, str]:
         """Make mission item ``seq`` the current one (MISSION_SET_CURRENT, DO_SET_MISSION_CURRENT); a mission
         being flown goes there at once.  ``reset_jumps``: DO_JUMP counters start again.  (done, why not)."""
-        from autopilot.commander import mission_control
-
         done, why = self.plans.set_current(seq, reset_jumps)
         if done and self.mode is Mode.AUTO_MISSION and self.armed:
-            mission_control.start_mission(self)  # type: ignore[arg-type]
+            self._start_mission()
         return done, why
 
     @publishes

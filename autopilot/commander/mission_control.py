@@ -4,10 +4,12 @@
 uploads and downloads, checks them (:mod:`autopilot.navigation.mission_checks`, the
 geofence's own geometry checks), keeps the mission's progress (current item, DO_JUMP
 counters, MISSION_STATE) and saves them with ``--state-dir``.  The functions below are what the
-commander calls: start AUTO.MISSION (:func:`start_mission`), run it (:func:`step`: the runner's
-requests for a return, a precision landing (flown inside AUTO.MISSION, as PX4 does) or a new
-home), pause it when another mode takes over, check the geofence every update
-(:func:`check_geofence`, GF_ACTION as in PX4) and choose where a direct return goes
+commander calls, with what they need (the plans, the estimate, home, the parameters), never the
+commander itself: they return what to say and what to do, and the commander does it
+(:mod:`autopilot.commander.mission_flight`): start AUTO.MISSION (:func:`start_mission`), run it
+(:func:`advance`: the runner's requests for a return, a precision landing (flown inside AUTO.MISSION,
+as PX4 does) or a new home), pause it when another mode takes over, check the geofence every update
+(:func:`check_geofence`, GF_ACTION as in PX4: a :class:`FenceAction`) and choose where a direct return goes
 (:func:`return_destination`: the closest of home and the rally points, as PX4's RTL_TYPE 0; the
 other return types: :mod:`autopilot.commander.mission_landing`).
 
@@ -16,13 +18,13 @@ Frames: NED metres relative to the estimator origin; plans in MAVLink's units (d
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander import precision_landing
-from autopilot.navigation import LoiterTask, mission_checks, started
+from autopilot.navigation import mission_checks
 from autopilot.navigation.geofence import FenceError, Geofence, GfAction, stop_point
 from autopilot.navigation.mission import MissionTask, item_position
 from autopilot.parameters import ParameterStore
@@ -33,7 +35,6 @@ from mavsim_core.mission_items import MissionItem
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.commander.commander import Commander
     from autopilot.control.position_control import PositionSetpoint
 
 BREACH_REPORT_US = 5_000_000  # a continuing breach is reported again this often
@@ -132,156 +133,155 @@ class Plans:
 # ---------------------------------------------------------------------------------- the mode
 
 
-def start_mission(cmd: Commander) -> int:
-    """Build the runner for AUTO.MISSION from the current item (a MAV_RESULT; refusals say why)."""
-    plans = cmd.plans
+Text = tuple[int, str]  # a STATUSTEXT to say: (severity, text)
+
+
+def start_mission(
+    plans: Plans,
+    home: HomePosition | None,
+    est: VehicleEstimate | None,
+    params: ParameterStore,
+    in_air: bool,
+    now_us: int,
+) -> tuple[MissionTask | None, list[Text]]:
+    """The runner for AUTO.MISSION from the current item, started (None: refused), and what to say."""  # fmt: skip
     items = plans.items[mi.MISSION]
     if not items:
-        cmd.say(S.MAV_SEVERITY_CRITICAL, "Mission denied: no mission uploaded")
-        return S.MAV_RESULT_DENIED
-    if cmd.home is None or cmd.est is None:
-        cmd.say(S.MAV_SEVERITY_CRITICAL, "Mission denied: no home position")
-        return S.MAV_RESULT_DENIED
+        return None, [(S.MAV_SEVERITY_CRITICAL, "Mission denied: no mission uploaded")]
+    if home is None or est is None:
+        return None, [(S.MAV_SEVERITY_CRITICAL, "Mission denied: no home position")]
     if plans.state is MissionState.COMPLETE or plans.current >= len(items):
         plans.current = 0
         plans.jumps_left = {}
-    task = MissionTask(items, plans.current, cmd.home, cmd.params, plans.jumps_left, on_ground=not cmd.in_air)
-    task.activate(cmd.est, cmd.now_us)
-    cmd.task = task
+    task = MissionTask(items, plans.current, home, params, plans.jumps_left, on_ground=not in_air)
+    task.activate(est, now_us)
     plans.state = MissionState.ACTIVE
-    cmd.say(S.MAV_SEVERITY_INFO, f"Mission: executing from item {plans.current} of {len(items)}")
-    _sync(cmd, task)
-    return S.MAV_RESULT_ACCEPTED
+    texts = [(S.MAV_SEVERITY_INFO, f"Mission: executing from item {plans.current} of {len(items)}")]
+    return task, texts + sync(plans, task)
 
 
-def step(cmd: Commander, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
-    """One update of the mission (or of a return flown through it): the runner's setpoint, its progress and
-    its requests; once a precision landing has started, that landing's update."""
-    if task.precland is not None:
-        return _precland_step(cmd, task, est, now_us)
+def advance(
+    plans: Plans, task: MissionTask, est: VehicleEstimate, now_us: int
+) -> tuple[PositionSetpoint | None, list[Text], tuple | None]:
+    """One update of the mission runner (or of a return flown through it): its setpoint, what to say of its
+    progress, and its request to the commander (None; ("rtl",); ("precland", mode); ("home", item or None))."""
     setpoint = task.update(est, now_us)
-    if task.follows_plan:
-        _sync(cmd, task)
+    texts = sync(plans, task) if task.follows_plan else []
     request, task.request = task.request, None
-    if request is None:
-        return setpoint
-    if request[0] == "rtl":
-        cmd._enter(Mode.AUTO_RTL)
-    elif request[0] == "precland":  # PX4's mission flies it in AUTO.MISSION (and its RTL in AUTO.RTL)
-        from autopilot.navigation.precland import PrecLandMode
-
-        task.precland = started(precision_landing.new_task(cmd, PrecLandMode(request[1])), est, now_us)
-        return _precland_step(cmd, task, est, now_us)
-    elif request[0] == "home":
-        item = request[1]
-        pos = est.pos_ned_m if item is None else item_position(item, est, cmd.home)
-        cmd._set_home_at(pos)
-    return cmd.task.update(est, now_us) if cmd.task is not task and cmd.task is not None else setpoint
+    return setpoint, texts, request
 
 
-def _precland_step(cmd: Commander, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
-    setpoint = precision_landing.step(cmd, task.precland, est, now_us)
-    if not cmd.armed and task.follows_plan:  # docked: the motors are cut, the mission is over
-        on_landed(cmd)
-    return setpoint
+def requested_home(item: MissionItem | None, est: VehicleEstimate, home: HomePosition | None) -> np.ndarray:
+    """Where a mission's DO_SET_HOME puts home (m NED): the item's position, or here (``item`` None)."""
+    return est.pos_ned_m if item is None else item_position(item, est, home)
 
 
-def _sync(cmd: Commander, task: MissionTask) -> None:
-    plans = cmd.plans
+def sync(plans: Plans, task: MissionTask) -> list[Text]:
+    """The runner's progress copied into the stored mission's; what to say of it."""
     plans.current = min(task.current, len(plans.items[mi.MISSION]))
     plans.reached.extend(task.reached)
-    for seq in task.reached:
-        cmd.say(S.MAV_SEVERITY_INFO, f"Mission: item {seq} reached")
+    texts = [(S.MAV_SEVERITY_INFO, f"Mission: item {seq} reached") for seq in task.reached]
     task.reached.clear()
     if task.complete and plans.state is MissionState.ACTIVE:
         plans.state = MissionState.COMPLETE
         plans.current = len(plans.items[mi.MISSION])
-        cmd.say(S.MAV_SEVERITY_INFO, "Mission finished" + ("" if task.request else ": holding position"))
+        texts.append((S.MAV_SEVERITY_INFO, "Mission finished" + ("" if task.request else ": holding position")))
+    return texts
 
 
-def on_mode_change(cmd: Commander, old: Mode, new: Mode) -> None:
+def on_mode_change(plans: Plans, old: Mode, new: Mode) -> None:
     """A mission that was being flown and is left for another mode is paused (resumes at its item)."""
-    if old is Mode.AUTO_MISSION and new is not Mode.AUTO_MISSION and cmd.plans.state is MissionState.ACTIVE:
-        cmd.plans.state = MissionState.PAUSED
+    if old is Mode.AUTO_MISSION and new is not Mode.AUTO_MISSION and plans.state is MissionState.ACTIVE:
+        plans.state = MissionState.PAUSED
 
 
-def on_landed(cmd: Commander) -> None:
-    """Touchdown during a mission's landing: the mission is complete."""
-    plans = cmd.plans
-    if plans.state is MissionState.ACTIVE:
-        plans.reached.append(plans.current)
-        plans.state = MissionState.COMPLETE
-        plans.current = len(plans.items[mi.MISSION])
-        cmd.say(S.MAV_SEVERITY_INFO, "Mission finished: landed")
+def on_landed(plans: Plans) -> list[Text]:
+    """Touchdown during a mission's landing: the mission is complete; what to say."""
+    if plans.state is not MissionState.ACTIVE:
+        return []
+    plans.reached.append(plans.current)
+    plans.state = MissionState.COMPLETE
+    plans.current = len(plans.items[mi.MISSION])
+    return [(S.MAV_SEVERITY_INFO, "Mission finished: landed")]
 
 
 # ---------------------------------------------------------------------------------- geofence and rally
 
 
-def check_geofence(cmd: Commander, est: VehicleEstimate, now_us: int) -> None:
-    """Predict a breach of the fence, GF_MAX_HOR_DIST or GF_MAX_VER_DIST and act as GF_ACTION says."""
-    p = cmd.params
+@dataclass(frozen=True)
+class FenceAction:
+    """What a geofence check asks: a STATUSTEXT, and a hold at ``hold_at`` (m NED) or a mode to enter."""
+
+    text: Text | None = None
+    hold_at: np.ndarray | None = None
+    enter: Mode | None = None
+
+
+def check_geofence(
+    plans: Plans,
+    params: ParameterStore,
+    est: VehicleEstimate,
+    now_us: int,
+    home: HomePosition | None,
+    mode: Mode,
+    holding: bool,
+) -> FenceAction:
+    """Predict a breach of the fence, GF_MAX_HOR_DIST or GF_MAX_VER_DIST; what GF_ACTION says to do (``holding``:
+    the vehicle already flies the hold a breach started)."""  # fmt: skip
+    p = params
     max_hor, max_ver = p.get("GF_MAX_HOR_DIST"), p.get("GF_MAX_VER_DIST")
-    if not cmd.plans.items[mi.FENCE] and max_hor <= 0 and max_ver <= 0:
-        cmd.plans.breached = False
-        return
-    fence = cmd.plans.fence(est)
-    home = None if cmd.home is None else cmd.home.pos_ned_m
+    if not plans.items[mi.FENCE] and max_hor <= 0 and max_ver <= 0:
+        plans.breached = False
+        return FenceAction()
+    fence = plans.fence(est)
     speed = float(np.linalg.norm(est.vel_ned_m_s[:2]))
     brake = p.get("MPC_ACC_HOR")
     breach = fence.check(
-        est.pos_ned_m, est.vel_ned_m_s, home, max_hor, max_ver, bool(p.get("GF_PREDICT")), brake,
-        margin_m=FENCE_MARGIN_M + FENCE_REACTION_S * speed,
+        est.pos_ned_m, est.vel_ned_m_s, None if home is None else home.pos_ned_m, max_hor, max_ver,
+        bool(p.get("GF_PREDICT")), brake, margin_m=FENCE_MARGIN_M + FENCE_REACTION_S * speed,
     )  # fmt: skip
-    was = cmd.plans.breached
-    cmd.plans.breached = breach is not None
+    was = plans.breached
+    plans.breached = breach is not None
     if breach is None:
-        return
+        return FenceAction()
     action = GfAction(int(p.get("GF_ACTION")))
-    if not was or now_us - cmd.plans.breach_said_us >= BREACH_REPORT_US:
-        cmd.plans.breach_said_us = now_us
-        cmd.say(S.MAV_SEVERITY_CRITICAL, f"{breach.reason} ({action.name.lower()})")
-    if action in (GfAction.NONE, GfAction.WARNING):
-        return
-    if action is GfAction.HOLD and cmd.mode not in (Mode.AUTO_LAND, Mode.AUTO_RTL):
-        if cmd.task is not None and cmd.task is cmd.plans.fence_hold:
-            return  # already stopping
+    text = None
+    if not was or now_us - plans.breach_said_us >= BREACH_REPORT_US:
+        plans.breach_said_us = now_us
+        text = (S.MAV_SEVERITY_CRITICAL, f"{breach.reason} ({action.name.lower()})")
+    if action is GfAction.HOLD and mode not in (Mode.AUTO_LAND, Mode.AUTO_RTL):
+        if holding:
+            return FenceAction(text)  # already stopping
         # Stop where braking at MPC_ACC_HOR ends (PX4's loiter point for a multicopter), not beyond.
         v = est.vel_ned_m_s.copy()
         v[2] = 0.0
         stop = np.array(stop_point(tuple(est.pos_ned_m), v, brake, 0.0))
-        if not fence.inside(stop):
-            stop = est.pos_ned_m.copy()
-        if cmd.mode is not Mode.AUTO_LOITER:
-            cmd._switch_mode(Mode.AUTO_LOITER)
-        cmd.task = cmd.plans.fence_hold = started(LoiterTask(stop, est.yaw_rad), est, now_us)
-    elif action is GfAction.RETURN and cmd.mode not in (Mode.AUTO_RTL, Mode.AUTO_LAND):
-        cmd._enter(Mode.AUTO_RTL)
-    elif action in (GfAction.LAND, GfAction.TERMINATE) and cmd.mode is not Mode.AUTO_LAND:
-        cmd._enter(Mode.AUTO_LAND)  # termination is not simulated: land instead
+        return FenceAction(text, hold_at=stop if fence.inside(stop) else est.pos_ned_m.copy())
+    if action is GfAction.RETURN and mode not in (Mode.AUTO_RTL, Mode.AUTO_LAND):
+        return FenceAction(text, enter=Mode.AUTO_RTL)
+    if action in (GfAction.LAND, GfAction.TERMINATE) and mode is not Mode.AUTO_LAND:
+        return FenceAction(text, enter=Mode.AUTO_LAND)  # termination is not simulated: land instead
+    return FenceAction(text)
 
 
-def fence_prearm_failures(cmd: Commander) -> list[str]:
+def fence_prearm_failures(plans: Plans, est: VehicleEstimate | None) -> list[str]:
     """Arming is refused outside an inclusion fence (or inside an exclusion)."""
-    est = cmd.est
-    if est is None or not est.position_valid or not cmd.plans.items[mi.FENCE]:
+    if est is None or not est.position_valid or not plans.items[mi.FENCE]:
         return []
-    fence = cmd.plans.fence(est)
+    fence = plans.fence(est)
     return [] if fence is None or fence.inside(est.pos_ned_m) else ["vehicle outside the geofence"]
 
 
-def rally_points_ned(cmd: Commander, est: VehicleEstimate) -> list[np.ndarray]:
+def rally_points_ned(plans: Plans, home: HomePosition, est: VehicleEstimate) -> list[np.ndarray]:
     """The rally points (m NED), their ground at home's height (the simulated world is flat)."""
-    assert cmd.home is not None
     out = []
-    for item in cmd.plans.items[mi.RALLY]:
+    for item in plans.items[mi.RALLY]:
         pos = geodetic_to_ned(item.lat_deg, item.lon_deg, 0.0, est.origin_lat_deg, est.origin_lon_deg, 0.0)
-        out.append(np.array([pos[0], pos[1], cmd.home.pos_ned_m[2]]))
+        out.append(np.array([pos[0], pos[1], home.pos_ned_m[2]]))
     return out
 
 
-def return_destination(cmd: Commander, est: VehicleEstimate) -> np.ndarray:
+def return_destination(plans: Plans, home: HomePosition, est: VehicleEstimate) -> np.ndarray:
     """Where a direct return goes (m NED): home or the closest rally point, whichever is closer (RTL_TYPE 0)."""
-    assert cmd.home is not None
-    points = [cmd.home.pos_ned_m.astype(float).copy(), *rally_points_ned(cmd, est)]
+    points = [home.pos_ned_m.astype(float).copy(), *rally_points_ned(plans, home, est)]
     return min(points, key=lambda p: float(np.linalg.norm(p[:2] - est.pos_ned_m[:2])))

@@ -1,26 +1,26 @@
 """The commander's side of the mission's landing: MAV_CMD_DO_LAND_START and the return types (RTL_TYPE).
 
-:func:`land_start` is MAV_CMD_DO_LAND_START sent as a command (MAVProxy's ``land``): as PX4's navigator,
-the mission goes on from its landing sequence (:func:`autopilot.navigation.rtl_mission.landing_sequence`)
-in AUTO.MISSION; a vehicle not flying, or a mission without a landing, is refused with a STATUSTEXT
-(MAV_RESULT_DENIED: PX4 1.14 answers ACCEPTED and only warns on its console, later versions CANCELLED).
+:func:`land_start` decides MAV_CMD_DO_LAND_START sent as a command (MAVProxy's ``land``; the commander does
+it, ``FlightCommands.land_start``): as PX4's navigator, the mission goes on from its landing sequence
+(:func:`autopilot.navigation.rtl_mission.landing_sequence`) in AUTO.MISSION; a vehicle not flying, or a
+mission without a landing, is refused with a STATUSTEXT (MAV_RESULT_DENIED: PX4 1.14 answers ACCEPTED and
+only warns on its console, later versions CANCELLED).
 
 :func:`return_task` builds the task of AUTO.RTL as RTL_TYPE says (:func:`.rtl_mission.choose_return`):
 a direct return (:class:`autopilot.navigation.rtl.ReturnTask`) or the mission runner on a return's own
 list of items (the mission landing, the rest of the mission, or the mission backwards), which the
-commander steps as a mission (:func:`autopilot.commander.mission_control.step`) without touching the
-stored mission's progress.  Each return through the mission says which in a STATUSTEXT.
+commander steps as a mission (``MissionFlight._step_mission``) without touching the stored mission's
+progress.  Each return through the mission comes with the STATUSTEXT saying which.
 
 Frames: NED metres from the estimator origin.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-from pymavlink.dialects.v20 import common as S
+from dataclasses import dataclass
 
 from autopilot.commander import mission_control
+from autopilot.commander.mission_control import Plans
 from autopilot.navigation.mission import MissionTask, item_position
 from autopilot.navigation.rtl import ReturnTask
 from autopilot.navigation.rtl_mission import (
@@ -33,52 +33,48 @@ from autopilot.navigation.rtl_mission import (
     landing_sequence,
     reverse_items,
 )
-from autopilot.topics import MissionState, VehicleEstimate
+from autopilot.parameters import ParameterStore
+from autopilot.topics import HomePosition, MissionState, VehicleEstimate
 from mavsim_core import mission_items as mi
+from mavsim_core.mission_items import MissionItem
 from mavsim_core.px4_modes import Mode
 
-if TYPE_CHECKING:
-    from autopilot.commander.commander import Commander
+
+@dataclass(frozen=True)
+class LandStart:
+    """What MAV_CMD_DO_LAND_START asks now: a refusal (its STATUSTEXT), nothing (the landing is flown already), or
+    the mission from item ``start`` to its landing at item ``land``."""
+
+    refusal: str | None = None
+    already: bool = False
+    start: int = 0
+    land: int = 0
 
 
-def land_start(cmd: Commander) -> int:
-    """MAV_CMD_DO_LAND_START: fly the mission from its landing sequence (AUTO.MISSION); a MAV_RESULT."""
-    items = cmd.plans.items[mi.MISSION]
+def land_start(items: list[MissionItem], flying: bool, mode: Mode, task: object) -> LandStart:
+    """MAV_CMD_DO_LAND_START with the mission ``items``, the vehicle ``flying`` (armed, in the air) in ``mode``
+    with ``task``: what to do (the commander does it: ``FlightCommands.land_start``)."""
     seq = landing_sequence(items)
-    if not (cmd.armed and cmd.in_air):
-        return _deny(cmd, "Mission landing denied: vehicle not flying")
+    if not flying:
+        return LandStart("Mission landing denied: vehicle not flying")
     if seq is None:
-        return _deny(cmd, "Mission landing denied: the mission has no landing (DO_LAND_START, NAV_LAND)")
+        return LandStart("Mission landing denied: the mission has no landing (DO_LAND_START, NAV_LAND)")
     start, land = seq
-    task = cmd.task
-    if (
-        cmd.mode is Mode.AUTO_MISSION
+    flown = (
+        mode is Mode.AUTO_MISSION
         and isinstance(task, MissionTask)
         and task.follows_plan
         and start <= task.current <= land
-    ):
-        cmd.say(S.MAV_SEVERITY_INFO, "Mission landing: already flying it")
-        return S.MAV_RESULT_ACCEPTED
-    cmd.plans.set_current(start)
-    if cmd.mode is Mode.AUTO_MISSION:
-        result = mission_control.start_mission(cmd)
-    else:
-        result = cmd._enter(Mode.AUTO_MISSION)
-    if result == S.MAV_RESULT_ACCEPTED:
-        cmd.say(S.MAV_SEVERITY_INFO, f"Mission landing: from item {start}, landing at item {land}")
-    return result
+    )
+    return LandStart(None, flown, start, land)
 
 
-def _deny(cmd: Commander, why: str) -> int:
-    cmd.say(S.MAV_SEVERITY_CRITICAL, why)
-    return S.MAV_RESULT_DENIED
-
-
-def return_task(cmd: Commander, est: VehicleEstimate) -> ReturnTask | MissionTask:
-    """The task of AUTO.RTL for RTL_TYPE (not started; the commander has a home)."""
-    assert cmd.home is not None
-    home, params = cmd.home, cmd.params
-    items = cmd.plans.items[mi.MISSION]
+def return_task(
+    plans: Plans, params: ParameterStore, home: HomePosition, mode: Mode, est: VehicleEstimate
+) -> tuple[ReturnTask | MissionTask, str | None]:
+    """The task of AUTO.RTL for RTL_TYPE (not started), flown from ``mode``, and the STATUSTEXT saying which
+    return it is (None: a direct return says nothing)."""
+    items = plans.items[mi.MISSION]
     seq = landing_sequence(items)
     rtl_type = int(params.get("RTL_TYPE"))
     landing = None  # a NAV_LAND "here" (lat/lon 0/0) is no place to return to straight, but a mission's end
@@ -88,14 +84,14 @@ def return_task(cmd: Commander, est: VehicleEstimate) -> ReturnTask | MissionTas
         rtl_type,
         est.pos_ned_m,
         home.pos_ned_m,
-        mission_control.rally_points_ned(cmd, est),
+        mission_control.rally_points_ned(plans, home, est),
         landing,
         any(has_position(it) for it in items),
     )
     if kind is ReturnKind.DIRECT:
-        return ReturnTask(point, params)
+        return ReturnTask(point, params), None
     assert seq is not None or kind is ReturnKind.MISSION_REVERSE
-    in_mission = cmd.mode is Mode.AUTO_MISSION and cmd.plans.state is MissionState.ACTIVE
+    in_mission = mode is Mode.AUTO_MISSION and plans.state is MissionState.ACTIVE
     if kind is ReturnKind.MISSION_LANDING:
         assert seq is not None
         return_down = home.pos_ned_m[2] - params.get("RTL_RETURN_ALT")
@@ -104,20 +100,19 @@ def return_task(cmd: Commander, est: VehicleEstimate) -> ReturnTask | MissionTas
         text = f"Return: through the mission landing (items {seq[0]}-{seq[1]})"
     elif kind is ReturnKind.MISSION_FORWARD:
         assert seq is not None
-        start = cmd.plans.current if in_mission and cmd.plans.current <= seq[1] else None
+        start = plans.current if in_mission and plans.current <= seq[1] else None
         if start is None:
             start = closest_item(items, est, home, seq[1])
         start = seq[1] if start is None else start
         route = forward_items(items, start, seq[1])
         text = f"Return: along the mission from item {start} to its landing (item {seq[1]})"
     else:
-        start = cmd.plans.current - 1 if in_mission else None
+        start = plans.current - 1 if in_mission else None
         if start is None or start < 0:
             start = closest_item(items, est, home, len(items) - 1)
         start = 0 if start is None else start
         route = reverse_items(items, start, home)
         text = f"Return: the mission backwards from item {start}, then home"
-    cmd.say(S.MAV_SEVERITY_INFO, text)
     task = MissionTask(route, 0, home, params, {}, on_ground=False)
     task.follows_plan = False
-    return task
+    return task, text

@@ -1,23 +1,20 @@
-"""Entering a mode: what it needs, and the flight task that flies it.
+"""Entering a mode, as methods of the :class:`Commander`: the refusal decided, else the mode's flight task built.
 
-:func:`enter` is the commander's one mode switch (``Commander._enter``): it refuses a mode that
-cannot run now, with a STATUSTEXT saying why (not available, no position / height / attitude
-estimate, no home, not armed or not flying where that matters, no sticks for the manual modes,
-no offboard setpoint stream), else builds and starts the mode's task and switches.
-
-What each mode needs, as PX4's mode requirements: a position estimate for POSCTL, the AUTO
-modes and OFFBOARD; a height (barometer) for ALTCTL and AUTO.LAND; only an attitude for
-STABILIZED and ACRO, which also need recent MANUAL_CONTROL (``COM_RC_LOSS_T``), as ALTCTL does.
-POSCTL without sticks holds position (what it did before sticks existed).
+:meth:`ModeEntry._enter` is the commander's one mode switch: it builds a frozen
+:class:`~autopilot.commander.mode_requirements.ModeEntryInputs` (what the estimate, the inputs and the vehicle
+say now), asks the pure :func:`~autopilot.commander.mode_requirements.entry_refusal` whether the mode may be
+entered (what each mode needs, as PX4's mode requirements, is written there) and, refused, says why in a
+STATUSTEXT; else it builds and starts the mode's task and switches.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pymavlink.dialects.v20 import common as S
 
-from autopilot.commander import mission_control, mission_landing, precision_landing
+from autopilot.commander import mission_landing, mode_requirements, precision_landing
+from autopilot.commander.mode_requirements import NEEDS_STICKS, EstimateValidity, ModeEntryInputs
 from autopilot.navigation import LandTask, LoiterTask, TakeoffTask, started
 from autopilot.navigation.follow_target import FollowTargetTask, fresh_target
 from autopilot.navigation.manual_modes import AcroTask, AltCtlTask, PosCtlTask, StabilizedTask
@@ -25,104 +22,114 @@ from autopilot.navigation.offboard import OffboardTask, offboard_refusal
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.commander.commander import Commander
-
-HEIGHT_ONLY = (Mode.ALTCTL, Mode.AUTO_LAND)  # modes that fly on a height estimate without a position
-ATTITUDE_ONLY = (Mode.STABILIZED, Mode.ACRO)  # modes that need nothing but an attitude
-NEEDS_STICKS = (Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO)
-
-
-def estimate_refusal(c: Commander, mode: Mode) -> str | None:
-    """Why the estimate cannot fly ``mode`` now, or None."""
-    e = c.est
-    if e is None:
-        return "no estimate"
-    if mode in ATTITUDE_ONLY:
-        return None if e.attitude_valid else "no attitude estimate"
-    if mode in HEIGHT_ONLY:
-        return None if (e.position_valid or e.height_valid) else "no height estimate"
-    return None if e.position_valid else "no position estimate"
+    from autopilot.commander.external_inputs import ExternalInputs
+    from autopilot.commander.mission_control import Plans
+    from autopilot.navigation.precland import PrecLandMode
+    from autopilot.parameters import ParameterStore
+    from autopilot.topics import HomePosition, VehicleEstimate
 
 
-def input_refusal(c: Commander, mode: Mode) -> str | None:
-    """Why ``mode`` lacks its outside input now (sticks, an offboard setpoint stream), or None; armed or not."""
-    if mode in NEEDS_STICKS:
-        age = c.inputs.manual_age_s(c.now_us, c.wall_s)
-        if age is None or age > c.params.get("COM_RC_LOSS_T"):
-            return "no manual control input"
-    if mode is Mode.OFFBOARD:
-        return offboard_refusal(c.inputs, c.now_us, c.wall_s, c.params)
-    return None
+class ModeEntry:
+    """The mode switch and the tasks of the modes, as methods of the :class:`Commander`."""
 
+    # The commander's state these methods read and set (Commander.__init__ sets it) ...
+    params: ParameterStore
+    est: VehicleEstimate | None
+    home: HomePosition | None
+    armed: bool
+    mode: Mode
+    now_us: int
+    task: Any
+    inputs: ExternalInputs
+    wall_s: float | None
+    hover_thrust_frac: float
+    precland_mode: PrecLandMode
+    feet_below_m: float
+    plans: Plans
 
-def enter(c: Commander, mode: Mode, takeoff_down_m: float | None = None) -> int:
-    """Switch ``c`` to ``mode`` and start its task; refuse (with a reason) if it cannot run now."""
-    from autopilot.commander.commander import AVAILABLE
+    if TYPE_CHECKING:  # ... and the commander's methods they call.
 
-    e = c.est
-    if mode not in AVAILABLE:
-        c.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} not available on this vehicle")
-        return S.MAV_RESULT_DENIED
-    why = estimate_refusal(c, mode)
-    if why is not None or e is None:
-        c.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} denied: {why}")
-        return S.MAV_RESULT_DENIED
-    if mode is Mode.AUTO_RTL and c.home is None:
-        c.say(S.MAV_SEVERITY_CRITICAL, "Return denied: no home position")
-        return S.MAV_RESULT_DENIED
-    why = input_refusal(c, mode)
-    if why is not None:
-        c.say(S.MAV_SEVERITY_CRITICAL, f"Mode {mode.label} denied: {why}")
-        return S.MAV_RESULT_DENIED
-    if mode is Mode.AUTO_TAKEOFF:
-        if not c.armed:
-            c.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: vehicle not armed")
+        @property
+        def in_air(self) -> bool: ...
+        def say(self, severity: int, text: str) -> None: ...
+        def _switch_mode(self, mode: Mode) -> None: ...
+        def _start_mission(self) -> int: ...
+
+    def _mode_entry_inputs(self, mode: Mode) -> ModeEntryInputs:
+        """What entering ``mode`` depends on now."""
+        now_us, wall = self.now_us, self.wall_s
+        return ModeEntryInputs(
+            armed=self.armed,
+            in_air=self.in_air,
+            estimate=EstimateValidity.of(self.est),
+            has_home=self.home is not None,
+            manual_age_s=self.inputs.manual_age_s(now_us, wall) if mode in NEEDS_STICKS else None,
+            rc_loss_t_s=self.params.get("COM_RC_LOSS_T"),
+            offboard_refusal=offboard_refusal(self.inputs, now_us, wall, self.params)
+            if mode is Mode.OFFBOARD
+            else None,
+        )
+
+    def _input_refusal(self, mode: Mode) -> str | None:
+        """Why ``mode`` lacks its outside input now (sticks, an offboard setpoint stream), or None; armed or not."""
+        return mode_requirements.input_refusal(mode, self._mode_entry_inputs(mode))
+
+    def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int:
+        """Switch to ``mode`` and start its task; refuse (with a reason) if it cannot run now."""
+        refusal = mode_requirements.entry_refusal(mode, self._mode_entry_inputs(mode))
+        if refusal is not None:
+            self.say(S.MAV_SEVERITY_CRITICAL, refusal)
             return S.MAV_RESULT_DENIED
-        if c.in_air:
-            c.say(S.MAV_SEVERITY_CRITICAL, "Takeoff denied: already flying")
-            return S.MAV_RESULT_DENIED
-        assert c.home is not None
-        if takeoff_down_m is None:
-            takeoff_down_m = c.home.pos_ned_m[2] - c.params.get("MIS_TAKEOFF_ALT")
-        c.task = started(TakeoffTask(takeoff_down_m, c.params), e, c.now_us)
-        c.say(S.MAV_SEVERITY_INFO, f"Taking off to {c.home.pos_ned_m[2] - takeoff_down_m:.1f} m above home")
-    elif mode is Mode.AUTO_LOITER:
-        if mode is not c.mode or c.task is None:
-            c.task = started(LoiterTask(), e, c.now_us)
-    elif mode in (Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO):
-        if mode is not c.mode or c.task is None:
-            c.task = started(_manual_task(c, mode), e, c.now_us)
-    elif mode is Mode.OFFBOARD:
-        c.task = started(OffboardTask(c.params, lambda: c.inputs.offboard, c.hover_thrust_frac), e, c.now_us)
-    elif mode is Mode.AUTO_LAND:
-        c.task = started(LandTask(c.home.pos_ned_m[2] if c.home else e.pos_ned_m[2], c.params), e, c.now_us)
-    elif mode is Mode.AUTO_RTL:
-        c.task = started(mission_landing.return_task(c, e), e, c.now_us)  # as RTL_TYPE says
-    elif mode is Mode.AUTO_MISSION and (result := mission_control.start_mission(c)) != S.MAV_RESULT_ACCEPTED:
-        return result
-    elif mode is Mode.AUTO_PRECLAND:
-        if not (c.armed and c.in_air):
-            c.say(S.MAV_SEVERITY_CRITICAL, "Precision landing denied: vehicle not flying")
-            return S.MAV_RESULT_DENIED
-        c.task = started(precision_landing.new_task(c, c.precland_mode), e, c.now_us)
-    elif mode is Mode.AUTO_FOLLOW_TARGET:
-        if not (c.armed and c.in_air):
-            c.say(S.MAV_SEVERITY_CRITICAL, "Follow target denied: vehicle not flying")
-            return S.MAV_RESULT_DENIED
-        target = lambda: fresh_target(c.inputs, c.now_us, c.wall_s)  # noqa: E731
-        ground = c.home.pos_ned_m[2] if c.home else e.pos_ned_m[2]
-        c.task = started(FollowTargetTask(c.params, target, ground, c.say), e, c.now_us)
-    c._switch_mode(mode)
-    return S.MAV_RESULT_ACCEPTED
+        e = self.est
+        assert e is not None  # (refused without an estimate)
+        if mode is Mode.AUTO_TAKEOFF:
+            assert self.home is not None
+            if takeoff_down_m is None:
+                takeoff_down_m = self.home.pos_ned_m[2] - self.params.get("MIS_TAKEOFF_ALT")
+            self.task = started(TakeoffTask(takeoff_down_m, self.params), e, self.now_us)
+            self.say(S.MAV_SEVERITY_INFO, f"Taking off to {self.home.pos_ned_m[2] - takeoff_down_m:.1f} m above home")
+        elif mode is Mode.AUTO_LOITER:
+            if mode is not self.mode or self.task is None:
+                self.task = started(LoiterTask(), e, self.now_us)
+        elif mode in (Mode.POSCTL, Mode.ALTCTL, Mode.STABILIZED, Mode.ACRO):
+            if mode is not self.mode or self.task is None:
+                self.task = started(self._manual_task(mode), e, self.now_us)
+        elif mode is Mode.OFFBOARD:
+            task = OffboardTask(self.params, lambda: self.inputs.offboard, self.hover_thrust_frac)
+            self.task = started(task, e, self.now_us)
+        elif mode is Mode.AUTO_LAND:
+            self.task = started(LandTask(self._ground_down_m(e), self.params), e, self.now_us)
+        elif mode is Mode.AUTO_RTL:
+            assert self.home is not None
+            route, text = mission_landing.return_task(self.plans, self.params, self.home, self.mode, e)  # RTL_TYPE
+            if text is not None:
+                self.say(S.MAV_SEVERITY_INFO, text)
+            self.task = started(route, e, self.now_us)
+        elif mode is Mode.AUTO_MISSION and (result := self._start_mission()) != S.MAV_RESULT_ACCEPTED:
+            return result
+        elif mode is Mode.AUTO_PRECLAND:
+            self.task = started(self._new_precland(self.precland_mode, e), e, self.now_us)
+        elif mode is Mode.AUTO_FOLLOW_TARGET:
+            target = lambda: fresh_target(self.inputs, self.now_us, self.wall_s)  # noqa: E731
+            self.task = started(FollowTargetTask(self.params, target, self._ground_down_m(e), self.say), e, self.now_us)
+        self._switch_mode(mode)
+        return S.MAV_RESULT_ACCEPTED
 
+    def _ground_down_m(self, est: VehicleEstimate):
+        """The ground's height (m NED down): home's, or the estimate's without a home."""
+        return self.home.pos_ned_m[2] if self.home else est.pos_ned_m[2]
 
-def _manual_task(c: Commander, mode: Mode):
-    """The task of a stick mode; it reads the latest MANUAL_CONTROL through ``c.inputs``."""
-    sticks = lambda: c.inputs.manual  # noqa: E731
-    if mode is Mode.POSCTL:
-        return PosCtlTask(c.params, sticks)
-    if mode is Mode.ALTCTL:
-        return AltCtlTask(c.params, sticks)
-    if mode is Mode.STABILIZED:
-        return StabilizedTask(c.params, sticks, c.hover_thrust_frac)
-    return AcroTask(c.params, sticks, c.hover_thrust_frac)
+    def _new_precland(self, mode: PrecLandMode, est: VehicleEstimate):
+        """A precision landing in ``mode`` onto the ground (:meth:`_ground_down_m`), not started."""
+        return precision_landing.new_task(self.params, mode, self._ground_down_m(est), self.feet_below_m)
+
+    def _manual_task(self, mode: Mode):
+        """The task of a stick mode; it reads the latest MANUAL_CONTROL through ``self.inputs``."""
+        sticks = lambda: self.inputs.manual  # noqa: E731
+        if mode is Mode.POSCTL:
+            return PosCtlTask(self.params, sticks)
+        if mode is Mode.ALTCTL:
+            return AltCtlTask(self.params, sticks)
+        if mode is Mode.STABILIZED:
+            return StabilizedTask(self.params, sticks, self.hover_thrust_frac)
+        return AcroTask(self.params, sticks, self.hover_thrust_frac)

@@ -1,6 +1,7 @@
 """Pre-arm checks: pure functions of the vehicle's state returning why arming is refused.
 
-Each check returns its failure reasons (short lower-case phrases, joined into the
+:func:`prearm_failures` judges a frozen :class:`PrearmInputs`; :func:`arming_refusal` decides an arming request
+from its result.  Each check returns its failure reasons (short lower-case phrases, joined into the
 "Arming denied: ..." STATUSTEXT); an empty list means "ready".  The order of
 :func:`prearm_failures` is the order a ground station shows them in.  Units: degrees
 for the tilt (as COM_ARM_TILT_MAX), fractions of capacity for the battery (as BAT_LOW_THR).
@@ -9,6 +10,7 @@ for the tilt (as COM_ARM_TILT_MAX), fractions of capacity for the battery (as BA
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from autopilot.topics import BatteryState, GpsSample, HomePosition, VehicleEstimate
 
@@ -53,25 +55,40 @@ def termination_check(terminated: bool) -> list[str]:
     return ["flight terminated (reboot to clear)"] if terminated else []
 
 
-def prearm_failures(
-    est: VehicleEstimate | None,
-    gps: GpsSample | None,
-    home: HomePosition | None,
-    battery: BatteryState,
-    estimator_failures: tuple[str, ...] | list[str],
-    tilt_max_deg: float,
-    battery_low_thr: float,
-    terminated: bool = False,
-) -> list[str]:
-    """Every reason arming would be refused now; ``estimator_failures`` are the EKF's own (empty when
-    another filter flies); ``terminated``: DO_FLIGHTTERMINATION was given (until a reboot)."""
+@dataclass(frozen=True)
+class PrearmInputs:
+    """What the pre-arm checks judge now."""
+
+    est: VehicleEstimate | None
+    gps: GpsSample | None
+    home: HomePosition | None
+    battery: BatteryState
+    estimator_failures: tuple[str, ...]  # the EKF's own (empty when another filter flies)
+    tilt_max_deg: float  # COM_ARM_TILT_MAX
+    battery_low_thr: float  # BAT_LOW_THR
+    terminated: bool = False  # DO_FLIGHTTERMINATION was given (until a reboot)
+    fence_failures: tuple[str, ...] = ()  # the geofence's (:func:`.mission_control.fence_prearm_failures`)
+
+
+def prearm_failures(s: PrearmInputs) -> list[str]:
+    """Every reason arming would be refused now, in the order a ground station lists them."""
     return (
-        attitude_check(est)
-        + gps_check(gps)
-        + position_check(est)
-        + list(estimator_failures)
-        + home_check(home)
-        + level_check(est, tilt_max_deg)
-        + battery_check(battery, battery_low_thr)
-        + termination_check(terminated)
+        attitude_check(s.est)
+        + gps_check(s.gps)
+        + position_check(s.est)
+        + list(s.estimator_failures)
+        + home_check(s.home)
+        + level_check(s.est, s.tilt_max_deg)
+        + battery_check(s.battery, s.battery_low_thr)
+        + termination_check(s.terminated)
+        + list(s.fence_failures)
     )
+
+
+def arming_refusal(failures: list[str], force: bool, has_estimate: bool) -> str | None:
+    """The STATUSTEXT refusing an arming request (``force``: whatever the pre-arm checks say), or None: arm."""
+    if failures and not force:
+        return "Arming denied: " + "; ".join(failures)
+    if not has_estimate:
+        return "Arming denied: no sensor data"
+    return None

@@ -1,36 +1,44 @@
-"""The commander's side of AUTO.PRECLAND: run the task, report its phases, cut the motors when docked, and
+"""The commander's side of AUTO.PRECLAND: run the task, report its phases, say when it docked, and
 decide where the camera gimbal points (:func:`gimbal_request`, applied by the gimbal manager).
 
-The task (:class:`autopilot.navigation.precland.PrecLandTask`) flies the phases; here its phase
-changes become STATUSTEXTs ("Precland: tracking (...)"), a required landing that found no
-target is reported once, and the docking point disarms the vehicle, as [F 3] cuts the motors
-there.  A mission's NAV_LAND with param2 1/2 flies the same task inside AUTO.MISSION (the runner's
+The task (:class:`autopilot.navigation.precland.PrecLandTask`) flies the phases; :func:`step` turns its phase
+changes into STATUSTEXTs ("Precland: tracking (...)"), reports once a required landing that found no
+target, and says when the docking point is reached (a :class:`PrecLandStep`); the commander says the texts
+and then disarms the vehicle, as [F 3] cuts the motors there (``Commander._step_precland``).  Nothing here
+takes the commander: each function is given what it reads.
+
+A mission's NAV_LAND with param2 1/2 flies the same task inside AUTO.MISSION (the runner's
 ``precland``, as PX4's mission keeps its mode): :func:`landing_of` finds it in either.  Frames: NED, m/s.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.control.gimbal_pointing import GimbalRequest
-from autopilot.navigation.precland import PrecLandConfig, PrecLandMode, PrecLandPhase, PrecLandTask
+from autopilot.navigation.precland import (
+    LandingTargetInput,
+    PrecLandConfig,
+    PrecLandMode,
+    PrecLandPhase,
+    PrecLandTask,
+)
 from autopilot.navigation.precland_gimbal import landing_gimbal_request
 from autopilot.parameters import ParameterStore
 from autopilot.topics import VehicleEstimate
 
 if TYPE_CHECKING:
-    from autopilot.commander.commander import Commander
     from autopilot.control.position_control import PositionSetpoint
 
 
-def new_task(c: Commander, mode: PrecLandMode) -> PrecLandTask:
-    """A precision landing in ``mode`` onto the ground at home's height (the estimate's without a home)."""
-    assert c.est is not None
-    ground = c.home.pos_ned_m[2] if c.home else c.est.pos_ned_m[2]
-    return PrecLandTask(ground, c.params, PrecLandConfig.from_store(c.params), mode, feet_below_m=c.feet_below_m)
+def new_task(params: ParameterStore, mode: PrecLandMode, ground_down_m: float, feet_below_m: float) -> PrecLandTask:
+    """A precision landing in ``mode`` onto the ground at ``ground_down_m`` (m NED down: home's height, or the
+    estimate's without a home); ``feet_below_m``: the feet's depth below the reference point."""
+    return PrecLandTask(ground_down_m, params, PrecLandConfig.from_store(params), mode, feet_below_m=feet_below_m)
 
 
 def landing_of(task: object) -> PrecLandTask | None:
@@ -41,21 +49,36 @@ def landing_of(task: object) -> PrecLandTask | None:
     return inner if isinstance(inner, PrecLandTask) else None
 
 
-def step(commander: Commander, task: PrecLandTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
-    """One update of the precision landing; the setpoint, or None once the motors are cut."""
+@dataclass(frozen=True)
+class PrecLandStep:
+    """One update of a precision landing: the setpoint, the STATUSTEXTs to say, and whether it docked (the
+    commander then cuts the motors, as [F 3] does)."""
+
+    setpoint: PositionSetpoint | None
+    texts: tuple[tuple[int, str], ...]
+    docked: bool
+
+
+def step(
+    task: PrecLandTask,
+    est: VehicleEstimate,
+    now_us: int,
+    on_deck: bool,
+    gimbal_reach_rad: float | None,
+    landing_target: LandingTargetInput | None,
+) -> PrecLandStep:
+    """One update of the precision landing: ``on_deck``, the ground (or the deck) pushes up on the feet;
+    ``gimbal_reach_rad``: the view cone's reach when PLD_CAM_REACH is -1; ``landing_target``: this update's
+    measurement (None: none new)."""
     failed_before = task.failed
-    task.on_deck = commander.land_detector.ground_contact or commander.contact_push
-    task.gimbal_reach_rad = commander.inputs.gimbal_reach_rad  # the view cone's reach when PLD_CAM_REACH is -1
-    setpoint = task.update(est, now_us, commander.landing_target)
-    for _t, text in task.events:
-        commander.say(S.MAV_SEVERITY_INFO, text)
+    task.on_deck = on_deck
+    task.gimbal_reach_rad = gimbal_reach_rad
+    setpoint = task.update(est, now_us, landing_target)
+    texts = [(S.MAV_SEVERITY_INFO, text) for _t, text in task.events]
     task.events.clear()
     if task.failed and not failed_before:
-        commander.say(S.MAV_SEVERITY_CRITICAL, "Precision landing failed: no landing target, holding position")
-    if task.done:
-        commander._disarm("docked on the landing target")
-        return None
-    return setpoint
+        texts.append((S.MAV_SEVERITY_CRITICAL, "Precision landing failed: no landing target, holding position"))
+    return PrecLandStep(setpoint, tuple(texts), task.done)
 
 
 def velocity_over_ground_below(task: object, est: VehicleEstimate) -> np.ndarray:

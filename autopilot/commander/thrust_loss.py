@@ -46,7 +46,7 @@ simulator's SIM_ENGINE_FAIL numbers).
 
 On the ground after a thrust loss the position controller keeps asking for full thrust, so the land
 detector, which waits for low thrust, never lands it: :meth:`ThrustLossCheck.grounded` is the ground
-test of the crash check instead (:func:`autopilot.commander.failure_detector.check_failures`): within
+test of the crash check instead (:meth:`autopilot.commander.failure_detector.FailureDetector.step`): within
 ``GROUND_BAND_M`` of the height it was armed at, moving slower than the land detector's limits
 (LNDMC_Z_VEL_MAX, LNDMC_XY_VEL_MAX) and accelerating less than the crash check's 3 m/s^2, for
 ``GROUND_S``.  A vehicle that lost thrust and settled elsewhere (a roof) is not disarmed by this: a

@@ -54,6 +54,10 @@ KEPT_OVER_REBOOT = (
 )  # fmt: skip
 
 
+# The airframes by name (the process's --vehicle) and their MAV_TYPE.
+MAV_TYPES = {"QUADROTOR": S.MAV_TYPE_QUADROTOR, "HEXAROTOR": S.MAV_TYPE_HEXAROTOR, "OCTOROTOR": S.MAV_TYPE_OCTOROTOR}
+
+
 class MotorTest(NamedTuple):
     motor: int  # 0-based
     frac: float  # motor command 0..1
@@ -298,8 +302,6 @@ class VehicleCommands:
         controllers (:attr:`reboot_pending`)."""
         if self.armed:
             return self._deny("Reboot denied: vehicle armed (disarm first)")
-        from autopilot.commander.commander import MAV_TYPES
-
         kept = {k: self.__dict__[k] for k in KEPT_OVER_REBOOT if k in self.__dict__}
         name = next((k for k, v in MAV_TYPES.items() if v == self.mav_type), "QUADROTOR")
         for attr in ("terminated", "motor_test_run", "cruise_override_m_s"):
