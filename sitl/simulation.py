@@ -12,7 +12,10 @@ Several vehicles: vehicle k starts ``spacing`` metres East of vehicle k-1 (:func
 sensors' home is the geodetic position of its own start point, its seed is
 :func:`sitl.multicopter.vehicle_seed` (the world's seed for vehicle 0).  The air and the ground
 vehicle are the world's: one ``WindSettings`` (each vehicle meets its own turbulence draws, at its
-height and airspeed) and one ``UgvSettings``; sensor, motor and camera settings are each vehicle's.
+height and airspeed) and one ``UgvSettings``; sensor, motor and camera settings are each vehicle's.  With
+``ugvs`` (``sitl --count N`` with the UGV) each vehicle has a ground vehicle of its own instead: UGV k with
+vehicle k's settings, NED from vehicle k's start, its seed :func:`~sitl.multicopter.vehicle_seed`, its deck's pad
+with marker ids of its own (:func:`vision.pad.vehicle_pad`; :attr:`VehicleView.pad`).
 """
 
 from __future__ import annotations
