@@ -199,7 +199,8 @@ class LockstepCompanion:
     def close(self) -> None:
         self._jobs.put(None)
         self._thread.join(timeout=5.0)
-        print(f"[sitl] {self.stats.line()}", file=sys.stderr, flush=True)
+        who = f"vehicle {self.vehicle} " if self.vehicle else ""  # (a world of several: each vehicle's camera)
+        print(f"[sitl] {who}{self.stats.line()}", file=sys.stderr, flush=True)
 
     # -- worker thread -------------------------------------------------------------------------
     def _work(self) -> None:
