@@ -40,8 +40,9 @@ __all__ = ["LOCKSTEP_DT_S", "SensorTruth", "Simulation", "Truth", "VehicleView",
 
 _STEP_US = int(LOCKSTEP_DT_S * 1e6)  # simulated microseconds per World.step
 SPACING_M = 3.0  # between two vehicles' start points, East, as PX4's multi-vehicle launch scripts spread them
-# ... in a world where each has its own ground vehicle: room for each one's path (a circle of up to 3 m radius
-# round its vehicle's start, the deck's 1.84 m diagonal) without meeting its neighbours'
+# ... in a world where each has its own ground vehicle: a circle of up to 3 m radius near its vehicle's start (with
+# the deck's 1.84 m diagonal) stays clear of its neighbours'; UGVs driving the same path from the same pose (each
+# NED from its own vehicle's start) drive translated copies of it, 10 m apart, and never meet
 UGV_SPACING_M = 10.0
 
 
