@@ -77,6 +77,7 @@ def _add_port_options(p: argparse.ArgumentParser) -> None:
         "--count", type=positive_int, default=1, metavar="K",
         help="simulate K multicopters in one world, 3 m apart along East: vehicle k is instance N+k (system id "
         "1+N+k, TCP 4560+N+k, UDP 14740+N+k), its own flight controller; the world steps when all have answered. "
+        "With the UGV (SIM_UGV_EN) each has its own, 10 m apart, its own camera, companion and deck marker ids. "
         "Explicit --port/--truth-port/--truth-local-port/--ugv-radio-port are vehicle 0's, vehicle k's are +k",
     )  # fmt: skip
     p.add_argument("--port", type=port_number, help="TCP port the flight controller connects to (default 4560+N)")
@@ -193,22 +194,29 @@ def configure(
     return settings, scenario
 
 
-def _companion(sim, camera: CameraSettings, args: argparse.Namespace):
-    """The camera and the vision companion, when the world has the UGV (a marker to see) and the
-    vehicle a camera; None otherwise (rendering would cost ~40 % of the speed for nothing)."""
+def _companion(sim, camera: CameraSettings, args: argparse.Namespace, k: int = 0):
+    """Vehicle ``k``'s camera and vision companion, when the world has the UGV (a marker to see) and the
+    vehicle a camera; None otherwise (rendering would cost ~40 % of the speed for nothing).  In a world where each
+    vehicle has its own ground vehicle, vehicle k's camera looks for its own deck's markers (``sim.pad``)."""
     if sim.ugv is None or sim.spec.camera.rate_hz <= 0:
         return None
     from sitl.companion import LockstepCompanion
+    from sitl.multicopter import vehicle_seed
 
     save = Path(args.save_frames) if args.save_frames else None
+    if save is not None and k > 0:
+        save = save / f"vehicle-{k}"
+    own = getattr(sim, "world", None) is not None and sim.world.own_ugvs
     return LockstepCompanion(
         sim.model,
         sim.spec.camera,
         camera,
-        seed=args.seed,
+        seed=vehicle_seed(args.seed, k),
         save_dir=save,
-        sysid=ports.system_id(args.instance),
-        pad=sim.ugv_settings.pad(),
+        sysid=ports.system_id(args.instance + k),
+        pad=sim.pad,
+        vehicle=k,
+        ugv=k if own else 0,
     )
 
 
@@ -308,19 +316,22 @@ def _start(args: argparse.Namespace):
     for option, path in (("--log-dir", args.log_dir), ("--save-frames", args.save_frames)):
         if path:
             make_dir(option, path)
-    from sitl.simulation import Simulation, VehicleView, World, spread
+    from sitl.simulation import SPACING_M, UGV_SPACING_M, Simulation, VehicleView, World, spread
 
     if args.count == 1:
         sim = Simulation(
             spec, args.home, seed=args.seed, wind=wind, sensors=sensors, motors=motors, ugv=ugv, camera=camera
         )
         views = [sim]
-    else:  # every vehicle its own copy of the per-vehicle settings; the air and the UGV are the world's
-        own = [(sensors, motors, camera)] + [deepcopy((sensors, motors, camera)) for _ in range(1, args.count)]
-        sensors_k, motors_k, cameras_k = zip(*own)
+    else:  # every vehicle its own copy of the per-vehicle settings and its own UGV; the air is the world's
+        own = [(sensors, motors, camera, ugv)] + [
+            deepcopy((sensors, motors, camera, ugv)) for _ in range(1, args.count)
+        ]
+        sensors_k, motors_k, cameras_k, ugvs_k = zip(*own)
+        spacing = UGV_SPACING_M if ugv.enabled else SPACING_M
         world = World(
-            spread(spec, args.count), args.home, args.seed, wind, ugv,
-            sensors=sensors_k, motors=motors_k, cameras=cameras_k,
+            spread(spec, args.count, spacing), args.home, args.seed, wind, ugv,
+            sensors=sensors_k, motors=motors_k, cameras=cameras_k, ugvs=ugvs_k,
         )  # fmt: skip
         views = [VehicleView(world, k) for k in range(args.count)]
     servers = []
@@ -368,12 +379,11 @@ def _vehicle_server(args: argparse.Namespace, k: int, sim, scenario: Scenario | 
 def _attach(server, sim, k: int, args: argparse.Namespace) -> None:
     """Vehicle ``k``'s optional parts: the vision companion, the UGV's radio, the ground-truth log."""
     instance = args.instance + k
-    if args.count == 1:  # the camera's names are vehicle 0's (sitl.camera): one vehicle only
-        server.companion = _companion(sim, sim.camera_settings, args)
+    server.companion = _companion(sim, sim.camera_settings, args, k)  # each vehicle its own camera and companion
     if server.companion is not None:  # a MAVLink camera (component 100) with its video (sitl/camera_setup.py)
         from sitl.camera_setup import camera_component
 
-        server.camera = camera_component(server.companion, sim, args)
+        server.camera = camera_component(server.companion, sim, args, k)
     if sim.ugv is not None:  # its telemetry radio: FOLLOW_TARGET while SIM_UGV_FLW = 1 (sitl/ugv_broadcast.py)
         from sitl.ugv_broadcast import UgvRadio
 

@@ -56,13 +56,13 @@ class FrameNoise:
 class DownwardCamera:
     """Renders the ``downward`` camera of a model built with a [camera] (:func:`sitl.model.build_model`)."""
 
-    def __init__(self, model: mujoco.MjModel, spec: CameraSpec, seed: int = 0) -> None:
+    def __init__(self, model: mujoco.MjModel, spec: CameraSpec, seed: int = 0, camera: str = "downward") -> None:
         self.spec = spec
         self.renderer = mujoco.Renderer(model, spec.height_px, spec.width_px)
         self.option = mujoco.MjvOption()
         for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
             self.renderer.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
-        self._camera = model.camera("downward").id
+        self._camera = model.camera(camera).id
         self.noise = FrameNoise(spec, seed)
         self.frames = 0
         self.render_s = 0.0
@@ -91,11 +91,14 @@ class DownwardCamera:
         self.renderer.close()
 
 
-def open_camera(model: mujoco.MjModel, spec: CameraSpec, seed: int = 0, render: int = RENDER_MUJOCO):
+def open_camera(
+    model: mujoco.MjModel, spec: CameraSpec, seed: int = 0, render: int = RENDER_MUJOCO, camera: str = "downward"
+):
     """The camera ``SIM_CAM_RENDER`` (``render``) asks for: MuJoCo's render (:class:`DownwardCamera`, 0) or the
-    deck-and-ground renderer (:class:`sitl.deck_render.DeckCamera`, 1); the same interface, the same noise."""
+    deck-and-ground renderer (:class:`sitl.deck_render.DeckCamera`, 1); the same interface, the same noise.
+    ``camera``: the model's camera to render (vehicle k's is ``sitl.model.part_name(k, "downward")``)."""
     if int(render) == RENDER_FAST:
         from sitl.deck_render import DeckCamera
 
-        return DeckCamera(model, spec, seed)
-    return DownwardCamera(model, spec, seed)
+        return DeckCamera(model, spec, seed, camera)
+    return DownwardCamera(model, spec, seed, camera)

@@ -47,7 +47,7 @@ from sitl.camera import RENDER_FAST, DownwardCamera, open_camera
 from sitl.camera_media import CameraMedia, CameraPose, camera_pose
 from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
-from sitl.model import GIMBAL_JOINTS
+from sitl.model import GIMBAL_JOINTS, part_name
 from sitl.sim_settings import CameraSettings
 from sitl.truth_log import CameraFrame
 from vision.camera_model import pinhole
@@ -130,8 +130,16 @@ class LockstepCompanion:
         save_dir: Path | None = None,
         save_every: int = 10,
         pad: PadLayout = NESTED_PAD,
+        vehicle: int = 0,
+        ugv: int = 0,
     ) -> None:
         self.model, self.spec, self.settings, self.pad = model, camera, settings, pad
+        # Which multicopter of the world carries this camera (its parts: sitl.model.part_name) and which ground
+        # vehicle's deck it looks for (sitl.ugv.ugv_part): vehicle k of a world where each has its own lands on k's
+        self.vehicle, self.ugv = vehicle, ugv
+        self._camera_name = part_name(vehicle, "downward")
+        self._body = model.body(part_name(vehicle, "vehicle")).id
+        self._qadr = int(model.jnt_qposadr[model.joint(part_name(vehicle, "root")).id])
         self.period_us = round(1e6 / camera.rate_hz)
         self.next_capture_us = 0
         self.mav = mavlink.MAVLink(None, sysid, COMPANION_COMPID)
@@ -146,9 +154,11 @@ class LockstepCompanion:
         self._error: BaseException | None = None
         # A gimballed camera: its encoders' qpos addresses (the mount's rotation is read from them at each capture)
         self._gimbal_qadr = (
-            [int(model.jnt_qposadr[model.joint(name).id]) for name, _ in GIMBAL_JOINTS] if camera.gimballed else None
+            [int(model.jnt_qposadr[model.joint(part_name(vehicle, name)).id]) for name, _ in GIMBAL_JOINTS]
+            if camera.gimballed
+            else None
         )
-        self._camera_id = model.camera("downward").id
+        self._camera_id = model.camera(self._camera_name).id
         self.on_frame: Callable[[CameraFrame], None] | None = None  # each frame's record, at its release
         self.media: CameraMedia | None = None  # the video, photos and recordings (sitl/camera_media.py), if any
         self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
@@ -189,13 +199,15 @@ class LockstepCompanion:
     def close(self) -> None:
         self._jobs.put(None)
         self._thread.join(timeout=5.0)
-        print(f"[sitl] {self.stats.line()}", file=sys.stderr, flush=True)
+        who = f"vehicle {self.vehicle} " if self.vehicle else ""  # (a world of several: each vehicle's camera)
+        print(f"[sitl] {who}{self.stats.line()}", file=sys.stderr, flush=True)
 
     # -- worker thread -------------------------------------------------------------------------
     def _work(self) -> None:
         """Owns the renderer (its GL context belongs to this thread) and the detector."""
         try:
-            camera = open_camera(self.model, self.spec, self._seed, int(self.settings.render))  # SIM_CAM_RENDER
+            render = int(self.settings.render)  # SIM_CAM_RENDER
+            camera = open_camera(self.model, self.spec, self._seed, render, self._camera_name)
             spec = self.spec
             detector = MarkerDetector(
                 pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad, rendered=True
@@ -203,7 +215,11 @@ class LockstepCompanion:
         except BaseException as exc:  # reported to the main thread at the first release
             camera, detector, self._error = None, None, exc
         mount = CameraMount(position_frd_m=self.spec.position_frd_m)
-        view = MarkerView(self.model, "downward", detector.camera, self.pad) if detector is not None else None
+        view = (
+            MarkerView(self.model, self._camera_name, detector.camera, self.pad, self.ugv)
+            if detector is not None
+            else None
+        )
         while (job := self._jobs.get()) is not None:
             time_us, copy, noise, answer = job
             if camera is None or detector is None:
@@ -243,7 +259,7 @@ class LockstepCompanion:
             return b"", CameraFrame(time_us, rpy, rendered=False)
         frame = camera.capture(data, noise)
         mount = self._mount_at_capture(mount, joints)
-        q_ned_frd = _attitude(data)
+        q_ned_frd = _attitude(data, self._qadr)
         t0 = time.perf_counter()
         det = detector.detect(frame, expected_normal_cam(mount.rotation_frd_cam, q_ned_frd))
         st.detect_s += time.perf_counter() - t0
@@ -295,8 +311,8 @@ class LockstepCompanion:
 
     def _truth_frd(self, data: mujoco.MjData) -> np.ndarray:
         """The marker's centre from the vehicle's centre of mass along body FRD axes, from the state copy."""
-        veh = self.model.body("vehicle").id
-        deck_enu = deck_centre_enu(self.model, data)
+        veh = self._body
+        deck_enu = deck_centre_enu(self.model, data, self.ugv)
         flu = data.xmat[veh].reshape(3, 3).T @ (deck_enu - data.xpos[veh])
         return np.array([flu[0], -flu[1], -flu[2]])
 
@@ -309,8 +325,9 @@ class LockstepCompanion:
         cv2.imwrite(str(self.save_dir / f"frame_{time_us // 1000:08d}ms.png"), annotate(frame, det, detector.camera))
 
 
-def _attitude(data: mujoco.MjData) -> np.ndarray:
-    """The vehicle's attitude (w, x, y, z), FRD -> NED, at capture (the free joint's quaternion)."""
+def _attitude(data: mujoco.MjData, qadr: int = 0) -> np.ndarray:
+    """The vehicle's attitude (w, x, y, z), FRD -> NED, at capture (its free joint's quaternion; ``qadr`` the joint's
+    first qpos address)."""
     from mavsim_core.frames import quat_enu_flu_to_ned_frd
 
-    return quat_enu_flu_to_ned_frd(np.array(data.qpos[3:7]))
+    return quat_enu_flu_to_ned_frd(np.array(data.qpos[qadr + 3 : qadr + 7]))

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import cv2
 import mujoco
@@ -99,6 +100,35 @@ def _material(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, float, floa
     return rgb, float(model.mat_emission[mat]), float(model.mat_specular[mat]), float(model.mat_shininess[mat])
 
 
+def deck_geoms(model: mujoco.MjModel) -> list[int]:
+    """The deck geoms of every ground vehicle of ``model`` (``ugv_deck``, ``v1_ugv_deck`` ...: sitl.ugv.ugv_part)."""
+    names = [(model.geom(i).name, i) for i in range(model.ngeom)]
+    decks = [i for name, i in names if name == "ugv_deck" or (name.startswith("v") and name.endswith("_ugv_deck"))]
+    if not decks:
+        raise ValueError("the fast camera needs a ground vehicle's deck (geom ugv_deck)")
+    return decks
+
+
+@dataclass(frozen=True)
+class _DeckFace:
+    """One deck's top as the renderer draws it: its geom, half-sizes (m), colour and emission, texture's mipmaps
+    and the coverage image (warped to the image, nearest texel)."""
+
+    geom: int
+    half: np.ndarray
+    rgb: np.ndarray
+    emission: float
+    levels: list[np.ndarray]
+    cover: np.ndarray
+
+    @staticmethod
+    def of(model: mujoco.MjModel, geom: int) -> _DeckFace:
+        rgb, emission, _, _ = _material(model, geom)
+        levels = _mipmaps(_front_face(model, geom))
+        return _DeckFace(geom, np.array(model.geom_size[geom], dtype=float), rgb, emission, levels,
+                         np.full_like(levels[0], 1))  # fmt: skip
+
+
 class DeckRenderer:
     """Draws the ``downward`` camera's view of the ground and the deck (``width`` x ``height`` px, grey uint8)."""
 
@@ -109,11 +139,7 @@ class DeckRenderer:
         self.cx, self.cy = (width - 1) / 2, (height - 1) / 2
         self.znear = float(model.vis.map.znear * model.stat.extent)
         self.lights = _Lights(model)
-        self.deck = model.geom("ugv_deck").id
-        self.deck_half = np.array(model.geom_size[self.deck], dtype=float)
-        self.deck_rgb, self.deck_emission, _, _ = _material(model, self.deck)
-        self.levels = _mipmaps(_front_face(model, self.deck))
-        self._cover = np.full_like(self.levels[0], 1)  # the deck's coverage: warped to the image, nearest texel
+        self.decks = [_DeckFace.of(model, g) for g in deck_geoms(model)]  # every ground vehicle's, its own texture
         self.ground = model.geom("ground").id
         g = self.ground
         if np.any(np.abs(model.geom_pos[g]) > 1e-9) or np.any(np.abs(model.geom_quat[g] - (1, 0, 0, 0)) > 1e-9):
@@ -135,10 +161,16 @@ class DeckRenderer:
         eye = np.asarray(data.cam_xpos[self.cam], dtype=float)
         lights = self.lights.at(data, rot[:, 2])
         img = self._ground(rot, eye, lights)
-        g = np.asarray(data.geom_xmat[self.deck], dtype=float).reshape(3, 3)
-        top = data.geom_xpos[self.deck] + g[:, 2] * self.deck_half[2]
-        if (eye - top) @ g[:, 2] > 1e-6:  # the top faces the camera (from below, MuJoCo shows the box's other faces)
-            self._deck(img, self._deck_homography(data, rot, eye), data, lights)
+        tops = []
+        for face in self.decks:
+            g = np.asarray(data.geom_xmat[face.geom], dtype=float).reshape(3, 3)
+            top = data.geom_xpos[face.geom] + g[:, 2] * face.half[2]
+            if (eye - top) @ g[
+                :, 2
+            ] > 1e-6:  # the top faces the camera (from below, MuJoCo shows the box's other faces)
+                tops.append((-float(np.linalg.norm(eye - top)), face))
+        for _, face in sorted(tops, key=lambda t: t[0]):  # the farthest first: a nearer deck is drawn over it
+            self._deck(img, face, self._deck_homography(data, face, rot, eye), data, lights)
         return img
 
     def _rays(self, u: np.ndarray, v: np.ndarray, rot: np.ndarray) -> np.ndarray:
@@ -195,22 +227,22 @@ class DeckRenderer:
         return np.clip(c, 0.0, 1.0)
 
     # -- the deck -------------------------------------------------------------------------------
-    def _deck_homography(self, data: mujoco.MjData, rot: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    def _deck_homography(self, data: mujoco.MjData, face: _DeckFace, rot: np.ndarray, eye: np.ndarray) -> np.ndarray:
         """3x3: the deck texture's level-0 pixel (column, row, 1) -> the image's (u w, v w, w), w the depth (m)."""
-        g = np.asarray(data.geom_xmat[self.deck], dtype=float).reshape(3, 3)
-        a, b, hz = self.deck_half
-        n = self.levels[0].shape[1], self.levels[0].shape[0]
+        g = np.asarray(data.geom_xmat[face.geom], dtype=float).reshape(3, 3)
+        a, b, hz = face.half
+        n = face.levels[0].shape[1], face.levels[0].shape[0]
         # the texel (X, Y) is at x = (X + 0.5) 2a / n - a, y = b - (Y + 0.5) 2b / n on the face at z = hz
         ex, ey = g[:, 0] * (2 * a / n[0]), -g[:, 1] * (2 * b / n[1])
-        origin = data.geom_xpos[self.deck] + g[:, 2] * hz + g[:, 0] * (a / n[0] - a) - g[:, 1] * (b / n[1] - b)
+        origin = data.geom_xpos[face.geom] + g[:, 2] * hz + g[:, 0] * (a / n[0] - a) - g[:, 1] * (b / n[1] - b)
         to_cam = rot.T @ np.column_stack([ex, ey, origin - eye])
         k = np.array([[self.f, 0.0, -self.cx], [0.0, -self.f, -self.cy], [0.0, 0.0, -1.0]])  # (x, y, z) -> depth
         return k @ to_cam
 
-    def _deck(self, img: np.ndarray, hom: np.ndarray, data: mujoco.MjData, lights) -> None:
+    def _deck(self, img: np.ndarray, face: _DeckFace, hom: np.ndarray, data: mujoco.MjData, lights) -> None:
         """Draw the deck's top into ``img`` (in place): the pixels whose centre it covers (OpenGL's rule), each its
         texture sampled trilinearly at the pixel's level of detail, clamped at the texture's edges."""
-        n_y, n_x = self.levels[0].shape
+        n_y, n_x = face.levels[0].shape
         corners = hom @ np.array([[-0.5, n_x - 0.5, n_x - 0.5, -0.5], [-0.5, -0.5, n_y - 0.5, n_y - 0.5], [1.0] * 4])
         depth = corners[2]
         if np.all(depth <= self.znear):
@@ -230,17 +262,17 @@ class DeckRenderer:
             clip = (per_depth <= 0.0) | (per_depth >= 1.0 / self.znear)
         shift = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ hom
         size = (x1 - x0, y1 - y0)
-        cover = cv2.warpPerspective(self._cover, shift, size, flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
+        cover = cv2.warpPerspective(face.cover, shift, size, flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
         if clip is not None:
             cover[clip] = 0
         if not cv2.countNonZero(cover):
             return
-        lod = self._lod(np.linalg.inv(shift), *size)
+        lod = self._lod(np.linalg.inv(shift), len(face.levels), *size)
         lo, hi, _, _ = cv2.minMaxLoc(lod, cover)
-        scale = self._deck_light(data, lights)
+        scale = self._deck_light(data, face, lights)
         out = weight = None
         for level in range(int(lo), int(math.ceil(hi)) + 1):
-            tex = self.levels[level] if scale >= 1.0 else cv2.convertScaleAbs(self.levels[level], alpha=scale)
+            tex = face.levels[level] if scale >= 1.0 else cv2.convertScaleAbs(face.levels[level], alpha=scale)
             sx, sy = n_x / tex.shape[1], n_y / tex.shape[0]  # the level's texel X is level 0's (X + 0.5) s - 0.5
             to_level0 = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
             layer = cv2.warpPerspective(tex, shift @ to_level0, size, flags=cv2.INTER_LINEAR,
@@ -252,7 +284,7 @@ class DeckRenderer:
                 out, weight = cv2.blendLinear(out, layer, weight, w_l), weight + w_l
         np.copyto(img[y0:y1, x0:x1], out, where=cover.view(bool))
 
-    def _lod(self, inv: np.ndarray, w: int, h: int) -> np.ndarray:
+    def _lod(self, inv: np.ndarray, n_levels: int, w: int, h: int) -> np.ndarray:
         """OpenGL's level of detail (clamped to the mipmaps) of each pixel of a w x h region whose pixel -> texel
         homography is ``inv``: log2 of the larger derivative length, on a grid, interpolated."""
         cw, ch = max(1, w // LOD_GRID_PX), max(1, h // LOD_GRID_PX)
@@ -263,15 +295,16 @@ class DeckRenderer:
         dxu, dxv = (inv[0, 0] - x * inv[2, 0]) / big_w, (inv[0, 1] - x * inv[2, 1]) / big_w
         dyu, dyv = (inv[1, 0] - y * inv[2, 0]) / big_w, (inv[1, 1] - y * inv[2, 1]) / big_w
         rho = np.maximum(np.hypot(dxu, dyu), np.hypot(dxv, dyv))
-        lod = np.clip(np.log2(np.maximum(rho, 1e-9)), 0.0, len(self.levels) - 1).astype(np.float32)
+        lod = np.clip(np.log2(np.maximum(rho, 1e-9)), 0.0, n_levels - 1).astype(np.float32)
         return cv2.resize(lod, (w, h), interpolation=cv2.INTER_LINEAR)
 
-    def _deck_light(self, data: mujoco.MjData, lights) -> float:
+    def _deck_light(self, data: mujoco.MjData, face: _DeckFace, lights) -> float:
         """The deck's lit share of its texture (<= 1): its lights' ambient and diffuse, no specular (grey)."""
-        normal = np.asarray(data.geom_xmat[self.deck], dtype=float).reshape(3, 3)[:, 2]
-        c = self.deck_emission * self.deck_rgb + (0.0 if lights else 0.3) * self.deck_rgb
+        normal = np.asarray(data.geom_xmat[face.geom], dtype=float).reshape(3, 3)[:, 2]
+        rgb = face.rgb
+        c = face.emission * rgb + (0.0 if lights else 0.3) * rgb
         for to_light, ambient, diffuse, _ in lights:
-            c = c + ambient * self.deck_rgb + diffuse * self.deck_rgb * max(0.0, float(normal @ to_light))
+            c = c + ambient * rgb + diffuse * rgb * max(0.0, float(normal @ to_light))
         return float(np.clip(c, 0.0, 1.0) @ GREY_WEIGHTS)
 
 
@@ -301,9 +334,9 @@ class DeckCamera:
     ``render_s``, ``last_rgb``, ``close``) and its noise (same seed, same draws), :class:`DeckRenderer`'s picture.
     ``last_rgb`` is the frame without noise, grey in three channels (made when asked for)."""
 
-    def __init__(self, model: mujoco.MjModel, spec: CameraSpec, seed: int = 0) -> None:
+    def __init__(self, model: mujoco.MjModel, spec: CameraSpec, seed: int = 0, camera: str = "downward") -> None:
         self.spec = spec
-        self.renderer = DeckRenderer(model, spec.width_px, spec.height_px)
+        self.renderer = DeckRenderer(model, spec.width_px, spec.height_px, camera)
         self.noise = FrameNoise(spec, seed)
         self.frames = 0
         self.render_s = 0.0

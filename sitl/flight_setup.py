@@ -151,7 +151,7 @@ class SetupRecorder:
 
     def __init__(self, args, sim, params) -> None:
         path = vehicle_path(args.vehicle).resolve()
-        pad = sim.ugv_settings.pad() if sim.ugv is not None else None
+        pad = sim.pad if sim.ugv is not None else None  # the deck it lands on (its own ids in a world of several)
         scenario = str(scenario_path(args.scenario).resolve()) if getattr(args, "scenario", None) else None
         self.params = params
         self.base = FlightSetup(

@@ -20,7 +20,7 @@ import math
 import mujoco
 import numpy as np
 
-from sitl.ugv import UgvGeometry
+from sitl.ugv import UgvGeometry, ugv_part
 from vision.camera_model import CameraModel
 from vision.marker import marker_corners_3d
 from vision.pad import PadLayout
@@ -33,9 +33,9 @@ CORNER_SLACK_PX = 2.0  # a corner may lie this far outside the image and the mar
 PERIMETER_RATE = 0.5 * 0.03  # half OpenCV's default minimum perimeter, as a fraction of the larger side
 
 
-def deck_centre_enu(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-    """The centre of the deck's top (where the marker is) in the world frame (ENU, m)."""
-    ugv = model.body("ugv").id
+def deck_centre_enu(model: mujoco.MjModel, data: mujoco.MjData, ugv_k: int = 0) -> np.ndarray:
+    """The centre of ground vehicle ``ugv_k``'s deck top (where the marker is) in the world frame (ENU, m)."""
+    ugv = model.body(ugv_part(ugv_k, "ugv")).id
     geom = UgvGeometry()
     up = np.array([0.0, 0.0, geom.deck_top_m - geom.wheel_radius_m])
     return data.xpos[ugv] + data.xmat[ugv].reshape(3, 3) @ up
@@ -43,13 +43,15 @@ def deck_centre_enu(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
 
 class MarkerView:
     """The view test for the camera ``camera_name`` of ``model`` with intrinsics ``camera`` (its pinhole), for the
-    markers of ``pad``."""
+    markers of ``pad`` on ground vehicle ``ugv_k``'s deck."""
 
-    def __init__(self, model: mujoco.MjModel, camera_name: str, camera: CameraModel, pad: PadLayout) -> None:
-        self.model = model
+    def __init__(
+        self, model: mujoco.MjModel, camera_name: str, camera: CameraModel, pad: PadLayout, ugv_k: int = 0
+    ) -> None:
+        self.model, self.ugv_k = model, ugv_k
         self.camera_id = model.camera(camera_name).id
         self.cam = camera
-        self._ugv = model.body("ugv").id
+        self._ugv = model.body(ugv_part(ugv_k, "ugv")).id
         # each marker's centre on the deck (the UGV's body frame, FLU m) and its bounding sphere's radius (m)
         self._centres_flu_m = [np.array((m.x_m, m.y_m, 0.0)) for m in pad.markers]
         self._radii_m = [m.size_m / math.sqrt(2.0) for m in pad.markers]
@@ -62,7 +64,7 @@ class MarkerView:
 
     def out_of_view(self, data: mujoco.MjData) -> bool:
         """True if no part of any marker can be in the frame rendered from ``data``."""
-        deck = deck_centre_enu(self.model, data)
+        deck = deck_centre_enu(self.model, data, self.ugv_k)
         ugv_rot = data.xmat[self._ugv].reshape(3, 3)
         rot = data.cam_xmat[self.camera_id].reshape(3, 3)
         eye = data.cam_xpos[self.camera_id]

@@ -146,14 +146,15 @@ def _gimbal_actuators(k: int, g) -> list[str]:
     ]
 
 
-def build_world_mjcf(vehicles: Sequence[Placement], ugv: UgvMjcf | None = None) -> str:
+def build_world_mjcf(vehicles: Sequence[Placement], ugv: UgvMjcf | Sequence[UgvMjcf] | None = None) -> str:
     """Return the MJCF XML text of a world: ground plane, the multicopters, the ground vehicle.
 
     Each vehicle starts on its legs facing North (body x along world +y, ENU) at its placement.
     Vehicle k's joint, actuators and sensors come after vehicle k-1's, so vehicle 0's indices are
     those of a one-vehicle world; ``ugv`` (off by default) adds the ground vehicle's parts
-    (:func:`sitl.ugv.ugv_mjcf`) after all of them.
+    (:func:`sitl.ugv.ugv_mjcf`) after all of them; a sequence of them: several ground vehicles (each its own names).
     """
+    ugvs = [] if ugv is None else [ugv] if isinstance(ugv, UgvMjcf) else list(ugv)
     parts = [_vehicle_parts(k, place) for k, place in enumerate(vehicles)]
     bodies = "\n    ".join(b for b, _, _ in parts)
     actuators = [a for _, acts, _ in parts for a in acts]
@@ -161,9 +162,9 @@ def build_world_mjcf(vehicles: Sequence[Placement], ugv: UgvMjcf | None = None) 
     first = vehicles[0].spec
     width = max(640, *(v.spec.camera.width_px for v in vehicles))
     height = max(480, *(v.spec.camera.height_px for v in vehicles))
-    ugv_asset = f"\n  <asset>{ugv.asset}</asset>" if ugv else ""
-    ugv_body = f"\n    {ugv.worldbody}" if ugv else ""
-    ugv_actuators = f"\n{ugv.actuator}" if ugv else ""
+    ugv_asset = f"\n  <asset>{''.join(u.asset for u in ugvs)}</asset>" if ugvs else ""
+    ugv_body = "".join(f"\n    {u.worldbody}" for u in ugvs)
+    ugv_actuators = "".join(f"\n{u.actuator}" for u in ugvs)
     return f"""<mujoco model="{first.name}">
   <option timestep="{PHYSICS_DT_S}" gravity="0 0 {-GRAVITY_M_S2}" integrator="implicitfast"/>
   <visual><global offwidth="{width}" offheight="{height}"/>
@@ -194,12 +195,18 @@ def build_model(spec: VehicleSpec, ugv_start: Pose2 | None = None) -> mujoco.MjM
 
 
 def build_world_model(
-    vehicles: Sequence[Placement], ugv_start: Pose2 | None = None, pad: PadLayout = NESTED_PAD
+    vehicles: Sequence[Placement],
+    ugv_start: Pose2 | None = None,
+    pad: PadLayout = NESTED_PAD,
+    *,
+    ugvs: Sequence[tuple[Pose2, PadLayout]] | None = None,
 ) -> mujoco.MjModel:
     """Compile the MJCF and set each vehicle's inertia to its file's exactly.
 
     ``ugv_start`` (NED m from vehicle 0's spot, yaw rad; None, the default, leaves it out) adds the ground
-    vehicle (:mod:`sitl.ugv`) there, the landing pad ``pad`` (:mod:`vision.pad`) on its deck.
+    vehicle (:mod:`sitl.ugv`) there, the landing pad ``pad`` (:mod:`vision.pad`) on its deck.  ``ugvs`` instead
+    adds several: ground vehicle k (names :func:`sitl.ugv.ugv_part`) at its start pose (NED m from vehicle 0's
+    spot, yaw rad) with its own pad.
 
     [F]'s Firefly inertia, diag(0.0347563, 0.0458929, 0.0977), breaks the triangle
     inequality I_xx + I_yy >= I_zz that every real mass distribution satisfies, and MuJoCo's
@@ -207,11 +214,14 @@ def build_world_model(
     and the file's values are written into ``body_inertia`` afterwards: the rigid-body
     equations ([F eq. 4.5]) use J as given, which is what [F] specifies.
     """
-    ugv = ugv_mjcf(ugv_start, pad=pad) if ugv_start is not None else None
-    xml = build_world_mjcf(vehicles, ugv)
+    if ugvs is None:
+        ugvs = [(ugv_start, pad)] if ugv_start is not None else []
+    parts = [ugv_mjcf(start, pad=pad_k, k=k) for k, (start, pad_k) in enumerate(ugvs)]
+    xml = build_world_mjcf(vehicles, parts)
     if any(_unbalanced(v.spec.inertia_kg_m2) for v in vehicles):
         xml = xml.replace("<option ", '<compiler balanceinertia="true"/>\n  <option ', 1)
-    model = mujoco.MjModel.from_xml_string(xml, ugv.assets if ugv else None)
+    assets = {name: png for u in parts for name, png in u.assets.items()}
+    model = mujoco.MjModel.from_xml_string(xml, assets or None)
     for k, v in enumerate(vehicles):
         model.body_inertia[model.body(part_name(k, "vehicle")).id] = v.spec.inertia_kg_m2
     mujoco.mj_setConst(model, mujoco.MjData(model))  # recompute what the compiler derived from the inertia

@@ -12,7 +12,10 @@ Several vehicles: vehicle k starts ``spacing`` metres East of vehicle k-1 (:func
 sensors' home is the geodetic position of its own start point, its seed is
 :func:`sitl.multicopter.vehicle_seed` (the world's seed for vehicle 0).  The air and the ground
 vehicle are the world's: one ``WindSettings`` (each vehicle meets its own turbulence draws, at its
-height and airspeed) and one ``UgvSettings``; sensor, motor and camera settings are each vehicle's.
+height and airspeed) and one ``UgvSettings``; sensor, motor and camera settings are each vehicle's.  With
+``ugvs`` (``sitl --count N`` with the UGV) each vehicle has a ground vehicle of its own instead: UGV k with
+vehicle k's settings, NED from vehicle k's start, its seed :func:`~sitl.multicopter.vehicle_seed`, its deck's pad
+with marker ids of its own (:func:`vision.pad.vehicle_pad`; :attr:`VehicleView.pad`).
 """
 
 from __future__ import annotations
@@ -29,12 +32,18 @@ from params.vehicle import VehicleSpec
 from sitl.model import PHYSICS_DT_S, Placement, build_world_model
 from sitl.multicopter import Multicopter, SensorTruth, Truth, vehicle_seed
 from sitl.sim_settings import CameraSettings, MotorSettings, SensorSettings, WindSettings
+from sitl.ugv_paths import Pose2
 from sitl.ugv_world import UgvDriver, UgvSettings, UgvTruth
+from vision.pad import vehicle_pad
 
 __all__ = ["LOCKSTEP_DT_S", "SensorTruth", "Simulation", "Truth", "VehicleView", "World", "spread"]
 
 _STEP_US = int(LOCKSTEP_DT_S * 1e6)  # simulated microseconds per World.step
 SPACING_M = 3.0  # between two vehicles' start points, East, as PX4's multi-vehicle launch scripts spread them
+# ... in a world where each has its own ground vehicle: a circle of up to 3 m radius near its vehicle's start (with
+# the deck's 1.84 m diagonal) stays clear of its neighbours'; UGVs driving the same path from the same pose (each
+# NED from its own vehicle's start) drive translated copies of it, 10 m apart, and never meet
+UGV_SPACING_M = 10.0
 
 
 def spread(spec: VehicleSpec, count: int, spacing_m: float = SPACING_M) -> list[Placement]:
@@ -65,11 +74,20 @@ class World:
         sensors: Sequence[SensorSettings | None] | None = None,
         motors: Sequence[MotorSettings | None] | None = None,
         cameras: Sequence[CameraSettings | None] | None = None,
+        ugvs: Sequence[UgvSettings] | None = None,
     ) -> None:
         self.ugv_settings = ugv if ugv is not None else UgvSettings()
         self.wind_settings = wind if wind is not None else WindSettings()
-        ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
-        self.model = build_world_model(placements, ugv_start=ugv_start, pad=self.ugv_settings.pad())
+        # One ground vehicle (``ugv``), or one per multicopter (``ugvs``: vehicle k's settings, NED from its start)
+        own = list(ugvs) if ugvs is not None and self.ugv_settings.enabled else None
+        self.ugv_settings_of = own or [self.ugv_settings] * len(placements)
+        self.pads = [vehicle_pad(s.pad(), k) for k, s in enumerate(self.ugv_settings_of)] if own else None
+        if own:
+            starts = [_shifted(s.start_pose(), p.offset_en_m) for s, p in zip(own, placements)]
+            self.model = build_world_model(placements, ugvs=list(zip(starts, self.pads)))  # type: ignore[arg-type]
+        else:
+            ugv_start = self.ugv_settings.start_pose() if self.ugv_settings.enabled else None
+            self.model = build_world_model(placements, ugv_start=ugv_start, pad=self.ugv_settings.pad())
         self.data = mujoco.MjData(self.model)
         self.vehicles = [
             Multicopter(
@@ -90,8 +108,15 @@ class World:
             if v.gimbal is not None:  # the camera where it looks before the vehicle settles (not the servos' zero)
                 v.gimbal.place(self.data, v.sensor_truth(self.data).r_ned_frd)
         self._settle()
-        origin = self.vehicles[0].start_xy_enu  # the UGV's settings are NED from vehicle 0's start
-        self.ugv = UgvDriver(self.model, self.data, self.ugv_settings, origin, seed) if ugv_start else None
+        self.ugvs: list[UgvDriver] = []
+        if own:  # each its own settings, NED from its own vehicle's start, its own seed (a random path)
+            self.ugvs = [
+                UgvDriver(self.model, self.data, s, v.start_xy_enu, vehicle_seed(seed, k), k=k)
+                for k, (s, v) in enumerate(zip(own, self.vehicles))
+            ]
+        elif self.ugv_settings.enabled:  # the UGV's settings are NED from vehicle 0's start
+            self.ugvs = [UgvDriver(self.model, self.data, self.ugv_settings, self.vehicles[0].start_xy_enu, seed)]
+        self.ugv = self.ugvs[0] if self.ugvs else None
         self.time_us = 0
         self.substeps = round(LOCKSTEP_DT_S / PHYSICS_DT_S)
 
@@ -110,8 +135,8 @@ class World:
         cmds = [[float(x) for x in c[: v.rotors.n]] for v, c in zip(vehicles, motor_commands)]  # as numpy's float()
         for v in vehicles:
             v.apply_motor_failure()
-        if self.ugv is not None:
-            self.ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
+        for ugv in self.ugvs:
+            ugv.step(self.time_us * 1e-6, LOCKSTEP_DT_S)
         for v in vehicles:
             if v.gimbal is not None:  # the gimbal's own controller, on the airframe's attitude now
                 v.gimbal.step(d, v.sensor_truth(d).r_ned_frd, LOCKSTEP_DT_S)
@@ -125,15 +150,33 @@ class World:
             v.battery.step(v.rotors.shaft_power_w(), LOCKSTEP_DT_S, m.battery_drain_s, m.battery_min_pct / 100.0)
         self.time_us += _STEP_US
 
+    @property
+    def own_ugvs(self) -> bool:
+        """Each multicopter has a ground vehicle of its own (``ugvs``)."""
+        return self.pads is not None
+
+    def ugv_of(self, k: int) -> UgvDriver | None:
+        """The ground vehicle vehicle ``k`` lands on: its own, or the world's one; None without one."""
+        return self.ugvs[k] if self.own_ugvs else self.ugv
+
     def ugv_truth(self, k: int = 0) -> UgvTruth | None:
-        """The ground vehicle's truth (deck centre, NED from vehicle ``k``'s start point), None without one."""
+        """Vehicle ``k``'s ground vehicle's truth (deck centre, NED from vehicle ``k``'s start point), None without
+        one."""
         if self.ugv is None:
             return None
+        if self.own_ugvs:
+            return self.ugvs[k].truth(self.time_us)
         t = self.ugv.truth(self.time_us)
         if k == 0:
             return t
         (e0, n0), (ek, nk) = self.vehicles[0].start_xy_enu, self.vehicles[k].start_xy_enu
         return replace(t, deck_pos_ned_m=t.deck_pos_ned_m - np.array([nk - n0, ek - e0, 0.0]))
+
+
+def _shifted(pose: Pose2, offset_en_m: tuple[float, float]) -> Pose2:
+    """``pose`` (NED m from a vehicle's start point) from the world's origin, the vehicle starting at ``offset_en_m``
+    (ENU m: East, North)."""
+    return Pose2(pose.north_m + offset_en_m[1], pose.east_m + offset_en_m[0], pose.yaw_rad)
 
 
 def _home_of(home: tuple[float, float, float], p: Placement) -> tuple[float, float, float]:
@@ -152,9 +195,11 @@ class VehicleView:
     def __init__(self, world: World, k: int) -> None:
         v = world.vehicles[k]
         self.world, self.index, self.vehicle = world, k, v
-        self.spec, self.model, self.data, self.ugv = v.spec, world.model, world.data, world.ugv
+        self.spec, self.model, self.data, self.ugv = v.spec, world.model, world.data, world.ugv_of(k)
         self.rotors, self.aero, self.battery, self.sensors, self.wind = v.rotors, v.aero, v.battery, v.sensors, v.wind
-        self.wind_settings, self.ugv_settings = world.wind_settings, world.ugv_settings
+        self.wind_settings, self.ugv_settings = world.wind_settings, world.ugv_settings_of[k]
+        # the pad on the deck it lands on (its own ids when each vehicle has its own ground vehicle, vision.pad)
+        self.pad = world.pads[k] if world.pads is not None else world.ugv_settings.pad()
         self.motor_settings, self.camera_settings = v.motor_settings, v.camera_settings
 
     @property

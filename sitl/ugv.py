@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import cv2
 import mujoco
@@ -80,6 +81,13 @@ def _v(x) -> str:
     return " ".join(f"{float(a):.6g}" for a in x)
 
 
+def ugv_part(k: int, name: str) -> str:
+    """The MJCF name of ground vehicle ``k``'s part ``name`` ("ugv", "ugv_root", "ugv_deck", "ugv_wheel_left", its
+    texture's files ...): UGV 0 keeps the bare names (a world with one UGV is as before, name for name), UGV k >= 1
+    has them prefixed ``v<k>_`` (the UGV of vehicle k of a world of several, as :func:`sitl.model.part_name`)."""
+    return name if k == 0 else f"v{k}_{name}"
+
+
 @dataclass(frozen=True)
 class UgvMjcf:
     """MJCF fragments to merge into a world: ``asset``, ``worldbody`` and ``actuator`` children.
@@ -94,9 +102,11 @@ class UgvMjcf:
     assets: dict[str, bytes]
 
 
-def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry(), pad: PadLayout = NESTED_PAD) -> UgvMjcf:
-    """The UGV's MJCF parts, its body ``ugv`` at ``start`` (NED m, yaw rad) on the ground, ``pad`` on its deck."""
-    deck_png, white_png = "ugv_deck_pad.png", "ugv_white.png"
+def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry(), pad: PadLayout = NESTED_PAD, k: int = 0) -> UgvMjcf:
+    """UGV ``k``'s MJCF parts (names :func:`ugv_part`), its body ``ugv`` at ``start`` (NED m from the world's origin,
+    yaw rad) on the ground, ``pad`` on its deck."""
+    n = partial(ugv_part, k)
+    deck_png, white_png = n("ugv_deck_pad.png"), n("ugv_white.png")
     deck_bytes, deck = pad_png(pad, geom.deck_side_m)
     side_px = cv2.imdecode(np.frombuffer(deck_bytes, np.uint8), cv2.IMREAD_GRAYSCALE).shape[0]
     white = cv2.imencode(".png", np.full((side_px, side_px, 3), 255, np.uint8))[1].tobytes()  # cube faces: same size
@@ -109,34 +119,34 @@ def ugv_mjcf(start: Pose2, geom: UgvGeometry = UgvGeometry(), pad: PadLayout = N
     deck_z = chassis_z + ch[2] + 0.005
     # MuJoCo's cube texture puts "front" on the box's +z (top) face: the marker looks up.
     asset = (
-        f'<texture name="ugv_deck" type="cube" fileup="{white_png}" filedown="{white_png}" fileleft="{white_png}" '
-        f'fileright="{white_png}" filefront="{deck_png}" fileback="{white_png}"/>\n'
-        '<material name="ugv_deck" texture="ugv_deck" rgba="1 1 1 1" specular="0" shininess="0"/>'
+        f'<texture name="{n("ugv_deck")}" type="cube" fileup="{white_png}" filedown="{white_png}" '
+        f'fileleft="{white_png}" fileright="{white_png}" filefront="{deck_png}" fileback="{white_png}"/>\n'
+        f'<material name="{n("ugv_deck")}" texture="{n("ugv_deck")}" rgba="1 1 1 1" specular="0" shininess="0"/>'
     )
     wheels = []
     for side, y in (("left", g.track_m / 2), ("right", -g.track_m / 2)):
         wheels.append(
-            f'<body name="ugv_wheel_{side}" pos="{g.wheel_x_m:.4g} {y:.4g} 0">'
-            f'<joint name="ugv_wheel_{side}" type="hinge" axis="0 1 0" damping="0.01"/>'
+            f'<body name="{n(f"ugv_wheel_{side}")}" pos="{g.wheel_x_m:.4g} {y:.4g} 0">'
+            f'<joint name="{n(f"ugv_wheel_{side}")}" type="hinge" axis="0 1 0" damping="0.01"/>'
             f'<geom type="cylinder" size="{r:.4g} 0.025" quat="0.70710678 0.70710678 0 0" '
             f'mass="{g.wheel_mass_kg:.4g}" friction="1.2 0.01 0.001" rgba="0.1 0.1 0.1 1"/></body>'
         )
     caster_r = 0.05
-    worldbody = f"""<body name="ugv" pos="{_v(pos)}" quat="{_v(q)}">
-  <freejoint name="ugv_root"/>
-  <geom name="ugv_chassis" type="box" pos="0 0 {chassis_z:.4g}" size="{_v(ch)}" mass="{g.chassis_mass_kg:.4g}"
+    worldbody = f"""<body name="{n("ugv")}" pos="{_v(pos)}" quat="{_v(q)}">
+  <freejoint name="{n("ugv_root")}"/>
+  <geom name="{n("ugv_chassis")}" type="box" pos="0 0 {chassis_z:.4g}" size="{_v(ch)}" mass="{g.chassis_mass_kg:.4g}"
         rgba="0.7 0.5 0.1 1"/>
-  <geom name="ugv_deck" type="box" pos="0 0 {deck_z:.4g}" size="{deck / 2:.5g} {deck / 2:.5g} 0.005" mass="0.5"
-        material="ugv_deck" friction="1 0.01 0.001"/>
+  <geom name="{n("ugv_deck")}" type="box" pos="0 0 {deck_z:.4g}" size="{deck / 2:.5g} {deck / 2:.5g} 0.005" mass="0.5"
+        material="{n("ugv_deck")}" friction="1 0.01 0.001"/>
   {"".join(wheels)}
-  <body name="ugv_caster" pos="{g.caster_x_m:.4g} 0 {caster_r - r:.4g}">
-    <joint name="ugv_caster" type="ball" damping="0.001"/>
+  <body name="{n("ugv_caster")}" pos="{g.caster_x_m:.4g} 0 {caster_r - r:.4g}">
+    <joint name="{n("ugv_caster")}" type="ball" damping="0.001"/>
     <geom type="sphere" size="{caster_r}" mass="0.2" friction="0.5 0.005 0.0001" rgba="0.6 0.6 0.6 1"/>
   </body>
 </body>"""
     actuator = "\n".join(
-        f'<velocity name="ugv_wheel_{s}" joint="ugv_wheel_{s}" kv="{20.0:.4g}" ctrllimited="true" ctrlrange="-60 60" '
-        f'forcelimited="true" forcerange="-20 20"/>'
+        f'<velocity name="{n(f"ugv_wheel_{s}")}" joint="{n(f"ugv_wheel_{s}")}" kv="{20.0:.4g}" ctrllimited="true" '
+        f'ctrlrange="-60 60" forcelimited="true" forcerange="-20 20"/>'
         for s in ("left", "right")
     )
     return UgvMjcf(asset, worldbody, actuator, {deck_png: deck_bytes, white_png: white})
@@ -197,11 +207,14 @@ class UgvDrive:
 class Ugv:
     """The UGV inside a MuJoCo model: follows a path (time as input) and reports its truth in NED."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, limits: UgvLimits = UgvLimits()) -> None:
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, limits: UgvLimits = UgvLimits(), k: int = 0) -> None:
         self.model, self.data, self.limits = model, data, limits
         self.drive = UgvDrive(limits)
-        self._body = model.body("ugv").id
-        self._act = (model.actuator("ugv_wheel_left").id, model.actuator("ugv_wheel_right").id)
+        self._body = model.body(ugv_part(k, "ugv")).id
+        self._act = (
+            model.actuator(ugv_part(k, "ugv_wheel_left")).id,
+            model.actuator(ugv_part(k, "ugv_wheel_right")).id,
+        )
 
     def state(self) -> UgvState:
         """True pose and velocity of the ``ugv`` body (its origin, at axle height)."""

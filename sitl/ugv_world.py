@@ -30,7 +30,7 @@ from sitl.sim_settings import (
     PATH_RANDOM,
     UgvSettings,
 )
-from sitl.ugv import Ugv, UgvGeometry
+from sitl.ugv import Ugv, UgvGeometry, ugv_part
 from sitl.ugv_paths import Pose2, UgvLimits, UgvPath, UnicycleCommand, circle, figure8, random_waypoints, straight_line
 
 MANUAL_TIMEOUT_S = 0.5  # no MANUAL_CONTROL for this long: brake to a stop
@@ -76,7 +76,9 @@ def plan(settings: UgvSettings, start: Pose2, seed: int) -> UgvPath | None:
 
 
 class UgvDriver:
-    """Drives the UGV of a MuJoCo world from its settings, once per lockstep period."""
+    """Drives the UGV of a MuJoCo world from its settings, once per lockstep period: ``origin_xy_enu`` is the world
+    position (ENU m) the settings' NED frame starts from, ``k`` which ground vehicle of the world
+    (:func:`sitl.ugv.ugv_part`)."""
 
     def __init__(
         self,
@@ -86,13 +88,14 @@ class UgvDriver:
         origin_xy_enu: tuple[float, float],
         seed: int = 0,
         geom: UgvGeometry = UgvGeometry(),
+        k: int = 0,
     ) -> None:
         self.model, self.data, self.settings, self.geom = model, data, settings, geom
         self.origin_xy_enu = origin_xy_enu
         self.seed = seed
-        self.ugv = Ugv(model, data, UgvLimits(accel_m_s2=settings.accel_m_s2))
-        self._qadr = model.jnt_qposadr[model.joint("ugv_root").id]
-        self._vadr = model.jnt_dofadr[model.joint("ugv_root").id]
+        self.ugv = Ugv(model, data, UgvLimits(accel_m_s2=settings.accel_m_s2), k)
+        self._qadr = model.jnt_qposadr[model.joint(ugv_part(k, "ugv_root")).id]
+        self._vadr = model.jnt_dofadr[model.joint(ugv_part(k, "ugv_root")).id]
         self._key: tuple | None = None
         self._start_key = (settings.north_m, settings.east_m, settings.yaw_deg)
         self._path: UgvPath | None = None

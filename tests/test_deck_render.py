@@ -5,6 +5,7 @@ the same detections and pose errors, the same noise; and the vision companion fl
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import mujoco
@@ -99,7 +100,7 @@ def test_the_texture_is_pinned_the_way_round_mujoco_lays_it(world, turn):
     ref = mj.capture(sim.data).astype(int)
     r = DeckRenderer(sim.model, SPEC.camera.width_px, SPEC.camera.height_px)
     op = {"rotated 90 deg": np.rot90, "mirrored": np.fliplr, "upside down": np.flipud}[turn]
-    r.levels = [np.ascontiguousarray(op(t)) for t in r.levels]
+    r.decks = [replace(d, levels=[np.ascontiguousarray(op(t)) for t in d.levels]) for d in r.decks]
     assert np.abs(ref - r.render(sim.data).astype(int)).mean() > 10
 
 

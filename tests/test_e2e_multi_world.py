@@ -7,6 +7,10 @@ scheme; here the first instance's own port), so one MAVSDK listening there sees 
 1+I .. 3+I.  Through it, addressed by system id, all three arm, take off to different heights, hold and
 land one after another; each simulator component's truth (its vehicle's NED from its own start point)
 shows the vehicle at its own height, and back on its own start spot once landed.
+
+And a camera on every vehicle (issue 38): three vehicles of one world, each with its own UGV (10 m apart), its own
+camera and companion looking for its own deck's marker ids, land side by side on their moving UGVs (the world held
+and stepped: gcs/launcher/multi_landing.py); each vehicle's own truth puts it on its own deck, within 0.10 m.
 """
 
 from __future__ import annotations
@@ -21,6 +25,9 @@ from mavsdk.asyncio.plugins.action import ActionAsync  # noqa: E402
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync  # noqa: E402
 from mavsdk_session import ground_station  # noqa: E402
 
+from gcs.client import VehicleClient
+from gcs.launcher.landing_run import LandingSetup
+from gcs.launcher.multi_landing import fly_multi_landing
 from gcs.launcher.multi_stack import MultiStack
 from gcs.sim_client import SimClient
 from mavsim_core import ports
@@ -129,3 +136,25 @@ def test_three_vehicles_in_one_world_fly_through_one_mavsdk(world):
         n, e, d = seen["landed"][k]
         assert abs(d) < 0.3 and (n * n + e * e) ** 0.5 < 1.0, (k, seen["landed"][k])  # back on its own spot
         assert all(h > 2.0 for h in seen["others_up"][k]), (k, seen["others_up"][k])  # the later ones still up
+
+
+LANDING = LandingSetup(path="circle", speed_m_s=1.0, seed=3)  # each vehicle's UGV 4 m North of its start
+TOUCHDOWN_M = 0.10  # issue 38's target: each within 0.10 m of its deck's centre
+
+
+def test_three_vehicles_each_land_on_its_own_moving_ugv(free_instance):
+    first = consecutive_instances(free_instance, COUNT)
+    with ExitStack() as es:
+        stack = es.enter_context(
+            MultiStack(first, speed="max", count=COUNT, extra_sitl_args=LANDING.sim_args(), seed=LANDING.seed,
+                       gcs_port=ports.own_gcs_port(first), flight_logs=False)
+        )  # fmt: skip
+        truths = [es.enter_context(SimClient(stack.truth_port_of(k))) for k in range(COUNT)]
+        clients = [VehicleClient(stack.api_url_of(k), idle=stack.check_alive) for k in range(COUNT)]
+        for c in clients:
+            es.callback(c.close)
+        results = fly_multi_landing(clients, truths, LANDING, timeout_s=60.0)
+    for k, r in enumerate(results):  # each scored on its own truth: its own position against its own UGV's deck
+        assert r.success, (k, r.reason, r.phases[-3:])
+        assert r.touchdown_error_m < TOUCHDOWN_M, (k, r.touchdown_error_m)
+        assert r.ugv_speed_at_touchdown_m_s > 0.8, (k, r.ugv_speed_at_touchdown_m_s)  # on a moving UGV

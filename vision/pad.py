@@ -116,3 +116,23 @@ def check_pad(pad: PadLayout, deck_side_m: float, key: str = "pad.markers") -> P
             if abs(m.x_m - other.x_m) < gap - 1e-9 and abs(m.y_m - other.y_m) < gap - 1e-9:
                 raise PadLayoutError(where, f"overlaps {key}[{j}] (id {other.marker_id}) or its white border")
     return pad
+
+
+def vehicle_pad(pad: PadLayout, k: int) -> PadLayout:
+    """The pad on the deck of vehicle ``k``'s own ground vehicle in a world of several: ``pad``'s markers (sizes,
+    places) with ids of its own, so that no two decks share an id and each companion looks for its own deck's
+    markers only.  Vehicle 0's is ``pad`` itself; vehicle k's takes, for each marker in order, the first id from
+    its id + k on (modulo the dictionary) that no pad 0..k-1 uses and no earlier marker of its own took."""
+    if k == 0:
+        return pad
+    used = {m.marker_id for j in range(k) for m in vehicle_pad(pad, j).markers}
+    markers = []
+    for m in pad.markers:
+        new = (m.marker_id + k) % DICTIONARY_SIZE
+        while new in used:
+            if len(used) >= DICTIONARY_SIZE:
+                raise PadLayoutError("pad.markers", f"no free marker ids left for vehicle {k}'s pad")
+            new = (new + 1) % DICTIONARY_SIZE
+        used.add(new)
+        markers.append(PadMarker(new, m.size_m, m.x_m, m.y_m))
+    return PadLayout(tuple(markers))

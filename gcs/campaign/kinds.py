@@ -1,6 +1,7 @@
 """What a campaign can fly: each *kind* declares its grid axes, its randomised ranges and its figures.
 
-A kind is one module with a :class:`Kind` (``landing``: :mod:`.landing`; ``hover_step``: :mod:`.hover_step`,
+A kind is one module with a :class:`Kind` (``landing``: :mod:`.landing`; ``multi_landing``: :mod:`.multi_landing_kind`,
+several vehicles of one world each on its own UGV; ``hover_step``: :mod:`.hover_step`,
 the hover / step flight of benchmarks/vehicle_benchmark.py; ``mission``: :mod:`.mission_kind`, the
 square mission of benchmarks/mission_benchmark.py).  The campaign file names it
 (``kind = "landing"``); :mod:`.spec` checks the file against its axes and ranges, :mod:`.plan` expands
@@ -78,6 +79,7 @@ KINDS = {
     "landing": "gcs.campaign.landing",
     "hover_step": "gcs.campaign.hover_step",
     "mission": "gcs.campaign.mission_kind",
+    "multi_landing": "gcs.campaign.multi_landing_kind",
 }
 PLANNED: dict[str, str] = {}  # kind name -> the benchmark it will come from (none left)
 
@@ -92,11 +94,13 @@ def get_kind(name: str) -> Kind:
 def kind_of_columns(columns: list[str] | tuple[str, ...]) -> Kind | None:
     """The kind whose grid axes and random draws are all among ``columns`` (a results file's), or None."""
     have = set(columns)
-    for name in KINDS:
+    best, best_n = None, -1
+    for name in KINDS:  # the kind needing the most of them (multi_landing's results hold every landing column too)
         kind = get_kind(name)
-        if {a.name for a in kind.axes if a.required_in_results} | {r.name for r in kind.ranges} <= have:
-            return kind
-    return None
+        needs = {a.name for a in kind.axes if a.required_in_results} | {r.name for r in kind.ranges}
+        if needs <= have and len(needs) > best_n:
+            best, best_n = kind, len(needs)
+    return best
 
 
 def one_of(*allowed: Any) -> Check:

@@ -23,6 +23,7 @@ import socket
 import tempfile
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,7 @@ from ..client import VehicleClient
 from ..errors import CommandRefused, GcsError
 from ..launcher import Stack, StackError
 from ..launcher.instance_pool import lease
+from ..launcher.multi_stack import MultiStack
 from .kinds import get_kind
 from .plan import Run
 
@@ -72,15 +74,18 @@ class RunContext:
     stack_: Stack | None = None
     client_: VehicleClient | None = None
 
-    def stack(self, vehicle: str, seed: int, sitl_args: list[str]) -> Stack:
-        """The run's stack (not started): max speed, the campaign's flight-controller parameters."""
+    def stack(self, vehicle: str, seed: int, sitl_args: list[str], count: int = 1) -> Stack:
+        """The run's stack (not started): max speed, the campaign's flight-controller parameters; ``count`` > 1:
+        that many vehicles in one world (:class:`~gcs.launcher.multi_stack.MultiStack`, instances from the run's
+        on: the kind holds the others)."""
         fc = []
         if self.settings.fc_params:  # MAVProxy's "NAME VALUE" format, read by autopilot --params
             path = self.work_dir / "fc.params"
             path.write_text("".join(f"{k} {v:g}\n" for k, v in self.settings.fc_params.items()))
             fc = ["--params", str(path)]
         keep = self.settings.log_dir is not None
-        self.stack_ = Stack(
+        make = Stack if count == 1 else partial(MultiStack, count=count)
+        self.stack_ = make(
             instance=self.instance,
             speed="max",
             vehicle=vehicle,
@@ -97,6 +102,11 @@ class RunContext:
         assert self.stack_ is not None, "stack() first"
         self.client_ = VehicleClient(self.stack_.api_url, timeout_s=timeout_s, idle=self._idle)
         return self.client_
+
+    def client_of(self, k: int, timeout_s: float = 120.0) -> VehicleClient:
+        """A client of vehicle ``k`` of a started MultiStack (the caller closes it), waits as :meth:`client`'s."""
+        assert isinstance(self.stack_, MultiStack), "stack(count=N) first"
+        return VehicleClient(self.stack_.api_url_of(k), timeout_s=timeout_s, idle=self._idle)
 
     def _idle(self) -> None:
         assert self.stack_ is not None

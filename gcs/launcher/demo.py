@@ -275,15 +275,16 @@ def _main(args: argparse.Namespace) -> int:
             make_dir("--log-dir", args.log_dir)
         except OSError as exc:
             return startup_failed("flight-demo", exc)
-    if args.count > 1 and (args.scenario != "square" or args.instance + args.count - 1 > ports.MAX_INSTANCE):
-        why = "--scenario ugv-landing flies one vehicle" if args.scenario != "square" else "instances past 99"
-        print(f"flight-demo: --count {args.count}: {why}", file=sys.stderr)
+    if args.count > 1 and args.instance + args.count - 1 > ports.MAX_INSTANCE:
+        print(f"flight-demo: --count {args.count}: instances past 99", file=sys.stderr)
         return EXIT_USAGE
     landing = None
     if args.scenario == "ugv-landing":
         from .landing_run import LandingSetup  # MuJoCo's UGV model: imported only for this flight
 
-        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1, deterministic=False, video=True)  # as people
+        # as people fly it (one vehicle); several in one world fly through holds, side by side (multi_landing.py)
+        several = args.count > 1
+        landing = LandingSetup(vehicle=args.vehicle, seed=args.seed or 1, deterministic=several, video=not several)
     stack = _make_stack(args, speed, landing)
     demo = None
     client = None
@@ -294,6 +295,9 @@ def _main(args: argparse.Namespace) -> int:
             stack.wait()
             return 0
         print(f"started sitl (speed {speed}) and autopilot, {_instances(stack)}; logs in {stack.log_dir}", flush=True)
+        if isinstance(stack, MultiStack) and landing is not None:
+            demo = MultiDemo(stack, args, show_statustext)
+            return multi_landing_demo(demo, landing)
         if isinstance(stack, MultiStack):
             demo = MultiDemo(stack, args, show_statustext)
             demo.fly(wall_start)
@@ -391,7 +395,27 @@ def landing_demo(client: VehicleClient, setup: LandingSetup, demo: Demo, stack: 
     return 0
 
 
-def _step(demo: Demo | None) -> str:
+def multi_landing_demo(demo: MultiDemo, setup: LandingSetup) -> int:
+    """``--count N --scenario ugv-landing``: each vehicle lands on its own moving UGV; exit 0 only if all are on
+    their decks (gcs/launcher/multi_landing.py)."""
+    from .multi_landing import fly_multi_landing, summary
+
+    demo.step = f"{demo.stack.count} precision landings, each on its own UGV"
+    demo.open()
+    runs = demo.runs
+    results = fly_multi_landing([r.client for r in runs], [r.truth for r in runs], setup, say=demo.say,
+                                timeout_s=demo.args.step_timeout)  # fmt: skip
+    print(summary(results, [r.sysid for r in runs]))
+    print(logs_line(demo.stack))
+    failed = [k for k, r in enumerate(results) if not r.success]
+    if failed:
+        print(f"flight demo FAILED (step: {demo.step}): vehicles {failed} not on their decks", file=sys.stderr)
+        return 1
+    print("flight demo: OK (every vehicle landed on its own UGV's deck)")
+    return 0
+
+
+def _step(demo: Demo | MultiDemo | None) -> str:
     return f"step: {demo.step}" if demo is not None else "step: start-up"
 
 

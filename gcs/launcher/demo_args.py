@@ -36,8 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--count", type=positive_int, default=1, metavar="K",
         help="K vehicles in one simulated world (sitl --count K; instances N..N+K-1, 3 m apart along East): "
-        "each takes off to its own height (--alt - 1 m, then 1 m higher each), they hold --hold s, then land one "
-        "after another on their own start spots (default 1: the square)",
+        "each takes off to its own height (--alt - 1 m, then 1 m higher each), holds --hold s, lands on its spot "
+        "(default 1: the square); with --scenario ugv-landing each lands on its own moving UGV (10 m apart)",
     )  # fmt: skip
     parser.add_argument(
         "--speed", default=None, type=checked(parse_speed),
