@@ -79,7 +79,7 @@ class MarkerView:
         image's larger side; each marker's corners projected exactly as the renderer draws them (pinhole).  Stricter
         than :meth:`out_of_view` (which asks whether any part of a marker can be in the frame): a marker cut by the
         frame's edge, or too small to decode from afar, is in view but cannot be found."""
-        deck = deck_centre_enu(self.model, data)
+        deck = deck_centre_enu(self.model, data, self.ugv_k)
         ugv_rot = data.xmat[self._ugv].reshape(3, 3)
         rot = data.cam_xmat[self.camera_id].reshape(3, 3)
         cam = (deck + self._corners_flu_m @ ugv_rot.T - data.cam_xpos[self.camera_id]) @ rot  # (n, 4, 3) camera
