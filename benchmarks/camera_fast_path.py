@@ -37,7 +37,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from _landing_frames import CameraWorld, LandingFrames, fly_landing, load_line  # noqa: E402
 
-from gcs.campaign.report import wilson  # noqa: E402
+from campaign.report import wilson  # noqa: E402
 from params.vehicle import load_vehicle  # noqa: E402
 from sitl.camera import DownwardCamera  # noqa: E402
 from sitl.deck_render import DeckCamera  # noqa: E402

@@ -3,7 +3,7 @@
 Runs the same small landing campaign (``--runs`` static-pad landings of quad_x in calm air, the cheapest
 landing there is: take-off to the preparation height, the camera finds the pad, precision landing) once
 per worker count (``--workers``, default 1 and 2) on the local process pool of ``campaign run``
-(gcs/campaign/), each into its own results file under ``--out``, and prints per worker count the wall time,
+(campaign/), each into its own results file under ``--out``, and prints per worker count the wall time,
 the landings per wall minute, the speed-up over one worker and the parallel efficiency.  Then the estimate
 for a cluster: ``--nodes`` nodes of ``--cores-per-node`` cores, each running as many landings at a time as
 it has cores (Ray: one task per core), at the per-worker rate measured here scaled by the efficiency measured
@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gcs.campaign import runner, spec  # noqa: E402
+from campaign import runner, spec  # noqa: E402
 
 from _cli import parser  # noqa: E402
 

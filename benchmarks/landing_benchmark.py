@@ -1,6 +1,6 @@
 """Benchmark: randomised precision landings on the UGV, scored from the simulator's truth.
 
-A thin script over the campaign runner (``campaign``, gcs/campaign/; its campaign file:
+A thin script over the campaign runner (``campaign``, campaign/; its campaign file:
 benchmarks/campaigns/landing.toml): the flags below build the campaign, which it runs and reports.
 
 Grid (each a flag): UGV speed {0, 0.5, 1, 2, 3} m/s x path {line, circle, figure8, random} x
@@ -36,8 +36,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gcs.campaign import report, runner, spec  # noqa: E402
-from gcs.campaign.landing import PATHS  # noqa: E402
+from campaign import report, runner, spec  # noqa: E402
+from campaign.landing import PATHS  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 
 from _cli import instance_number, parser  # noqa: E402

@@ -1,7 +1,7 @@
 """Benchmark: mission transfer speed and the cross-track error of a mission flown at cruise speed.
 
-A thin script over the campaign runner (``campaign``, gcs/campaign/; kind ``mission``,
-gcs/campaign/mission_kind.py, which has the flight and the measuring; its campaign file:
+A thin script over the campaign runner (``campaign``, campaign/; kind ``mission``,
+campaign/mission_kind.py, which has the flight and the measuring; its campaign file:
 benchmarks/campaigns/mission.toml): the flags below build a campaign of one run, which it runs and
 prints.  That run starts the simulator and the flight controller (``--speed max``, lockstep), then:
 
@@ -29,8 +29,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gcs.campaign import runner, spec  # noqa: E402
-from gcs.campaign.mission_kind import KIND, TRANSFER_FIGURES, TRANSFER_ITEMS  # noqa: E402
+from campaign import runner, spec  # noqa: E402
+from campaign.mission_kind import KIND, TRANSFER_FIGURES, TRANSFER_ITEMS  # noqa: E402
 
 from _cli import add_instance, parser  # noqa: E402
 

@@ -1,7 +1,7 @@
 """Benchmark: both vehicles, hover in calm and in wind, 10 m step response, real-time factor.
 
-A thin script over the campaign runner (``campaign``, gcs/campaign/; kind ``hover_step``,
-gcs/campaign/hover_step.py, which has the flight and the measuring; its campaign file:
+A thin script over the campaign runner (``campaign``, campaign/; kind ``hover_step``,
+campaign/hover_step.py, which has the flight and the measuring; its campaign file:
 benchmarks/campaigns/hover_step.toml): the flags below build a campaign of one run per vehicle,
 which it runs and prints as a table.
 
@@ -44,8 +44,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gcs.campaign import runner, spec  # noqa: E402
-from gcs.campaign.hover_step import ALT_M, STEP_M, STEP_WINDOW_S, WIND_REF_M_S, windy_parameters  # noqa: E402
+from campaign import runner, spec  # noqa: E402
+from campaign.hover_step import ALT_M, STEP_M, STEP_WINDOW_S, WIND_REF_M_S, windy_parameters  # noqa: E402
 from mavsim_core import ports  # noqa: E402
 from params.param_file import read_param_file  # noqa: E402
 from sitl.scenario import SCENARIO_DIR, load_scenario  # noqa: E402

@@ -1,4 +1,4 @@
-"""The campaign kinds ``hover_step`` (gcs/campaign/hover_step.py) and ``mission`` (gcs/campaign/mission_kind.py):
+"""The campaign kinds ``hover_step`` (campaign/hover_step.py) and ``mission`` (campaign/mission_kind.py):
 their campaign files, their cells, their checks, their pure measuring functions and the report on their
 results.  Nothing flies here (tests/test_e2e_campaign_kinds.py flies a hover_step campaign)."""
 
@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from test_campaign_results import write
 
-from gcs.campaign import plan, report, spec
-from gcs.campaign.__main__ import main
-from gcs.campaign.hover_step import fault_parameters, step_figures, windy_parameters
-from gcs.campaign.mission_kind import square_figures
-from gcs.campaign.results import tag
-from gcs.campaign.runs import Settings, row
+from campaign import plan, report, spec
+from campaign.__main__ import main
+from campaign.hover_step import fault_parameters, step_figures, windy_parameters
+from campaign.mission_kind import square_figures
+from campaign.results import tag
+from campaign.runs import Settings, row
 
 CAMPAIGNS = Path(__file__).resolve().parents[1] / "benchmarks" / "campaigns"
 
@@ -122,8 +122,8 @@ def test_the_report_takes_its_error_and_time_columns_from_the_kind(tmp_path, cap
 
 
 def test_the_landing_kind_reads_the_simulators_camera_line():
-    """gcs.campaign.landing.camera_figures parses the line sitl/companion.py prints at exit."""
-    from gcs.campaign.landing import CAMERA_HZ, camera_figures
+    """campaign.landing.camera_figures parses the line sitl/companion.py prints at exit."""
+    from campaign.landing import CAMERA_HZ, camera_figures
     from sitl.companion import CompanionStats
 
     stats = CompanionStats(frames=400, not_rendered=300, detections=60, render_s=0.9, detect_s=0.1, max_range_m=3.72)

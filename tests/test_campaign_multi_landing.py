@@ -1,4 +1,4 @@
-"""The campaign kind ``multi_landing`` (gcs/campaign/multi_landing_kind.py): its campaign file, cells, checks and
+"""The campaign kind ``multi_landing`` (campaign/multi_landing_kind.py): its campaign file, cells, checks and
 the scoring of a run from each vehicle's landing.  Nothing flies here (tests/test_e2e_multi_world.py flies the
 three-vehicle landing)."""
 
@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from gcs.campaign import plan, spec
-from gcs.campaign.kinds import get_kind, kind_of_columns
-from gcs.campaign.multi_landing_kind import multi_figures
-from gcs.campaign.spec import SpecError
+from campaign import plan, spec
+from campaign.kinds import get_kind, kind_of_columns
+from campaign.multi_landing_kind import multi_figures
+from campaign.spec import SpecError
 from gcs.launcher.landing_run import LandingResult
 
 CAMPAIGNS = Path(__file__).resolve().parents[1] / "benchmarks" / "campaigns"

@@ -1,4 +1,4 @@
-"""``campaign report`` (gcs/campaign/report.py): Wilson intervals, the table per cell, the plots."""
+"""``campaign report`` (campaign/report.py): Wilson intervals, the table per cell, the plots."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import pytest
 from test_campaign_results import CAMPAIGN, fake_rows, write
 
-from gcs.campaign import report, spec
-from gcs.campaign.__main__ import main
+from campaign import report, spec
+from campaign.__main__ import main
 
 
 @pytest.mark.parametrize(
@@ -77,7 +77,7 @@ def test_camera_and_pad_cells_each_have_their_line_and_their_plot_series(tmp_pat
         ("quad_x line 1 m/s calm gimbal camera single pad", 2),
         ("quad_x line 1 m/s calm fixed camera single pad", 0),
     ]
-    from gcs.campaign.plots import _series
+    from campaign.plots import _series
 
     rows = [r for s in stats for r in s.rows]
     assert _series(rows, ("vehicle",)) == ("vehicle", "camera", "pad")  # the gimbal's and the fixed camera's apart

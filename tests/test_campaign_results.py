@@ -1,4 +1,4 @@
-"""The results CSV (gcs/campaign/results.py): appended row by row, and what a resume skips."""
+"""The results CSV (campaign/results.py): appended row by row, and what a resume skips."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from gcs.campaign import plan, runner, spec
-from gcs.campaign.results import ResultsError, ResultsFile, read, tag
-from gcs.campaign.runs import Settings, row
+from campaign import plan, runner, spec
+from campaign.results import ResultsError, ResultsFile, read, tag
+from campaign.runs import Settings, row
 
 CAMPAIGN = {
     "kind": "landing",
@@ -105,7 +105,7 @@ def test_camera_and_pad_are_columns_and_part_of_the_results_identity(tmp_path):
 
 def test_what_is_retried_and_what_is_a_result():
     """Machinery trouble, or a timeout before the vehicle armed, is retried; a refusal or a failure in flight is not."""
-    from gcs.campaign.runs import FLIGHT_FAILED, INFRA_FAILED, TimeLimit, classify
+    from campaign.runs import FLIGHT_FAILED, INFRA_FAILED, TimeLimit, classify
     from gcs.errors import CommandRefused, CommandResult, GcsTimeout
     from gcs.launcher import StackError
 
@@ -121,7 +121,7 @@ def test_what_is_retried_and_what_is_a_result():
 
 def test_a_run_without_a_free_instance_is_retried_then_recorded_as_infra_failed(free_instance):
     """Its only allowed instance is held (by the fixture's lease): every attempt fails before a stack starts."""
-    from gcs.campaign.runs import execute
+    from campaign.runs import execute
 
     n = free_instance()
     c = spec.from_dict(CAMPAIGN)

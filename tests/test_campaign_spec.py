@@ -1,4 +1,4 @@
-"""The campaign file (gcs/campaign/spec.py) and its expansion into runs (gcs/campaign/plan.py)."""
+"""The campaign file (campaign/spec.py) and its expansion into runs (campaign/plan.py)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from gcs.campaign import plan, spec
-from gcs.campaign.__main__ import main
-from gcs.campaign.landing import setup_for
+from campaign import plan, spec
+from campaign.__main__ import main
+from campaign.landing import setup_for
 
 GOOD = """
 kind = "landing"
@@ -144,7 +144,7 @@ BROKEN = [
         "key sim_params.SIM_UGV_YAW: is set by the landing campaign's random.ugv_heading_deg",
     ),
     ('kind = "landing"\nruns = \n', "key (file): not valid TOML"),
-    # the other kinds' axes (gcs/campaign/hover_step.py, mission_kind.py)
+    # the other kinds' axes (campaign/hover_step.py, mission_kind.py)
     ('kind = "hover_step"\n[grid]\nfault = ["motor1_150"]\n', "key grid.fault: 'motor1_150' is not 'none' nor"),
     ('kind = "hover_step"\n[grid]\nwind_m_s = [20]\n', "key grid.wind_m_s: 20 is not in [0, 15]"),
     ('kind = "hover_step"\n[grid]\nhover_s = ["long"]\n', "key grid.hover_s: 'long' is not a number"),

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import pytest
 
-from gcs.campaign import plan, runner, spec
-from gcs.campaign.results import WALL_COLUMNS, read
+from campaign import plan, runner, spec
+from campaign.results import WALL_COLUMNS, read
 
 from e2e_flight_helpers import sigint_default  # tests/e2e_flight_helpers.py
 
@@ -50,7 +50,7 @@ ugv_speed_m_s = [0]
 
 
 def campaign_command(path, out, *extra, jobs: int = 2) -> list[str]:
-    return [sys.executable, "-m", "gcs.campaign", "run", str(path), "--out", str(out), "--jobs", str(jobs), *extra]
+    return [sys.executable, "-m", "campaign", "run", str(path), "--out", str(out), "--jobs", str(jobs), *extra]
 
 
 def wait_rows(path, n: int, proc: subprocess.Popen, timeout_s: float = 600) -> None:

@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from gcs.campaign.results import read, value
+from campaign.results import read, value
 
 pytestmark = pytest.mark.e2e
 
@@ -33,7 +33,7 @@ def test_a_hover_step_campaign_and_its_report(tmp_path):
     path = tmp_path / "hover_step.toml"
     path.write_text(CAMPAIGN)
     out = tmp_path / "results.csv"
-    cmd = [sys.executable, "-m", "gcs.campaign", "run", str(path), "--out", str(out), "--jobs", "2"]
+    cmd = [sys.executable, "-m", "campaign", "run", str(path), "--out", str(out), "--jobs", "2"]
     ran = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert ran.returncode == 0, ran.stderr[-2000:]
     assert "2 runs: 0 done before, 2 now (2 ok," in ran.stdout
@@ -54,7 +54,7 @@ def test_a_hover_step_campaign_and_its_report(tmp_path):
         assert own[0] < 0.15 and own[1] < 0.12, own
 
     rep = subprocess.run(
-        [sys.executable, "-m", "gcs.campaign", "report", str(out), "--plots", str(tmp_path / "plots")],
+        [sys.executable, "-m", "campaign", "report", str(out), "--plots", str(tmp_path / "plots")],
         capture_output=True,
         text=True,
         timeout=120,

@@ -2,7 +2,7 @@
 
 A run is its own simulator + flight controller (:class:`gcs.launcher.Stack`, ``--speed max``) on an
 instance leased from :mod:`gcs.launcher.instance_pool` (so it never collides with the tests, another
-campaign or a person's stack), flown by its kind (:meth:`~gcs.campaign.kinds.Kind.fly`).
+campaign or a person's stack), flown by its kind (:meth:`~campaign.kinds.Kind.fly`).
 
 Status of a run:
 
@@ -27,11 +27,12 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from ..client import VehicleClient
-from ..errors import CommandRefused, GcsError
-from ..launcher import Stack, StackError
-from ..launcher.instance_pool import lease
-from ..launcher.multi_stack import MultiStack
+from gcs.client import VehicleClient
+from gcs.errors import CommandRefused, GcsError
+from gcs.launcher import Stack, StackError
+from gcs.launcher.instance_pool import lease
+from gcs.launcher.multi_stack import MultiStack
+
 from .kinds import get_kind
 from .plan import Run
 
@@ -168,7 +169,7 @@ def execute(run: Run, settings: Settings) -> dict[str, Any]:
 
 
 def row(run: Run, settings: Settings, result: dict[str, Any], attempts: int) -> dict[str, Any]:
-    """The results row of ``run`` (the columns of :func:`gcs.campaign.results.columns`)."""
+    """The results row of ``run`` (the columns of :func:`campaign.results.columns`)."""
     out: dict[str, Any] = {"run_id": run.run_id, "cell": run.cell, "index": run.index, "label": run.label}
     out.update(run.axes)
     out.update(run.draws)

@@ -20,10 +20,11 @@ import math
 from contextlib import ExitStack
 from typing import Any, Sequence
 
-from ..launcher.instance_pool import lease
-from ..launcher.landing_run import LandingResult
-from ..launcher.multi_landing import fly_multi_landing
-from ..sim_client import SimClient
+from gcs.launcher.instance_pool import lease
+from gcs.launcher.landing_run import LandingResult
+from gcs.launcher.multi_landing import fly_multi_landing
+from gcs.sim_client import SimClient
+
 from .kinds import Axis
 from .landing import FLIGHT_TIMEOUT_S, LandingKind, setup_for
 from .plan import Run

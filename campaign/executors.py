@@ -1,5 +1,5 @@
 """Where the runs execute: a local process pool (default) or a Ray cluster.  Both call
-:func:`gcs.campaign.runs.execute` once per run and hand each row to ``on_row`` in this process as the
+:func:`campaign.runs.execute` once per run and hand each row to ``on_row`` in this process as the
 run ends (in the order they end).  A run's simulator and flight controller start inside the worker
 (a pool process here, a Ray task on whichever node Ray places it), so only the row comes back.
 

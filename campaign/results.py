@@ -3,7 +3,7 @@
 Columns: ``run_id, cell, index, label``, the cell's axis values, the run's random draws, ``status``
 (ok / flight_failed / infra_failed), ``reason``, ``attempts``, the recorded figures, then ``instance``,
 ``host`` (where it ran: they differ between executors) and ``campaign`` (the campaign's
-name:digest, :meth:`~gcs.campaign.spec.Campaign.digest`).  Floats are written in full (Python's
+name:digest, :meth:`~campaign.spec.Campaign.digest`).  Floats are written in full (Python's
 shortest round-trip repr), so two files can be compared exactly.
 
 Resuming (:meth:`ResultsFile.open` with ``resume``): the runs whose row says ok or flight_failed are

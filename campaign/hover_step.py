@@ -47,10 +47,10 @@ from typing import Any, Callable, Protocol
 import numpy as np
 
 import params as params_package
+from gcs.client import VehicleClient
+from gcs.launcher.sim_stepper import HOLD_PARAM, SimStepper
+from gcs.sim_client import SimClient, TruthSample
 
-from ..client import VehicleClient
-from ..launcher.sim_stepper import HOLD_PARAM, SimStepper
-from ..sim_client import SimClient, TruthSample
 from .kinds import Axis, Range, grid_cells, number_in, vehicle_name
 from .plan import Run
 
@@ -379,7 +379,7 @@ class HoverStepKind:
         return f"{cell['vehicle']} wind {cell['wind_m_s']:g} m/s{fault} hover {cell['hover_s']:g} s"
 
     def fly(self, run: Run, ctx) -> dict[str, Any]:
-        """One flight on the run's own stack (``ctx``: :class:`gcs.campaign.runs.RunContext`), started held
+        """One flight on the run's own stack (``ctx``: :class:`campaign.runs.RunContext`), started held
         unless the campaign's ``[sim_params]`` say ``SIM_HOLD_MS = 0`` (:func:`sim_parameters`)."""
         from mavsim_core import ports
 

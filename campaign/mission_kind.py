@@ -30,11 +30,11 @@ from typing import Any
 
 import numpy as np
 
+from gcs.client import VehicleClient
+from gcs.mission_transfer import download, upload
+from gcs.sim_client import SimClient
 from mavsim_core import mission_items as mi
 
-from ..client import VehicleClient
-from ..mission_transfer import download, upload
-from ..sim_client import SimClient
 from .hover_step import sim_args, windy_parameters
 from .kinds import Axis, Range, grid_cells, number_in, one_of, vehicle_name
 from .plan import Run

@@ -22,8 +22,9 @@ import math
 import re
 from typing import Any
 
-from ..launcher.landing_run import CAMERA_MOUNT_CODES, PAD_LAYOUT_CODES, WINDY, LandingSetup, Pose2, fly_landing
-from ..sim_client import SimClient
+from gcs.launcher.landing_run import CAMERA_MOUNT_CODES, PAD_LAYOUT_CODES, WINDY, LandingSetup, Pose2, fly_landing
+from gcs.sim_client import SimClient
+
 from .kinds import Axis, Range, grid_cells, number_in, one_of, vehicle_name
 from .plan import Run
 
@@ -146,7 +147,7 @@ class LandingKind:
         return f"{cell['vehicle']} {where} {cell['wind']} {cell['camera']} camera {cell['pad']} pad"
 
     def fly(self, run: Run, ctx) -> dict[str, Any]:
-        """One landing on the run's own stack (``ctx``: :class:`gcs.campaign.runs.RunContext`)."""
+        """One landing on the run's own stack (``ctx``: :class:`campaign.runs.RunContext`)."""
         from mavsim_core import ports
 
         setup = setup_for(run.axes, run.draws, ctx.settings.sim_params)

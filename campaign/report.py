@@ -5,7 +5,7 @@ rate), successes, the success rate with its 95 % Wilson score interval, the erro
 kind's error figure, e.g. the touchdown error) mean / p95 / max over the runs that have one, the
 mean time (simulated seconds: e.g. NAV_LAND to the disarm) of the successful runs and the mean
 real-time factor (simulated / wall seconds).  The error and time figures are the kind's
-(:attr:`~gcs.campaign.kinds.Kind.error_figure`, ``time_figure``), the kind found by the file's axis columns.
+(:attr:`~campaign.kinds.Kind.error_figure`, ``time_figure``), the kind found by the file's axis columns.
 """
 
 from __future__ import annotations

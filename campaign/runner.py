@@ -15,7 +15,8 @@ from typing import Any, Callable
 
 from tqdm import tqdm
 
-from ..launcher.instance_pool import POOL
+from gcs.launcher.instance_pool import POOL
+
 from . import executors, plan
 from .results import ResultsFile, tag
 from .runs import FLIGHT_FAILED, INFRA_FAILED, Settings

@@ -2,7 +2,7 @@
 
 Example (benchmarks/campaigns/landing.toml has every key with its meaning)::
 
-    kind = "landing"          # what each run flies (gcs/campaign/kinds.py)
+    kind = "landing"          # what each run flies (campaign/kinds.py)
     runs = 10                 # runs per cell of the grid
     base_seed = 1             # run i of cell c draws from numpy default_rng((base_seed, c, i))
     time_limit_s = 600        # wall seconds per run: a safety net, not a score

@@ -4,7 +4,7 @@ Deterministic and independent of execution order: run ``i`` of cell ``c`` draws 
 ``numpy.random.default_rng((base_seed, c, i))``, the ranges in the kind's declared order, so any
 worker, in any order, on any machine, flies the same run the same way, and a resumed campaign
 re-creates exactly the runs it had not finished.  Cell indices are positions in the kind's
-:meth:`~gcs.campaign.kinds.Kind.cells` list (fixed axis order, file order of the values).
+:meth:`~campaign.kinds.Kind.cells` list (fixed axis order, file order of the values).
 """
 
 from __future__ import annotations

@@ -76,10 +76,10 @@ class Kind(Protocol):
 
 # name -> module holding its KIND (imported when asked: a kind's module may import MuJoCo's models)
 KINDS = {
-    "landing": "gcs.campaign.landing",
-    "hover_step": "gcs.campaign.hover_step",
-    "mission": "gcs.campaign.mission_kind",
-    "multi_landing": "gcs.campaign.multi_landing_kind",
+    "landing": "campaign.landing",
+    "hover_step": "campaign.hover_step",
+    "mission": "campaign.mission_kind",
+    "multi_landing": "campaign.multi_landing_kind",
 }
 PLANNED: dict[str, str] = {}  # kind name -> the benchmark it will come from (none left)
 
