@@ -8,9 +8,10 @@ scheme; here the first instance's own port), so one MAVSDK listening there sees 
 land one after another; each simulator component's truth (its vehicle's NED from its own start point)
 shows the vehicle at its own height, and back on its own start spot once landed.
 
-And a camera on every vehicle (issue 38): three vehicles of one world, each with its own UGV (10 m apart), its own
-camera and companion looking for its own deck's marker ids, land side by side on their moving UGVs (the world held
-and stepped: gcs/launcher/multi_landing.py); each vehicle's own truth puts it on its own deck, within 0.10 m.
+And a camera on every vehicle (issue 38): two vehicles of one world (three in `flight-demo --count 3`), each
+with its own UGV (10 m apart), its own camera and companion looking for its own deck's marker ids, land side by
+side on their moving UGVs (the world held and stepped: gcs/launcher/multi_landing.py); each vehicle's own truth
+puts it on its own deck, within 0.10 m.
 """
 
 from __future__ import annotations
@@ -140,17 +141,21 @@ def test_three_vehicles_in_one_world_fly_through_one_mavsdk(world):
 
 LANDING = LandingSetup(path="circle", speed_m_s=1.0, seed=3)  # each vehicle's UGV 4 m North of its start
 TOUCHDOWN_M = 0.10  # issue 38's target: each within 0.10 m of its deck's centre
+# Two vehicles prove that each has its own camera, companion, deck ids and UGV (a third lands the same way and costs
+# the suite 20-40 s more of two cores: three cameras in one process); `flight-demo --count 3 --scenario ugv-landing`
+# flies issue 38's three (benchmarks/README.md).
+LANDING_COUNT = 2
 
 
-def test_three_vehicles_each_land_on_its_own_moving_ugv(free_instance):
-    first = consecutive_instances(free_instance, COUNT)
+def test_two_vehicles_each_land_on_its_own_moving_ugv(free_instance):
+    first = consecutive_instances(free_instance, LANDING_COUNT)
     with ExitStack() as es:
         stack = es.enter_context(
-            MultiStack(first, speed="max", count=COUNT, extra_sitl_args=LANDING.sim_args(), seed=LANDING.seed,
+            MultiStack(first, speed="max", count=LANDING_COUNT, extra_sitl_args=LANDING.sim_args(), seed=LANDING.seed,
                        gcs_port=ports.own_gcs_port(first), flight_logs=False)
         )  # fmt: skip
-        truths = [es.enter_context(SimClient(stack.truth_port_of(k))) for k in range(COUNT)]
-        clients = [VehicleClient(stack.api_url_of(k), idle=stack.check_alive) for k in range(COUNT)]
+        truths = [es.enter_context(SimClient(stack.truth_port_of(k))) for k in range(LANDING_COUNT)]
+        clients = [VehicleClient(stack.api_url_of(k), idle=stack.check_alive) for k in range(LANDING_COUNT)]
         for c in clients:
             es.callback(c.close)
         results = fly_multi_landing(clients, truths, LANDING, timeout_s=60.0)
