@@ -167,6 +167,8 @@ def run_lockstep(sim: SimLink, fc: FlightController, link: GcsLink, recorder: Fl
                 fc.on_landing_target(m, m.get_srcSystem())
             elif t in sim.device_handlers:  # the gimbal device's status (autopilot/mavlink/gimbal_manager.py)
                 sim.device_handlers[t](m)
+            elif t == "HEARTBEAT" and m.system_status == mavlink.MAV_STATE_ACTIVE:
+                watch.on_busy(time.monotonic())  # the simulator waits for its camera (sitl/lockstep.py): alive
             elif t == "HEARTBEAT":  # the simulator holds (sitl/hold.py): alive, no step until its sensors come
                 entering = not watch.held
                 if watch.on_held(time.monotonic()):

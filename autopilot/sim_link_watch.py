@@ -12,7 +12,9 @@ whether the flight controller's state is still good then is decided by the senso
 A simulator *held* at a simulated time (``SIM_HOLD_MS``, ``sitl/hold.py``) sends no sensors but a HEARTBEAT
 on the link every 0.2 s of wall time: :meth:`SimLinkWatch.on_held` takes it for "alive, held", so a hold of
 any length is never a loss, and the ground-station link's time stays at the latest sensor time (nothing
-streams while held: the streams stay where the simulated time puts them).
+streams while held: the streams stay where the simulated time puts them).  A simulator that waits for its own
+camera's frame longer than that (a loaded machine) sends a HEARTBEAT with MAV_STATE_ACTIVE instead:
+:meth:`SimLinkWatch.on_busy`, alive and not held, so a slow frame never changes what the flight controller does.
 
 Pure: wall-clock (s, time.monotonic) and simulated (µs) times are inputs.
 """
@@ -45,6 +47,12 @@ class SimLinkWatch:
         regained = self.lost
         self.alive_wall_s, self.lost, self.held = wall_s, False, True
         return regained
+
+    def on_busy(self, wall_s: float) -> None:
+        """A HEARTBEAT with MAV_STATE_ACTIVE from the simulator at ``wall_s``: it is alive and stepping, but waits
+        for something of its own (a camera frame on a loaded machine, sitl/lockstep.py) before the next sensors:
+        not lost, not held; the link's clock stays the simulated one."""
+        self.alive_wall_s = wall_s
 
     def check(self, wall_s: float, closed: bool) -> bool:
         """True when the link is lost from now on: it ``closed``, or nothing (sensor data, a held HEARTBEAT)

@@ -344,6 +344,9 @@ def _start(args: argparse.Namespace):
         raise
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # a plain kill closes the log like Ctrl-C
     _print_started(spec, args, scenario, servers)
+    for server in servers:  # a frame waited for stalls the whole world: every flight controller hears it is alive
+        if server.companion is not None:
+            server.companion.keepalive = lambda: [s.busy_keepalive() for s in servers]
     if args.count == 1:
         return servers[0]
     from sitl.world_lockstep import WorldLockstep

@@ -57,6 +57,7 @@ from vision.pad import NESTED_PAD, PadLayout
 
 COMPANION_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER  # 191
 IN_FLIGHT = 3  # state copies: captures that may wait for their release at once (latency / period + 1)
+BUSY_KEEPALIVE_S = 0.2  # wall seconds between two "busy" HEARTBEATs while the lockstep waits for a frame
 
 
 @dataclass
@@ -161,6 +162,7 @@ class LockstepCompanion:
         self._camera_id = model.camera(self._camera_name).id
         self.on_frame: Callable[[CameraFrame], None] | None = None  # each frame's record, at its release
         self.media: CameraMedia | None = None  # the video, photos and recordings (sitl/camera_media.py), if any
+        self.keepalive: Callable[[], None] | None = None  # while a frame is waited for (sitl/lockstep.py)
         self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
         self._thread.start()
 
@@ -175,7 +177,7 @@ class LockstepCompanion:
         while self._pending and self._pending[0][0] <= time_us:
             _, answer = self._pending.popleft()
             t0 = time.perf_counter()
-            result = answer.get()
+            result = self._wait(answer)
             self.stats.waited_s += time.perf_counter() - t0
             if isinstance(result, BaseException):
                 raise RuntimeError("vision companion failed") from result
@@ -185,6 +187,17 @@ class LockstepCompanion:
             if self.on_frame is not None:
                 self.on_frame(frame)
         return out
+
+    def _wait(self, answer: queue.Queue):
+        """The worker's answer; ``keepalive`` (if set) called every BUSY_KEEPALIVE_S of wall time until it comes, so
+        a flight controller waiting for the next sensors meanwhile knows the simulator is alive (a loaded machine
+        can hold a frame back for more than its 1 s loss timeout: autopilot/sim_link_watch.py)."""
+        while True:
+            try:
+                return answer.get(timeout=BUSY_KEEPALIVE_S)
+            except queue.Empty:
+                if self.keepalive is not None:
+                    self.keepalive()
 
     def _capture(self, data: mujoco.MjData, time_us: int) -> None:
         if not self._free:  # every copy still waits for its release: drop this frame (a busy companion)

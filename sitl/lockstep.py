@@ -185,6 +185,22 @@ class LockstepServer:
         self.parser = StreamParser(self.mav, [_ACTUATOR_CONTROLS.cls])
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")
 
+    def busy_keepalive(self) -> None:
+        """A HEARTBEAT with MAV_STATE_ACTIVE on the lockstep link (``custom_mode``: the simulated time, ms): alive,
+        stepping, waiting for something of its own (the camera's frame) before the next sensors; the flight
+        controller neither declares the link lost nor holds (autopilot/sim_link_watch.py).  A world of several
+        vehicles sends it on every vehicle's link (sitl/__main__.py)."""
+        if self.conn is None:
+            return
+        hb = mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_INVALID, 0, self.sim.time_us // 1000,
+            mavlink.MAV_STATE_ACTIVE, 3,
+        )  # fmt: skip
+        try:
+            self.conn.sendall(self._pack(hb))
+        except OSError:
+            pass  # closed: the loop finds out
+
     def _pack(self, msg) -> bytes:
         """A message packed for the flight controller, its sequence number advanced (as mav.send does)."""
         data = msg.pack(self.mav)

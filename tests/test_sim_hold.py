@@ -181,3 +181,32 @@ def test_the_truth_reader_catches_up_before_a_wait_of_simulated_time_starts(free
         truth.thread = threading.Thread(target=truth._run, daemon=True)
         truth.thread.start()
         assert truth.caught_up(timeout_s=10) == 2980
+
+
+def test_a_simulator_waiting_for_its_camera_is_alive_and_not_held():
+    """A frame held back by a loaded machine: the simulator's "busy" HEARTBEATs (MAV_STATE_ACTIVE, every 0.2 s while
+    the companion's answer is waited for: sitl/companion.py) keep the link up without a hold, so the flight
+    controller's ground link keeps the simulated clock and the flight goes on as it would have."""
+    w = SimLinkWatch(loss_timeout_s=1.0)
+    w.on_sensor(196_000, 10.0)
+    for wall in (10.2, 10.4, 10.6, 10.8, 11.0, 11.2, 11.4):  # a 1.4 s wait for one frame
+        assert not w.check(wall, closed=False)
+        w.on_busy(wall)
+    assert not w.lost and not w.held and w.link_time_us(11.4) == 196_000
+    assert w.check(12.5, closed=False) and w.lost  # silence, busy or not: lost
+
+
+def test_the_companion_says_it_is_alive_while_a_frame_is_waited_for():
+    """sitl.companion.LockstepCompanion._wait: the keepalive every BUSY_KEEPALIVE_S until the worker answers."""
+    import queue
+    import threading
+
+    from sitl.companion import BUSY_KEEPALIVE_S, LockstepCompanion
+
+    calls = []
+    waiter = LockstepCompanion.__new__(LockstepCompanion)  # only _wait and keepalive: no renderer, no thread
+    waiter.keepalive = lambda: calls.append(1)
+    answer: queue.Queue = queue.Queue(maxsize=1)
+    threading.Timer(3.5 * BUSY_KEEPALIVE_S, lambda: answer.put("frame")).start()
+    assert waiter._wait(answer) == "frame"
+    assert len(calls) >= 3  # (a slower machine only adds calls)
