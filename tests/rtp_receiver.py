@@ -143,6 +143,25 @@ def h264_access_units(datagrams: list[bytes]) -> list[bytes]:
     return units
 
 
+def frames_sent_from_first_key_frame(datagrams: list[bytes], rate_hz: float) -> int:
+    """How many frames a ``rate_hz`` stream sent from its first key frame (an IDR slice, NAL type 5) among
+    ``datagrams`` to the last one's frame, by their RTP timestamps (90 kHz): what a receiver that joined late and
+    lost nothing decodes.  0 if no key frame came."""
+    first = last = None
+    for d in datagrams:
+        if len(d) < 14 or d[0] >> 6 != 2 or d[1] & 0x7F != 96:
+            continue
+        ts = int.from_bytes(d[4:8], "big")
+        payload = d[12 + 4 * (d[0] & 0x0F) :]
+        nal = payload[1] & 0x1F if payload[0] & 0x1F == 28 else payload[0] & 0x1F  # FU-A: the fragment's type
+        if first is None and nal == 5:
+            first = ts
+        last = ts
+    if first is None or last is None:
+        return 0
+    return round(((last - first) % 2**32) / (90_000 / rate_hz)) + 1
+
+
 def decode_h264(units: list[bytes], pixels: str = "gray") -> list[np.ndarray]:
     """The frames (``pixels``: PyAV's format, "gray" or "rgb24") PyAV's H.264 decoder makes of access units (those
     before the first key frame give nothing: a receiver that joins a stream late waits for its next key frame)."""
@@ -154,4 +173,10 @@ def decode_h264(units: list[bytes], pixels: str = "gray") -> list[np.ndarray]:
                 frames += [f.to_ndarray(format=pixels) for f in codec.decode(packet)]
         except av.error.InvalidDataError:
             continue  # (a unit that refers to a key frame not received)
+    try:  # the end: the unit the parser still holds (it waits for the next one's start), then the decoder's
+        for packet in codec.parse(None):
+            frames += [f.to_ndarray(format=pixels) for f in codec.decode(packet)]
+        frames += [f.to_ndarray(format=pixels) for f in codec.decode(None)]
+    except av.error.FFmpegError:
+        pass
     return frames
