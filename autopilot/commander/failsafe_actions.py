@@ -10,11 +10,12 @@ the same way.  This is the only place a failsafe changes the vehicle.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import failsafes, health
+from autopilot.commander.commander_state import CommanderState
 from autopilot.commander.failsafes import DESCEND, PHRASE, TERMINATE, Alarm, FailsafeInputs, FailsafeParams, Target
 from autopilot.commander.failure_detector import FailureDetector, FailureInputs, FailureParams, StopMotors
 from autopilot.commander.mode_requirements import EstimateValidity
@@ -23,25 +24,16 @@ from autopilot.navigation.descend import DescendTask
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.commander.external_inputs import ExternalInputs
     from autopilot.navigation.land_detector import LandDetector
-    from autopilot.parameters import ParameterStore
-    from autopilot.topics import ActuatorStatus, BatteryState, VehicleEstimate
+    from autopilot.topics import ActuatorStatus, BatteryState
 
 
-class FailsafeActions:
+class FailsafeActions(CommanderState):
     """The failsafes' snapshot built and their decisions applied, as methods of the :class:`Commander`."""
 
-    # The commander's state these methods read and set (Commander.__init__ sets it) ...
-    params: ParameterStore
-    est: VehicleEstimate | None
-    armed: bool
-    mode: Mode
-    now_us: int
-    task: Any
+    # Beyond CommanderState's, the commander's state these methods read and set (Commander.__init__ sets it)
     events: list[tuple[int, str]]
     battery: BatteryState
-    inputs: ExternalInputs
     wall_s: float | None
     hover_thrust_frac: float
     failsafe: failsafes.FailsafeState
@@ -49,15 +41,6 @@ class FailsafeActions:
     land_detector: LandDetector
     armed_at_us: int
     vel_sp_down_m_s: float
-
-    if TYPE_CHECKING:  # ... and the commander's methods they call.
-
-        @property
-        def in_air(self) -> bool: ...
-        def say(self, severity: int, text: str) -> None: ...
-        def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int: ...
-        def _switch_mode(self, mode: Mode) -> None: ...
-        def _disarm(self, why: str) -> None: ...
 
     def _check_failsafes(self, now_us: int) -> None:
         """Run the failsafes on this update's snapshot and apply their decision (the module docstring)."""

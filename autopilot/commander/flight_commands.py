@@ -22,6 +22,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from autopilot.commander import mission_landing
+from autopilot.commander.commander_state import CommanderState
 from autopilot.navigation import GotoTask, started
 from autopilot.navigation.heading_smoothing import HeadingLimits
 from autopilot.navigation.mission_checks import HARD_CEILING_M
@@ -31,12 +32,11 @@ from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.commander.mission_control import Plans
     from autopilot.control.position_control import PositionSetpoint
     from autopilot.navigation.flight_task import FlightTask
     from autopilot.navigation.land_detector import LandDetector
     from autopilot.parameters import ParameterStore
-    from autopilot.topics import HomePosition, VehicleEstimate
+    from autopilot.topics import VehicleEstimate
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_* constants
 REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
@@ -86,36 +86,16 @@ def publishes(method):
     return wrapper
 
 
-class FlightCommands:
+class FlightCommands(CommanderState):
     """Take-off, land, return to launch and reposition, as methods of the :class:`Commander`."""
 
-    # The commander's state these methods read and set (Commander.__init__ sets it) ...
-    params: ParameterStore
-    est: VehicleEstimate | None
-    home: HomePosition | None
-    armed: bool
-    mode: Mode
-    now_us: int
+    # Beyond CommanderState's, the commander's state these methods read and set (Commander.__init__ sets it)
     task: FlightTask | None
     precland_mode: PrecLandMode
     setpoint: PositionSetpoint | None
-    plans: Plans
     land_detector: LandDetector
     armed_at_us: int
     cruise_override_m_s: float | None = None  # DO_CHANGE_SPEED's speed for later repositions (None: MPC_XY_CRUISE)
-
-    if TYPE_CHECKING:  # ... and the commander's methods they call.
-
-        @property
-        def in_air(self) -> bool: ...
-
-        def say(self, severity: int, text: str) -> None: ...
-
-        def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int: ...
-
-        def _publish(self) -> None: ...
-
-        def _start_mission(self) -> int: ...
 
     @publishes
     def takeoff(self, rel_alt_m: float | None = None) -> int:

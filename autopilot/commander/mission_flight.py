@@ -8,55 +8,35 @@ a precision landing docked.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import mission_control, precision_landing
+from autopilot.commander.commander_state import CommanderState
 from autopilot.navigation import LoiterTask, started
 from autopilot.navigation.precland import PrecLandMode, PrecLandTask
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    import numpy as np
-
-    from autopilot.commander.external_inputs import ExternalInputs
-    from autopilot.commander.mission_control import Plans
     from autopilot.control.position_control import PositionSetpoint
     from autopilot.navigation.land_detector import LandDetector
     from autopilot.navigation.mission import MissionTask
     from autopilot.navigation.precland import LandingTargetInput
-    from autopilot.parameters import ParameterStore
-    from autopilot.topics import HomePosition, VehicleEstimate
+    from autopilot.topics import VehicleEstimate
 
 
-class MissionFlight:
+class MissionFlight(CommanderState):
     """AUTO.MISSION started and stepped, precision landings stepped, the geofence checked, as methods of the
     :class:`Commander`."""
 
-    # The commander's state these methods read and set (Commander.__init__ sets it) ...
-    params: ParameterStore
-    est: VehicleEstimate | None
-    home: HomePosition | None
-    armed: bool
-    mode: Mode
-    now_us: int
-    task: Any
-    plans: Plans
-    inputs: ExternalInputs
+    # Beyond CommanderState's, the commander's state these methods read and set (Commander.__init__ sets it)
     land_detector: LandDetector
     contact_push: bool
     landing_target: LandingTargetInput | None
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
 
-        @property
-        def in_air(self) -> bool: ...
-        def say(self, severity: int, text: str) -> None: ...
-        def _enter(self, mode: Mode, takeoff_down_m: float | None = None) -> int: ...
-        def _switch_mode(self, mode: Mode) -> None: ...
-        def _disarm(self, why: str) -> None: ...
-        def _set_home_at(self, pos_ned_m: np.ndarray, quiet: bool = False) -> None: ...
         def _new_precland(self, mode: PrecLandMode, est: VehicleEstimate) -> PrecLandTask: ...
 
     def _say_all(self, texts: list[tuple[int, str]] | tuple[tuple[int, str], ...]) -> None:

@@ -9,11 +9,12 @@ STATUSTEXT; else it builds and starts the mode's task and switches.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander import mission_landing, mode_requirements, precision_landing
+from autopilot.commander.commander_state import CommanderState
 from autopilot.commander.mode_requirements import NEEDS_STICKS, EstimateValidity, ModeEntryInputs
 from autopilot.navigation import LandTask, LoiterTask, TakeoffTask, started
 from autopilot.navigation.follow_target import FollowTargetTask, fresh_target
@@ -22,38 +23,18 @@ from autopilot.navigation.offboard import OffboardTask, offboard_refusal
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.commander.external_inputs import ExternalInputs
-    from autopilot.commander.mission_control import Plans
     from autopilot.navigation.precland import PrecLandMode
-    from autopilot.parameters import ParameterStore
-    from autopilot.topics import HomePosition, VehicleEstimate
+    from autopilot.topics import VehicleEstimate
 
 
-class ModeEntry:
+class ModeEntry(CommanderState):
     """The mode switch and the tasks of the modes, as methods of the :class:`Commander`."""
 
-    # The commander's state these methods read and set (Commander.__init__ sets it) ...
-    params: ParameterStore
-    est: VehicleEstimate | None
-    home: HomePosition | None
-    armed: bool
-    mode: Mode
-    now_us: int
-    task: Any
-    inputs: ExternalInputs
+    # Beyond CommanderState's, the commander's state these methods read and set (Commander.__init__ sets it)
     wall_s: float | None
     hover_thrust_frac: float
     precland_mode: PrecLandMode
     feet_below_m: float
-    plans: Plans
-
-    if TYPE_CHECKING:  # ... and the commander's methods they call.
-
-        @property
-        def in_air(self) -> bool: ...
-        def say(self, severity: int, text: str) -> None: ...
-        def _switch_mode(self, mode: Mode) -> None: ...
-        def _start_mission(self) -> int: ...
 
     def _mode_entry_inputs(self, mode: Mode) -> ModeEntryInputs:
         """What entering ``mode`` depends on now."""

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from pymavlink.dialects.v20 import common as S
 
+from autopilot.commander.commander_state import CommanderState
 from autopilot.commander.flight_commands import REPOSITION_MAX_M, above_ceiling, point_ned, publishes
 from autopilot.navigation import GotoTask, LoiterTask, started
 from autopilot.navigation.geofence import stop_point
@@ -39,10 +40,8 @@ from mavsim_core import mission_items as mi
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.commander.mission_control import Plans
     from autopilot.control.position_control import PositionSetpoint
-    from autopilot.parameters import ParameterStore
-    from autopilot.topics import HomePosition, VehicleEstimate
+    from autopilot.topics import VehicleEstimate
 
 MOTOR_TEST_TIMEOUT_MAX_S = 3.0  # a motor test never runs longer than this
 ROTORS = {S.MAV_TYPE_QUADROTOR: 4, S.MAV_TYPE_HEXAROTOR: 6, S.MAV_TYPE_OCTOROTOR: 8}
@@ -64,7 +63,7 @@ class MotorTest(NamedTuple):
     until_us: int  # simulated µs
 
 
-class VehicleCommands:
+class VehicleCommands(CommanderState):
     """Speed, home, yaw, pause/continue, termination, storage, reboot, motor test and orbit, as methods of the
     :class:`Commander`."""
 
@@ -74,28 +73,13 @@ class VehicleCommands:
     reboot_pending: bool = False  # the flight controller restarts the estimator and controllers, then clears it
     param_saver: Any = None  # autopilot.param_storage.ParamSaver with --state-dir (set by the process), or None
     # ... and the commander's state these methods read and set (Commander.__init__, FlightCommands).
-    params: ParameterStore
-    est: VehicleEstimate | None
-    home: HomePosition | None
-    armed: bool
-    mode: Mode
-    now_us: int
     mav_type: int
-    task: Any
     setpoint: PositionSetpoint | None
-    plans: Plans
     cruise_override_m_s: float | None
 
     if TYPE_CHECKING:
 
-        @property
-        def in_air(self) -> bool: ...
-        def say(self, severity: int, text: str) -> None: ...
         def set_mode(self, mode: Mode) -> int: ...
-        def _switch_mode(self, mode: Mode) -> None: ...
-        def _disarm(self, why: str) -> None: ...
-        def _set_home_at(self, pos_ned_m: np.ndarray, quiet: bool = False) -> None: ...
-        def _publish(self) -> None: ...
 
     def _deny(self, why: str) -> int:
         self.say(S.MAV_SEVERITY_CRITICAL, why)
