@@ -401,7 +401,9 @@ def resolve_log(path: Path) -> Path:
             found = sorted(path.glob(pattern), key=lambda p: p.stat().st_mtime)
             if found:
                 return found[-1]
-        raise FlightLogError(f"{path}: no *{FC_SUFFIX} or *{TLOG_SUFFIX} flight log in this directory")
+        old = " (its .fc.npy is the control-rate log flights wrote before 2026-12-05, which nothing reads now)"
+        hint = old if any(path.glob("*.fc.npy")) else ""
+        raise FlightLogError(f"{path}: no *{FC_SUFFIX} or *{TLOG_SUFFIX} flight log in this directory{hint}")
     if not path.exists():
         raise FlightLogError(f"{path}: no such file")
     return path

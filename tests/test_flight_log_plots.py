@@ -161,6 +161,9 @@ def test_gcs_plot_reports_a_bad_log(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
     assert gcs_main(["plot", str(tmp_path)]) == 1  # an empty directory
     assert "no *.ulg or *.tlog" in capsys.readouterr().err
+    (tmp_path / "2026-01-02_03-04-05.fc.npy").write_bytes(b"")  # a flight from before the ULog was the only log
+    assert gcs_main(["plot", str(tmp_path)]) == 1
+    assert "its .fc.npy is the control-rate log flights wrote before" in capsys.readouterr().err
 
 
 # --------------------------------------------------------------------------- end to end
