@@ -85,8 +85,8 @@ class Mode(Enum):
         for m in cls:
             if m.value == (main, sub):
                 return m
-        if main == 4 and sub == 0:  # PX4 treats AUTO without a sub-mode as AUTO.LOITER
-            return cls.AUTO_LOITER
+        if main == 4 and sub == 0:  # PX4's commander enters AUTO.MISSION for AUTO without a sub-mode
+            return cls.AUTO_MISSION
         return None
 
     def base_mode_flags(self, armed: bool) -> int:

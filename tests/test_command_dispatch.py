@@ -115,5 +115,5 @@ def test_set_mode_acknowledged_for_us_ignored_for_another_system():
     dispatch.set_mode(ep, received(mavlink.MAVLink_set_mode_message(2, 1, custom)))  # type: ignore[arg-type]
     assert ep.sent == [] and vehicle.modes == []
     dispatch.set_mode(ep, received(mavlink.MAVLink_set_mode_message(1, 1, custom)))  # type: ignore[arg-type]
-    assert acks(ep) == [(mavlink.MAVLINK_MSG_ID_SET_MODE, mavlink.MAV_RESULT_ACCEPTED, *GCS)]
+    assert acks(ep) == [(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_RESULT_ACCEPTED, *GCS)]
     assert vehicle.modes == [custom]

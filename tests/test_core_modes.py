@@ -25,7 +25,7 @@ def test_custom_mode_round_trip_and_px4_numbers():
     assert Mode.POSCTL.custom_mode == 3 << 16
     for m in Mode:
         assert Mode.from_custom_mode(m.custom_mode) is m
-    assert Mode.from_custom_mode(4 << 16) is Mode.AUTO_LOITER  # AUTO without a sub-mode, as PX4
+    assert Mode.from_custom_mode(4 << 16) is Mode.AUTO_MISSION  # AUTO without a sub-mode, as PX4's commander
 
 
 def test_one_table_for_the_flight_controller_and_the_ground_station():

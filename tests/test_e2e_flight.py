@@ -156,7 +156,7 @@ def test_identity_modes_and_unknown_command(f):
     f.mode_is("LOITER")
     posctl = 3 << 16
     client.conn.mav.set_mode_send(client.target_system, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, posctl)
-    ack = client.recv("COMMAND_ACK", WAIT_S, lambda m: m.command == mavlink.MAVLINK_MSG_ID_SET_MODE)
+    ack = client.recv("COMMAND_ACK", WAIT_S, lambda m: m.command == mavlink.MAV_CMD_DO_SET_MODE)  # as PX4's
     assert ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED
     f.mode_is("POSCTL")
     assert client.latest("HEARTBEAT").custom_mode == posctl

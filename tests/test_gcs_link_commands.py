@@ -71,14 +71,15 @@ def test_command_int_global_frame_converted_to_degrees(make_harness, free_instan
     assert params[6] == pytest.approx(510.5) and math.isnan(params[3])
 
 
-def test_set_mode_message_acked_with_id_11(make_harness, free_instance):
+def test_set_mode_message_acked_as_do_set_mode(make_harness, free_instance):
     h = make_harness(free_instance())
     c = h.connect("gcs")
     c.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4 << 16 | 3 << 24)
     c.mav.set_mode_send(7, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 2 << 16)  # not us
     got = h.pump(0.1)["gcs"]
     assert h.vehicle.set_modes == [(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4 << 16 | 3 << 24)]
-    assert [(a.command, a.result) for a in of_type(got, "COMMAND_ACK")] == [(11, mavlink.MAV_RESULT_ACCEPTED)]
+    acks = [(a.command, a.result) for a in of_type(got, "COMMAND_ACK")]
+    assert acks == [(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_RESULT_ACCEPTED)]  # PX4's: SET_MODE runs as DO_SET_MODE
 
 
 def test_timesync_and_empty_plans(make_harness, free_instance):

@@ -73,7 +73,7 @@ class CommandDispatch:
         except Exception:
             log.exception("gcs_link: SET_MODE failed")
             result = mavlink.MAV_RESULT_FAILED
-        _ack(ep, msg, mavlink.MAVLINK_MSG_ID_SET_MODE, result)
+        _ack(ep, msg, mavlink.MAV_CMD_DO_SET_MODE, result)  # PX4 runs SET_MODE as DO_SET_MODE, and acks that
 
 
 def _ack(ep: LinkEndpoint, msg: mavlink.MAVLink_message, command: int, result: int, progress: int = 0) -> None:
