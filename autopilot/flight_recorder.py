@@ -81,7 +81,6 @@ class FlightRecorder:
         self._pre: deque[tuple[int, bytes]] = deque(maxlen=PREARM_MAX_PACKETS)
         self._prearm_us = int(PREARM_S * 1e6)
         self._tlog: tlog.TlogWriter | None = None
-        self._flying = False  # a flight's files are open (the ULog among them unless SDLOG_MODE is -1)
         self._clock: tlog.SimEpochClock | None = None
         self._close_at_us: int | None = None
         self._gcs_sent: dict[int, bytes] = {}  # message id -> payload last sent on the "gcs" endpoint
@@ -124,12 +123,12 @@ class FlightRecorder:
         try:
             now = self.fc.last_us or 0
             armed = self.fc.commander.status.armed
-            if armed and (not self._flying or self._close_at_us is not None):
+            if armed and (self._tlog is None or self._close_at_us is not None):
                 self._close()  # re-armed during the tail of the previous flight: a new flight
                 self._open(now)
-            elif not armed and self._flying and self._close_at_us is None:
+            elif not armed and self._tlog is not None and self._close_at_us is None:
                 self._close_at_us = now + int(POST_DISARM_S * 1e6)
-            if self._flying:
+            if self._tlog is not None:  # a flight's files are open (the ULog too unless SDLOG_MODE is -1)
                 if self._ulog is not None:
                     self._ulog.record(imu)
                 if self._close_at_us is not None and now >= self._close_at_us:
@@ -148,7 +147,7 @@ class FlightRecorder:
 
     @property
     def active(self) -> bool:
-        return self._flying
+        return self._tlog is not None
 
     @property
     def writing(self) -> Path | None:
@@ -160,7 +159,6 @@ class FlightRecorder:
         stem = flight_stem(self.log_dir, epoch, self.instance, (tlog.SUFFIX, ulog_topics.SUFFIX))
         self._clock = tlog.SimEpochClock(now_us, int(epoch * 1e6))
         self._tlog = tlog.TlogWriter(self.log_dir / (stem + tlog.SUFFIX))
-        self._flying = True
         self._close_at_us = None
         if self.fc.params.get("SDLOG_MODE") >= 0:
             self._ulog = ulog_topics.FlightULog(
@@ -185,7 +183,6 @@ class FlightRecorder:
     def _close(self) -> None:
         t, u = self._tlog, self._ulog
         self._tlog = self._ulog = None
-        self._flying = False
         self._close_at_us = None
         try:
             if t is not None:

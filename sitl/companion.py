@@ -299,9 +299,9 @@ class LockstepCompanion:
         with the fast camera (``SIM_CAM_RENDER`` 1) also one whole and large enough to decode (issue 38: the frames
         it skips more are a quarter of a landing's renders, none with a marker found; ``SIM_CAM_RENDER`` 0 renders
         them all, as before)."""
-        if view.out_of_view(data):
-            return False
-        return int(self.settings.render) != RENDER_FAST or view.detectable(data)
+        if int(self.settings.render) == RENDER_FAST:
+            return view.detectable(data)  # (a marker it can find is in view: the one test is enough)
+        return not view.out_of_view(data)
 
     def _pose(self, data: mujoco.MjData) -> CameraPose:
         """The camera's pose in the state copy a frame is rendered from (a photo's geotag and attitude)."""

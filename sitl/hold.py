@@ -70,6 +70,8 @@ class HeldServer(Protocol):
 
     def _pack(self, msg: mavlink.MAVLink_message) -> bytes: ...
 
+    def send_heartbeat(self, state: int, time_us: int) -> None: ...
+
     def _send_truth(self, truth: object) -> None: ...
 
 
@@ -124,14 +126,7 @@ class _HeldLink:
     def keepalive(self, time_us: int, with_truth: bool) -> None:
         """HEARTBEAT to the flight controller; ("held here" and, on entering, the truth) on UDP."""
         s = self.server
-        hb = mavlink.MAVLink_heartbeat_message(  # custom_mode: the hold time, ms
-            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_INVALID, 0, time_us // 1000, mavlink.MAV_STATE_STANDBY, 3
-        )
-        if s.conn is not None:
-            try:
-                s.conn.sendall(s._pack(hb))
-            except OSError:
-                pass  # closed: serve() finds out
+        s.send_heartbeat(mavlink.MAV_STATE_STANDBY, time_us)  # custom_mode: the hold time, ms
         server = s.param_server
         if server is not None:
             if with_truth:

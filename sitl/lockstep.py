@@ -185,21 +185,25 @@ class LockstepServer:
         self.parser = StreamParser(self.mav, [_ACTUATOR_CONTROLS.cls])
         _log(f"flight controller connected from {addr[0]}:{addr[1]}")
 
-    def busy_keepalive(self) -> None:
-        """A HEARTBEAT with MAV_STATE_ACTIVE on the lockstep link (``custom_mode``: the simulated time, ms): alive,
-        stepping, waiting for something of its own (the camera's frame) before the next sensors; the flight
-        controller neither declares the link lost nor holds (autopilot/sim_link_watch.py).  A world of several
-        vehicles sends it on every vehicle's link (sitl/__main__.py)."""
+    def send_heartbeat(self, state: int, time_us: int) -> None:
+        """A HEARTBEAT on the lockstep link (``custom_mode``: ``time_us`` in ms) in place of the next sensors:
+        ``MAV_STATE_STANDBY``, the world holds there (:mod:`sitl.hold`); ``MAV_STATE_ACTIVE``, it steps on but waits
+        for something of its own first, the camera's frame (:meth:`busy_keepalive`).  Either way the flight
+        controller knows the simulator is alive (autopilot/sim_link_watch.py)."""
         if self.conn is None:
             return
         hb = mavlink.MAVLink_heartbeat_message(
-            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_INVALID, 0, self.sim.time_us // 1000,
-            mavlink.MAV_STATE_ACTIVE, 3,
-        )  # fmt: skip
+            mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_INVALID, 0, time_us // 1000, state, 3
+        )
         try:
             self.conn.sendall(self._pack(hb))
         except OSError:
-            pass  # closed: the loop finds out
+            pass  # closed: the loop (or the hold's serve) finds out
+
+    def busy_keepalive(self) -> None:
+        """ "Alive, stepping, waiting for the camera" to the flight controller, which neither declares the link lost
+        nor holds.  A world of several vehicles sends it on every vehicle's link (sitl/__main__.py)."""
+        self.send_heartbeat(mavlink.MAV_STATE_ACTIVE, self.sim.time_us)
 
     def _pack(self, msg) -> bytes:
         """A message packed for the flight controller, its sequence number advanced (as mav.send does)."""
