@@ -54,9 +54,11 @@ def consecutive_instances(free_instance, count: int) -> int:
     raise RuntimeError(f"no {count} consecutive free instances among {sorted(held)}")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def world(free_instance):
-    """The world of three vehicles and each one's truth listener: (stack, [truth of vehicle k])."""
+    """The world of three vehicles and each one's truth listener: (stack, [truth of vehicle k]).  One test's only: a
+    module's fixture lived on, three flight controllers at CLIENT_SPEED, through the two-vehicle landing after it
+    (20 CPU s of the suite's, docs/testing.md, 2026-12-06)."""
     first = consecutive_instances(free_instance, COUNT)
     with ExitStack() as es:
         truths = [es.enter_context(SimClient(ports.sim_component_port(first + k))) for k in range(COUNT)]

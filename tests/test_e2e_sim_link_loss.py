@@ -164,6 +164,30 @@ def sim_sleep(truth: SimClient, seconds: float) -> None:
         time.sleep(0.01)
 
 
+# First in the file: it flies its own stack, and the module's stack (below) would idle at CLIENT_SPEED through it.
+def test_flight_controller_restarted_in_the_air_sets_home_only_at_rest(free_instance):
+    with Stack(instance=free_instance(), speed=CLIENT_SPEED, flight_logs=False) as stack:
+        gcs = GcsWatch(stack.gcs_url, stack.sysid)
+        truth = SimClient(ports.sim_component_port(stack.instance))
+        try:
+            take_off(gcs, truth, FALL_ALT_M)
+            index = gcs.text_index()
+            stack.restart_autopilot()
+            started = gcs.wait_text(index, "Moving while disarmed")
+            assert started[1] <= mavlink.MAV_SEVERITY_WARNING, started
+            gcs.wait(lambda: truth_height_m(truth) < 0.3, "the vehicle on the ground (truth)")
+            sim_sleep(truth, 3.0)
+            assert not gcs.armed()
+            gcs.wait_text(index, "Home set")
+            gcs.wait(lambda: gcs.get("GLOBAL_POSITION_INT") is not None, "GLOBAL_POSITION_INT")
+            sim_sleep(truth, 1.0)
+            rel = gcs.get("GLOBAL_POSITION_INT").relative_alt * 1e-3
+            assert abs(rel) < 0.5, f"on the ground {rel:.2f} m above home: home was set while falling"
+        finally:
+            truth.close()
+            gcs.close()
+
+
 @pytest.fixture(scope="module")
 def sim_restart_stack(inst):
     with Stack(instance=inst, speed=CLIENT_SPEED, flight_logs=False) as stack:
@@ -259,26 +283,3 @@ def test_a_silent_client_on_the_simulator_port_is_dropped(sim_restart_stack):
     finally:
         squatter.close()
         truth.close()
-
-
-def test_flight_controller_restarted_in_the_air_sets_home_only_at_rest(free_instance):
-    with Stack(instance=free_instance(), speed=CLIENT_SPEED, flight_logs=False) as stack:
-        gcs = GcsWatch(stack.gcs_url, stack.sysid)
-        truth = SimClient(ports.sim_component_port(stack.instance))
-        try:
-            take_off(gcs, truth, FALL_ALT_M)
-            index = gcs.text_index()
-            stack.restart_autopilot()
-            started = gcs.wait_text(index, "Moving while disarmed")
-            assert started[1] <= mavlink.MAV_SEVERITY_WARNING, started
-            gcs.wait(lambda: truth_height_m(truth) < 0.3, "the vehicle on the ground (truth)")
-            sim_sleep(truth, 3.0)
-            assert not gcs.armed()
-            gcs.wait_text(index, "Home set")
-            gcs.wait(lambda: gcs.get("GLOBAL_POSITION_INT") is not None, "GLOBAL_POSITION_INT")
-            sim_sleep(truth, 1.0)
-            rel = gcs.get("GLOBAL_POSITION_INT").relative_alt * 1e-3
-            assert abs(rel) < 0.5, f"on the ground {rel:.2f} m above home: home was set while falling"
-        finally:
-            truth.close()
-            gcs.close()
