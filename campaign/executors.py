@@ -16,9 +16,13 @@ from __future__ import annotations
 
 import ctypes
 import multiprocessing
+import os
 import signal
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, Callable
+
+from gcs.launcher import fork_server
+from mavsim_core.spin_receiver import SPIN_ENV
 
 from .plan import Run
 from .runs import Settings, execute, lost_row
@@ -29,7 +33,7 @@ OnRow = Callable[[dict[str, Any]], None]
 def local_pool(runs: list[Run], settings: Settings, jobs: int, on_row: OnRow) -> None:
     """Execute ``runs`` on ``jobs`` local worker processes."""
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_die_with_campaign) as pool:
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_worker_start, initargs=(jobs,)) as pool:
         pending: dict[Future, Run] = {pool.submit(execute, run, settings): run for run in runs}
         try:
             while pending:
@@ -41,6 +45,19 @@ def local_pool(runs: list[Run], settings: Settings, jobs: int, on_row: OnRow) ->
         except KeyboardInterrupt:
             pool.shutdown(wait=True, cancel_futures=True)
             raise
+
+
+def _worker_start(jobs: int) -> None:
+    """Pool worker start: :func:`_die_with_campaign`; its stacks forked from a fork server of its own, which has
+    imported the simulator and the flight controller once (1.3 of a camera landing's 6 CPU s were start-up imports);
+    and with more than one run at a time, the lockstep links of
+    its stacks do not spin (``MAVSIM_LOCKSTEP_SPIN_US`` 0, unless set): the spin is for one stack on an idle machine
+    (mavsim_core/spin_receiver.py), and two camera landings on two cores ran 5 % faster without it (issue 38,
+    benchmarks/README.md)."""
+    _die_with_campaign()
+    fork_server.use_here()  # its stacks forked from one server (gcs/launcher/fork_server.py)
+    if jobs > 1:
+        os.environ.setdefault(SPIN_ENV, "0")
 
 
 def _die_with_campaign() -> None:

@@ -24,8 +24,10 @@ from .plan import Run
 from .spec import Campaign
 
 DONE = ("ok", "flight_failed")
-# Columns that depend on where and how fast a run went, not on what it flew (left out of comparisons).
-WALL_COLUMNS = ("wall_s", "real_time_factor", "instance", "host", "attempts")
+# Columns that depend on where and how fast a run went, not on what it flew (left out of comparisons).  A landing's
+# detections per second divide by every frame the camera took until its stack was stopped, a wall-clock moment
+# after the flight (a frame more or less: 4.778 against 4.765 a second, the suite, 2026-12-06).
+WALL_COLUMNS = ("wall_s", "real_time_factor", "instance", "host", "attempts", "detections_per_s")
 
 
 class ResultsError(RuntimeError):

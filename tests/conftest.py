@@ -139,6 +139,12 @@ def pytest_configure(config):
     import e2e_diagnostics
 
     e2e_diagnostics.install()
+    from gcs.launcher import fork_server
+
+    # This process's stacks are forked from one server that has imported both processes' modules (about 0.8 CPU
+    # s a stack, sixty stacks a run: gcs/launcher/fork_server.py, docs/testing.md); the commands the tests run as
+    # processes start theirs as a user's would (the switch is this process's, not its environment's).
+    fork_server.use_here()
     if not hasattr(config, "workerinput"):  # the run's main process (xdist's controller, or -n0's only one)
         from mavproxy_env import prepare_in_background
 

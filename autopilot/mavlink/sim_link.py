@@ -33,6 +33,8 @@ NAN3 = np.full(3, np.nan)
 ACCEL_FIELDS, GYRO_FIELDS, MAG_FIELDS, PRESSURE_FIELD = 0x007, 0x038, 0x1C0, 0x200
 _ACTUATORS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
 _ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+CONNECT_RETRY_S = 0.05  # a refused connection costs microseconds; a stack starts both processes at once
+# (gcs/launcher/stack.py), so the flight controller is usually waiting when the simulator begins to listen
 WAIT_SLICE_S = 0.02  # while connecting, on_wait() (the ground-station link) runs at 50 Hz of wall time
 
 
@@ -92,7 +94,7 @@ class SimLink:
         # steps only (autopilot/lockstep_loop.py), so what it queues for them is the same in every run
         self.device_steps: list[Callable[[int], None]] = []
 
-    def connect(self, retry_s: float = 0.2, on_wait=None, handshake_timeout_s: float | None = None) -> None:
+    def connect(self, retry_s: float = CONNECT_RETRY_S, on_wait=None, handshake_timeout_s: float | None = None) -> None:
         """Connect and send a HEARTBEAT, retrying until the simulator listens; on_wait() is called between
         tries and while waiting for the simulator's answer.  With ``handshake_timeout_s`` (wall seconds),
         return only once the simulator's first valid message has arrived (kept for :meth:`receive`)."""
