@@ -50,10 +50,9 @@ def local_pool(runs: list[Run], settings: Settings, jobs: int, on_row: OnRow) ->
 def _worker_start(jobs: int) -> None:
     """Pool worker start: :func:`_die_with_campaign`; its stacks forked from a fork server of its own, which has
     imported the simulator and the flight controller once (1.3 of a camera landing's 6 CPU s were start-up imports);
-    and with more than one run at a time, the lockstep links of
-    its stacks do not spin (``MAVSIM_LOCKSTEP_SPIN_US`` 0, unless set): the spin is for one stack on an idle machine
-    (mavsim_core/spin_receiver.py), and two camera landings on two cores ran 5 % faster without it (issue 38,
-    benchmarks/README.md)."""
+    and with more than one run at a time, its stacks' lockstep links do not spin (``MAVSIM_LOCKSTEP_SPIN_US`` 0,
+    unless set): the spin is for one stack on an idle machine (mavsim_core/spin_receiver.py), and two camera landings
+    on two cores ran 5 % faster without it (issue 38, benchmarks/README.md)."""
     _die_with_campaign()
     fork_server.use_here()  # its stacks forked from one server (gcs/launcher/fork_server.py)
     if jobs > 1:

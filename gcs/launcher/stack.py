@@ -9,8 +9,8 @@ Used by ``flight-demo``, the end-to-end tests and the benchmarks::
 The simulator and the flight controller start together (the flight controller retries its connection
 until the simulator listens); the stack is started once the simulator listens on its TCP port (4560 +
 instance, :mod:`mavsim_core.ports`), checked through ``/proc/net/tcp``: a probe connection would hold its
-accept up to the handshake timeout.  With ``MAVSIM_FORK_SERVER=1`` both are forked from a process that has
-imported them already (:mod:`.fork_server`).  Each
+accept up to the handshake timeout.  With ``MAVSIM_FORK_SERVER=1`` (or :func:`.fork_server.use_here`) both
+are forked from a process that has imported them already (:mod:`.fork_server`).  Each
 child's stdout and stderr go to ``<log_dir>/sitl.log`` and
 ``<log_dir>/autopilot.log`` (``log_dir`` is a fresh temp dir unless given); the
 flight logs go there too (``--log-dir``: each flight's ``.tlog`` and ``.ulg`` from
