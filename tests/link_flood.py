@@ -153,6 +153,10 @@ class GroundStation:
         self.params: list[tuple[float, str, float]] = []  # (wall s, name, value) of PARAM_VALUE
         self.texts: list[str] = []  # STATUSTEXT
         self.sim_clock: list[tuple[float, int]] = []  # (wall s, time_boot_ms)
+        # The latest time_boot_ms of any message, and each HEARTBEAT stamped with the one before it (the link's own
+        # order: a HEARTBEAT's simulated time, within the 1 Hz SYSTEM_TIME's period, whatever this reader's pace)
+        self.latest_sim_ms = 0
+        self.heartbeat_sim_ms: list[int] = []
         self.running = True
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -176,6 +180,9 @@ class GroundStation:
                 if msg.get_srcSystem() != self.sysid:
                     continue
                 mtype = msg.get_type()
+                stamp = getattr(msg, "time_boot_ms", None)
+                if stamp is not None:
+                    self.latest_sim_ms = max(self.latest_sim_ms, stamp)
                 if mtype == "COMMAND_ACK" and msg.target_system == GCS_SYSID:
                     self.acks.setdefault((msg.command, msg.target_component), (now, msg.result))
                 elif mtype == "ATTITUDE":
@@ -183,6 +190,7 @@ class GroundStation:
                 elif mtype == "HEARTBEAT" and msg.get_srcComponent() == 1:
                     self.fc_addr = addr
                     self.heartbeats.append((now, msg.base_mode, msg.custom_mode))
+                    self.heartbeat_sim_ms.append(self.latest_sim_ms)
                 elif mtype == "PARAM_VALUE":
                     self.params.append((now, msg.param_id, msg.param_value))
                 elif mtype == "STATUSTEXT":
