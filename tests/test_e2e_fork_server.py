@@ -6,7 +6,8 @@ imported them already is the same stack as one whose processes started on their 
   did;
 - the processes are the server's children, and they end as ``subprocess.Popen``'s do (a signal's end is minus
   the signal, the simulator's SIGTERM 143);
-- the server's end ends its children; a command it does not run (another module) is left to a process of its own.
+- the server's end ends its children; a command it does not run (another module) is left to a process of its own;
+- a server started by a thread outlives the thread (tests/test_e2e_reproducible.py flies two stacks from threads).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 import time
 
 import pytest
@@ -83,3 +85,32 @@ def test_the_servers_end_ends_its_children_and_other_commands_are_not_its(free_i
     finally:
         server.close()
     assert child.wait(timeout=30) in (143, -signal.SIGTERM), (tmp_path / "sitl.log").read_text()[-2000:]
+
+
+def test_a_server_started_from_a_thread_outlives_it(free_instance, monkeypatch):
+    inst = free_instance()
+    monkeypatch.setattr(fork_server, "_here", True)
+    monkeypatch.setattr(fork_server, "_shared", None)  # a server of this test's own, started in the thread
+    started: list[int] = []
+
+    def fly() -> None:
+        with Stack(instance=inst, speed="max", flight_logs=False) as stack:
+            estimates(stack, 1.0)
+            server = fork_server.current()
+            assert server is not None
+            started.append(server.proc.pid)
+
+    thread = threading.Thread(target=fly)
+    thread.start()
+    thread.join(120)
+    assert started, "the thread's stack did not fly"
+    time.sleep(1.0)  # (the parent-death signal, had it been set, comes at once)
+    server = fork_server.current()
+    try:
+        assert server is not None and server.proc.poll() is None and server.proc.pid == started[0]
+        with Stack(instance=inst, speed="max", flight_logs=False) as stack:
+            assert {parent_pid(p.pid) for p in stack.procs.values()} == {started[0]}
+            estimates(stack, 1.0)
+    finally:
+        if server is not None:
+            server.close()

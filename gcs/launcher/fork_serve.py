@@ -3,7 +3,8 @@ programs once, fork a child per request, report each child's end.
 
 Signals: SIGTERM and SIGCHLD are held across each fork, so a child takes neither before it has its own handlers (a
 SIGTERM that reached it earlier ran the server's and was lost); the server's SIGTERM ends its children first
-(SIGTERM, then SIGKILL after STOP_TIMEOUT_S) and reports their ends as ever.
+(SIGTERM, then SIGKILL after STOP_TIMEOUT_S) and reports their ends as ever; so does the end of the process that
+started it (looked for every PARENT_CHECK_S: the parent-death signal would follow the thread that started it).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from typing import Any
 from .fork_server import PRELOAD, die_with_parent
 
 HELD_SIGNALS = {signal.SIGTERM, signal.SIGCHLD}
+PARENT_CHECK_S = 0.5  # how often the server looks for its client's process
 STOP_TIMEOUT_S = 5.0  # the server's SIGTERM: its children's time to end on theirs, then SIGKILL
 
 
@@ -38,14 +40,17 @@ def serve(path: str) -> None:
     signal.signal(signal.SIGCHLD, lambda *_: None)  # (the wake-up fd does the work)
     conns: dict[int, socket.socket] = {}  # child pid -> its client's connection
     stopping = []
+    parent = os.getppid()  # the client's process: when it has ended (this one is given to another), so does this
     signal.signal(signal.SIGTERM, lambda *_: stopping.append(True))
     sys.stdout.write("ready\n")
     sys.stdout.flush()
     while not stopping:
         try:
-            readable = select.select([listener, wake_r], [], [])[0]
+            readable = select.select([listener, wake_r], [], [], PARENT_CHECK_S)[0]
         except InterruptedError:
             readable = []
+        if os.getppid() != parent:
+            break
         if wake_r in readable:
             wake_r.recv(4096)
         _reap(conns)

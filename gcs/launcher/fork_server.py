@@ -20,8 +20,8 @@ The protocol, on a Unix stream socket: the client sends one JSON line (``argv``:
 ``cwd``, ``env``, ``log``: the file that takes stdout and stderr); the server answers ``pid N`` and, when the child
 has ended, ``exit CODE`` (as ``subprocess.Popen.returncode``: the exit status, or minus the signal that ended it),
 then closes that connection.  :class:`ForkedChild` is the client's end, with the part of ``Popen``'s interface the
-stack uses.  Cleanup: the server gets SIGTERM when the thread that started it ends (Linux's parent-death signal),
-and every child gets SIGTERM when the server ends; the server's own SIGTERM ends its children first.
+stack uses.  Cleanup: the server ends (its children first) when the process that started it has ended, whichever of its
+threads started it, and every child gets SIGTERM when the server ends (Linux's parent-death signal).
 """
 
 from __future__ import annotations
@@ -165,12 +165,13 @@ class ForkServer:
             env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), env.get("PYTHONPATH")) if p)
         self.proc = subprocess.Popen(
             [python, "-c", "import sys; from gcs.launcher.fork_serve import serve; serve(sys.argv[1])", self.path],
+            # (no parent-death signal: Linux sends it when the *thread* that started the server ends, and a test
+            # flies stacks from threads; the server watches its parent process instead, gcs/launcher/fork_serve.py)
             cwd=root,
             env=env,
             stdin=subprocess.DEVNULL,
             stdout=subprocess.PIPE,
             start_new_session=True,
-            preexec_fn=die_with_parent if sys.platform == "linux" else None,
         )
         assert self.proc.stdout is not None
         ready = select.select([self.proc.stdout], [], [], START_TIMEOUT_S)[0]
