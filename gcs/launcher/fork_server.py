@@ -36,6 +36,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -115,19 +116,20 @@ class ForkedChild:
         self._buf = b""
 
     def _read(self, timeout_s: float | None) -> None:
-        if self.returncode is not None:
-            return
-        if not select.select([self._conn], [], [], timeout_s)[0]:
-            return
-        data = self._conn.recv(4096)
-        self._buf += data
-        if b"\n" in self._buf:
-            line = self._buf.split(b"\n", 1)[0].decode()
-            self.returncode = int(line.split()[1]) if line.startswith("exit ") else -signal.SIGKILL
-        elif not data:  # the server went away without a word: the child went with it (its parent-death signal)
-            self.returncode = -signal.SIGTERM
-        if self.returncode is not None:
-            self._conn.close()
+        """Read the server's "exit CODE" line if it comes within ``timeout_s`` (None: wait for it)."""
+        deadline = None if timeout_s is None else time.monotonic() + timeout_s
+        while self.returncode is None:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if not select.select([self._conn], [], [], left)[0]:
+                return
+            data = self._conn.recv(4096)
+            self._buf += data
+            if b"\n" in self._buf:
+                line = self._buf.split(b"\n", 1)[0].decode()
+                self.returncode = int(line.split()[1]) if line.startswith("exit ") else -signal.SIGKILL
+            elif not data:  # the server went away without a word: the child went with it (its parent-death signal)
+                self.returncode = -signal.SIGTERM
+        self._conn.close()
 
     def poll(self) -> int | None:
         self._read(0.0)
