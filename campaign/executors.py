@@ -14,14 +14,13 @@ Ctrl-C: no new run starts; the runs going on are stopped and not recorded (a res
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing
 import os
-import signal
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, Callable
 
 from gcs.launcher import fork_server
+from gcs.launcher.parent_death import die_with_parent
 from mavsim_core.spin_receiver import SPIN_ENV
 
 from .plan import Run
@@ -48,24 +47,16 @@ def local_pool(runs: list[Run], settings: Settings, jobs: int, on_row: OnRow) ->
 
 
 def _worker_start(jobs: int) -> None:
-    """Pool worker start: :func:`_die_with_campaign`; its stacks forked from a fork server of its own, which has
-    imported the simulator and the flight controller once (1.3 of a camera landing's 6 CPU s were start-up imports);
-    and with more than one run at a time, its stacks' lockstep links do not spin (``MAVSIM_LOCKSTEP_SPIN_US`` 0,
-    unless set): the spin is for one stack on an idle machine (mavsim_core/spin_receiver.py), and two camera landings
-    on two cores ran 5 % faster without it (issue 38, benchmarks/README.md)."""
-    _die_with_campaign()
+    """Pool worker start: it ends with the campaign (and its own stacks in turn, gcs/launcher/stack.py); its stacks
+    are forked from a fork server of its own, which has imported the simulator and the flight controller once (1.3 of
+    a camera landing's 6 CPU s were start-up imports); and with more than one run at a time, its stacks' lockstep
+    links do not spin (``MAVSIM_LOCKSTEP_SPIN_US`` 0, unless set): the spin is for one stack on an idle machine
+    (mavsim_core/spin_receiver.py), and two camera landings on two cores ran 5 % faster without it (issue 38,
+    benchmarks/README.md)."""
+    die_with_parent()  # SIGTERM when the campaign process dies, even by SIGKILL: no runs started for nobody
     fork_server.use_here()  # its stacks forked from one server (gcs/launcher/fork_server.py)
     if jobs > 1:
         os.environ.setdefault(SPIN_ENV, "0")
-
-
-def _die_with_campaign() -> None:
-    """Pool worker start (Linux): SIGTERM when the campaign process dies, even by SIGKILL, so no worker goes on
-    starting runs for nobody; a worker's own stacks get theirs in turn (gcs/launcher/stack.py)."""
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
 
 
 def ray_cluster(runs: list[Run], settings: Settings, address: str, cpus: float, on_row: OnRow) -> None:

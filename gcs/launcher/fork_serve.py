@@ -18,7 +18,8 @@ import sys
 import time
 from typing import Any
 
-from .fork_server import PRELOAD, die_with_parent
+from .fork_server import PRELOAD
+from .parent_death import die_with_parent
 
 HELD_SIGNALS = {signal.SIGTERM, signal.SIGCHLD}
 PARENT_CHECK_S = 0.5  # how often the server looks for its client's process

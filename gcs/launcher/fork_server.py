@@ -26,7 +26,6 @@ threads started it, and every child gets SIGTERM when the server ends (Linux's p
 
 from __future__ import annotations
 
-import ctypes
 import json
 import os
 import select
@@ -240,11 +239,3 @@ def shared(root: Path) -> ForkServer:
             _shared = ForkServer(root=root)
             atexit.register(_shared.close)
         return _shared
-
-
-def die_with_parent() -> None:
-    """(Linux) SIGTERM to this process when the thread that started it ends."""
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass

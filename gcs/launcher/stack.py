@@ -23,7 +23,6 @@ the ``with`` block, at interpreter exit, and (Linux) when this process dies.
 from __future__ import annotations
 
 import atexit
-import ctypes
 import os
 import signal
 import subprocess
@@ -38,20 +37,9 @@ from mavsim_core import ports
 from mavsim_core.cli_checks import in_use_hint
 
 from . import fork_server, stack_args
+from .parent_death import die_with_parent
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]  # the checkout: gcs/launcher/stack.py -> ../../..
-
-
-def _die_with_parent() -> None:
-    """Child pre-exec hook (Linux): get SIGTERM if the parent dies, so no simulator is orphaned.
-
-    Linux sends it when the *thread* that started the child exits, so start a
-    Stack from a thread that lives as long as the stack (normally the main one).
-    """
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
 
 
 class StackError(RuntimeError):
@@ -260,7 +248,7 @@ class Stack:
             stdout=log,
             stderr=subprocess.STDOUT,
             start_new_session=True,
-            preexec_fn=_die_with_parent if sys.platform == "linux" else None,
+            preexec_fn=die_with_parent if sys.platform == "linux" else None,
         )
 
     def _wait_sitl_listening(self) -> None:
