@@ -12,12 +12,19 @@ and prints, per landing, from the simulator's truth:
   in the UGV's frame);
 - ``slide``: how far the centre moved on the deck from the cut to the end of the truth log (1 s later), cm;
 - ``deck v err``: the flight controller's estimate of the deck's velocity against the UGV's truth, mean and max
-  (m/s) over the tracking, approaching and docking phases of the last 4 s.
+  (m/s) over the tracking, approaching and docking phases of the last 4 s;
+- ``offset``: where the centre's offset from the deck's centre came from, the mean over the last OFFSET_WINDOW_S
+  before the cut (cm, forward and right in the UGV's frame), in three parts that add up to the truth's offset
+  (vehicle minus deck): ``aim``, the flight controller's setpoint off its target estimate (the cut's lead,
+  ``PLD_CUT_LEAD``, on purpose); ``track``, its vehicle estimate off that setpoint (the position loop's error);
+  ``est``, its estimate of the target relative to the vehicle against the truth's (the vision and the target
+  model; a shift of the estimator's whole frame cancels out).
 
 and one summary line per campaign cell: landings, successes, mean tilt at contact, mean |slide|, mean deck
-velocity error.  Frames: NED from the multicopter's start point; the deck frame is the UGV's (x forward, y
-right).  It reads only what ``sitl/truth_log.py`` and ``autopilot/ulog_topics.py`` write (the ULog through
-``gcs.flight_logs``, pyulog: its precision_landing topic, at 50 Hz).
+velocity error, the mean offset's three parts.  Frames: NED from the multicopter's start point; the deck frame
+is the UGV's (x forward, y right).  It reads only what ``sitl/truth_log.py`` and ``autopilot/ulog_topics.py``
+write (the ULog through ``gcs.flight_logs``, pyulog: its precision_landing, landing_target_pose,
+trajectory_setpoint and vehicle_local_position topics, at 50 Hz).
 
 Usage: ``python benchmarks/touchdown_analysis.py RESULTS.csv LOGDIR``
 """
@@ -42,6 +49,8 @@ from _cli import parser
 CONTACT_M = 0.005  # the lowest foot this close to the deck's top: touching
 TRACK_PHASES = (2, 3, 4)  # precision_landing.phase in the ULog: tracking, approaching, docking
 VEL_WINDOW_US = 4_000_000  # the deck velocity error is taken over the last 4 s before the cut
+OFFSET_WINDOW_S = 1.5  # the offset's parts are averaged over this long before the cut (about the docking)
+OFFSET_STEP_S = 0.05
 
 
 def _one(path: Path, suffix: str) -> np.ndarray | None:
@@ -64,12 +73,44 @@ def _lowest_foot_m(truth: np.ndarray, i: int, legs: tuple) -> float:
     return float(truth["ugv_d_m"][i] - feet[:, 2].max())
 
 
-def _landing(ulog: Path) -> dict[str, np.ndarray]:
-    """The precision landing's samples in the flight controller's ULog (none without a precision landing)."""
-    landing = load_ulog(ulog).landing
+def _landing(flight) -> dict[str, np.ndarray]:
+    """The precision landing's samples of the flight controller's ULog (none without a precision landing)."""
+    landing = flight.landing
     if landing is None:
         return {k: np.zeros(0) for k in ("time_us", "precland_phase", "tgt_vn_m_s", "tgt_ve_m_s")}
     return dict(landing.cols, time_us=np.round(landing.t_s * 1e6).astype(np.int64))
+
+
+def _at(series, col: str, t_s: np.ndarray) -> np.ndarray:
+    """A column of a log's series at the times ``t_s`` (linear between its samples that are numbers)."""
+    ok = np.isfinite(series.cols[col])
+    return np.interp(t_s, series.t_s[ok], series.cols[col][ok]) if ok.any() else np.full(t_s.shape, np.nan)
+
+
+def offset_parts(flight, truth: np.ndarray, cut: int) -> dict[str, float]:
+    """The truth's offset (vehicle minus deck) over the last OFFSET_WINDOW_S before the cut as aim + track + est
+    (see the module docstring), each the mean of its forward and right parts in the UGV's frame, cm."""
+    out = {f"{p}_{a}_cm": math.nan for p in ("aim", "track", "est") for a in ("fwd", "right")}
+    sp, est, land = flight.setpoint, flight.estimate, flight.landing
+    if sp is None or est is None or land is None or "n_m" not in sp.cols or "n_m" not in est.cols:
+        return out
+    t_cut = float(truth["time_us"][cut]) * 1e-6
+    t_s = np.arange(t_cut - OFFSET_WINDOW_S, t_cut + 1e-9, OFFSET_STEP_S)
+    idx = np.minimum(np.searchsorted(truth["time_us"] * 1e-6, t_s), len(truth) - 1)
+    veh = np.column_stack([_at(est, "n_m", t_s), _at(est, "e_m", t_s)])
+    set_ = np.column_stack([_at(sp, "n_m", t_s), _at(sp, "e_m", t_s)])
+    rel = np.column_stack([_at(land, "tgt_n_m", t_s), _at(land, "tgt_e_m", t_s)])  # target minus vehicle, estimated
+    true_rel = np.column_stack(
+        [truth["ugv_n_m"][idx] - truth["pos_n_m"][idx], truth["ugv_e_m"][idx] - truth["pos_e_m"][idx]]
+    )
+    yaw = truth["ugv_yaw_rad"][idx]
+    c, s = np.cos(yaw), np.sin(yaw)
+    for name, v in (("aim", set_ - (veh + rel)), ("track", veh - set_), ("est", rel - true_rel)):
+        fwd, right = c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]
+        ok = np.isfinite(fwd) & np.isfinite(right)
+        if ok.any():
+            out[f"{name}_fwd_cm"], out[f"{name}_right_cm"] = 100.0 * fwd[ok].mean(), 100.0 * right[ok].mean()
+    return out
 
 
 def analyse(run_dir: Path, legs: tuple) -> dict | None:
@@ -77,7 +118,8 @@ def analyse(run_dir: Path, legs: tuple) -> dict | None:
     truth, ulogs = _one(run_dir, ".truth.npy"), sorted(run_dir.glob("*.ulg"))
     if truth is None or not ulogs or "ugv_n_m" not in (truth.dtype.names or ()):
         return None
-    fc = _landing(ulogs[0])
+    flight = load_ulog(ulogs[0])
+    fc = _landing(flight)
     armed = np.flatnonzero(truth["armed"] > 0)
     if armed.size == 0 or armed[-1] >= len(truth) - 1:
         return None
@@ -110,7 +152,12 @@ def analyse(run_dir: Path, legs: tuple) -> dict | None:
         "slide_right_cm": 100.0 * (r1 - r0),
         "vel_err_mean": statistics.fmean(errs) if errs else math.nan,
         "vel_err_max": max(errs) if errs else math.nan,
+        **offset_parts(flight, truth, cut),
     }
+
+
+def _parts(a: dict) -> str:
+    return "  ".join(f"({a[f'{p}_fwd_cm']:+5.1f}, {a[f'{p}_right_cm']:+5.1f})" for p in ("aim", "track", "est"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -121,7 +168,10 @@ def main(argv: list[str] | None = None) -> int:
     rows = list(csv.DictReader(args.results.open()))
     cells: dict[str, list[tuple[dict, dict]]] = {}
     legs_of: dict[str, tuple] = {}
-    print("run            ok  tilt  descent  cut: height  fwd  right  slide (fwd, right)  deck v err mean/max  reason")
+    print(
+        "run            ok  tilt  descent  cut: height  fwd  right  slide (fwd, right)  deck v err mean/max"
+        "  offset (fwd, right): aim  track  est  reason"
+    )
     for row in rows:
         vehicle = row.get("vehicle", "quad_x")
         if vehicle not in legs_of:
@@ -136,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{row['run_id']:<14} {row['success'][:1]}  {a['tilt_deg']:4.1f}  {a['descent_m_s']:+5.2f}"
             f"   {a['cut_height_cm']:5.1f}  {a['cut_fwd_cm']:+5.1f} {a['cut_right_cm']:+5.1f}"
             f"   {a['slide_cm']:4.1f} ({a['slide_fwd_cm']:+5.1f}, {a['slide_right_cm']:+5.1f})"
-            f"   {a['vel_err_mean']:.3f} / {a['vel_err_max']:.3f}   {row['reason'][:50]}"
+            f"   {a['vel_err_mean']:.3f} / {a['vel_err_max']:.3f}   {_parts(a)}   {row['reason'][:50]}"
         )
     for label, items in cells.items():
         ok = sum(r["success"] == "True" for r, _ in items)
@@ -144,7 +194,10 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"{label}: {ok}/{len(items)} landed; at the first contact {mean('tilt_deg'):.1f} deg of tilt, "
             f"{mean('descent_m_s'):.2f} m/s down; motors cut {mean('cut_height_cm'):.1f} cm above the rest height; "
-            f"slide after the cut {mean('slide_cm'):.1f} cm; deck velocity error {mean('vel_err_mean'):.3f} m/s"
+            f"slide after the cut {mean('slide_cm'):.1f} cm; deck velocity error {mean('vel_err_mean'):.3f} m/s; "
+            f"offset (fwd, right) aim ({mean('aim_fwd_cm'):+.1f}, {mean('aim_right_cm'):+.1f}), "
+            f"track ({mean('track_fwd_cm'):+.1f}, {mean('track_right_cm'):+.1f}), "
+            f"est ({mean('est_fwd_cm'):+.1f}, {mean('est_right_cm'):+.1f}) cm"
         )
     return 0
 
