@@ -204,7 +204,7 @@ class LandingTargetInput:
             deck = rel + self._state_at(meas.timestamp_us)[1]
             self.predictor.add_sample(meas.timestamp_us, deck)
             var = meas.std_m**2 if math.isfinite(meas.std_m) else unc * max(float(rel[2]) ** 2, 1.0)
-            if meas.valid and self.deck.update(meas.timestamp_us, deck[:2], var):
+            if meas.valid and self.deck.update(meas.timestamp_us, deck[:2], var, meas.square_yaw_rad):
                 taken = True
                 self.accepted += 1
                 self._deck_down_m = float(deck[2])

@@ -20,7 +20,8 @@ Three forms are accepted, as used in the field:
 A position form's ``q`` (the target's orientation in ``frame``: LOCAL_NED's axes, or body FRD's) gives the
 heading of the target's edges modulo 90 deg (``square_yaw_rad``), when it is a unit quaternion whose z axis is
 within 30 deg of the vertical (a marker lying on a deck, seen either way up); anything else (PX4's senders
-often fill zeros) gives none, and the landing holds its own heading.
+often fill zeros), and the zero rotation exactly (1, 0, 0, 0: the placeholder of a sender that measures no
+orientation, which no measured one ever is to the last bit), gives none, and the landing holds its own heading.
 
 Anything else is refused with a reason short enough for one STATUSTEXT (50 characters).
 Attitude: quaternion (w, x, y, z) rotating FRD into NED.  Pure: no I/O, no clock.
@@ -109,14 +110,16 @@ SQUARE_TILT_MAX_RAD = math.radians(30.0)  # a target orientation tilted more tha
 
 def square_yaw(q_target_wxyz: Any, frame: int, r_ned_frd: np.ndarray) -> float | None:
     """The heading of a level square target's edges (rad, NED, in [-pi/4, pi/4)) from LANDING_TARGET's ``q``
-    (target -> ``frame``), or None (not a unit quaternion, not level within SQUARE_TILT_MAX_RAD, or a frame
-    without axes of its own)."""
+    (target -> ``frame``), or None (not a unit quaternion, the zero rotation's placeholder, not level within
+    SQUARE_TILT_MAX_RAD, or a frame without axes of its own)."""
     try:
         q = np.asarray(q_target_wxyz, dtype=float).reshape(4)
     except (TypeError, ValueError):
         return None
     norm = float(np.linalg.norm(q))
     if not np.all(np.isfinite(q)) or abs(norm - 1.0) > 1e-2 or frame not in (MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD):
+        return None
+    if q.tolist() == [1.0, 0.0, 0.0, 0.0]:  # a placeholder, not a measurement (the module docstring)
         return None
     rot = quat.to_matrix(q / norm)
     if frame == MAV_FRAME_BODY_FRD:

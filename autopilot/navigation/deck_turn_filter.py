@@ -10,8 +10,8 @@ the deck's heading by ~20 deg, which held the vehicle 0.35-0.6 m outside the dec
 0.5-0.8 m in 0.7 s blind; fixes then fell outside its gate and it restarted with the deck taken as still (velocity
 0), whose differenced velocity step fed 7-8 m/s^2 forward and saturated the mixer.  Here:
 
-* state ``[north m, east m, v_north m/s, v_east m/s, turn rate rad/s]`` (turn rate positive clockwise seen from
-  above, north toward east), moved on by :func:`turn_step` (a straight drive when the rate is ~0);
+* state ``[north m, east m, v_north m/s, v_east m/s, turn rate rad/s, marker lag m]`` (turn rate positive clockwise
+  seen from above, north toward east), moved on by :func:`turn_step` (a straight drive when the rate is ~0);
 * process noise: white acceleration ``acc_var`` ((m/s^2)^2, along and across the track alike) and a turn rate
   that wanders by ``turn_acc_var`` ((rad/s^2)^2) in the steady model, by ``jump_turn_acc_var`` in the manoeuvring
   one (a figure-8 reverses its turn, +1 -> -1 rad/s, within a quarter of a second);
@@ -24,6 +24,14 @@ the deck's heading by ~20 deg, which held the vehicle 0.35-0.6 m outside the dec
 * measurement: the deck's north and east position (m, NED, from the estimator's origin) at its capture time;
   gated with a 2-degree-of-freedom chi-square test; after ``REFIT_AFTER_REJECTS`` refusals in a row the filter is
   re-seated on the fix *keeping its velocity and turn rate* (a deck does not stop because the fit slipped);
+* the marker's heading (LANDING_TARGET's orientation, modulo 90 deg), when the sender gives it, fused after each
+  fix's position (:meth:`DeckTurnFilter._fuse_heading`): a ground vehicle points where it drives, so at a figure-8's
+  crossing the heading turns the other way at once, where the positions take a few fixes to show it (20 Hz, 2 cm,
+  2 deg: the turn rate has the new sign 0.1 s after the crossing, against 0.25-0.85 s, and the velocity is off by
+  0.05-0.11 m/s over the next 0.5 s, against 0.21-0.89).  A marker not over the turning axle points into the turn
+  by atan(lag x rate / speed) from its direction of travel (4.3 deg on the simulated UGV, 0.15 m behind its axle,
+  on a 2 m circle at 2 m/s; fused as if it pointed along the track, that bias held the vehicle ahead of the deck:
+  11 of the first 24 figure-8 landings landed): the lag is the state's sixth element, learnt in the turns;
 * the filter lives at the time of its latest fix; :meth:`DeckTurnFilter.state_at` predicts the mean forward
   (fixes arrive in time order, 50 ms late: it is never run backwards), straight on when the turn's acceleration
   is below STRAIGHT_PREDICT_BELOW_M_S2 (a straight drive's fitted rate is noise).
@@ -64,6 +72,15 @@ class DeckTurnSettings:
     vel_var_in_m2_s2: float = 4.0  # initial velocity variance (a deck seen first may already drive 2 m/s)
     turn_var_in_rad2_s2: float = 0.5  # initial turn-rate variance
     timeout_s: float = 2.0  # no accepted fix for this long: the estimate is invalid, the next fix restarts
+    # The marker's heading (modulo 90 deg) as the direction of the deck's velocity: its variance, rad^2 (0: not
+    # fused), fused only while the deck drives faster than heading_min_speed_m_s and within heading_gate_rad.
+    heading_var_rad2: float = math.radians(3.0) ** 2
+    heading_min_speed_m_s: float = 0.5
+    heading_gate_rad: float = math.radians(25.0)
+    lag_var_in_m2: float = 0.1  # the marker's lag behind the turning axle (m): initial variance
+    lag_var_m2_s: float = 1e-4  # ... and its random walk (a fixed mount, learnt in the turns)
+    lag_max_m: float = 0.5  # ... held within +-this (the heading is known modulo 90 deg: no aliased fit)
+    heading_vel_var_max_m2_s2: float = 0.05  # fused only once the velocity is known this well (per axis)
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,20 +98,39 @@ class DeckState:
 
 
 def turn_step(x: np.ndarray, dt_s: float) -> np.ndarray:
-    """The state ``[n, e, vn, ve, w]`` moved on by ``dt_s`` at its constant speed and turn rate (NED, m, m/s,
-    rad/s clockwise from above)."""
-    n, e, vn, ve, w = (float(v) for v in x)
+    """The state ``[n, e, vn, ve, w, ...]`` moved on by ``dt_s`` at its constant speed and turn rate (NED, m, m/s,
+    rad/s clockwise from above); what follows ``w`` (the marker's lag behind the turning axle, m) holds."""
+    n, e, vn, ve, w = (float(v) for v in x[:5])
+    rest = [float(v) for v in x[5:]]
     th = w * dt_s
     if abs(w) < STRAIGHT_BELOW_RAD_S:
-        return np.array([n + vn * dt_s, e + ve * dt_s, vn, ve, w])
+        return np.array([n + vn * dt_s, e + ve * dt_s, vn, ve, w, *rest])
     s, c = math.sin(th), math.cos(th)
     return np.array(
-        [n + (vn * s - ve * (1.0 - c)) / w, e + (ve * s + vn * (1.0 - c)) / w, vn * c - ve * s, vn * s + ve * c, w]
-    )
+        [n + (vn * s - ve * (1.0 - c)) / w, e + (ve * s + vn * (1.0 - c)) / w, vn * c - ve * s, vn * s + ve * c, w,
+         *rest]
+    )  # fmt: skip
 
 
 def _measure(x: np.ndarray) -> np.ndarray:
     return np.asarray(x[:2], dtype=float)
+
+
+QUARTER_TURN = math.pi / 2
+
+
+def square_off(angle_rad: float) -> float:
+    """An angle wrapped to [-45, 45) deg, rad: the difference of two headings of a square."""
+    return (angle_rad + QUARTER_TURN / 2) % QUARTER_TURN - QUARTER_TURN / 2
+
+
+def _heading_off_square(x: np.ndarray, square_yaw_rad: float) -> np.ndarray:
+    """The deck's heading in state ``x`` off the marker's heading ``square_yaw_rad``, modulo 90 deg (rad).  A ground
+    vehicle points where its turning axle drives; its marker, ``x[5]`` metres behind that axle, moves
+    atan(lag x turn rate / speed) off that heading in a turn (toward the inside: its velocity is the state's)."""
+    vn, ve, w, lag = float(x[2]), float(x[3]), float(x[4]), float(x[5])
+    heading = math.atan2(ve, vn) + math.atan2(lag * w, math.hypot(vn, ve))
+    return np.array([square_off(heading - square_yaw_rad)])
 
 
 class DeckTurnFilter:
@@ -119,7 +155,7 @@ class DeckTurnFilter:
 
         s = self.settings
         self._ukfs = [
-            UnscentedKalmanFilter(5, 2, 0.05, _measure, turn_step, MerweScaledSigmaPoints(5, 0.3, 2.0, 0.0))
+            UnscentedKalmanFilter(6, 2, 0.05, _measure, turn_step, MerweScaledSigmaPoints(6, 0.3, 2.0, 0.0))
             for _ in (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
         ]
         switch = np.array([[s.stay_prob, 1.0 - s.stay_prob], [1.0 - s.stay_prob, s.stay_prob]])
@@ -133,8 +169,8 @@ class DeckTurnFilter:
     def valid_at(self, t_us: int) -> bool:
         return self._t_us is not None and (t_us - self._t_us) * 1e-6 <= self.settings.timeout_s
 
-    def _start(self, t_us: int, z: np.ndarray, vel: np.ndarray, turn: float, p: np.ndarray) -> None:
-        x = np.array([z[0], z[1], vel[0], vel[1], turn], dtype=float)
+    def _start(self, t_us: int, z: np.ndarray, vel: np.ndarray, turn: float, p: np.ndarray, lag: float = 0.0) -> None:
+        x = np.array([z[0], z[1], vel[0], vel[1], turn, lag], dtype=float)
         imm = self._build()
         for f in self._ukfs:
             f.x, f.P = x.copy(), p.copy()
@@ -146,23 +182,26 @@ class DeckTurnFilter:
         model's unless ``turn_var_rad2_s4``)."""
         qa = self.settings.acc_var_m2_s4
         qw = self.settings.turn_acc_var_rad2_s4 if turn_var_rad2_s4 is None else turn_var_rad2_s4
-        q = np.zeros((5, 5))
+        q = np.zeros((6, 6))
         for p, v in ((0, 2), (1, 3)):
             q[p, p] = qa * dt_s**4 / 4.0
             q[p, v] = q[v, p] = qa * dt_s**3 / 2.0
             q[v, v] = qa * dt_s**2
         q[4, 4] = qw * dt_s**2
+        q[5, 5] = self.settings.lag_var_m2_s * dt_s
         return q
 
-    def update(self, t_us: int, pos_ne_m: np.ndarray, var_m2: float) -> bool:
+    def update(self, t_us: int, pos_ne_m: np.ndarray, var_m2: float, square_yaw_rad: float | None = None) -> bool:
         """Fuse the deck's position ``pos_ne_m`` (m NED, north and east) seen at ``t_us`` with variance ``var_m2``
-        per axis; False if refused (not finite, older than the state, or outside the gate)."""
+        per axis, and the marker's heading then (``square_yaw_rad``, rad NED modulo 90 deg; None: not seen) as the
+        direction of its velocity (:meth:`_fuse_heading`); False if the position was refused (not finite, older
+        than the state, or outside the gate)."""
         z = np.asarray(pos_ne_m, dtype=float)[:2]
         if not np.all(np.isfinite(z)) or not math.isfinite(var_m2) or var_m2 <= 0.0:
             return False
         s = self.settings
         if not self.valid_at(t_us):
-            p0 = np.diag([s.pos_var_in_m2] * 2 + [s.vel_var_in_m2_s2] * 2 + [s.turn_var_in_rad2_s2])
+            p0 = np.diag([s.pos_var_in_m2] * 2 + [s.vel_var_in_m2_s2] * 2 + [s.turn_var_in_rad2_s2, s.lag_var_in_m2])
             self._start(t_us, z, np.zeros(2), 0.0, p0)
             self._rejected_in_row = 0
             return True
@@ -191,15 +230,46 @@ class DeckTurnFilter:
             p[:, :2] = 0.0
             p[0, 0] = p[1, 1] = max(var_m2, s.pos_var_in_m2)
             p[2:4, 2:4] += np.eye(2) * 0.25 * s.vel_var_in_m2_s2
-            self._start(t_us, z, x[2:4].copy(), float(x[4]), p)
+            self._start(t_us, z, x[2:4].copy(), float(x[4]), p, float(x[5]))
             self._rejected_in_row = 0
             return True
         imm.update(z)
+        self._fuse_heading(square_yaw_rad)
         for f in self._ukfs:
             f.x[4] = max(-MAX_TURN_RATE_RAD_S, min(MAX_TURN_RATE_RAD_S, float(f.x[4])))
+            f.x[5] = max(-s.lag_max_m, min(s.lag_max_m, float(f.x[5])))
             f.P = 0.5 * (f.P + f.P.T)
         self._rejected_in_row = 0
         return True
+
+    def _fuse_heading(self, square_yaw_rad: float | None) -> None:
+        """The marker's heading as the direction of the deck's travel (a ground vehicle drives where it points; its
+        marker's square gives that direction modulo 90 deg, which a reverse drive does not change), fused after
+        the position of the same fix into each model, whose probabilities it weighs too (a sequential update of
+        the IMM).  At a figure-8's crossing the heading turns the other way at once, where the positions need a
+        few fixes to show it.  Skipped below the speed at which a velocity has a direction, beyond the gate (a
+        marker read the wrong way round), and with ``heading_var_rad2`` 0."""
+        s, imm = self.settings, self._imm
+        if square_yaw_rad is None or not math.isfinite(square_yaw_rad) or s.heading_var_rad2 <= 0.0 or imm is None:
+            return
+        if math.hypot(float(imm.x[2]), float(imm.x[3])) < s.heading_min_speed_m_s:
+            return
+        if max(float(imm.P[2, 2]), float(imm.P[3, 3])) > s.heading_vel_var_max_m2_s2:
+            return  # (a direction of travel not yet fitted: the heading would be put into the lag)
+        if abs(float(_heading_off_square(imm.x, square_yaw_rad)[0])) > s.heading_gate_rad:
+            return
+        r = np.array([[s.heading_var_rad2]])
+        likelihood = np.empty(len(self._ukfs))
+        for k, f in enumerate(self._ukfs):
+            f.sigmas_f = f.points_fn.sigma_points(f.x, f.P)  # (the sigma points of the state after the position)
+            f.update(np.zeros(1), R=r, hx=_heading_off_square, square_yaw_rad=square_yaw_rad)
+            likelihood[k] = f.likelihood
+        mu = imm.mu * likelihood
+        if float(mu.sum()) > 0.0:
+            imm.mu = mu / mu.sum()
+        imm._compute_mixing_probabilities()
+        imm._compute_state_estimate()
+        imm.x_post, imm.P_post = imm.x.copy(), imm.P.copy()
 
     def shift(self, delta_ne_m: np.ndarray) -> None:
         """Move the deck by ``delta_ne_m`` (m, north and east) with an estimator reset of the vehicle's position: the
@@ -212,6 +282,12 @@ class DeckTurnFilter:
         for f in self._ukfs:
             f.x[:2] += d
         self._imm.x[:2] += d
+
+    @property
+    def marker_lag_m(self) -> float:
+        """How far behind the ground vehicle's turning axle its marker sits (m), as learnt from its heading in turns
+        (0 before the first fix)."""
+        return 0.0 if self._imm is None else float(self._imm.x[5])
 
     def state_at(self, t_us: int) -> DeckState | None:
         """The deck's state predicted to ``t_us`` (the filter is not advanced); None before the first fix or after
