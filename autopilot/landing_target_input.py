@@ -56,6 +56,12 @@ PARAMS: tuple[ParamDef, ...] = (
         "1 a deck that turns (constant speed and turn rate, deck_turn_filter; ours)",
         ParamType.INT32,
     ),
+    param(
+        "PLD_DECK_HDG", 1, 0, 1, "",
+        "The turning deck model (PLD_DECK_MDL 1) takes the marker's heading from LANDING_TARGET's orientation as "
+        "the ground vehicle's: 1 on (the marker's edges along the vehicle's axes), 0 positions only (ours)",
+        ParamType.INT32,
+    ),
 )  # fmt: skip
 
 HISTORY_US = 1_000_000  # attitude/position history kept for delayed measurements
@@ -199,12 +205,14 @@ class LandingTargetInput:
         self._reset_count = est.reset_count
         taken = False
         unc = float(self.params.get("LTEST_MEAS_UNC"))
+        heading = int(self.params.get("PLD_DECK_HDG")) == 1  # the marker's heading as the deck's (deck_turn_filter)
         for meas in self._pending:
             rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
             deck = rel + self._state_at(meas.timestamp_us)[1]
             self.predictor.add_sample(meas.timestamp_us, deck)
             var = meas.std_m**2 if math.isfinite(meas.std_m) else unc * max(float(rel[2]) ** 2, 1.0)
-            if meas.valid and self.deck.update(meas.timestamp_us, deck[:2], var, meas.square_yaw_rad):
+            square = meas.square_yaw_rad if heading else None
+            if meas.valid and self.deck.update(meas.timestamp_us, deck[:2], var, square):
                 taken = True
                 self.accepted += 1
                 self._deck_down_m = float(deck[2])

@@ -142,3 +142,29 @@ def test_a_deck_on_a_2m_circle_at_2m_s_is_followed_by_the_turning_deck_model(mod
         assert target.turn_rad_s == pytest.approx(1.0, abs=0.1)
     else:
         assert err > 0.3 and target.turn_rad_s is None
+
+
+@pytest.mark.parametrize("heading", [1, 0])
+def test_pld_deck_hdg_0_keeps_a_marker_turned_on_its_deck_out_of_the_deck_model(heading):
+    """A marker lying 20 deg off its ground vehicle's axes (LANDING_TARGET's orientation says so) on a 2 m circle at
+    2 m/s: PLD_DECK_HDG 1 takes its heading as the vehicle's and bends the deck's velocity toward it; with 0 the
+    positions alone give the velocity along the circle (within 0.15 m/s), as before the heading was fused."""
+    params = default_store()
+    params.set("PLD_DECK_HDG", heading)
+    lt = LandingTargetInput(params)
+    target = None
+    for t in range(0, 4_000_001, 20_000):
+        lt.record_state(t, np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, -3.0]), 3.0)
+        if t % 50_000 == 0 and t >= 50_000:
+            a = (t - 50_000) * 1e-6  # captured 50 ms ago: 1 rad/s clockwise about (0, 2), heading a
+            msg = _body_msg(2.0 * math.sin(a), 2.0 * (1.0 - math.cos(a)), 3.0, t - 50_000)
+            msg.q = quaternion.from_euler(0.0, 0.0, a + math.radians(20.0)).tolist()
+            lt.on_message(msg, 1, t)
+        target = lt.update(t, _estimate(t)) or target
+    assert target is not None
+    truth = np.array([2.0 * math.cos(4.0), 2.0 * math.sin(4.0)])
+    err = float(np.linalg.norm(target.vel_ned_m_s[:2] - truth))
+    if heading:
+        assert err > 0.15
+    else:
+        assert err < 0.15
