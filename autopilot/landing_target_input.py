@@ -57,9 +57,9 @@ PARAMS: tuple[ParamDef, ...] = (
         ParamType.INT32,
     ),
     param(
-        "PLD_DECK_HDG", 1, 0, 1, "",
-        "The turning deck model (PLD_DECK_MDL 1) takes the marker's heading from LANDING_TARGET's orientation as "
-        "the ground vehicle's: 1 on (the marker's edges along the vehicle's axes), 0 positions only (ours)",
+        "PLD_DECK_HDG", 0, 0, 1, "",
+        "The turning deck model (PLD_DECK_MDL 1) also takes the marker's heading from LANDING_TARGET's orientation "
+        "as the ground vehicle's (its edges along the vehicle's axes): 1 on, 0 positions only (ours)",
         ParamType.INT32,
     ),
 )  # fmt: skip
@@ -206,6 +206,8 @@ class LandingTargetInput:
         taken = False
         unc = float(self.params.get("LTEST_MEAS_UNC"))
         heading = int(self.params.get("PLD_DECK_HDG")) == 1  # the marker's heading as the deck's (deck_turn_filter)
+        if heading != self.deck.heading:  # the other model: it starts again from the next fix
+            self.deck = DeckTurnFilter(heading=heading)
         for meas in self._pending:
             rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
             deck = rel + self._state_at(meas.timestamp_us)[1]

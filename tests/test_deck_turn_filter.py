@@ -169,7 +169,7 @@ def test_the_markers_heading_takes_up_a_figure8_reversal_at_once(seed):
     fused = DeckTurnSettings().heading_var_rad2
     for var in (0.0, fused):
         rng = np.random.default_rng(seed)
-        f = DeckTurnFilter(DeckTurnSettings(heading_var_rad2=var))
+        f = DeckTurnFilter(DeckTurnSettings(heading_var_rad2=var), heading=True)
         errors, flipped = [], None
         for k in range(0, 121):  # 6 s, the crossing at 4 s
             t = k * FIX_US * 1e-6
@@ -193,7 +193,7 @@ def test_the_markers_lag_behind_the_axle_is_learnt_on_a_circle_and_leaves_the_ve
     0.15 m lag within 0.05 m in 6 s, and its velocity then points along the circle (within 2 deg on average over
     the last second), not along the marker."""
     rng = np.random.default_rng(4)
-    f = DeckTurnFilter()
+    f = DeckTurnFilter(heading=True)
     off_deg = []
     for k in range(0, 121):
         t = k * FIX_US * 1e-6

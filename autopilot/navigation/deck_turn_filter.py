@@ -24,14 +24,17 @@ the deck's heading by ~20 deg, which held the vehicle 0.35-0.6 m outside the dec
 * measurement: the deck's north and east position (m, NED, from the estimator's origin) at its capture time;
   gated with a 2-degree-of-freedom chi-square test; after ``REFIT_AFTER_REJECTS`` refusals in a row the filter is
   re-seated on the fix *keeping its velocity and turn rate* (a deck does not stop because the fit slipped);
-* the marker's heading (LANDING_TARGET's orientation, modulo 90 deg), when the sender gives it, fused after each
-  fix's position (:meth:`DeckTurnFilter._fuse_heading`): a ground vehicle points where it drives, so at a figure-8's
+* with ``heading`` (PLD_DECK_HDG 1; off by default: docs/landing.md, "The marker's heading in the deck model"), the
+  marker's heading (LANDING_TARGET's orientation, modulo 90 deg), when the sender gives it, fused after each fix's
+  position (:meth:`DeckTurnFilter._fuse_heading`): a ground vehicle points where it drives, so at a figure-8's
   crossing the heading turns the other way at once, where the positions take a few fixes to show it (20 Hz, 2 cm,
   2 deg: the turn rate has the new sign 0.1 s after the crossing, against 0.25-0.85 s, and the velocity is off by
   0.05-0.11 m/s over the next 0.5 s, against 0.21-0.89).  A marker not over the turning axle points into the turn
   by atan(lag x rate / speed) from its direction of travel (4.3 deg on the simulated UGV, 0.15 m behind its axle,
   on a 2 m circle at 2 m/s; fused as if it pointed along the track, that bias held the vehicle ahead of the deck:
-  11 of the first 24 figure-8 landings landed): the lag is the state's sixth element, learnt in the turns;
+  11 of the first 24 figure-8 landings landed): the lag is the state's sixth element, learnt in the turns (on a
+  steady turn it and the direction of travel shift the heading alike: at 1 m/s on a 2 m circle the velocity can
+  settle 3.5 deg off, which is why it is off by default);
 * the filter lives at the time of its latest fix; :meth:`DeckTurnFilter.state_at` predicts the mean forward
   (fixes arrive in time order, 50 ms late: it is never run backwards), straight on when the turn's acceleration
   is below STRAIGHT_PREDICT_BELOW_M_S2 (a straight drive's fitted rate is noise).
@@ -134,10 +137,14 @@ def _heading_off_square(x: np.ndarray, square_yaw_rad: float) -> np.ndarray:
 
 
 class DeckTurnFilter:
-    """Feed :meth:`update` with the deck's measured positions in time order; read :meth:`state_at`."""
+    """Feed :meth:`update` with the deck's measured positions in time order; read :meth:`state_at`.  ``heading``:
+    the marker's heading is fused too (PLD_DECK_HDG 1), with the marker's lag as a sixth state; without it the
+    filter is the five-state one, the marker's heading ignored."""
 
-    def __init__(self, settings: DeckTurnSettings | None = None) -> None:
+    def __init__(self, settings: DeckTurnSettings | None = None, heading: bool = False) -> None:
         self.settings = settings or DeckTurnSettings()
+        self.heading = bool(heading)
+        self._n = 6 if self.heading else 5
         s = self.settings
         self._turn_vars = (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
         self._ukfs: list[UnscentedKalmanFilter] = []  # built with the first fix (_build)
@@ -153,9 +160,9 @@ class DeckTurnFilter:
             return self._imm
         from filterpy.kalman import IMMEstimator, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-        s = self.settings
+        s, n = self.settings, self._n
         self._ukfs = [
-            UnscentedKalmanFilter(6, 2, 0.05, _measure, turn_step, MerweScaledSigmaPoints(6, 0.3, 2.0, 0.0))
+            UnscentedKalmanFilter(n, 2, 0.05, _measure, turn_step, MerweScaledSigmaPoints(n, 0.3, 2.0, 0.0))
             for _ in (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
         ]
         switch = np.array([[s.stay_prob, 1.0 - s.stay_prob], [1.0 - s.stay_prob, s.stay_prob]])
@@ -170,7 +177,7 @@ class DeckTurnFilter:
         return self._t_us is not None and (t_us - self._t_us) * 1e-6 <= self.settings.timeout_s
 
     def _start(self, t_us: int, z: np.ndarray, vel: np.ndarray, turn: float, p: np.ndarray, lag: float = 0.0) -> None:
-        x = np.array([z[0], z[1], vel[0], vel[1], turn, lag], dtype=float)
+        x = np.array([z[0], z[1], vel[0], vel[1], turn, lag][: self._n], dtype=float)
         imm = self._build()
         for f in self._ukfs:
             f.x, f.P = x.copy(), p.copy()
@@ -182,13 +189,14 @@ class DeckTurnFilter:
         model's unless ``turn_var_rad2_s4``)."""
         qa = self.settings.acc_var_m2_s4
         qw = self.settings.turn_acc_var_rad2_s4 if turn_var_rad2_s4 is None else turn_var_rad2_s4
-        q = np.zeros((6, 6))
+        q = np.zeros((self._n, self._n))
         for p, v in ((0, 2), (1, 3)):
             q[p, p] = qa * dt_s**4 / 4.0
             q[p, v] = q[v, p] = qa * dt_s**3 / 2.0
             q[v, v] = qa * dt_s**2
         q[4, 4] = qw * dt_s**2
-        q[5, 5] = self.settings.lag_var_m2_s * dt_s
+        if self._n > 5:
+            q[5, 5] = self.settings.lag_var_m2_s * dt_s
         return q
 
     def update(self, t_us: int, pos_ne_m: np.ndarray, var_m2: float, square_yaw_rad: float | None = None) -> bool:
@@ -201,7 +209,9 @@ class DeckTurnFilter:
             return False
         s = self.settings
         if not self.valid_at(t_us):
-            p0 = np.diag([s.pos_var_in_m2] * 2 + [s.vel_var_in_m2_s2] * 2 + [s.turn_var_in_rad2_s2, s.lag_var_in_m2])
+            p0 = np.diag(
+                ([s.pos_var_in_m2] * 2 + [s.vel_var_in_m2_s2] * 2 + [s.turn_var_in_rad2_s2, s.lag_var_in_m2])[: self._n]
+            )
             self._start(t_us, z, np.zeros(2), 0.0, p0)
             self._rejected_in_row = 0
             return True
@@ -230,14 +240,15 @@ class DeckTurnFilter:
             p[:, :2] = 0.0
             p[0, 0] = p[1, 1] = max(var_m2, s.pos_var_in_m2)
             p[2:4, 2:4] += np.eye(2) * 0.25 * s.vel_var_in_m2_s2
-            self._start(t_us, z, x[2:4].copy(), float(x[4]), p, float(x[5]))
+            self._start(t_us, z, x[2:4].copy(), float(x[4]), p, float(x[5]) if self._n > 5 else 0.0)
             self._rejected_in_row = 0
             return True
         imm.update(z)
         self._fuse_heading(square_yaw_rad)
         for f in self._ukfs:
             f.x[4] = max(-MAX_TURN_RATE_RAD_S, min(MAX_TURN_RATE_RAD_S, float(f.x[4])))
-            f.x[5] = max(-s.lag_max_m, min(s.lag_max_m, float(f.x[5])))
+            if self._n > 5:
+                f.x[5] = max(-s.lag_max_m, min(s.lag_max_m, float(f.x[5])))
             f.P = 0.5 * (f.P + f.P.T)
         self._rejected_in_row = 0
         return True
@@ -250,7 +261,9 @@ class DeckTurnFilter:
         few fixes to show it.  Skipped below the speed at which a velocity has a direction, beyond the gate (a
         marker read the wrong way round), and with ``heading_var_rad2`` 0."""
         s, imm = self.settings, self._imm
-        if square_yaw_rad is None or not math.isfinite(square_yaw_rad) or s.heading_var_rad2 <= 0.0 or imm is None:
+        if not self.heading or imm is None or s.heading_var_rad2 <= 0.0:
+            return
+        if square_yaw_rad is None or not math.isfinite(square_yaw_rad):
             return
         if math.hypot(float(imm.x[2]), float(imm.x[3])) < s.heading_min_speed_m_s:
             return
@@ -287,7 +300,7 @@ class DeckTurnFilter:
     def marker_lag_m(self) -> float:
         """How far behind the ground vehicle's turning axle its marker sits (m), as learnt from its heading in turns
         (0 before the first fix)."""
-        return 0.0 if self._imm is None else float(self._imm.x[5])
+        return 0.0 if self._imm is None or self._n < 6 else float(self._imm.x[5])
 
     def state_at(self, t_us: int) -> DeckState | None:
         """The deck's state predicted to ``t_us`` (the filter is not advanced); None before the first fix or after
