@@ -126,17 +126,8 @@ def test_a_deck_on_a_2m_circle_at_2m_s_is_followed_by_the_turning_deck_model(mod
     rate reaches the task; PLD_DECK_MDL 0 (the constant-velocity Kalman) lags the turn by more than 0.3 m/s."""
     params = default_store()
     params.set("PLD_DECK_MDL", model)
-    lt = LandingTargetInput(params)
-    target = None
-    for t in range(0, 4_000_001, 20_000):
-        lt.record_state(t, np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, -3.0]), 3.0)
-        if t % 50_000 == 0 and t >= 50_000:
-            a = (t - 50_000) * 1e-6  # captured 50 ms ago: 1 rad/s clockwise about (0, 2)
-            lt.on_message(_body_msg(2.0 * math.sin(a), 2.0 * (1.0 - math.cos(a)), 3.0, t - 50_000), 1, t)
-        target = lt.update(t, _estimate(t)) or target
-    assert target is not None and target.timestamp_us == 4_000_000
-    truth = np.array([2.0 * math.cos(4.0), 2.0 * math.sin(4.0)])
-    err = float(np.linalg.norm(target.vel_ned_m_s[:2] - truth))
+    target, err = _circle_followed(params)
+    assert target.timestamp_us == 4_000_000
     if within_m is not None:
         assert err < within_m
         assert target.turn_rad_s == pytest.approx(1.0, abs=0.1)
@@ -147,24 +138,32 @@ def test_a_deck_on_a_2m_circle_at_2m_s_is_followed_by_the_turning_deck_model(mod
 @pytest.mark.parametrize("heading", [1, 0])
 def test_pld_deck_hdg_0_keeps_a_marker_turned_on_its_deck_out_of_the_deck_model(heading):
     """A marker lying 20 deg off its ground vehicle's axes (LANDING_TARGET's orientation says so) on a 2 m circle at
-    2 m/s: PLD_DECK_HDG 1 takes its heading as the vehicle's and bends the deck's velocity toward it; with 0 the
-    positions alone give the velocity along the circle (within 0.15 m/s), as before the heading was fused."""
+    2 m/s: PLD_DECK_HDG 1 takes its heading as the vehicle's and bends the deck's velocity toward it; with 0 (the
+    default) the positions alone give the velocity along the circle (within 0.15 m/s)."""
     params = default_store()
     params.set("PLD_DECK_HDG", heading)
+    _, err = _circle_followed(params, marker_turned_deg=20.0)
+    if heading:
+        assert err > 0.15
+    else:
+        assert err < 0.15
+
+
+def _circle_followed(params, marker_turned_deg: float | None = None):
+    """LANDING_TARGET at 20 Hz, 50 ms late, of a deck on a 2 m circle at 2 m/s (1 rad/s clockwise about (0, 2) m),
+    a vehicle hovering 3 m up; with ``marker_turned_deg`` the target's orientation is the deck's heading plus that
+    (else the zero rotation, no orientation).  The last target the task got and its velocity error after 4 s (m/s)."""
     lt = LandingTargetInput(params)
     target = None
     for t in range(0, 4_000_001, 20_000):
         lt.record_state(t, np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, -3.0]), 3.0)
         if t % 50_000 == 0 and t >= 50_000:
-            a = (t - 50_000) * 1e-6  # captured 50 ms ago: 1 rad/s clockwise about (0, 2), heading a
+            a = (t - 50_000) * 1e-6  # captured 50 ms ago; the deck's heading then is a
             msg = _body_msg(2.0 * math.sin(a), 2.0 * (1.0 - math.cos(a)), 3.0, t - 50_000)
-            msg.q = quaternion.from_euler(0.0, 0.0, a + math.radians(20.0)).tolist()
+            if marker_turned_deg is not None:
+                msg.q = quaternion.from_euler(0.0, 0.0, a + math.radians(marker_turned_deg)).tolist()
             lt.on_message(msg, 1, t)
         target = lt.update(t, _estimate(t)) or target
     assert target is not None
     truth = np.array([2.0 * math.cos(4.0), 2.0 * math.sin(4.0)])
-    err = float(np.linalg.norm(target.vel_ned_m_s[:2] - truth))
-    if heading:
-        assert err > 0.15
-    else:
-        assert err < 0.15
+    return target, float(np.linalg.norm(target.vel_ned_m_s[:2] - truth))
