@@ -50,6 +50,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from autopilot.navigation.deck_heading import square
+
 if TYPE_CHECKING:
     from filterpy.kalman import IMMEstimator, UnscentedKalmanFilter
 
@@ -75,7 +77,7 @@ class DeckTurnSettings:
     vel_var_in_m2_s2: float = 4.0  # initial velocity variance (a deck seen first may already drive 2 m/s)
     turn_var_in_rad2_s2: float = 0.5  # initial turn-rate variance
     timeout_s: float = 2.0  # no accepted fix for this long: the estimate is invalid, the next fix restarts
-    # The marker's heading (modulo 90 deg) as the direction of the deck's velocity: its variance, rad^2 (0: not
+    # The marker's heading (modulo 90 deg) as the ground vehicle's (with ``heading``): its variance, rad^2 (0: not
     # fused), fused only while the deck drives faster than heading_min_speed_m_s and within heading_gate_rad.
     heading_var_rad2: float = math.radians(3.0) ** 2
     heading_min_speed_m_s: float = 0.5
@@ -119,21 +121,13 @@ def _measure(x: np.ndarray) -> np.ndarray:
     return np.asarray(x[:2], dtype=float)
 
 
-QUARTER_TURN = math.pi / 2
-
-
-def square_off(angle_rad: float) -> float:
-    """An angle wrapped to [-45, 45) deg, rad: the difference of two headings of a square."""
-    return (angle_rad + QUARTER_TURN / 2) % QUARTER_TURN - QUARTER_TURN / 2
-
-
 def _heading_off_square(x: np.ndarray, square_yaw_rad: float) -> np.ndarray:
     """The deck's heading in state ``x`` off the marker's heading ``square_yaw_rad``, modulo 90 deg (rad).  A ground
     vehicle points where its turning axle drives; its marker, ``x[5]`` metres behind that axle, moves
     atan(lag x turn rate / speed) off that heading in a turn (toward the inside: its velocity is the state's)."""
     vn, ve, w, lag = float(x[2]), float(x[3]), float(x[4]), float(x[5])
     heading = math.atan2(ve, vn) + math.atan2(lag * w, math.hypot(vn, ve))
-    return np.array([square_off(heading - square_yaw_rad)])
+    return np.array([square(heading - square_yaw_rad)])  # (the difference of two headings of a square)
 
 
 class DeckTurnFilter:
@@ -202,8 +196,8 @@ class DeckTurnFilter:
     def update(self, t_us: int, pos_ne_m: np.ndarray, var_m2: float, square_yaw_rad: float | None = None) -> bool:
         """Fuse the deck's position ``pos_ne_m`` (m NED, north and east) seen at ``t_us`` with variance ``var_m2``
         per axis, and the marker's heading then (``square_yaw_rad``, rad NED modulo 90 deg; None: not seen) as the
-        direction of its velocity (:meth:`_fuse_heading`); False if the position was refused (not finite, older
-        than the state, or outside the gate)."""
+        ground vehicle's heading (with ``heading``: :meth:`_fuse_heading`); False if the position was refused (not
+        finite, older than the state, or outside the gate)."""
         z = np.asarray(pos_ne_m, dtype=float)[:2]
         if not np.all(np.isfinite(z)) or not math.isfinite(var_m2) or var_m2 <= 0.0:
             return False
@@ -254,8 +248,9 @@ class DeckTurnFilter:
         return True
 
     def _fuse_heading(self, square_yaw_rad: float | None) -> None:
-        """The marker's heading as the direction of the deck's travel (a ground vehicle drives where it points; its
-        marker's square gives that direction modulo 90 deg, which a reverse drive does not change), fused after
+        """The marker's heading as the ground vehicle's (it drives where it points, the marker ``x[5]`` behind its
+        turning axle: :func:`_heading_off_square`; the marker's square gives it modulo 90 deg, which a reverse drive
+        does not change), fused after
         the position of the same fix into each model, whose probabilities it weighs too (a sequential update of
         the IMM).  At a figure-8's crossing the heading turns the other way at once, where the positions need a
         few fixes to show it.  Skipped below the speed at which a velocity has a direction, beyond the gate (a
