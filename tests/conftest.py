@@ -149,6 +149,9 @@ def pytest_configure(config):
         from mavproxy_env import prepare_in_background
 
         prepare_in_background()  # MAVProxy's environment made beside the unit tests (tests/mavproxy_env.py)
+        from rewrite_cache import write_for_workers
+
+        write_for_workers(config)  # pytest's rewritten test files, once for all workers (tests/rewrite_cache.py)
 
 
 def pytest_runtest_setup(item):

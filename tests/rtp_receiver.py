@@ -15,6 +15,7 @@ import re
 import socket
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import av
@@ -143,23 +144,54 @@ def h264_access_units(datagrams: list[bytes]) -> list[bytes]:
     return units
 
 
-def frames_sent_from_first_key_frame(datagrams: list[bytes], rate_hz: float) -> int:
-    """How many frames a ``rate_hz`` stream sent from its first key frame (an IDR slice, NAL type 5) among
-    ``datagrams`` to the last one's frame, by their RTP timestamps (90 kHz): what a receiver that joined late and
-    lost nothing decodes.  0 if no key frame came."""
-    first = last = None
+@dataclass(frozen=True)
+class StreamCount:
+    """What a receiver of a ``rate_hz`` stream that joined it late got, from the stream's first key frame (an IDR
+    slice, NAL type 5) among the datagrams on: ``slots`` frame periods from that frame to the last one that ended
+    (its datagram with the marker bit: a receiver may stop in the middle of a frame), by their RTP timestamps
+    (90 kHz); ``received`` frames whose datagrams all came (no sequence number missing up to their last);
+    ``decodable`` those of them with nothing missing since the key frame they follow (a frame after a loss needs
+    the next key frame); ``lost`` datagrams missing by their sequence numbers.  All zero if no key frame came."""
+
+    slots: int = 0
+    received: int = 0
+    decodable: int = 0
+    lost: int = 0
+
+
+def count_stream(datagrams: list[bytes], rate_hz: float) -> StreamCount:
+    """:class:`StreamCount` of ``datagrams`` (in their order of arrival; not RTP payload type 96 ones skipped)."""
+    first = last = prev_seq = None
+    received = decodable = lost = 0
+    intact = key = False  # this frame so far; a key frame in it
+    chain = False  # nothing lost since the last key frame
     for d in datagrams:
         if len(d) < 14 or d[0] >> 6 != 2 or d[1] & 0x7F != 96:
             continue
-        ts = int.from_bytes(d[4:8], "big")
+        seq, ts = int.from_bytes(d[2:4], "big"), int.from_bytes(d[4:8], "big")
         payload = d[12 + 4 * (d[0] & 0x0F) :]
         nal = payload[1] & 0x1F if payload[0] & 0x1F == 28 else payload[0] & 0x1F  # FU-A: the fragment's type
-        if first is None and nal == 5:
-            first = ts
-        last = ts
+        if first is None:
+            if nal != 5:
+                prev_seq = seq
+                continue
+            first, intact = ts, prev_seq is not None and seq == (prev_seq + 1) % 2**16  # (its SPS and PPS came)
+        elif seq != (prev_seq + 1) % 2**16:
+            lost += (seq - prev_seq - 1) % 2**16
+            intact = chain = False
+        prev_seq = seq
+        key = key or nal == 5
+        if d[1] & 0x80:  # the frame's last datagram
+            last = ts
+            if intact:
+                received += 1
+                chain = chain or key
+                decodable += chain
+            intact, key = True, False
     if first is None or last is None:
-        return 0
-    return round(((last - first) % 2**32) / (90_000 / rate_hz)) + 1
+        return StreamCount()
+    slots = round(((last - first) % 2**32) / (90_000 / rate_hz)) + 1
+    return StreamCount(slots, received, decodable, lost)
 
 
 def decode_h264(units: list[bytes], pixels: str = "gray") -> list[np.ndarray]:

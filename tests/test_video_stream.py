@@ -30,7 +30,15 @@ from vision.camera_model import pinhole
 from vision.detector import MarkerDetector
 from vision.marker import MARKER_ID, marker_image
 
-from rtp_receiver import SdpReceiver, has_bye, receive_datagrams
+from rtp_receiver import (
+    SdpReceiver,
+    StreamCount,
+    count_stream,
+    decode_h264,
+    h264_access_units,
+    has_bye,
+    receive_datagrams,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 W, H, RATE_HZ = 480, 360, 20.0  # params/vehicles/quad_x.toml [camera]
@@ -117,13 +125,13 @@ def rtp_frames(datagrams: list[bytes], ssrc: int, max_bytes: int) -> list[tuple[
     return frames
 
 
-def test_rtp_packets_carry_simulated_time_and_the_parameter_sets_before_every_key_frame(video_port):
-    n, max_bytes = 45, 600  # 2.25 s of frames: key frames 0, 20 and 40; small packets, so key frames fragment
+def streamed(port: int, n: int, max_bytes: int) -> tuple[RtpVideoStream, list[bytes]]:
+    """The closed stream and every datagram it sent (the last one its RTCP BYE) for ``n`` frames of :func:`scene`,
+    one period apart, in packets of at most ``max_bytes``."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)  # a key frame's burst, with room to spare
-        sock.bind(("127.0.0.1", video_port))  # bound before the stream starts: every datagram is queued
-        stream = RtpVideoStream("127.0.0.1", video_port, W, H, RATE_HZ, 1000.0, max_packet_bytes=max_bytes)
-        sdp = stream.sdp
+        sock.bind(("127.0.0.1", port))  # bound before the stream starts: every datagram is queued
+        stream = RtpVideoStream("127.0.0.1", port, W, H, RATE_HZ, 1000.0, max_packet_bytes=max_bytes)
         datagrams = []
         for k in range(n):
             stream.send(scene(k)[0], 3_000_000 + k * PERIOD_US)
@@ -136,6 +144,13 @@ def test_rtp_packets_carry_simulated_time_and_the_parameter_sets_before_every_ke
         stream.close()
         sock.setblocking(True)
         datagrams += receive_datagrams(sock)
+    return stream, datagrams
+
+
+def test_rtp_packets_carry_simulated_time_and_the_parameter_sets_before_every_key_frame(video_port):
+    n, max_bytes = 45, 600  # 2.25 s of frames: key frames 0, 20 and 40; small packets, so key frames fragment
+    stream, datagrams = streamed(video_port, n, max_bytes)
+    sdp = stream.sdp
     assert has_bye(datagrams[-1]) and struct.unpack("!I", datagrams[-1][4:8])[0] == stream.ssrc  # SR + BYE
     frames = rtp_frames(datagrams[:-1], stream.ssrc, max_bytes)
     assert len(frames) == n
@@ -153,6 +168,29 @@ def test_rtp_packets_carry_simulated_time_and_the_parameter_sets_before_every_ke
             assert kinds[k].index(7) < kinds[k].index(8) < kinds[k].index(5)
     assert any(d[12] & 0x1F == 28 for d in datagrams[:-1]), "no unit was fragmented: FU-A untested"
     assert stream.bytes_sent == sum(len(d) for d in datagrams[:-1])
+
+
+def test_a_late_receiver_counts_what_came_what_was_lost_and_what_decodes(video_port):
+    """tests/rtp_receiver.py's count_stream, which test_e2e_camera.py's stream test asserts with: a receiver that
+    joined at frame 5 of 45 (key frames 0, 20, 40) counts from frame 20; a datagram lost in frame 25 spoils it and
+    the frames after it up to the next key frame; a sender that skipped every other frame shows in the counts."""
+    stream, datagrams = streamed(video_port, 45, 600)
+    frames = rtp_frames(datagrams[:-1], stream.ssrc, 600)
+    stamps = [stamp for stamp, _ in frames]
+    by_frame = [[d for d in datagrams[:-1] if struct.unpack("!I", d[4:8])[0] == stamp] for stamp in stamps]
+    assert len(by_frame) == 45 and sum(map(len, by_frame)) == len(datagrams) - 1
+    late = [d for frame in by_frame[5:] for d in frame]
+    assert count_stream(late, RATE_HZ) == StreamCount(slots=25, received=25, decodable=25, lost=0)
+    assert len(decode_h264(h264_access_units(late))) in (24, 25)  # from the key frame on (the last may be held)
+
+    lossy = late[:]
+    lossy.remove(by_frame[25][0])  # one datagram of frame 25
+    assert count_stream(lossy, RATE_HZ) == StreamCount(slots=25, received=24, decodable=10, lost=1)  # 20-24, 40-44
+
+    skipping = [d for k, frame in enumerate(by_frame[20:]) if k % 2 == 0 for d in frame]  # frames 20, 22, ... 44
+    renumbered = [d[:2] + struct.pack("!H", k) + d[4:] for k, d in enumerate(skipping)]  # no sequence gap
+    count = count_stream(renumbered, RATE_HZ)
+    assert (count.lost, count.received, count.slots) == (0, 13, 25)  # what the camera test calls a skipping stream
 
 
 def test_a_send_the_network_refuses_is_counted_never_raised(video_port):
