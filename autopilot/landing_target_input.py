@@ -57,10 +57,16 @@ PARAMS: tuple[ParamDef, ...] = (
         ParamType.INT32,
     ),
     param(
-        "PLD_DECK_HDG", 0, 0, 1, "",
+        "PLD_DECK_HDG", 0, 0, 2, "",
         "The turning deck model (PLD_DECK_MDL 1) also takes the marker's heading from LANDING_TARGET's orientation "
-        "as the ground vehicle's (its edges along the vehicle's axes): 1 on, 0 positions only (ours)",
+        "as the ground vehicle's (its edges along the vehicle's axes): 0 positions only, 1 the heading with the "
+        "marker's distance behind the vehicle's turning axle learnt in turns, 2 with it given by PLD_DECK_LAG (ours)",
         ParamType.INT32,
+    ),
+    param(
+        "PLD_DECK_LAG", 0.0, -0.5, 0.5, "m",
+        "With PLD_DECK_HDG 2: how far the landing marker's centre is behind the ground vehicle's turning axle "
+        "(the rear axle of a car-like vehicle; negative: ahead of it) (ours)",
     ),
 )  # fmt: skip
 
@@ -205,15 +211,16 @@ class LandingTargetInput:
         self._reset_count = est.reset_count
         taken = False
         unc = float(self.params.get("LTEST_MEAS_UNC"))
-        heading = int(self.params.get("PLD_DECK_HDG")) == 1  # the marker's heading as the deck's (deck_turn_filter)
-        if heading != self.deck.heading:  # the other model: it starts again from the next fix
-            self.deck = DeckTurnFilter(heading=heading)
+        mode = int(self.params.get("PLD_DECK_HDG"))  # the marker's heading as the deck's (deck_turn_filter)
+        lag = float(self.params.get("PLD_DECK_LAG")) if mode == 2 else None
+        if (mode > 0, lag) != (self.deck.heading, self.deck.lag_m):  # another model: it starts again from the next fix
+            self.deck = DeckTurnFilter(heading=mode > 0, lag_m=lag)
         for meas in self._pending:
             rel = np.asarray(meas.rel_pos_ned_m, dtype=float)
             deck = rel + self._state_at(meas.timestamp_us)[1]
             self.predictor.add_sample(meas.timestamp_us, deck)
             var = meas.std_m**2 if math.isfinite(meas.std_m) else unc * max(float(rel[2]) ** 2, 1.0)
-            square = meas.square_yaw_rad if heading else None
+            square = meas.square_yaw_rad if mode > 0 else None
             if meas.valid and self.deck.update(meas.timestamp_us, deck[:2], var, square):
                 taken = True
                 self.accepted += 1

@@ -45,7 +45,7 @@ Pure: time is an input (microseconds), no I/O.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,6 +63,7 @@ MAX_TURN_RATE_RAD_S = 2.0  # the turn rate is held to this (a UGV turning on the
 # as a straight drive: the fitted rate of a deck driving a line wanders by ~0.06 rad/s, 0.28 m sideways after
 # 1.5 s at 3 m/s; a 2 m circle at 1 m/s is 0.5 m/s^2 (as target_coast's dead band).
 STRAIGHT_PREDICT_BELOW_M_S2 = 0.25
+KNOWN_LAG_VAR_M2 = 1e-8  # the variance of a lag given, not learnt (m^2: a tenth of a millimetre)
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,14 +133,21 @@ def _heading_off_square(x: np.ndarray, square_yaw_rad: float) -> np.ndarray:
 
 class DeckTurnFilter:
     """Feed :meth:`update` with the deck's measured positions in time order; read :meth:`state_at`.  ``heading``:
-    the marker's heading is fused too (PLD_DECK_HDG 1), with the marker's lag as a sixth state; without it the
-    filter is the five-state one, the marker's heading ignored."""
+    the marker's heading is fused too, with the marker's lag as a sixth state, learnt (PLD_DECK_HDG 1) or given as
+    ``lag_m`` (m behind the turning axle, PLD_DECK_HDG 2 with PLD_DECK_LAG); without it the filter is the
+    five-state one, the marker's heading ignored."""
 
-    def __init__(self, settings: DeckTurnSettings | None = None, heading: bool = False) -> None:
-        self.settings = settings or DeckTurnSettings()
+    def __init__(
+        self, settings: DeckTurnSettings | None = None, heading: bool = False, lag_m: float | None = None
+    ) -> None:
+        s = settings or DeckTurnSettings()
         self.heading = bool(heading)
         self._n = 6 if self.heading else 5
-        s = self.settings
+        # A known lag (m; the pad's mount on the ground vehicle, PLD_DECK_HDG 2): held, not learnt.
+        self.lag_m = None if lag_m is None or not self.heading else max(-s.lag_max_m, min(s.lag_max_m, float(lag_m)))
+        if self.lag_m is not None:
+            s = replace(s, lag_var_in_m2=KNOWN_LAG_VAR_M2, lag_var_m2_s=0.0)
+        self.settings = s
         self._turn_vars = (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
         self._ukfs: list[UnscentedKalmanFilter] = []  # built with the first fix (_build)
         self._imm: IMMEstimator | None = None
@@ -206,7 +214,7 @@ class DeckTurnFilter:
             p0 = np.diag(
                 ([s.pos_var_in_m2] * 2 + [s.vel_var_in_m2_s2] * 2 + [s.turn_var_in_rad2_s2, s.lag_var_in_m2])[: self._n]
             )
-            self._start(t_us, z, np.zeros(2), 0.0, p0)
+            self._start(t_us, z, np.zeros(2), 0.0, p0, self.lag_m or 0.0)
             self._rejected_in_row = 0
             return True
         assert self._t_us is not None and self._imm is not None
