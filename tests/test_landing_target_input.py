@@ -135,11 +135,12 @@ def test_a_deck_on_a_2m_circle_at_2m_s_is_followed_by_the_turning_deck_model(mod
         assert err > 0.3 and target.turn_rad_s is None
 
 
-@pytest.mark.parametrize("heading", [1, 0])
+@pytest.mark.parametrize("heading", [1, 2, 0])
 def test_pld_deck_hdg_0_keeps_a_marker_turned_on_its_deck_out_of_the_deck_model(heading):
     """A marker lying 20 deg off its ground vehicle's axes (LANDING_TARGET's orientation says so) on a 2 m circle at
-    2 m/s: PLD_DECK_HDG 1 takes its heading as the vehicle's and bends the deck's velocity toward it; with 0 (the
-    default) the positions alone give the velocity along the circle (within 0.15 m/s)."""
+    2 m/s: PLD_DECK_HDG 1 (its lag behind the axle learnt) and 2 (given, PLD_DECK_LAG 0) take its heading as the
+    vehicle's and bend the deck's velocity toward it; with 0 (the default) the positions alone give the velocity
+    along the circle (within 0.15 m/s)."""
     params = default_store()
     params.set("PLD_DECK_HDG", heading)
     _, err = _circle_followed(params, marker_turned_deg=20.0)
@@ -149,11 +150,29 @@ def test_pld_deck_hdg_0_keeps_a_marker_turned_on_its_deck_out_of_the_deck_model(
         assert err < 0.15
 
 
+def test_pld_deck_hdg_2_holds_the_lag_pld_deck_lag_gives():
+    """PLD_DECK_HDG 2: the deck model is built with PLD_DECK_LAG as the marker's lag and keeps it through the fixes;
+    a changed PLD_DECK_LAG rebuilds it."""
+    params = default_store()
+    params.set("PLD_DECK_HDG", 2)
+    params.set("PLD_DECK_LAG", 0.15)
+    lt = LandingTargetInput(params)
+    _circle_with(lt)
+    assert lt.deck.lag_m == pytest.approx(0.15) and lt.deck.marker_lag_m == pytest.approx(0.15, abs=1e-3)
+    params.set("PLD_DECK_LAG", -0.1)
+    _circle_with(lt)
+    assert lt.deck.marker_lag_m == pytest.approx(-0.1, abs=1e-3)
+
+
 def _circle_followed(params, marker_turned_deg: float | None = None):
     """LANDING_TARGET at 20 Hz, 50 ms late, of a deck on a 2 m circle at 2 m/s (1 rad/s clockwise about (0, 2) m),
     a vehicle hovering 3 m up; with ``marker_turned_deg`` the target's orientation is the deck's heading plus that
     (else the zero rotation, no orientation).  The last target the task got and its velocity error after 4 s (m/s)."""
-    lt = LandingTargetInput(params)
+    return _circle_with(LandingTargetInput(params), marker_turned_deg)
+
+
+def _circle_with(lt: LandingTargetInput, marker_turned_deg: float | None = None):
+    """:func:`_circle_followed` with this landing-target input."""
     target = None
     for t in range(0, 4_000_001, 20_000):
         lt.record_state(t, np.array([1.0, 0.0, 0.0, 0.0]), np.array([0.0, 0.0, -3.0]), 3.0)
