@@ -118,6 +118,12 @@ def to_euler(q: Quat) -> tuple[float, float, float]:
     return roll, pitch, yaw
 
 
+def yaw_of(q: Quat) -> float:
+    """The yaw (rad) of :func:`to_euler`, alone: the same arithmetic, without the roll and pitch."""
+    w, x, y, z = float(q[0]), float(q[1]), float(q[2]), float(q[3])
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
 def from_euler(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Quaternion of aerospace ZYX Euler angles (rad)."""
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)

@@ -269,7 +269,7 @@ class LockstepServer:
         )
         self.conn.sendall(out)
         if self.truth_log is not None:  # while the flight controller computes its step
-            self.truth_log.record(time_us, t, self.armed, self.motor_commands, self.sim.ugv_truth())
+            self.truth_log.record(time_us, t, self.armed, self.motor_commands, self.sim.ugv_truth)
         if time_us % TRUTH_PERIOD_US == 0:
             self._every_truth_period(time_us, t)
 

@@ -119,7 +119,8 @@ class TruthRecorder:
         self.on_open: Callable[[Path], None] | None = None  # called with each new truth log (sitl/flight_setup.py)
 
     def record(self, time_us: int, t, armed: bool, motor_commands: Sequence[float], ugv=None) -> None:
-        """One period: ``t`` a :class:`sitl.simulation.SensorTruth`, ``ugv`` a :class:`sitl.ugv_world.UgvTruth`."""
+        """One period: ``t`` a :class:`sitl.simulation.SensorTruth`, ``ugv`` a :class:`sitl.ugv_world.UgvTruth` or
+        a function giving it (or None), called only while the log is open (the lockstep's: every step)."""
         if self.disabled:
             return
         try:
@@ -145,6 +146,7 @@ class TruthRecorder:
                 motors = [*motors, *[0.0] * (n - len(motors))]
             if self.ugv:
                 extra: Sequence[float] = [math.nan] * len(UGV_FIELDS)
+                ugv = ugv() if callable(ugv) else ugv
                 if ugv is not None:
                     extra = [*ugv.deck_pos_ned_m.tolist(), *ugv.vel_ned_m_s[:2].tolist(), ugv.yaw_rad]
                 motors = [*motors, *extra]

@@ -24,7 +24,7 @@ import numpy as np
 
 from mavsim_core.constants import GRAVITY_M_S2, LOCKSTEP_DT_S
 from mavsim_core.frames import enu_to_ned, ned_to_enu, quat_enu_flu_to_ned_frd, quat_ned_frd_to_enu_flu
-from mavsim_core.quaternion import to_euler
+from mavsim_core.quaternion import yaw_of
 from sitl.ugv_paths import PathTarget, Pose2, UgvLimits, UnicycleCommand, unicycle_command
 from vision.marker import MARKER_BITS, MARKER_SIZE_M, dictionary
 from vision.pad import NESTED_PAD, PadLayout
@@ -222,7 +222,13 @@ class Ugv:
         q = quat_enu_flu_to_ned_frd(np.array(d.xquat[b]))
         vel6 = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, d, mujoco.mjtObj.mjOBJ_BODY, b, vel6, 0)
-        return UgvState(enu_to_ned(d.xpos[b]), enu_to_ned(vel6[3:]), q, float(to_euler(q)[2]))
+        return UgvState(enu_to_ned(d.xpos[b]), enu_to_ned(vel6[3:]), q, yaw_of(q))
+
+    def pose(self) -> Pose2:
+        """``state().pose`` without the velocity (the path follower's input, every step): the same numbers."""
+        d, b = self.data, self._body
+        x, y = d.xpos[b][:2]
+        return Pose2(float(y), float(x), yaw_of(quat_enu_flu_to_ned_frd(np.array(d.xquat[b]))))
 
     def command(self, cmd: UnicycleCommand, dt_s: float = LOCKSTEP_DT_S) -> None:
         """Set the wheel actuators for ``cmd`` (call once per physics step of ``dt_s``)."""
@@ -231,6 +237,6 @@ class Ugv:
 
     def follow(self, target: PathTarget, dt_s: float = LOCKSTEP_DT_S) -> UnicycleCommand:
         """Track ``target`` (from :meth:`sitl.ugv_paths.UgvPath.target`); return the command used."""
-        cmd = unicycle_command(target, self.state().pose, self.limits)
+        cmd = unicycle_command(target, self.pose(), self.limits)
         self.command(cmd, dt_s)
         return cmd
