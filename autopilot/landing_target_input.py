@@ -60,13 +60,13 @@ PARAMS: tuple[ParamDef, ...] = (
         "PLD_DECK_HDG", 0, 0, 2, "",
         "The turning deck model (PLD_DECK_MDL 1) also takes the marker's heading from LANDING_TARGET's orientation "
         "as the ground vehicle's (its edges along the vehicle's axes): 0 positions only, 1 the heading with the "
-        "marker's distance behind the vehicle's turning axle learnt in turns, 2 with it given by PLD_DECK_LAG (ours)",
+        "marker's distance behind the vehicle's turning axle learnt in turns, 2 learnt from PLD_DECK_LAG (ours)",
         ParamType.INT32,
     ),
     param(
         "PLD_DECK_LAG", 0.0, -0.5, 0.5, "m",
         "With PLD_DECK_HDG 2: how far the landing marker's centre is behind the ground vehicle's turning axle "
-        "(the rear axle of a car-like vehicle; negative: ahead of it) (ours)",
+        "(the rear axle of a car-like vehicle; negative: ahead of it), a first guess within 5 cm (ours)",
     ),
 )  # fmt: skip
 

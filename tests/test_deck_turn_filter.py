@@ -208,15 +208,17 @@ def test_the_markers_lag_behind_the_axle_is_learnt_on_a_circle_and_leaves_the_ve
     assert abs(float(np.mean(off_deg))) < 2.0
 
 
-def test_a_lag_given_is_held_and_the_velocity_follows_the_circle_at_1m_s():
-    """PLD_DECK_HDG 2: the marker's lag behind the axle given (0.15 m, the simulated UGV's), not learnt.  On a 2 m
-    circle at 1 m/s its heading points 4.3 deg into the turn from where it moves, and a steady turn cannot tell the
-    lag from the direction of travel: learnt, seed 8's lag ran to the -0.5 m bound and its velocity settled 2.3 deg
-    off (12 s of fixes, 20 seeds: median 0.18, max 2.31 deg; throwaway /tmp/s8/lagsweep.py).  Given, the lag holds
-    and the velocity's direction is within 0.5 deg of the circle's on average over the last 2 s (max 0.49 of 20)."""
+def test_a_lag_guessed_is_learnt_from_and_the_velocity_follows_the_circle_at_1m_s():
+    """PLD_DECK_HDG 2: the marker's lag behind the axle learnt from a first guess (PLD_DECK_LAG; 0.12 m here, the
+    true 0.15).  On a 2 m circle at 1 m/s the marker points 4.3 deg into the turn from where it moves, and a steady
+    turn cannot tell the lag from the direction of travel: learnt from 0 (PLD_DECK_HDG 1), seed 8's lag ran to the
+    -0.5 m bound and its velocity settled 2.3 deg off (12 s of fixes, 20 seeds: median 0.18, max 2.31 deg; held at
+    a guess 3 cm off: 0.48 / 0.99 deg; from a guess: 0.12-0.15 / 0.36 deg, the lag 0.13-0.20 m whether the truth
+    is 0.15 or 0.18; throwaway /tmp/s8/lagsweep2.py).  From the guess the lag ends within 2 cm of the truth and the
+    velocity's direction is within 0.5 deg of the circle's on average over the last 2 s."""
     for seed in (8, 1, 2):
         rng = np.random.default_rng(seed)
-        f = DeckTurnFilter(heading=True, lag_m=MARKER_LAG_M)
+        f = DeckTurnFilter(heading=True, lag_m=0.12)
         off_deg = []
         for k in range(0, 241):
             t = k * FIX_US * 1e-6
@@ -227,5 +229,5 @@ def test_a_lag_given_is_held_and_the_velocity_follows_the_circle_at_1m_s():
             state = f.state_at(k * FIX_US)
             if t > 10.0:
                 off_deg.append(math.degrees(math.atan2(state.vel_ne_m_s[1], state.vel_ne_m_s[0]) - track))
-        assert f.marker_lag_m == pytest.approx(MARKER_LAG_M, abs=1e-3), seed
+        assert f.marker_lag_m == pytest.approx(MARKER_LAG_M, abs=0.02), seed
         assert abs(float(np.mean(off_deg))) < 0.5, (seed, float(np.mean(off_deg)))

@@ -138,7 +138,7 @@ def test_a_deck_on_a_2m_circle_at_2m_s_is_followed_by_the_turning_deck_model(mod
 @pytest.mark.parametrize("heading", [1, 2, 0])
 def test_pld_deck_hdg_0_keeps_a_marker_turned_on_its_deck_out_of_the_deck_model(heading):
     """A marker lying 20 deg off its ground vehicle's axes (LANDING_TARGET's orientation says so) on a 2 m circle at
-    2 m/s: PLD_DECK_HDG 1 (its lag behind the axle learnt) and 2 (given, PLD_DECK_LAG 0) take its heading as the
+    2 m/s: PLD_DECK_HDG 1 (its lag behind the axle learnt) and 2 (learnt from PLD_DECK_LAG 0) take its heading as the
     vehicle's and bend the deck's velocity toward it; with 0 (the default) the positions alone give the velocity
     along the circle (within 0.15 m/s)."""
     params = default_store()
@@ -150,9 +150,9 @@ def test_pld_deck_hdg_0_keeps_a_marker_turned_on_its_deck_out_of_the_deck_model(
         assert err < 0.15
 
 
-def test_pld_deck_hdg_2_holds_the_lag_pld_deck_lag_gives():
-    """PLD_DECK_HDG 2: the deck model is built with PLD_DECK_LAG as the marker's lag and keeps it through the fixes;
-    a changed PLD_DECK_LAG rebuilds it."""
+def test_pld_deck_hdg_2_starts_from_the_lag_pld_deck_lag_gives():
+    """PLD_DECK_HDG 2: the deck model is built with PLD_DECK_LAG as the marker's lag (kept where no heading comes to
+    learn it from); a changed PLD_DECK_LAG rebuilds it."""
     params = default_store()
     params.set("PLD_DECK_HDG", 2)
     params.set("PLD_DECK_LAG", 0.15)

@@ -63,7 +63,6 @@ MAX_TURN_RATE_RAD_S = 2.0  # the turn rate is held to this (a UGV turning on the
 # as a straight drive: the fitted rate of a deck driving a line wanders by ~0.06 rad/s, 0.28 m sideways after
 # 1.5 s at 3 m/s; a 2 m circle at 1 m/s is 0.5 m/s^2 (as target_coast's dead band).
 STRAIGHT_PREDICT_BELOW_M_S2 = 0.25
-KNOWN_LAG_VAR_M2 = 1e-8  # the variance of a lag given, not learnt (m^2: a tenth of a millimetre)
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +83,7 @@ class DeckTurnSettings:
     heading_min_speed_m_s: float = 0.5
     heading_gate_rad: float = math.radians(25.0)
     lag_var_in_m2: float = 0.1  # the marker's lag behind the turning axle (m): initial variance
+    lag_prior_var_m2: float = 0.05**2  # ... when a first guess is given (the pad's mount: PLD_DECK_LAG)
     lag_var_m2_s: float = 1e-4  # ... and its random walk (a fixed mount, learnt in the turns)
     lag_max_m: float = 0.5  # ... held within +-this (the heading is known modulo 90 deg: no aliased fit)
     heading_vel_var_max_m2_s2: float = 0.05  # fused only once the velocity is known this well (per axis)
@@ -133,9 +133,9 @@ def _heading_off_square(x: np.ndarray, square_yaw_rad: float) -> np.ndarray:
 
 class DeckTurnFilter:
     """Feed :meth:`update` with the deck's measured positions in time order; read :meth:`state_at`.  ``heading``:
-    the marker's heading is fused too, with the marker's lag as a sixth state, learnt (PLD_DECK_HDG 1) or given as
-    ``lag_m`` (m behind the turning axle, PLD_DECK_HDG 2 with PLD_DECK_LAG); without it the filter is the
-    five-state one, the marker's heading ignored."""
+    the marker's heading is fused too, with the marker's lag as a sixth state, learnt in the turns from 0 (PLD_DECK_HDG
+    1) or from ``lag_m`` (m behind the turning axle, PLD_DECK_HDG 2 with PLD_DECK_LAG: the pad's mount) with a
+    variance of ``lag_prior_var_m2``; without it the filter is the five-state one, the marker's heading ignored."""
 
     def __init__(
         self, settings: DeckTurnSettings | None = None, heading: bool = False, lag_m: float | None = None
@@ -143,10 +143,10 @@ class DeckTurnFilter:
         s = settings or DeckTurnSettings()
         self.heading = bool(heading)
         self._n = 6 if self.heading else 5
-        # A known lag (m; the pad's mount on the ground vehicle, PLD_DECK_HDG 2): held, not learnt.
+        # The lag's first guess (m; the pad's mount on the ground vehicle, PLD_DECK_HDG 2): learnt from there.
         self.lag_m = None if lag_m is None or not self.heading else max(-s.lag_max_m, min(s.lag_max_m, float(lag_m)))
         if self.lag_m is not None:
-            s = replace(s, lag_var_in_m2=KNOWN_LAG_VAR_M2, lag_var_m2_s=0.0)
+            s = replace(s, lag_var_in_m2=s.lag_prior_var_m2)
         self.settings = s
         self._turn_vars = (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
         self._ukfs: list[UnscentedKalmanFilter] = []  # built with the first fix (_build)
