@@ -22,7 +22,15 @@ import math
 import re
 from typing import Any
 
-from gcs.launcher.landing_run import CAMERA_MOUNT_CODES, PAD_LAYOUT_CODES, WINDY, LandingSetup, Pose2, fly_landing
+from gcs.launcher.landing_run import (
+    CAMERA_MOUNT_CODES,
+    PAD_LAYOUT_CODES,
+    WINDY,
+    LandingSetup,
+    Pose2,
+    deck_model_params,
+    fly_landing,
+)
 from gcs.sim_client import SimClient
 
 from .kinds import Axis, Range, grid_cells, number_in, one_of, vehicle_name
@@ -55,8 +63,15 @@ def camera_figures(sitl_log: str) -> dict[str, float]:
     }
 
 
-def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: dict[str, float] | None = None):
-    """The :class:`LandingSetup` of one run: its cell's vehicle, UGV, wind, camera and pad, and its random draws."""
+def setup_for(
+    cell: dict[str, Any],
+    draws: dict[str, float],
+    extra_sim_params: dict[str, float] | None = None,
+    fc_params: dict[str, float] | None = None,
+):
+    """The :class:`LandingSetup` of one run: its cell's vehicle, UGV, wind, camera and pad, and its random draws;
+    the campaign's ``[fc_params]`` over the landing's own (:func:`gcs.launcher.landing_run.deck_model_params`:
+    the flight sets them again before the arming, so the campaign's must win there too)."""
     r, bearing = draws["meet_offset_m"], math.radians(draws["meet_bearing_deg"])
     return LandingSetup(
         vehicle=cell["vehicle"],
@@ -70,6 +85,7 @@ def setup_for(cell: dict[str, Any], draws: dict[str, float], extra_sim_params: d
         pad=cell["pad"],
         radius_m=float(cell.get("ugv_radius_m", 2.0)),
         extra_sim_params=dict(extra_sim_params or {}),  # (no video unless they set SIM_VID_EN: LandingSetup.video)
+        fc_params={**deck_model_params(), **(fc_params or {})},
     )
 
 
@@ -150,7 +166,7 @@ class LandingKind:
         """One landing on the run's own stack (``ctx``: :class:`campaign.runs.RunContext`)."""
         from mavsim_core import ports
 
-        setup = setup_for(run.axes, run.draws, ctx.settings.sim_params)
+        setup = setup_for(run.axes, run.draws, ctx.settings.sim_params, ctx.settings.fc_params)
         stack = ctx.stack(setup.vehicle, setup.seed, setup.sim_args())
         stack.start()
         with SimClient(ports.sim_component_port(ctx.instance)) as truth:

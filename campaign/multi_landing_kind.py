@@ -96,7 +96,7 @@ class MultiLandingKind(LandingKind):
     def fly(self, run: Run, ctx) -> dict[str, Any]:
         """The run's world (``vehicles`` multicopters from the run's instance on) and its landings."""
         count = int(run.axes["vehicles"])
-        setup = setup_for(run.axes, run.draws, ctx.settings.sim_params)
+        setup = setup_for(run.axes, run.draws, ctx.settings.sim_params, ctx.settings.fc_params)
         with ExitStack() as held:
             for k in range(1, count):  # the next instances, held as the run's own is
                 try:

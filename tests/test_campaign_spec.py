@@ -109,6 +109,17 @@ def test_a_run_becomes_its_landing_setup():
     assert math.hypot(*s.meet_offset_m) == pytest.approx(run.draws["meet_offset_m"])
 
 
+def test_the_landing_sets_the_deck_model_for_the_ugv_and_a_campaigns_fc_params_win():
+    """A landing sets the deck model its crew would for the simulated UGV (the marker's heading fused, its lag behind
+    the axle guessed from the UGV's geometry) before it arms; a campaign's ``[fc_params]`` overrides that."""
+    from sitl.ugv import UgvGeometry
+
+    run = plan.expand(campaign())[4]
+    assert setup_for(run.axes, run.draws).fc_params == {"PLD_DECK_HDG": 2, "PLD_DECK_LAG": UgvGeometry().wheel_x_m}
+    own = setup_for(run.axes, run.draws, fc_params={"PLD_DECK_HDG": 0, "MPC_XY_VEL_MAX": 8.0}).fc_params
+    assert own == {"PLD_DECK_HDG": 0, "PLD_DECK_LAG": 0.15, "MPC_XY_VEL_MAX": 8.0}
+
+
 BROKEN = [
     ('runs = 3\n[grid]\nwind = ["calm"]\n', "key kind: missing"),
     ('kind = "landing"\nruns = 0\n', "key runs: must be 1 to"),

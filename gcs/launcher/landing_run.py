@@ -62,6 +62,14 @@ WINDY = {  # params/scenarios/windy.toml's wind: 5 m/s from the West, turbulence
 }
 
 
+def deck_model_params(geom: UgvGeometry | None = None) -> dict[str, float]:
+    """The flight controller's settings for landing on the simulated UGV, as its crew would set them for the deck
+    they fly to: the marker's heading fused into the deck model (``PLD_DECK_HDG`` 2), its lag behind the UGV's
+    turning axle learnt from the UGV's geometry (``PLD_DECK_LAG``: the pad sits on the chassis' centre,
+    ``wheel_x_m`` behind the wheels' axle; docs/landing.md, "The marker's heading in the deck model")."""
+    return {"PLD_DECK_HDG": 2, "PLD_DECK_LAG": (geom or UgvGeometry()).wheel_x_m}
+
+
 @dataclass(frozen=True)
 class LandingSetup:
     """One landing: vehicle, UGV path and speed, wind, seeds and the randomised geometry.
@@ -70,7 +78,8 @@ class LandingSetup:
     ``meet_after_m``: how far along its path (m) the UGV passes under the meeting point;
     ``meet_offset_m``: the meeting point's (north, east) offset from that point on the path (m);
     ``camera``: ``"gimbal"`` or ``"fixed"`` (``SIM_CAM_MOUNT``; None: the vehicle file's ``[camera] mount``);
-    ``pad``: ``"nested"`` or ``"single"`` (``SIM_PAD_LAYOUT``; None: the simulator's default, nested).
+    ``pad``: ``"nested"`` or ``"single"`` (``SIM_PAD_LAYOUT``; None: the simulator's default, nested);
+    ``fc_params``: flight-controller parameters set (PARAM_SET) before the arming: :func:`deck_model_params`.
     """
 
     vehicle: str = "quad_x"
@@ -86,6 +95,7 @@ class LandingSetup:
     camera: str | None = None
     pad: str | None = None
     extra_sim_params: dict[str, float] = field(default_factory=dict)
+    fc_params: dict[str, float] = field(default_factory=deck_model_params)
     video: bool = False  # the camera's RTP video (SIM_VID_EN): for a person watching (the demo), not for a campaign
     deterministic: bool = True  # start held and fly through holds: reproducible (see the module docstring)
 
@@ -191,6 +201,7 @@ def fly_landing(
     home = client.wait_home(timeout_s)
     judge.rest()
     sim0 = client.sim_time_s() or 0.0
+    configure(client, setup)
     client.arm(timeout_s=10).check()
     client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
     _wait(lambda: client.takeoff_done(PREP_ALT_M), client, timeout_s, f"takeoff to {PREP_ALT_M} m")
@@ -225,6 +236,12 @@ def fly_landing(
     return _finish(result, client, sim0, wall0)
 
 
+def configure(client: VehicleClient, setup: LandingSetup) -> None:
+    """Set ``setup.fc_params`` on the vehicle (each echoed; while held, between two steps: every run alike)."""
+    for name, value in setup.fc_params.items():
+        client.param_set(name, value, timeout_s=10)
+
+
 def _fly_stepped(
     step: SimStepper, setup: LandingSetup, say: Callable[[str], None], judge: _Judge, result: LandingResult
 ) -> LandingResult:
@@ -239,6 +256,7 @@ def _fly_stepped(
         home = client.home()
         sim0_ms = step.time_ms
         judge.rest(step.time_ms)
+        configure(client, setup)
         client.arm(timeout_s=10).check()
         client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
         step.run_until(lambda: client.takeoff_done(PREP_ALT_M), TAKEOFF_SIM_S, f"takeoff to {PREP_ALT_M} m")
