@@ -201,7 +201,7 @@ def fly_landing(
     home = client.wait_home(timeout_s)
     judge.rest()
     sim0 = client.sim_time_s() or 0.0
-    configure(client, setup)
+    configure(client, setup, say)
     client.arm(timeout_s=10).check()
     client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
     _wait(lambda: client.takeoff_done(PREP_ALT_M), client, timeout_s, f"takeoff to {PREP_ALT_M} m")
@@ -236,10 +236,12 @@ def fly_landing(
     return _finish(result, client, sim0, wall0)
 
 
-def configure(client: VehicleClient, setup: LandingSetup) -> None:
+def configure(client: VehicleClient, setup: LandingSetup, say: Callable[[str], None] = lambda _t: None) -> None:
     """Set ``setup.fc_params`` on the vehicle (each echoed; while held, between two steps: every run alike)."""
     for name, value in setup.fc_params.items():
         client.param_set(name, value, timeout_s=10)
+    if setup.fc_params:
+        say("set for this deck: " + ", ".join(f"{name} {value:g}" for name, value in setup.fc_params.items()))
 
 
 def _fly_stepped(
@@ -256,7 +258,7 @@ def _fly_stepped(
         home = client.home()
         sim0_ms = step.time_ms
         judge.rest(step.time_ms)
-        configure(client, setup)
+        configure(client, setup, say)
         client.arm(timeout_s=10).check()
         client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
         step.run_until(lambda: client.takeoff_done(PREP_ALT_M), TAKEOFF_SIM_S, f"takeoff to {PREP_ALT_M} m")

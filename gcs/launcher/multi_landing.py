@@ -163,7 +163,7 @@ def _to_the_meeting_points(step: WorldStepper, fleet: list[_Vehicle], setup: Lan
     armed_ms = step.time_ms
     for v in fleet:
         v.judge.rest(step.time_ms)
-        configure(v.client, setup)
+        configure(v.client, setup, say)
         v.client.arm(timeout_s=10).check()
         v.client.takeoff(v.client.home().alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
     step.run_until(lambda: all(v.client.takeoff_done(PREP_ALT_M) for v in fleet), TAKEOFF_SIM_S, "every take-off")
