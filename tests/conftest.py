@@ -148,10 +148,11 @@ def pytest_configure(config):
     if not hasattr(config, "workerinput"):  # the run's main process (xdist's controller, or -n0's only one)
         from mavproxy_env import prepare_in_background
 
-        prepare_in_background()  # MAVProxy's environment made beside the unit tests (tests/mavproxy_env.py)
         from rewrite_cache import write_for_workers
 
-        write_for_workers(config)  # pytest's rewritten test files, once for all workers (tests/rewrite_cache.py)
+        # pytest's rewritten test files, once for all workers (tests/rewrite_cache.py); it forks, so before any thread
+        write_for_workers(config)
+        prepare_in_background()  # MAVProxy's environment made beside the unit tests (tests/mavproxy_env.py)
 
 
 def pytest_runtest_setup(item):
