@@ -146,9 +146,9 @@ def pytest_configure(config):
     # processes start theirs as a user's would (the switch is this process's, not its environment's).
     fork_server.use_here()
     if not hasattr(config, "workerinput"):  # the run's main process (xdist's controller, or -n0's only one)
-        from mavproxy_env import prepare_in_background
-
         from rewrite_cache import write_for_workers
+
+        from mavproxy_env import prepare_in_background
 
         # pytest's rewritten test files, once for all workers (tests/rewrite_cache.py); it forks, so before any thread
         write_for_workers(config)

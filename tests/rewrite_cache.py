@@ -50,8 +50,9 @@ def _test_files(config) -> list[Path]:
 
 def write_for_workers(config) -> None:
     """Rewrite the run's test files (:func:`_test_files`) into pytest's cache: half in a forked child, half
-    here.  Only for a run with xdist workers (a run without them rewrites each file
-    once anyway); never raises."""
+    here.  Only for a run with xdist workers (a run without them rewrites each file once anyway); never raises.
+    Call it before this process starts a thread (the child of a fork made beside a running thread can block for
+    good on a lock that thread held)."""
     if getattr(config.option, "numprocesses", None) in (None, 0) or config.getoption("assertmode") != "rewrite":
         return
     try:
