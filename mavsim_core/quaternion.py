@@ -114,12 +114,11 @@ def to_euler(q: Quat) -> tuple[float, float, float]:
     w, x, y, z = float(q[0]), float(q[1]), float(q[2]), float(q[3])
     roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
     pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return roll, pitch, yaw
+    return roll, pitch, yaw_of(q)
 
 
 def yaw_of(q: Quat) -> float:
-    """The yaw (rad) of :func:`to_euler`, alone: the same arithmetic, without the roll and pitch."""
+    """The yaw (rad) of :func:`to_euler` (aerospace ZYX), alone: without the roll and pitch."""
     w, x, y, z = float(q[0]), float(q[1]), float(q[2]), float(q[3])
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 

@@ -24,17 +24,20 @@ the deck's heading by ~20 deg, which held the vehicle 0.35-0.6 m outside the dec
 * measurement: the deck's north and east position (m, NED, from the estimator's origin) at its capture time;
   gated with a 2-degree-of-freedom chi-square test; after ``REFIT_AFTER_REJECTS`` refusals in a row the filter is
   re-seated on the fix *keeping its velocity and turn rate* (a deck does not stop because the fit slipped);
-* with ``heading`` (PLD_DECK_HDG 1; off by default: docs/landing.md, "The marker's heading in the deck model"), the
-  marker's heading (LANDING_TARGET's orientation, modulo 90 deg), when the sender gives it, fused after each fix's
-  position (:meth:`DeckTurnFilter._fuse_heading`): a ground vehicle points where it drives, so at a figure-8's
-  crossing the heading turns the other way at once, where the positions take a few fixes to show it (20 Hz, 2 cm,
-  2 deg: the turn rate has the new sign 0.1 s after the crossing, against 0.25-0.85 s, and the velocity is off by
-  0.05-0.11 m/s over the next 0.5 s, against 0.21-0.89).  A marker not over the turning axle points into the turn
-  by atan(lag x rate / speed) from its direction of travel (4.3 deg on the simulated UGV, 0.15 m behind its axle,
-  on a 2 m circle at 2 m/s; fused as if it pointed along the track, that bias held the vehicle ahead of the deck:
-  11 of the first 24 figure-8 landings landed): the lag is the state's sixth element, learnt in the turns (on a
-  steady turn it and the direction of travel shift the heading alike: at 1 m/s on a 2 m circle the velocity can
-  settle 3.5 deg off, which is why it is off by default);
+* with ``heading`` (PLD_DECK_HDG 1 or 2; the flight controller's default is 0, the landing scenario sets 2:
+  docs/landing.md, "The marker's heading in the deck model"), the marker's heading (LANDING_TARGET's orientation,
+  modulo 90 deg), when the sender gives it, fused after each fix's position (:meth:`DeckTurnFilter._fuse_heading`):
+  a ground vehicle points where it drives, so at a figure-8's crossing the heading turns the other way at once,
+  where the positions take a few fixes to show it (20 Hz, 2 cm, 2 deg: the turn rate has the new sign 0.1 s after
+  the crossing, against 0.25-0.85 s, and the velocity is off by 0.05-0.11 m/s over the next 0.5 s, against
+  0.21-0.89).  A marker not over the turning axle points into the turn by atan(lag x rate / speed) from its
+  direction of travel (4.3 deg on the simulated UGV, 0.15 m behind its axle, on a 2 m circle at 2 m/s; fused as if
+  it pointed along the track, that bias held the vehicle ahead of the deck: 11 of the first 24 figure-8 landings
+  landed): the lag is the state's sixth element, learnt in the turns.  On a steady turn it and the direction of
+  travel shift the heading alike, so learnt from 0 (mode 1) a lag can run to its bound at 1 m/s and bend the
+  velocity 2-4 deg; learnt from a first guess (``lag_m``, mode 2: PLD_DECK_LAG, the pad's mount, within
+  ``lag_prior_var_m2``) it settles on the vehicle's effective lag (0.18 m for the simulated UGV, whose geometry says
+  0.15: its wheels slip) and the velocity stays within 0.4 deg;
 * the filter lives at the time of its latest fix; :meth:`DeckTurnFilter.state_at` predicts the mean forward
   (fixes arrive in time order, 50 ms late: it is never run backwards), straight on when the turn's acceleration
   is below STRAIGHT_PREDICT_BELOW_M_S2 (a straight drive's fitted rate is noise).
