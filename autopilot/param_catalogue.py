@@ -35,6 +35,7 @@ from autopilot.navigation import (
     precland_gimbal,
     rtl,
     takeoff,
+    touchdown,
     view_limited_catchup,
 )
 from autopilot.parameters import FLIGHT_FLOORS, RULES, ParamDef, ParameterStore, definitions
@@ -67,6 +68,7 @@ _MODULE_PARAMS: tuple[tuple[ParamDef, ...], ...] = (
     deck_heading.PARAMS,
     cut_lead.PARAMS,
     dock_gate.PARAMS,
+    touchdown.PARAMS,
     precland_gimbal.PARAMS,
     view_limited_catchup.PARAMS,
     orbit.PARAMS,

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from autopilot.navigation.cubic_spline import MIN_DURATION_S, CubicSpline, duration_s
-from autopilot.navigation.flight_task import FlightTask
+from autopilot.navigation.flight_task import FlightTask, PositionSetpoint
 from autopilot.navigation.precland import (
     CHASE_INT_BAND_M_S,
     COAST_MAX_S,
@@ -29,7 +29,7 @@ from autopilot.navigation.precland import (
     PrecLandTask,
 )
 from autopilot.param_catalogue import default_store
-from autopilot.topics import VehicleEstimate
+from autopilot.topics import AttitudeSetpoint, VehicleEstimate
 from mavsim_core import quaternion as quat
 
 STEP_US = 20_000
@@ -76,6 +76,14 @@ class Sim:
         if self.visible(self):
             tgt = LandingTargetInput(self.t_us, self.target - self.pos, self.target_vel.copy())
         sp = self.task.update(est, self.t_us, tgt)
+        if isinstance(sp, AttitudeSetpoint):  # a touchdown's: level on the legs, carried by the deck
+            self.vel = self.target_vel.copy()
+            self.pos = self.pos + self.vel * DT_S
+            self.target = self.target + self.target_vel * DT_S
+            self.t_us += STEP_US
+            if self.task.phase is not self.phases[-1]:
+                self.phases.append(self.task.phase)
+            return
         sp_vel = np.nan_to_num(sp.vel_ned_m_s)
         err = np.where(np.isfinite(sp.pos_ned_m), sp.pos_ned_m - self.pos, 0.0)
         self.vel = err / TAU_S + sp_vel
@@ -298,7 +306,9 @@ def test_the_chase_keeps_the_velocity_integrator_to_a_band_from_tracking_on():
             break
         sim.step()
         if sim.task.phase in (PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING):
-            bands.add(sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, None).int_band_m_s)
+            sp = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel), sim.t_us, None)
+            if isinstance(sp, PositionSetpoint):  # (not the touchdown's level attitude on the deck)
+                bands.add(sp.int_band_m_s)
     assert PrecLandPhase.DOCKING in sim.phases and bands == {CHASE_INT_BAND_M_S}
 
 
@@ -349,12 +359,13 @@ def test_legs_felt_on_the_deck_end_the_docking_but_not_from_higher_up():
     assert "legs on the deck" in sim.task.events[-1][1]
 
 
-@pytest.mark.parametrize("deck_speed", [0.0, 1.0])
-def test_over_a_moving_deck_the_docking_aims_into_it_so_the_legs_meet_it_descending(deck_speed):
+@pytest.mark.parametrize(("deck_speed", "level_s"), [(0.0, 0.6), (1.0, 0.0)])
+def test_over_a_moving_deck_the_docking_aims_into_it_so_the_legs_meet_it_descending(deck_speed, level_s):
     """A moving deck: the docking spline ends DOCK_INTO_DECK_M below its top, so the feet reach the docking
-    point still descending and the motors are cut at once (no blind stop just above a deck driving on); a
-    still deck: the spline ends DOCK_HOVER_M above it, at rest."""
+    point still descending and (PLD_TD_LEVEL 0) the motors are cut at once (no blind stop just above a deck driving
+    on); a still deck: the spline ends DOCK_HOVER_M above it, at rest."""
     sim = Sim(target0=(0.5, 0.0, 0.0), target_vel=(deck_speed, 0.0, 0.0), start=(0.0, 0.0, -1.5))
+    sim.task.params.set("PLD_TD_LEVEL", level_s)
     assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 15.0)
 
     def feet(s: Sim) -> float:
@@ -368,9 +379,32 @@ def test_over_a_moving_deck_the_docking_aims_into_it_so_the_legs_meet_it_descend
     if deck_speed:
         assert descent_m_s > 0.5  # (aiming at the docking point at rest: 0.30 m/s here)
         sim.step()
-        assert sim.task.done
+        assert sim.task.done and "docking point reached" in sim.task.events[-1][1]
     else:
         assert descent_m_s < 0.35 and float(spline.at(spline.td_s).vel[0]) == 0.0
+
+
+def test_on_a_moving_deck_the_legs_touch_then_the_vehicle_is_held_level_on_them_before_the_cut():
+    """PLD_TD_LEVEL > 0 (the default): over a moving deck the docking flies on past the docking point until the
+    legs are felt on the deck, then TOUCHDOWN flies a level attitude at half the hover thrust, turning with the
+    deck, and the motors cut once the vehicle is level (navigation.touchdown)."""
+    sim = Sim(target0=(0.5, 0.0, 0.0), target_vel=(1.0, 0.0, 0.0), start=(0.0, 0.0, -1.5))
+    sim.task.hover_thrust_frac = 0.4
+
+    def feet(s: Sim) -> float:
+        return s.task._feet_above_target(estimate(s.t_us, s.pos, s.vel))
+
+    assert sim.run_until(lambda s: s.task.phase is PrecLandPhase.DOCKING, 15.0)
+    assert sim.run_until(lambda s: feet(s) <= 0.0, 5.0)  # past the docking point: still docking, motors on
+    assert sim.task.phase is PrecLandPhase.DOCKING and not sim.task.done
+    sim.task.on_deck = True
+    sim.step()
+    assert sim.task.phase is PrecLandPhase.TOUCHDOWN and "legs on the deck" in sim.task.events[-1][1]
+    sp = sim.task.update(estimate(sim.t_us, sim.pos, sim.vel, 0.3), sim.t_us, None)
+    assert isinstance(sp, AttitudeSetpoint) and sp.thrust_frac == pytest.approx(0.5 * 0.4)
+    np.testing.assert_allclose(sp.q_wxyz, quat.from_euler(0.0, 0.0, 0.3), atol=1e-12)  # level, the heading held
+    assert sim.run_until(lambda s: s.task.done, 1.0)
+    assert sim.task.phase is PrecLandPhase.DONE and "level on the deck" in sim.task.events[-1][1]
 
 
 @pytest.mark.parametrize("deck_yaw", [1, 0])

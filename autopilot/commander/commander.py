@@ -89,7 +89,7 @@ class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, Fails
         self.land_detector = LandDetector(params)
         self.task = None
         self.events: list[tuple[int, str]] = []
-        self.setpoint: PositionSetpoint | None = None
+        self.setpoint: PositionSetpoint | AttitudeSetpoint | None = None
         self.estimator_checks: tuple[str, ...] = ()  # the estimator's own pre-arm failures, latest update
         self._reset_count = 0
         # Precision landing: the target the flight controller measured this update (None: no new

@@ -24,6 +24,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander import mission_landing
 from autopilot.commander.commander_state import CommanderState
 from autopilot.navigation import GotoTask, started
+from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.heading_smoothing import HeadingLimits
 from autopilot.navigation.mission_checks import HARD_CEILING_M
 from autopilot.navigation.precland import PrecLandMode
@@ -32,11 +33,10 @@ from mavsim_core.geodesy import geodetic_to_ned
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
-    from autopilot.control.position_control import PositionSetpoint
     from autopilot.navigation.flight_task import FlightTask
     from autopilot.navigation.land_detector import LandDetector
     from autopilot.parameters import ParameterStore
-    from autopilot.topics import VehicleEstimate
+    from autopilot.topics import AttitudeSetpoint, VehicleEstimate
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_* constants
 REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
@@ -92,7 +92,7 @@ class FlightCommands(CommanderState):
     # Beyond CommanderState's, the commander's state these methods read and set (Commander.__init__ sets it)
     task: FlightTask | None
     precland_mode: PrecLandMode
-    setpoint: PositionSetpoint | None
+    setpoint: PositionSetpoint | AttitudeSetpoint | None
     land_detector: LandDetector
     armed_at_us: int
     cruise_override_m_s: float | None = None  # DO_CHANGE_SPEED's speed for later repositions (None: MPC_XY_CRUISE)
@@ -206,10 +206,11 @@ class FlightCommands(CommanderState):
         if speed > (limit := self.params.get("MPC_XY_VEL_MAX")):
             self.say(S.MAV_SEVERITY_INFO, f"Speed {speed:g} m/s limited to MPC_XY_VEL_MAX")
             speed = limit
-        moving = self.setpoint is not None and np.all(np.isfinite(self.setpoint.pos_ned_m))
-        start = self.setpoint.pos_ned_m if moving else e.pos_ned_m
-        v0 = self.setpoint.vel_ned_m_s if moving else None  # a new goal mid-move: on from the move's state
-        a0 = self.setpoint.acc_ned_m_s2 if moving else None
+        sp = self.setpoint if isinstance(self.setpoint, PositionSetpoint) else None  # (an attitude one: no move)
+        moving = sp is not None and bool(np.all(np.isfinite(sp.pos_ned_m)))
+        start = sp.pos_ned_m if sp is not None and moving else e.pos_ned_m
+        v0 = sp.vel_ned_m_s if sp is not None and moving else None  # a new goal mid-move: on from the move's state
+        a0 = sp.acc_ned_m_s2 if sp is not None and moving else None
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
         self.mode = Mode.AUTO_LOITER

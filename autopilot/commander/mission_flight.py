@@ -20,6 +20,9 @@ from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
     from autopilot.control.position_control import PositionSetpoint
+    from autopilot.topics import AttitudeSetpoint
+
+    Setpoint = PositionSetpoint | AttitudeSetpoint | None  # what a step flies (None: nothing, the motors cut)
     from autopilot.navigation.land_detector import LandDetector
     from autopilot.navigation.mission import MissionTask
     from autopilot.navigation.precland import LandingTargetInput
@@ -34,6 +37,7 @@ class MissionFlight(CommanderState):
     land_detector: LandDetector
     contact_push: bool
     landing_target: LandingTargetInput | None
+    hover_thrust_frac: float
 
     if TYPE_CHECKING:  # ... and the commander's methods they call.
 
@@ -53,7 +57,7 @@ class MissionFlight(CommanderState):
         self._say_all(texts)
         return S.MAV_RESULT_DENIED if task is None else S.MAV_RESULT_ACCEPTED
 
-    def _step_mission(self, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
+    def _step_mission(self, task: MissionTask, est: VehicleEstimate, now_us: int) -> "Setpoint":
         """One update of the mission (or of a return flown through it): the runner's setpoint, its progress and
         its requests; once a precision landing has started, that landing's update."""
         if task.precland is not None:
@@ -71,17 +75,19 @@ class MissionFlight(CommanderState):
             self._set_home_at(mission_control.requested_home(request[1], est, self.home))
         return self.task.update(est, now_us) if self.task is not task and self.task is not None else setpoint
 
-    def _step_mission_precland(self, task: MissionTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
+    def _step_mission_precland(self, task: MissionTask, est: VehicleEstimate, now_us: int) -> "Setpoint":
         assert task.precland is not None
         setpoint = self._step_precland(task.precland, est, now_us)
         if not self.armed and task.follows_plan:  # docked: the motors are cut, the mission is over
             self._say_all(mission_control.on_landed(self.plans))
         return setpoint
 
-    def _step_precland(self, task: PrecLandTask, est: VehicleEstimate, now_us: int) -> PositionSetpoint | None:
+    def _step_precland(self, task: PrecLandTask, est: VehicleEstimate, now_us: int) -> "Setpoint":
         """One update of the precision landing; the setpoint, or None once the motors are cut (docked)."""
         on_deck = self.land_detector.ground_contact or self.contact_push
-        result = precision_landing.step(task, est, now_us, on_deck, self.inputs.gimbal_reach_rad, self.landing_target)
+        result = precision_landing.step(
+            task, est, now_us, on_deck, self.inputs.gimbal_reach_rad, self.landing_target, self.hover_thrust_frac
+        )
         self._say_all(result.texts)
         if result.docked:
             self._disarm("docked on the landing target")

@@ -29,7 +29,7 @@ from autopilot.navigation.precland import (
 )
 from autopilot.navigation.precland_gimbal import landing_gimbal_request
 from autopilot.parameters import ParameterStore
-from autopilot.topics import VehicleEstimate
+from autopilot.topics import AttitudeSetpoint, VehicleEstimate
 
 if TYPE_CHECKING:
     from autopilot.control.position_control import PositionSetpoint
@@ -54,7 +54,7 @@ class PrecLandStep:
     """One update of a precision landing: the setpoint, the STATUSTEXTs to say, and whether it docked (the
     commander then cuts the motors, as [F 3] does)."""
 
-    setpoint: PositionSetpoint | None
+    setpoint: PositionSetpoint | AttitudeSetpoint | None
     texts: tuple[tuple[int, str], ...]
     docked: bool
 
@@ -66,13 +66,15 @@ def step(
     on_deck: bool,
     gimbal_reach_rad: float | None,
     landing_target: LandingTargetInput | None,
+    hover_thrust_frac: float = 0.5,
 ) -> PrecLandStep:
     """One update of the precision landing: ``on_deck``, the ground (or the deck) pushes up on the feet;
     ``gimbal_reach_rad``: the view cone's reach when PLD_CAM_REACH is -1; ``landing_target``: this update's
-    measurement (None: none new)."""
+    measurement (None: none new); ``hover_thrust_frac``: the vehicle's (the touchdown's thrust is a part of it)."""
     failed_before = task.failed
     task.on_deck = on_deck
     task.gimbal_reach_rad = gimbal_reach_rad
+    task.hover_thrust_frac = hover_thrust_frac
     setpoint = task.update(est, now_us, landing_target)
     texts = [(S.MAV_SEVERITY_INFO, text) for _t, text in task.events]
     task.events.clear()
@@ -85,7 +87,7 @@ def velocity_over_ground_below(task: object, est: VehicleEstimate) -> np.ndarray
     """The velocity the land detector judges: over the ground, or over the deck while a precision
     landing docks (landed means at rest relative to the ground below)."""
     landing = landing_of(task)
-    if landing is not None and landing.phase in (PrecLandPhase.DOCKING, PrecLandPhase.DONE):
+    if landing is not None and landing.phase in (PrecLandPhase.DOCKING, PrecLandPhase.TOUCHDOWN, PrecLandPhase.DONE):
         return est.vel_ned_m_s - landing.target_velocity_ned_m_s
     return est.vel_ned_m_s
 

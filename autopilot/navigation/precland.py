@@ -42,9 +42,10 @@ from autopilot.navigation.precland_types import (
     PrecLandPhase,
 )
 from autopilot.navigation.target_coast import STILL_M_S, TurnRate, acc_weight, coast
+from autopilot.navigation.touchdown import Touchdown
 from autopilot.navigation.view_limited_catchup import ViewLimits, view_cone
 from autopilot.parameters import ParameterStore
-from autopilot.topics import VehicleEstimate
+from autopilot.topics import AttitudeSetpoint, VehicleEstimate
 
 __all__ = ["PARAMS", "LandingTargetInput", "PrecLandConfig", "PrecLandMode", "PrecLandPhase", "PrecLandTask"]
 
@@ -105,6 +106,8 @@ class PrecLandTask:
         self._view = ViewLimits.from_store(params)  # the chase keeps the marker in the camera's view
         self.on_deck = False  # set by the commander each step: ground contact (land detector, disturbance observer)
         self.gimbal_reach_rad: float | None = None  # ... and the gimbal device's reach (rad; None: no device)
+        self.hover_thrust_frac = 0.5  # ... and the vehicle's hover thrust (fraction of maximum; the touchdown's)
+        self._touchdown: Touchdown | None = None  # TOUCHDOWN: level on the deck before the cut (PLD_TD_LEVEL)
         self._fallback: LandTask | None = None
         self.heading = DeckHeading(0.0, False)  # the heading: square to the deck (PLD_DECK_YAW), set on activate
         self._gate = DockGate(int(params.get("PLD_DOCK_CHK")))  # when the docking may start, when it climbs out
@@ -128,7 +131,9 @@ class PrecLandTask:
         """The latest landing-target estimate (None or invalid: not seen)."""
         self._target = target
 
-    def update(self, est: VehicleEstimate, now_us: int, target: LandingTargetInput | None = None) -> PositionSetpoint:
+    def update(
+        self, est: VehicleEstimate, now_us: int, target: LandingTargetInput | None = None
+    ) -> PositionSetpoint | AttitudeSetpoint:
         """The setpoint for this step; ``target`` (if given) is fed first."""
         if target is not None:
             self._target = target
@@ -345,15 +350,29 @@ class PrecLandTask:
                 # the docking at once: sliding on the deck in wind the error only grew (0.03 -> 0.29 m).
                 still = float(np.linalg.norm(self._tgt_vel[:2])) < STILL_M_S
                 waited = err <= 2.0 * cfg.appr_rad_m or settled_s >= DOCK_WAIT_S or touching
-                if there and (not still or waited):
-                    self.motors_cut = True
-                    how = "legs on the deck" if touching else "docking point reached"
-                    self._enter(PrecLandPhase.DONE, now_us, f"{how} {err:.2f} m off, motors off")
+                level_s = float(self.params.get("PLD_TD_LEVEL"))
+                if not still and level_s > 0.0:  # a moving deck: on to the contact, level on the legs, then cut
+                    if touching or settled_s >= 0.0:
+                        self._touchdown = Touchdown(level_s, now_us)
+                        how = "legs on the deck" if touching else "docking spline flown"
+                        self._enter(PrecLandPhase.TOUCHDOWN, now_us, f"{how} {err:.2f} m off, levelling")
+                elif there and (not still or waited):
+                    self._cut(now_us, f"{'legs on the deck' if touching else 'docking point reached'} {err:.2f} m off")
+        elif ph is PrecLandPhase.TOUCHDOWN and self._touchdown is not None:
+            why = self._touchdown.finished(est, now_us)
+            if why:
+                self._cut(now_us, why)
 
-    def _setpoint(self, est: VehicleEstimate, now_us: int, acc: np.ndarray) -> PositionSetpoint:
+    def _cut(self, now_us: int, why: str) -> None:
+        self.motors_cut = True
+        self._enter(PrecLandPhase.DONE, now_us, f"{why}, motors off")
+
+    def _setpoint(self, est: VehicleEstimate, now_us: int, acc: np.ndarray) -> PositionSetpoint | AttitudeSetpoint:
         """The setpoint of the phase now; ``acc``: the target's acceleration fed forward (m/s^2 NED)."""
         ph, zero = self.phase, np.zeros(3)
         in_phase_s = (now_us - self._phase_us) * 1e-6
+        if ph is PrecLandPhase.TOUCHDOWN and self._touchdown is not None:  # level on the legs, turning with the deck
+            return self._touchdown.setpoint(est.yaw_rad, self._turn.rate(), self.hover_thrust_frac)
         if ph is PrecLandPhase.FALLBACK and self._fallback is not None:
             return self._fallback.update(est, now_us)
         if ph is PrecLandPhase.SEARCH and self._search_fix is not None:

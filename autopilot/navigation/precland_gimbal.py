@@ -39,7 +39,9 @@ PARAMS: tuple[ParamDef, ...] = (
     ),
 )  # fmt: skip
 
-TOWARD_TARGET_PHASES = frozenset({PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING})
+TOWARD_TARGET_PHASES = frozenset(
+    {PrecLandPhase.TRACKING, PrecLandPhase.APPROACHING, PrecLandPhase.DOCKING, PrecLandPhase.TOUCHDOWN}
+)
 DOWN_PHASES = frozenset({PrecLandPhase.PREPARATION, PrecLandPhase.SEARCH, PrecLandPhase.FALLBACK})
 LOOK_DOWN = GimbalRequest(GimbalAim.DOWN)
 TOO_CLOSE_M = 1e-3  # a target estimate this close to the vehicle gives no direction: look down

@@ -33,6 +33,7 @@ class PrecLandPhase(Enum):
     TRACKING = "tracking"
     APPROACHING = "approaching"
     DOCKING = "docking"
+    TOUCHDOWN = "touchdown"  # legs on a moving deck: held level at low thrust before the cut (navigation.touchdown)
     SEARCH = "search"
     FALLBACK = "fallback"
     DONE = "done"
