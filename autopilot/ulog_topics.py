@@ -122,7 +122,8 @@ FORMATS: tuple[ULogFormat, ...] = (
     ULogFormat("precision_landing", (  # ours: PX4 logs no precision-landing state
         _T, "uint8_t phase", "uint32_t measurements", "float target_vx", "float target_vy")),
 )  # fmt: skip
-PRECLAND_PHASES = ("preparation", "tracking", "approaching", "docking", "search", "fallback", "done")  # 1..7; 0 none
+# precision_landing.phase: 1..8 in this order; 0 none
+PRECLAND_PHASES = ("preparation", "tracking", "approaching", "docking", "search", "fallback", "done", "touchdown")
 _NAN3 = (math.nan,) * 3
 _NO_RESET = (0.0, 0.0, 0.0, 0.0, 0)  # delta_q_reset[4], quat_reset_counter
 

@@ -19,7 +19,7 @@ import numpy as np
 from .flight_logs import FlightData, Series
 from .frame_log import GIMBAL_COLUMNS, frames_using, marker_ids
 
-PHASES = ("none", "preparation", "tracking", "approaching", "docking", "search", "fallback", "done")
+PHASES = ("none", "preparation", "tracking", "approaching", "docking", "search", "fallback", "done", "touchdown")
 
 
 def has_landing(data: FlightData) -> bool:

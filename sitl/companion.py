@@ -29,9 +29,7 @@ angles, the markers used), which the simulator's ground-truth log records.
 from __future__ import annotations
 
 import math
-import queue
 import sys
-import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -45,6 +43,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from params.vehicle import CameraSpec
 from sitl.camera import RENDER_FAST, DownwardCamera, open_camera
 from sitl.camera_media import CameraMedia, CameraPose, camera_pose
+from sitl.companion_workers import FrameAnswer, new_worker
 from sitl.gimbal import camera_to_body
 from sitl.marker_view import MarkerView, deck_centre_enu
 from sitl.model import GIMBAL_JOINTS, part_name
@@ -56,7 +55,6 @@ from vision.landing_target import CameraMount, landing_target_message, target_of
 from vision.pad import NESTED_PAD, PadLayout
 
 COMPANION_COMPID = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER  # 191
-IN_FLIGHT = 3  # state copies: captures that may wait for their release at once (latency / period + 1)
 BUSY_KEEPALIVE_S = 0.2  # wall seconds between two "busy" HEARTBEATs while the lockstep waits for a frame
 
 
@@ -118,6 +116,16 @@ class CompanionStats:
         )
 
 
+@dataclass
+class FramePipeline:
+    """What makes the frames, opened on the worker: renderer, detector, the camera's fixed mount, the view test."""
+
+    camera: DownwardCamera
+    detector: MarkerDetector
+    mount: CameraMount
+    view: MarkerView
+
+
 class LockstepCompanion:
     """Camera + vision companion for one simulation (see the module docstring)."""
 
@@ -133,7 +141,10 @@ class LockstepCompanion:
         pad: PadLayout = NESTED_PAD,
         vehicle: int = 0,
         ugv: int = 0,
+        worker: bool = True,
     ) -> None:
+        """``worker`` False: no worker of its own (the pipeline alone, as the worker process builds it)."""
+        self._args = (model, camera, settings, seed, sysid, save_dir, save_every, pad, vehicle, ugv)
         self.model, self.spec, self.settings, self.pad = model, camera, settings, pad
         # Which multicopter of the world carries this camera (its parts: sitl.model.part_name) and which ground
         # vehicle's deck it looks for (sitl.ugv.ugv_part): vehicle k of a world where each has its own lands on k's
@@ -146,13 +157,8 @@ class LockstepCompanion:
         self.mav = mavlink.MAVLink(None, sysid, COMPANION_COMPID)
         self.stats = CompanionStats()
         self.save_dir, self.save_every = save_dir, save_every
-        self._copies = [mujoco.MjData(model) for _ in range(IN_FLIGHT)]
-        self._free: deque[mujoco.MjData] = deque(self._copies)
-        self._pending: deque[tuple[int, queue.Queue]] = deque()  # (release time, the worker's answer)
-        self._jobs: queue.Queue = queue.Queue()
+        self._pending: deque[tuple[int, int, CameraPose | None]] = deque()  # (release, capture time, media's pose)
         self._seed = seed
-        self._ready = threading.Event()
-        self._error: BaseException | None = None
         # A gimballed camera: its encoders' qpos addresses (the mount's rotation is read from them at each capture)
         self._gimbal_qadr = (
             [int(model.jnt_qposadr[model.joint(part_name(vehicle, name)).id]) for name, _ in GIMBAL_JOINTS]
@@ -163,8 +169,12 @@ class LockstepCompanion:
         self.on_frame: Callable[[CameraFrame], None] | None = None  # each frame's record, at its release
         self.media: CameraMedia | None = None  # the video, photos and recordings (sitl/camera_media.py), if any
         self.keepalive: Callable[[], None] | None = None  # while a frame is waited for (sitl/lockstep.py)
-        self._thread = threading.Thread(target=self._work, name="vision-companion", daemon=True)
-        self._thread.start()
+        # the frames' worker (sitl/companion_workers.py): a process of its own (SIM_CAM_PROC 1) or a thread
+        self._worker = new_worker(self, bool(int(settings.process))) if worker else None
+
+    def constructor_args(self) -> tuple:
+        """The arguments this companion was built from (the worker process builds its own from them)."""
+        return self._args
 
     # -- main thread ---------------------------------------------------------------------------
     def step(self, data: mujoco.MjData, time_us: int) -> bytes:
@@ -175,114 +185,76 @@ class LockstepCompanion:
                 self._capture(data, time_us)
         out = b""
         while self._pending and self._pending[0][0] <= time_us:
-            _, answer = self._pending.popleft()
+            _, captured_us, pose = self._pending.popleft()
             t0 = time.perf_counter()
-            result = self._wait(answer)
+            answer = self._worker.answer(self.keepalive, BUSY_KEEPALIVE_S)
             self.stats.waited_s += time.perf_counter() - t0
-            if isinstance(result, BaseException):
-                raise RuntimeError("vision companion failed") from result
-            copy, packed, frame = result
-            self._free.append(copy)
-            out += packed
+            if answer.media is not None and self.media is not None and pose is not None:
+                self.media.frame(answer.media[0], captured_us, pose, answer.media[1])
+            out += answer.packed
             if self.on_frame is not None:
-                self.on_frame(frame)
+                self.on_frame(answer.frame)
         return out
 
-    def _wait(self, answer: queue.Queue):
-        """The worker's answer; ``keepalive`` (if set) called every BUSY_KEEPALIVE_S of wall time until it comes, so
-        a flight controller waiting for the next sensors meanwhile knows the simulator is alive (a loaded machine
-        can hold a frame back for more than its 1 s loss timeout: autopilot/sim_link_watch.py)."""
-        while True:
-            try:
-                return answer.get(timeout=BUSY_KEEPALIVE_S)
-            except queue.Empty:
-                if self.keepalive is not None:
-                    self.keepalive()
-
     def _capture(self, data: mujoco.MjData, time_us: int) -> None:
-        if not self._free:  # every copy still waits for its release: drop this frame (a busy companion)
-            return
-        copy = self._free.popleft()
-        mujoco.mj_copyData(copy, self.model, data)
-        answer: queue.Queue = queue.Queue(maxsize=1)
-        release = time_us + 1000 * int(self.settings.latency_ms)
-        self._pending.append((release, answer))
-        self._jobs.put((time_us, copy, float(self.settings.noise_grey), answer))
+        """Hand the frame captured now to the worker (dropped when it has IN_FLIGHT waiting: a busy companion); the
+        media's wish for it is taken now, with the camera's pose for a photo's geotag."""
+        want_media = self.media is not None and self.media.wants(time_us)
+        if self._worker.submit(data, time_us, float(self.settings.noise_grey), want_media):
+            release = time_us + 1000 * int(self.settings.latency_ms)
+            self._pending.append((release, time_us, self.pose_of(data) if want_media else None))
 
     def close(self) -> None:
-        self._jobs.put(None)
-        self._thread.join(timeout=5.0)
+        frames = self._worker.close()
+        if frames is not None:  # (kept by a process of its own: all but the wait, which is this side's)
+            frames.waited_s, self.stats = self.stats.waited_s, frames
         who = f"vehicle {self.vehicle} " if self.vehicle else ""  # (a world of several: each vehicle's camera)
         print(f"[sitl] {who}{self.stats.line()}", file=sys.stderr, flush=True)
 
-    # -- worker thread -------------------------------------------------------------------------
-    def _work(self) -> None:
-        """Owns the renderer (its GL context belongs to this thread) and the detector."""
-        try:
-            render = int(self.settings.render)  # SIM_CAM_RENDER
-            camera = open_camera(self.model, self.spec, self._seed, render, self._camera_name)
-            spec = self.spec
-            detector = MarkerDetector(
-                pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad, rendered=True
-            )
-        except BaseException as exc:  # reported to the main thread at the first release
-            camera, detector, self._error = None, None, exc
-        mount = CameraMount(position_frd_m=self.spec.position_frd_m)
-        view = (
-            MarkerView(self.model, self._camera_name, detector.camera, self.pad, self.ugv)
-            if detector is not None
-            else None
+    # -- the frame pipeline (on the worker: sitl/companion_workers.py) -----------------------------
+    def open_pipeline(self) -> FramePipeline:
+        """The renderer, the detector, the fixed mount and the view test, opened where the frames are made (a
+        renderer's GL context belongs to the thread that opened it)."""
+        spec = self.spec
+        camera = open_camera(self.model, spec, self._seed, int(self.settings.render), self._camera_name)
+        detector = MarkerDetector(
+            pinhole(spec.width_px, spec.height_px, math.radians(spec.hfov_deg)), layout=self.pad, rendered=True
         )
-        while (job := self._jobs.get()) is not None:
-            time_us, copy, noise, answer = job
-            if camera is None or detector is None:
-                answer.put(self._error)
-                continue
-            try:
-                answer.put((copy, *self._process(camera, detector, mount, view, copy, time_us, noise)))
-            except BaseException as exc:
-                answer.put(exc)
-        if camera is not None:
-            camera.close()
+        view = MarkerView(self.model, self._camera_name, detector.camera, self.pad, self.ugv)
+        return FramePipeline(camera, detector, CameraMount(position_frd_m=spec.position_frd_m), view)
 
-    def _process(
-        self,
-        camera: DownwardCamera,
-        detector: MarkerDetector,
-        mount: CameraMount,
-        view: MarkerView | None,
-        data: mujoco.MjData,
-        time_us: int,
-        noise: float,
-    ) -> tuple[bytes, CameraFrame]:
-        """One frame: rendered (unless the marker is wholly out of view), the marker found, the message packed;
-        with the frame's record (:class:`CameraFrame`)."""
+    def process_frame(
+        self, pipeline: FramePipeline, data: mujoco.MjData, time_us: int, noise: float, want_media: bool
+    ) -> FrameAnswer:
+        """One frame: rendered (unless the marker is wholly out of view and ``want_media`` is false: the video or a
+        photo wants it), the marker found, the message packed; with the frame's record (:class:`CameraFrame`) and,
+        when wanted, the RGB frame and the detection for the media."""
+        camera, detector, mount, view = pipeline.camera, pipeline.detector, pipeline.mount, pipeline.view
         st = self.stats
         joints = self._joints(data)
         rpy = None if joints is None else (joints[1], joints[2], joints[0])  # (yaw, roll, pitch) -> roll, pitch, yaw
         saved = self.save_dir is not None and (camera.frames + 1) % self.save_every == 1
-        media = self.media if self.media is not None and self.media.wants(time_us) else None
-        if view is not None and not saved and not self._could_show(view, data):  # it could not show the marker
-            if media is None:
-                camera.skip(noise)
-            else:  # (rendered for the video alone: the same noise draws as a skip, so the same frames after it)
+        if not saved and not self._could_show(view, data):  # it could not show the marker
+            shown = None
+            if want_media:  # (rendered for the video alone: the same noise draws as a skip, so the same frames after)
                 camera.capture(data, noise)
-                media.frame(camera.last_rgb, time_us, self._pose(data))  # type: ignore[arg-type]
+                shown = (camera.last_rgb, None)
+            else:
+                camera.skip(noise)
             st.frames, st.not_rendered = camera.frames, st.not_rendered + 1
-            return b"", CameraFrame(time_us, rpy, rendered=False)
+            return FrameAnswer(b"", CameraFrame(time_us, rpy, rendered=False), shown)  # type: ignore[arg-type]
         frame = camera.capture(data, noise)
         mount = self._mount_at_capture(mount, joints)
         q_ned_frd = _attitude(data, self._qadr)
         t0 = time.perf_counter()
         det = detector.detect(frame, expected_normal_cam(mount.rotation_frd_cam, q_ned_frd))
         st.detect_s += time.perf_counter() - t0
-        if media is not None:  # (the video drawn with the detection when SIM_VID_ANNOT is 1)
-            media.frame(camera.last_rgb, time_us, self._pose(data), det)  # type: ignore[arg-type]
+        shown = (camera.last_rgb, det) if want_media else None  # (the video drawn with it when SIM_VID_ANNOT is 1)
         st.frames, st.render_s = camera.frames, camera.render_s
         if self.save_dir is not None and st.frames % self.save_every == 1:
             self._save(frame, det, detector, time_us)
         if det is None:
-            return b"", CameraFrame(time_us, rpy, rendered=True)
+            return FrameAnswer(b"", CameraFrame(time_us, rpy, rendered=True), shown)  # type: ignore[arg-type]
         st.detections += 1
         st.max_range_m = max(st.max_range_m, det.distance_m)
         st.count_markers(det)
@@ -292,7 +264,8 @@ class LockstepCompanion:
         msg = landing_target_message(det, mount, q_ned_frd, time_us, frame=mavlink.MAV_FRAME_BODY_FRD)
         packed = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) % 256
-        return packed, CameraFrame(time_us, rpy, rendered=True, marker_ids=tuple(int(i) for i in det.marker_ids))
+        ids = tuple(int(i) for i in det.marker_ids)
+        return FrameAnswer(packed, CameraFrame(time_us, rpy, rendered=True, marker_ids=ids), shown)  # type: ignore[arg-type]
 
     def _could_show(self, view: MarkerView, data: mujoco.MjData) -> bool:
         """Whether the frame rendered from ``data`` could show a marker the detector finds: some marker in view;
@@ -303,8 +276,8 @@ class LockstepCompanion:
             return view.detectable(data)  # (a marker it can find is in view: the one test is enough)
         return not view.out_of_view(data)
 
-    def _pose(self, data: mujoco.MjData) -> CameraPose:
-        """The camera's pose in the state copy a frame is rendered from (a photo's geotag and attitude)."""
+    def pose_of(self, data: mujoco.MjData) -> CameraPose:
+        """The camera's pose in the state a frame is rendered from (a photo's geotag and attitude)."""
         return camera_pose(data, self._camera_id, self.media.home if self.media is not None else (0.0, 0.0, 0.0))
 
     def _mount_at_capture(self, fixed: CameraMount, joints: tuple[float, float, float] | None) -> CameraMount:

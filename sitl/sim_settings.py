@@ -329,6 +329,12 @@ class CameraSettings:
         "(sitl/deck_render.py: the same detections at a third of the cost) (read at start)",
         ParamType.INT32, True,
     )  # fmt: skip
+    process: int = sim_param(
+        "SIM_CAM_PROC", 1, 0, 1, "",
+        "Where the camera's frames are rendered and read: 1 a process of its own (they overlap the physics and the "
+        "flight controller), 0 a thread of the simulator; the same frames either way (read at start)",
+        ParamType.INT32, True,
+    )  # fmt: skip
 
     video: int = sim_param(
         "SIM_VID_EN", 1, 0, 1, "", "1: the camera's video goes out as RTP H.264 to UDP 5600+N (read at start)",

@@ -168,9 +168,11 @@ def test_a_marker_seen_through_the_gimbal_is_where_the_truth_has_it():
     assert np.linalg.norm(fixed[:2] - truth[:2]) > 0.5  # taken for a body-fixed camera: 20 deg of roll off
 
 
-def test_the_companion_hands_each_frame_with_the_gimbals_angles_and_the_markers_used_to_on_frame():
+@pytest.mark.parametrize("process", [1, 0])
+def test_the_companion_hands_each_frame_with_the_gimbals_angles_and_the_markers_used_to_on_frame(process):
     """Rolled 20 deg over the deck, the gimbal holding the camera down: the frame's record (what the truth log's
-    .frames.npy keeps) carries the encoders' angles at capture as (roll, pitch, yaw) and the pad's markers used."""
+    .frames.npy keeps) carries the encoders' angles at capture as (roll, pitch, yaw) and the pad's markers used;
+    the frames made in a process of their own (SIM_CAM_PROC 1) or on a thread (0)."""
     ugv = UgvSettings(enabled=1, north_m=3.0, east_m=1.0, yaw_deg=30.0, path=0)
     sim = Simulation(QUAD, HOME, seed=1, ugv=ugv)
     v = sim.vehicle
@@ -180,7 +182,7 @@ def test_the_companion_hands_each_frame_with_the_gimbals_angles_and_the_markers_
     v.gimbal.place(sim.data, v.sensor_truth(sim.data).r_ned_frd)
     mujoco.mj_forward(sim.model, sim.data)
     yaw, roll, pitch = v.gimbal.joints(sim.data)
-    companion = LockstepCompanion(sim.model, QUAD.camera, CameraSettings(latency_ms=50), pad=ugv.pad())
+    companion = LockstepCompanion(sim.model, QUAD.camera, CameraSettings(latency_ms=50, process=process), pad=ugv.pad())
     frames = []
     companion.on_frame = frames.append
     try:

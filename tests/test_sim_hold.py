@@ -197,16 +197,18 @@ def test_a_simulator_waiting_for_its_camera_is_alive_and_not_held():
 
 
 def test_the_companion_says_it_is_alive_while_a_frame_is_waited_for():
-    """sitl.companion.LockstepCompanion._wait: the keepalive every BUSY_KEEPALIVE_S until the worker answers."""
+    """sitl.companion_workers.ThreadWorker.answer: the keepalive every BUSY_KEEPALIVE_S until the worker answers."""
     import queue
     import threading
+    from collections import deque
 
-    from sitl.companion import BUSY_KEEPALIVE_S, LockstepCompanion
+    from sitl.companion import BUSY_KEEPALIVE_S
+    from sitl.companion_workers import ThreadWorker
 
     calls = []
-    waiter = LockstepCompanion.__new__(LockstepCompanion)  # only _wait and keepalive: no renderer, no thread
-    waiter.keepalive = lambda: calls.append(1)
+    waiter = ThreadWorker.__new__(ThreadWorker)  # only answer: no renderer, no thread
     answer: queue.Queue = queue.Queue(maxsize=1)
-    threading.Timer(3.5 * BUSY_KEEPALIVE_S, lambda: answer.put("frame")).start()
-    assert waiter._wait(answer) == "frame"
+    waiter._answers, waiter._free = deque([answer]), deque()
+    threading.Timer(3.5 * BUSY_KEEPALIVE_S, lambda: answer.put(("copy", "frame"))).start()
+    assert waiter.answer(lambda: calls.append(1), BUSY_KEEPALIVE_S) == "frame"
     assert len(calls) >= 3  # (a slower machine only adds calls)
