@@ -14,7 +14,8 @@ the same messages for a seed (``SIM_CAM_PROC`` chooses; ``tests/test_companion_w
   it the state a frame is drawn from (:data:`STATE_FIELDS` of ``MjData``: positions and the poses MuJoCo computed
   from them, a few kB) over a socket pair; it answers with the packed LANDING_TARGET, the frame's record and,
   when the video or a photo wants the frame, its RGB image and detection, which the loop hands to the camera's
-  media at the release.  The child ends when the socket closes (the simulator gone).
+  media at the release.  The child runs in a session of its own (a stack's SIGTERM to the simulator's process
+  group leaves it to answer the simulator's close with its statistics) and ends when the socket closes.
 
 A worker holds at most ``IN_FLIGHT`` captures; a capture beyond that is dropped (which depends on simulated
 times only).  Frames: MuJoCo's world (ENU); times in simulated microseconds.
@@ -165,6 +166,7 @@ class ProcessWorker:
         self._proc = subprocess.Popen(  # (this module's main: the same code as this process's, by its sys.path)
             [sys.executable, "-m", __name__, str(theirs.fileno())],
             pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL, env=env,
+            start_new_session=True,  # (a signal to the simulator's group must not end it before its last answer)
         )  # fmt: skip
         theirs.close()
         self._conn = Connection(ours.detach())

@@ -52,8 +52,10 @@ def test_the_cut_waits_for_level_and_at_least_min_s_or_the_time():
     td = Touchdown(0.6, T0_US)
     level, tilted = estimate(0.5, 0.5), estimate(0.0, 9.0)
     assert tilt_rad(level) < LEVEL_TILT_RAD
-    assert td.finished(level, T0_US) == ""  # level at the first contact may be a swing passing through
-    assert td.finished(level, T0_US + int(MIN_S * 1e6) - 1) == ""
-    assert td.finished(level, T0_US + int(MIN_S * 1e6)) == "level on the deck after 0.15 s"
-    assert td.finished(tilted, T0_US + 590_000) == ""
-    assert td.finished(tilted, T0_US + 600_000) == "9 deg from level after 0.60 s"  # (a leg on the edge: cut anyway)
+    assert td.finished(level, T0_US, True) == ""  # level at the first contact may be a swing passing through
+    assert td.finished(level, T0_US + int(MIN_S * 1e6) - 1, True) == ""
+    assert td.finished(level, T0_US + int(MIN_S * 1e6), False) == ""  # level, but bounced off the deck
+    assert td.finished(level, T0_US + int(MIN_S * 1e6), True) == "level on the deck after 0.15 s"
+    assert td.finished(tilted, T0_US + 590_000, True) == ""
+    assert td.finished(tilted, T0_US + 600_000, True) == "9 deg from level after 0.60 s"  # (a leg on the edge)
+    assert td.finished(level, T0_US + 600_000, False) == "1 deg from level after 0.60 s"  # (the time is up)

@@ -359,7 +359,7 @@ class PrecLandTask:
                 elif there and (not still or waited):
                     self._cut(now_us, f"{'legs on the deck' if touching else 'docking point reached'} {err:.2f} m off")
         elif ph is PrecLandPhase.TOUCHDOWN and self._touchdown is not None:
-            why = self._touchdown.finished(est, now_us)
+            why = self._touchdown.finished(est, now_us, self.on_deck)
             if why:
                 self._cut(now_us, why)
 

@@ -52,11 +52,12 @@ class Touchdown:
         return AttitudeSetpoint(quat.from_euler(0.0, 0.0, yaw_rad), None, THRUST_OF_HOVER * hover_thrust_frac,
                                 yaw_rate_rad_s)  # fmt: skip
 
-    def finished(self, est: VehicleEstimate, now_us: int) -> str:
-        """Why the motors may cut now ("" while not): level, or the time is up."""
+    def finished(self, est: VehicleEstimate, now_us: int, on_deck: bool) -> str:
+        """Why the motors may cut now ("" while not): level with the legs felt on the deck (``on_deck``: a bounce
+        leaves it level in the air), or the time is up."""
         on_s = (now_us - self.started_us) * 1e-6
         tilt = tilt_rad(est)
-        if on_s >= MIN_S and tilt <= LEVEL_TILT_RAD:
+        if on_s >= MIN_S and tilt <= LEVEL_TILT_RAD and on_deck:
             return f"level on the deck after {on_s:.2f} s"
         if on_s >= self.level_s:
             return f"{math.degrees(tilt):.0f} deg from level after {on_s:.2f} s"
