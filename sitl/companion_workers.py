@@ -170,11 +170,18 @@ class ProcessWorker:
         )  # fmt: skip
         theirs.close()
         self._conn = Connection(ours.detach())
-        self._conn.send(companion.constructor_args())
+        # The companion's arguments go while the child imports (0.4 s), not blocking the simulator's start-up; the
+        # first capture waits for them to have gone.
+        args = companion.constructor_args()
+        self._sending: threading.Thread | None = threading.Thread(target=self._conn.send, args=(args,), daemon=True)
+        self._sending.start()
 
     def submit(self, data: mujoco.MjData, time_us: int, noise: float, want_media: bool) -> bool:
         if self._in_flight >= IN_FLIGHT:
             return False
+        if self._sending is not None:
+            self._sending.join()
+            self._sending = None
         self._conn.send((time_us, noise, want_media, self._state.pack(data)))
         self._in_flight += 1
         return True
@@ -194,6 +201,8 @@ class ProcessWorker:
     def close(self) -> CompanionStats | None:
         """End the child; its statistics of the frames (the parent kept only its own wait)."""
         stats = None
+        if self._sending is not None:
+            self._sending.join()
         try:
             while self._in_flight:  # (answers never released: the flight ended first)
                 self._conn.recv()
@@ -203,10 +212,8 @@ class ProcessWorker:
                 stats = self._conn.recv()
         except (EOFError, OSError):
             pass
-        self._conn.close()
-        try:
-            self._proc.wait(timeout=5.0)
-        except subprocess.TimeoutExpired:
+        self._conn.close()  # (the child ends on its own once it has answered; only a silent one is killed)
+        if stats is None and self._proc.poll() is None:
             self._proc.kill()
             self._proc.wait()
         return stats
