@@ -217,6 +217,7 @@ def _companion(sim, camera: CameraSettings, args: argparse.Namespace, k: int = 0
         pad=sim.pad,
         vehicle=k,
         ugv=k if own else 0,
+        fork_worker=True,  # (nothing rendered here yet: its frames' process forked, not started afresh)
     )
 
 

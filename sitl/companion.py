@@ -142,8 +142,11 @@ class LockstepCompanion:
         vehicle: int = 0,
         ugv: int = 0,
         worker: bool = True,
+        fork_worker: bool = False,
     ) -> None:
-        """``worker`` False: no worker of its own (the pipeline alone, as the worker process builds it)."""
+        """``worker`` False: no worker of its own (the pipeline alone, as the worker process builds it);
+        ``fork_worker``: a worker process is forked from this one (only a process that has not rendered or run OpenCV
+        yet: the simulator building its world), else started afresh."""
         self._args = (model, camera, settings, seed, sysid, save_dir, save_every, pad, vehicle, ugv)
         self.model, self.spec, self.settings, self.pad = model, camera, settings, pad
         # Which multicopter of the world carries this camera (its parts: sitl.model.part_name) and which ground
@@ -170,7 +173,7 @@ class LockstepCompanion:
         self.media: CameraMedia | None = None  # the video, photos and recordings (sitl/camera_media.py), if any
         self.keepalive: Callable[[], None] | None = None  # while a frame is waited for (sitl/lockstep.py)
         # the frames' worker (sitl/companion_workers.py): a process of its own (SIM_CAM_PROC 1) or a thread
-        self._worker = new_worker(self, bool(int(settings.process))) if worker else None
+        self._worker = new_worker(self, bool(int(settings.process)), fork_worker) if worker else None
 
     def constructor_args(self) -> tuple:
         """The arguments this companion was built from (the worker process builds its own from them)."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import os
 import queue
+import signal
 import socket
 import subprocess
 import sys
@@ -154,14 +155,56 @@ class ThreadWorker:
             pipeline.camera.close()
 
 
-class ProcessWorker:
-    """The frames in a child process of their own (module docstring)."""
+class ForkedChild:
+    """A child forked from this process (the Popen calls :class:`ProcessWorker` makes of it)."""
 
-    def __init__(self, companion: LockstepCompanion) -> None:
+    def __init__(self, pid: int) -> None:
+        self.pid, self.returncode = pid, None
+
+    def poll(self) -> int | None:
+        if self.returncode is None:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def kill(self) -> None:
+        if self.poll() is None:
+            os.kill(self.pid, signal.SIGKILL)
+
+    def wait(self) -> int | None:
+        if self.returncode is None:
+            self.returncode = os.waitstatus_to_exitcode(os.waitpid(self.pid, 0)[1])
+        return self.returncode
+
+
+class ProcessWorker:
+    """The frames in a child process of their own (module docstring).  ``fork``: fork it from this process (the
+    model and every import inherited: it answers at once), which only a process that has not yet rendered or run
+    OpenCV may do (the simulator, building its world); otherwise a fresh interpreter is started (0.4 s of imports,
+    overlapping the simulator's start-up)."""
+
+    def __init__(self, companion: LockstepCompanion, fork: bool = False) -> None:
         self.c = companion
         self._state = StateCopy(companion.model)
         self._in_flight = 0
+        self._sending: threading.Thread | None = None
         ours, theirs = socket.socketpair()
+        if fork:
+            pid = os.fork()
+            if pid == 0:  # the child: its own session (a signal to the simulator's group must not end it early)
+                ours.close()
+                os.setsid()
+                code = 1
+                try:
+                    _serve(Connection(theirs.detach()), companion)
+                    code = 0
+                finally:
+                    os._exit(code)  # (none of the simulator's exit handlers)
+            self._proc: subprocess.Popen | ForkedChild = ForkedChild(pid)
+            theirs.close()
+            self._conn = Connection(ours.detach())
+            return
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if isinstance(p, str)))
         self._proc = subprocess.Popen(  # (this module's main: the same code as this process's, by its sys.path)
             [sys.executable, "-m", __name__, str(theirs.fileno())],
@@ -173,7 +216,7 @@ class ProcessWorker:
         # The companion's arguments go while the child imports (0.4 s), not blocking the simulator's start-up; the
         # first capture waits for them to have gone.
         args = companion.constructor_args()
-        self._sending: threading.Thread | None = threading.Thread(target=self._conn.send, args=(args,), daemon=True)
+        self._sending = threading.Thread(target=self._conn.send, args=(args,), daemon=True)
         self._sending.start()
 
     def submit(self, data: mujoco.MjData, time_us: int, noise: float, want_media: bool) -> bool:
@@ -213,24 +256,31 @@ class ProcessWorker:
         except (EOFError, OSError):
             pass
         self._conn.close()  # (the child ends on its own once it has answered; only a silent one is killed)
-        if stats is None and self._proc.poll() is None:
+        if stats is None:
             self._proc.kill()
+        if stats is None or isinstance(self._proc, ForkedChild):  # (a forked child exits at once: reaped)
             self._proc.wait()
         return stats
 
 
 def _child_main(conn: Connection) -> None:
-    """The child's loop: the companion rebuilt from its constructor's arguments (the first message; no worker of its
-    own), one answer per job in order, then its statistics when told to stop (None); it ends when the simulator's
-    end closes."""
+    """A started child: the companion rebuilt from its constructor's arguments (the first message; no worker of its
+    own), then :func:`_serve`."""
     from sitl.companion import LockstepCompanion
 
     try:
         c = LockstepCompanion(*conn.recv(), worker=False)
     except (EOFError, OSError, KeyboardInterrupt):
         return
+    _serve(conn, c)
+
+
+def _serve(conn: Connection, c: LockstepCompanion) -> None:
+    """The child's loop: one answer per job in order, then its statistics when told to stop (None); it ends when
+    the simulator's end closes."""
     data = mujoco.MjData(c.model)
     state = StateCopy(c.model)
+    c.stats = type(c.stats)()  # (a forked child's would start from the parent's: its own, from zero)
     try:
         pipeline, error = c.open_pipeline(), None
     except BaseException as exc:
@@ -254,9 +304,9 @@ def _child_main(conn: Connection) -> None:
             pipeline.camera.close()
 
 
-def new_worker(companion: LockstepCompanion, in_process: bool) -> ThreadWorker | ProcessWorker:
-    """The worker ``SIM_CAM_PROC`` asks for (1: a process)."""
-    return ProcessWorker(companion) if in_process else ThreadWorker(companion)
+def new_worker(companion: LockstepCompanion, in_process: bool, fork: bool = False) -> ThreadWorker | ProcessWorker:
+    """The worker ``SIM_CAM_PROC`` asks for (1: a process, forked from this one with ``fork``)."""
+    return ProcessWorker(companion, fork) if in_process else ThreadWorker(companion)
 
 
 if __name__ == "__main__":  # the worker process (ProcessWorker): its end of the socket pair is argv[1]
