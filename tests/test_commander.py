@@ -19,7 +19,15 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.commander import Commander
 from autopilot.mavlink import commands
 from autopilot.param_catalogue import default_store
-from autopilot.topics import ActuatorStatus, BatteryState, BatteryWarning, GpsSample, LandedState, VehicleEstimate
+from autopilot.topics import (
+    ActuatorStatus,
+    AttitudeSetpoint,
+    BatteryState,
+    BatteryWarning,
+    GpsSample,
+    LandedState,
+    VehicleEstimate,
+)
 from mavsim_core.geodesy import ned_to_geodetic
 from mavsim_core.px4_modes import Mode
 from mavsim_core.quaternion import from_euler
@@ -325,6 +333,22 @@ def test_reposition():
     b.drain()
     assert b.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, lat, lon, math.nan) == DENIED
     assert b.texts()[-1] == "Reposition denied: no position estimate"
+
+
+def test_a_reposition_or_a_speed_change_while_an_attitude_is_flown_starts_from_the_estimate():
+    """The setpoint flown may be an attitude (a stick mode, the descend failsafe, a precision landing's touchdown):
+    DO_REPOSITION and DO_CHANGE_SPEED then start from where the vehicle is (they read a position setpoint's
+    position, velocity and acceleration, which an attitude setpoint has not)."""
+    b = Bench()
+    b.fly_up()
+    here = b.pos.copy()
+    b.cmd.setpoint = AttitudeSetpoint(np.array([1.0, 0.0, 0.0, 0.0]), None, 0.3)
+    lat, lon, _ = ned_to_geodetic([6.0, -3.0, 0.0], *ORIGIN)
+    assert b.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, lat, lon, math.nan) == ACCEPTED
+    b.cmd.setpoint = AttitudeSetpoint(np.array([1.0, 0.0, 0.0, 0.0]), None, 0.3)
+    assert b.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, 2.0, -1) == ACCEPTED
+    b.run(15.0)
+    np.testing.assert_allclose(b.pos, [6.0, -3.0, here[2]], atol=1e-6)
 
 
 def test_a_reposition_sent_as_the_take_off_brakes_keeps_its_height():
