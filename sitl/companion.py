@@ -3,14 +3,14 @@
 A real companion computer grabs a frame, finds the marker and sends LANDING_TARGET to the
 flight controller some tens of milliseconds later.  Here the simulator plays both the
 camera and that computer, with the companion's own code (:mod:`vision`): at each capture
-time (``rate_hz`` of the vehicle file's [camera], simulated time) the state is copied; a
-worker thread renders the frame (:mod:`sitl.camera`; :mod:`sitl.deck_render` with ``SIM_CAM_RENDER`` 1), runs the
-detector and builds the message; the message goes out on the simulator link in the first period at or after
-capture + ``SIM_CAM_LAT_MS``, before that period's HIL_SENSOR.  The worker runs while the
-simulator waits for the flight controller, so rendering costs little wall time, and nothing
-depends on thread timing: the frame is rendered from the copy taken at capture, and the
-message waits for its release time (the main thread blocks if the worker is late).  Same
-seed, same frames, same messages.
+time (``rate_hz`` of the vehicle file's [camera], simulated time) the state is handed to a worker
+(:mod:`sitl.companion_workers`: a process of its own with ``SIM_CAM_PROC`` 1, the default, else a thread), which
+renders the frame (:mod:`sitl.camera`; :mod:`sitl.deck_render` with ``SIM_CAM_RENDER`` 1), runs the detector and
+builds the message; the message goes out on the simulator link in the first period at or after capture +
+``SIM_CAM_LAT_MS``, before that period's HIL_SENSOR.  The worker runs while the simulator steps on, so rendering
+costs little wall time, and nothing depends on its timing: the frame is rendered from the state taken at capture,
+and the message waits for its release time (the main thread blocks if the worker is late).  Same seed, same
+frames, same messages, whichever worker.
 
 LANDING_TARGET is sent in ArduPilot's body form (MAV_FRAME_BODY_FRD: x/y/z the marker's
 centre from the vehicle's centre of mass along body FRD axes, m; angle_x/angle_y/distance
