@@ -247,12 +247,13 @@ class ProcessWorker:
         if self._sending is not None:
             self._sending.join()
         try:
-            while self._in_flight:  # (answers never released: the flight ended first)
-                self._conn.recv()
-                self._in_flight -= 1
+            # Everything before the statistics is an answer never released (the flight ended first), counted or not:
+            # a SIGTERM between a job's send and its count leaves one more in the pipe than _in_flight says.
             self._conn.send(None)
-            if self._conn.poll(10.0):
-                stats = self._conn.recv()
+            while stats is None and self._conn.poll(10.0):
+                message = self._conn.recv()
+                if not isinstance(message, (FrameAnswer, BaseException)):
+                    stats = message
         except (EOFError, OSError):
             pass
         self._conn.close()  # (the child ends on its own once it has answered; only a silent one is killed)

@@ -119,3 +119,16 @@ def test_a_worker_holds_at_most_in_flight_captures():
     finally:
         companion.close()
     assert [r.time_us for r in records] == [k * period_us for k in range(IN_FLIGHT)]
+
+
+def test_the_statistics_come_back_after_answers_never_released_counted_or_not():
+    """A simulator stopped mid-flight (SIGTERM) may leave answers in the pipe, one perhaps not counted (sent, then
+    stopped before counting it): the companion's close still reads the statistics, not a frame's answer."""
+    ugv = UgvSettings(enabled=1, north_m=3.0, path=0)
+    sim = Simulation(QUAD, HOME, seed=1, ugv=ugv)
+    companion = LockstepCompanion(sim.model, QUAD.camera, CameraSettings(latency_ms=200, process=1), pad=ugv.pad())
+    worker = companion._worker
+    companion.step(sim.data, 0)  # captured, not released
+    worker._conn.send((50_000, 2.0, False, worker._state.pack(sim.data)))  # sent, never counted
+    companion.close()
+    assert companion.stats.frames == 2 and hasattr(companion.stats, "line")
