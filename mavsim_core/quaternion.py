@@ -123,6 +123,11 @@ def yaw_of(q: Quat) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+def tilt_rad(roll: float, pitch: float) -> float:
+    """The angle between the body's z axis and the vertical (rad) at this roll and pitch (rad)."""
+    return math.acos(max(-1.0, min(1.0, math.cos(roll) * math.cos(pitch))))
+
+
 def from_euler(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Quaternion of aerospace ZYX Euler angles (rad)."""
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)

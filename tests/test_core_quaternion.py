@@ -90,3 +90,10 @@ def test_cross_and_wrap_pi():
         w = quat.wrap_pi(a)
         assert -math.pi <= w < math.pi
         assert (math.sin(w), math.cos(w)) == pytest.approx((math.sin(a), math.cos(a)), abs=1e-9)
+
+
+def test_tilt_is_the_angle_of_the_body_z_axis_from_the_vertical():
+    assert quat.tilt_rad(0.0, 0.0) == pytest.approx(0.0, abs=1e-12)
+    assert quat.tilt_rad(math.radians(10.0), 0.0) == pytest.approx(math.radians(10.0))
+    z = quat.to_matrix(quat.from_euler(math.radians(6.0), math.radians(8.0), 0.0))[:, 2]
+    assert quat.tilt_rad(math.radians(6.0), math.radians(8.0)) == pytest.approx(math.acos(z[2]))

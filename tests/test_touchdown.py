@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.navigation.touchdown import LEVEL_TILT_RAD, MIN_S, THRUST_OF_HOVER, Touchdown, tilt_rad
+from autopilot.navigation.touchdown import LEVEL_TILT_RAD, MIN_S, THRUST_OF_HOVER, Touchdown
 from autopilot.topics import VehicleEstimate
 from mavsim_core import quaternion as quat
 
@@ -34,13 +34,6 @@ def estimate(roll_deg: float, pitch_deg: float, yaw_deg: float = 0.0) -> Vehicle
     )
 
 
-def test_tilt_is_the_angle_of_the_body_z_axis_from_the_vertical():
-    assert tilt_rad(estimate(0.0, 0.0, 120.0)) == pytest.approx(0.0, abs=1e-12)
-    assert tilt_rad(estimate(10.0, 0.0)) == pytest.approx(math.radians(10.0))
-    z = quat.to_matrix(quat.from_euler(math.radians(6.0), math.radians(8.0), 0.0))[:, 2]
-    assert tilt_rad(estimate(6.0, 8.0)) == pytest.approx(math.acos(z[2]))
-
-
 def test_the_setpoint_is_level_at_the_heading_turning_with_the_deck_pressed_on():
     sp = Touchdown(0.6, T0_US).setpoint(math.radians(40.0), -0.9, 0.45)
     np.testing.assert_allclose(sp.q_wxyz, quat.from_euler(0.0, 0.0, math.radians(40.0)), atol=1e-12)
@@ -51,7 +44,7 @@ def test_the_setpoint_is_level_at_the_heading_turning_with_the_deck_pressed_on()
 def test_the_cut_waits_for_level_and_at_least_min_s_or_the_time():
     td = Touchdown(0.6, T0_US)
     level, tilted = estimate(0.5, 0.5), estimate(0.0, 9.0)
-    assert tilt_rad(level) < LEVEL_TILT_RAD
+    assert quat.tilt_rad(level.roll_rad, level.pitch_rad) < LEVEL_TILT_RAD
     assert td.finished(level, T0_US, True) == ""  # level at the first contact may be a swing passing through
     assert td.finished(level, T0_US + int(MIN_S * 1e6) - 1, True) == ""
     assert td.finished(level, T0_US + int(MIN_S * 1e6), False) == ""  # level, but bounced off the deck

@@ -53,6 +53,7 @@ from pymavlink.dialects.v20 import common as S
 from autopilot.commander.thrust_loss import ThrustLossCheck
 from autopilot.parameters import ParamDef, ParameterStore, ParamType, param
 from autopilot.topics import ActuatorStatus, VehicleEstimate
+from mavsim_core import quaternion as quat
 from mavsim_core.px4_modes import Mode
 
 CBRK_FLIGHTTERM_KEY = 121212  # CBRK_FLIGHTTERM at this value: the circuit breaker is in, no termination
@@ -205,7 +206,7 @@ class FailureDetector:
             self.lost_control = True
             steps += _reaction(self.axis, s.now_us - s.armed_at_us, p)
             armed = not isinstance(steps[-1], StopMotors)
-        tilt = math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
+        tilt = quat.tilt_rad(est.roll_rad, est.pitch_rad)
         thrust = self.thrust
         above_m = s.ground_down_m - float(est.pos_ned_m[2])  # above where it was armed
         outputs, throttle = s.actuators.motor_outputs, s.actuators.throttle_frac

@@ -39,6 +39,14 @@ if TYPE_CHECKING:
     from autopilot.topics import AttitudeSetpoint, VehicleEstimate
 
 S = mavlink  # MAV_RESULT_*, MAV_SEVERITY_* constants
+
+
+def flown_position_setpoint(setpoint: object) -> PositionSetpoint | None:
+    """The setpoint being flown if it is a position setpoint; None for none or an attitude one (a stick mode, the
+    descend failsafe, a precision landing's touchdown), which a new goal does not start from."""
+    return setpoint if isinstance(setpoint, PositionSetpoint) else None
+
+
 REPOSITION_MAX_M = 1000.0  # farther reposition targets are refused
 MIN_TAKEOFF_M = 1.0  # lower take-off altitudes (above home) are raised to this
 
@@ -206,11 +214,11 @@ class FlightCommands(CommanderState):
         if speed > (limit := self.params.get("MPC_XY_VEL_MAX")):
             self.say(S.MAV_SEVERITY_INFO, f"Speed {speed:g} m/s limited to MPC_XY_VEL_MAX")
             speed = limit
-        sp = self.setpoint if isinstance(self.setpoint, PositionSetpoint) else None  # (an attitude one: no move)
-        moving = sp is not None and bool(np.all(np.isfinite(sp.pos_ned_m)))
-        start = sp.pos_ned_m if sp is not None and moving else e.pos_ned_m
-        v0 = sp.vel_ned_m_s if sp is not None and moving else None  # a new goal mid-move: on from the move's state
-        a0 = sp.acc_ned_m_s2 if sp is not None and moving else None
+        sp = flown_position_setpoint(self.setpoint)
+        if sp is not None and np.all(np.isfinite(sp.pos_ned_m)):  # a new goal mid-move: on from the move's state
+            start, v0, a0 = sp.pos_ned_m, sp.vel_ned_m_s, sp.acc_ned_m_s2
+        else:
+            start, v0, a0 = e.pos_ned_m, None, None
         if self.mode is not Mode.AUTO_LOITER:
             self.say(S.MAV_SEVERITY_INFO, "Mode AUTO.LOITER")
         self.mode = Mode.AUTO_LOITER

@@ -20,13 +20,12 @@ from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
     from autopilot.control.position_control import PositionSetpoint
-    from autopilot.topics import AttitudeSetpoint
-
-    Setpoint = PositionSetpoint | AttitudeSetpoint | None  # what a step flies (None: nothing, the motors cut)
     from autopilot.navigation.land_detector import LandDetector
     from autopilot.navigation.mission import MissionTask
     from autopilot.navigation.precland import LandingTargetInput
-    from autopilot.topics import VehicleEstimate
+    from autopilot.topics import AttitudeSetpoint, VehicleEstimate
+
+    Setpoint = PositionSetpoint | AttitudeSetpoint | None  # what a step flies (None: nothing, the motors cut)
 
 
 class MissionFlight(CommanderState):

@@ -13,11 +13,12 @@ import math
 from dataclasses import dataclass
 
 from autopilot.topics import BatteryState, GpsSample, HomePosition, VehicleEstimate
+from mavsim_core import quaternion as quat
 
 
 def tilt_deg(roll_rad: float, pitch_rad: float) -> float:
     """Angle between the body z axis and the vertical, degrees."""
-    return math.degrees(math.acos(max(-1.0, min(1.0, math.cos(roll_rad) * math.cos(pitch_rad)))))
+    return math.degrees(quat.tilt_rad(roll_rad, pitch_rad))
 
 
 def attitude_check(est: VehicleEstimate | None) -> list[str]:

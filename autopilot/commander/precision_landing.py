@@ -66,7 +66,7 @@ def step(
     on_deck: bool,
     gimbal_reach_rad: float | None,
     landing_target: LandingTargetInput | None,
-    hover_thrust_frac: float = 0.5,
+    hover_thrust_frac: float,
 ) -> PrecLandStep:
     """One update of the precision landing: ``on_deck``, the ground (or the deck) pushes up on the feet;
     ``gimbal_reach_rad``: the view cone's reach when PLD_CAM_REACH is -1; ``landing_target``: this update's

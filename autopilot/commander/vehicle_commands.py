@@ -22,9 +22,14 @@ import numpy as np
 from pymavlink.dialects.v20 import common as S
 
 from autopilot.commander.commander_state import CommanderState
-from autopilot.commander.flight_commands import REPOSITION_MAX_M, above_ceiling, point_ned, publishes
+from autopilot.commander.flight_commands import (
+    REPOSITION_MAX_M,
+    above_ceiling,
+    flown_position_setpoint,
+    point_ned,
+    publishes,
+)
 from autopilot.navigation import GotoTask, LoiterTask, started
-from autopilot.navigation.flight_task import PositionSetpoint
 from autopilot.navigation.geofence import stop_point
 from autopilot.navigation.mission import MissionTask
 from autopilot.navigation.mission_leg import Leg, path_speed
@@ -41,6 +46,7 @@ from mavsim_core import mission_items as mi
 from mavsim_core.px4_modes import Mode
 
 if TYPE_CHECKING:
+    from autopilot.control.position_control import PositionSetpoint
     from autopilot.topics import AttitudeSetpoint, VehicleEstimate
 
 MOTOR_TEST_TIMEOUT_MAX_S = 3.0  # a motor test never runs longer than this
@@ -96,7 +102,7 @@ class VehicleCommands(CommanderState):
 
     def _setpoint_or(self, e: VehicleEstimate) -> tuple[np.ndarray, float]:
         """The position and yaw being flown (the latest setpoint where finite, else the estimate)."""
-        sp = self.setpoint if isinstance(self.setpoint, PositionSetpoint) else None  # (an attitude one: none)
+        sp = flown_position_setpoint(self.setpoint)
         pos = sp.pos_ned_m if sp is not None and np.all(np.isfinite(sp.pos_ned_m)) else e.pos_ned_m
         yaw = sp.yaw_rad if sp is not None and math.isfinite(sp.yaw_rad) else e.yaw_rad
         return pos.astype(float).copy(), float(yaw)
@@ -126,7 +132,7 @@ class VehicleCommands(CommanderState):
     def _goto_at_new_speed(self, old: GotoTask, speed: float, e: VehicleEstimate) -> GotoTask:
         """The rest of ``old`` at ``speed``, on from the setpoint's position, velocity and acceleration."""
         pos, _ = self._setpoint_or(e)
-        sp = self.setpoint if isinstance(self.setpoint, PositionSetpoint) else None
+        sp = flown_position_setpoint(self.setpoint)
         vel = sp.vel_ned_m_s if sp is not None else None
         acc = sp.acc_ned_m_s2 if sp is not None else None
         accel, jerk = self.params.get("MPC_ACC_HOR"), self.params.get("MPC_JERK_AUTO")

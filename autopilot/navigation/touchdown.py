@@ -35,11 +35,6 @@ LEVEL_TILT_RAD = math.radians(2.0)  # level: tilt within this ...
 MIN_S = 0.15  # ... and on the deck at least this long (the swing damped, not passing through level)
 
 
-def tilt_rad(est: VehicleEstimate) -> float:
-    """The angle between the body's z axis and the vertical (rad)."""
-    return math.acos(max(-1.0, min(1.0, math.cos(est.roll_rad) * math.cos(est.pitch_rad))))
-
-
 class Touchdown:
     """Level on the deck, then the cut: :meth:`setpoint` each step from :meth:`start`, :meth:`finished` says when."""
 
@@ -56,7 +51,7 @@ class Touchdown:
         """Why the motors may cut now ("" while not): level with the legs felt on the deck (``on_deck``: a bounce
         leaves it level in the air), or the time is up."""
         on_s = (now_us - self.started_us) * 1e-6
-        tilt = tilt_rad(est)
+        tilt = quat.tilt_rad(est.roll_rad, est.pitch_rad)
         if on_s >= MIN_S and tilt <= LEVEL_TILT_RAD and on_deck:
             return f"level on the deck after {on_s:.2f} s"
         if on_s >= self.level_s:
