@@ -144,6 +144,7 @@ class LockstepServer:
         self.motor_commands = np.zeros(sim.rotors.n)
         self.hold = SimHold()  # SIM_HOLD_MS: the world's hold (sitl/hold.py)
         self.steps = 0
+        self.prepares = True  # _send_sensors ends with the world's prepare_step (a world of several does it itself)
         self.armed = False  # the flight controller's HIL_ACTUATOR_CONTROLS mode flag
 
     def close(self) -> None:
@@ -272,6 +273,8 @@ class LockstepServer:
             self.truth_log.record(time_us, t, self.armed, self.motor_commands, self.sim.ugv_truth)
         if time_us % TRUTH_PERIOD_US == 0:
             self._every_truth_period(time_us, t)
+        if self.prepares:  # the next step's ground-vehicle commands, while the flight controller computes its step
+            sim.world.prepare_step()
 
     def _every_truth_period(self, time_us: int, t: SensorTruth | None = None) -> None:
         """50 Hz of simulated time: scenario events, ground truth, parameter service.  ``t``: the period's sensor

@@ -150,6 +150,13 @@ class World:
             v.battery.step(v.rotors.shaft_power_w(), LOCKSTEP_DT_S, m.battery_drain_s, m.battery_min_pct / 100.0)
         self.time_us += _STEP_US
 
+    def prepare_step(self) -> None:
+        """What the next :meth:`step` needs that the flight controller's answer does not change, worked out ahead:
+        the ground vehicles' path commands (:meth:`sitl.ugv_world.UgvDriver.prepare`; the lockstep calls it while it
+        waits for the actuator controls).  The step gives the same world with or without it."""
+        for ugv in self.ugvs:
+            ugv.prepare(self.time_us * 1e-6)
+
     @property
     def own_ugvs(self) -> bool:
         """Each multicopter has a ground vehicle of its own (``ugvs``)."""

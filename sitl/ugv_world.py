@@ -14,7 +14,7 @@ Frames: NED metres from the multicopter's start point on the ground (the frame o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -31,7 +31,18 @@ from sitl.sim_settings import (
     UgvSettings,
 )
 from sitl.ugv import Ugv, UgvGeometry, ugv_part
-from sitl.ugv_paths import Pose2, UgvLimits, UgvPath, UnicycleCommand, circle, figure8, random_waypoints, straight_line
+from sitl.ugv_paths import (
+    PathTarget,
+    Pose2,
+    UgvLimits,
+    UgvPath,
+    UnicycleCommand,
+    circle,
+    figure8,
+    random_waypoints,
+    straight_line,
+    unicycle_command,
+)
 
 MANUAL_TIMEOUT_S = 0.5  # no MANUAL_CONTROL for this long: brake to a stop
 MANUAL_SPEED_MAX_M_S = 3.0  # full stick forward
@@ -102,6 +113,8 @@ class UgvDriver:
         self._path_t0_s = 0.0
         self._manual = UnicycleCommand(0.0, 0.0)
         self._manual_at_s = -math.inf
+        self._prepared: tuple[float, tuple, UnicycleCommand] | None = None  # (time s, settings, command): prepare()
+        self._truth: UgvTruth | None = None  # the latest truth (truth())
 
     def manual(self, x: float, r: float, time_s: float) -> None:
         """MANUAL_CONTROL x (forward) and r (yaw), each -1000..1000: switches the path to manual."""
@@ -127,8 +140,33 @@ class UgvDriver:
         self.data.qvel[v : v + 6] = 0.0
         self.ugv.drive._v = 0.0
 
+    def _keys(self) -> tuple[tuple, tuple]:
+        """What the path depends on: the start pose, then the path, speed, radius and acceleration limit."""
+        s = self.settings
+        return (s.north_m, s.east_m, s.yaw_deg), (s.path, s.speed_m_s, s.radius_m, s.accel_m_s2)
+
+    def prepare(self, time_s: float) -> None:
+        """Work out the path follower's command for the period starting at ``time_s`` ahead of :meth:`step` (the
+        simulator does it while it waits for the flight controller's answer, off the lockstep's critical path).
+        :meth:`step` uses it only if nothing it depends on has changed since (the settings; the UGV moves only in
+        the world's step), so the commands are those :meth:`step` alone would give."""
+        self._prepared = None
+        keys = self._keys()
+        if self.settings.path != PATH_MANUAL and self._path is not None and keys == (self._start_key, self._key):
+            self._prepared = (time_s, keys, self._path_command(time_s))
+
+    def _path_command(self, time_s: float) -> UnicycleCommand:
+        """The path follower's command at ``time_s`` from the UGV's pose now (:meth:`sitl.ugv.Ugv.follow`'s)."""
+        assert self._path is not None
+        target = self._path.target(time_s - self._path_t0_s)
+        pose = target.pose
+        shifted = Pose2(pose.north_m + self.origin_xy_enu[1], pose.east_m + self.origin_xy_enu[0], pose.yaw_rad)
+        moved = PathTarget(shifted, target.velocity_ne_m_s, target.speed_m_s, target.yaw_rate_rad_s, target.accel_m_s2)
+        return unicycle_command(moved, self.ugv.pose(), self.ugv.limits)
+
     def step(self, time_s: float, dt_s: float) -> None:
         """Set the wheel commands for the period starting at ``time_s``."""
+        prepared, self._prepared = self._prepared, None
         s = self.settings
         start_key = (s.north_m, s.east_m, s.yaw_deg)
         if start_key != self._start_key:
@@ -145,13 +183,21 @@ class UgvDriver:
             self.ugv.command(self._manual if fresh else UnicycleCommand(0.0, 0.0), dt_s)
         elif self._path is None:
             self.ugv.command(UnicycleCommand(0.0, 0.0), dt_s)
+        elif prepared is not None and prepared[0] == time_s and prepared[1] == (start_key, key):
+            self.ugv.command(prepared[2], dt_s)
         else:
-            target = self._path.target(time_s - self._path_t0_s)
-            pose = target.pose
-            shifted = Pose2(pose.north_m + self.origin_xy_enu[1], pose.east_m + self.origin_xy_enu[0], pose.yaw_rad)
-            self.ugv.follow(replace(target, pose=shifted), dt_s)
+            self.ugv.command(self._path_command(time_s), dt_s)
 
     def truth(self, time_us: int) -> UgvTruth:
+        """The UGV's truth at world time ``time_us``: worked out once per world time (the UGV moves only in the
+        world's step, which moves the time on), however many read it (the truth log, the truth port, its radio)."""
+        cached = self._truth
+        if cached is not None and cached.time_us == time_us:
+            return cached
+        self._truth = t = self._truth_now(time_us)
+        return t
+
+    def _truth_now(self, time_us: int) -> UgvTruth:
         st = self.ugv.state()
         r = quaternion.to_matrix(st.quat_ned_frd)
         deck = st.position_ned_m + r @ np.array([0.0, 0.0, -(self.geom.deck_top_m - self.geom.wheel_radius_m)])

@@ -35,6 +35,8 @@ class WorldLockstep:
     def __init__(self, world: World, servers: Sequence[LockstepServer], speed: float | None) -> None:
         self.world = world
         self.servers = list(servers)
+        for server in self.servers:
+            server.prepares = False  # the world's prepare_step once a period (_period), not once per vehicle
         self.speed = speed
         self.steps = 0
 
@@ -57,6 +59,7 @@ class WorldLockstep:
                 server._send_sensors()
             except OSError:
                 lost.append(server)
+        self.world.prepare_step()  # (while the flight controllers compute: sitl.lockstep does the same)
         for server in self.servers:
             if server in lost:
                 continue

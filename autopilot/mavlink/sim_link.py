@@ -33,6 +33,16 @@ NAN3 = np.full(3, np.nan)
 ACCEL_FIELDS, GYRO_FIELDS, MAG_FIELDS, PRESSURE_FIELD = 0x007, 0x038, 0x1C0, 0x200
 _ACTUATORS = MessageLayout(mavlink.MAVLink_hil_actuator_controls_message)
 _ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+# What the simulator sends by the period, framed by the fast path (mavsim_core/sim_api_codec.py): its sensors, and
+# in a landing world the gimbal's attitude (50 Hz) and the camera's LANDING_TARGET (up to 20 Hz), whose pymavlink
+# parse cost 25 us a period on the flight controller's critical path (issue 38).  Everything else goes to pymavlink.
+FAST_FROM_SIM = (
+    mavlink.MAVLink_hil_sensor_message,
+    mavlink.MAVLink_hil_gps_message,
+    mavlink.MAVLink_battery_status_message,
+    mavlink.MAVLink_landing_target_message,
+    mavlink.MAVLink_gimbal_device_attitude_status_message,
+)
 CONNECT_RETRY_S = 0.05  # a refused connection costs microseconds; a stack starts both processes at once
 # (gcs/launcher/stack.py), so the flight controller is usually waiting when the simulator begins to listen
 WAIT_SLICE_S = 0.02  # while connecting, on_wait() (the ground-station link) runs at 50 Hz of wall time
@@ -84,7 +94,7 @@ class SimLink:
         self.sock: socket.socket | None = None
         self.mav = mavlink.MAVLink(None, sysid, compid)  # we send the packed bytes ourselves
         self.mav.robust_parsing = True
-        self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
+        self.parser = StreamParser(self.mav, FAST_FROM_SIM)
         self.pending: list = []  # received during a request(), for the next receive()
         self.closed = False  # the simulator closed the link (seen by a request()): receive() says so next
         self.outbox: list[bytes] = []  # queued messages (queue()), sent just before the next actuator controls
@@ -147,7 +157,7 @@ class SimLink:
             raise
         self.sock = s
         self.receiver = SpinReceiver(s)
-        self.parser = StreamParser(self.mav, [mavlink.MAVLink_hil_sensor_message])
+        self.parser = StreamParser(self.mav, FAST_FROM_SIM)
         self.pending, self.closed = [], False
 
     def _answered(self, timeout_s: float, on_wait) -> bool:
