@@ -69,15 +69,17 @@ class StateCopy:
         probe = mujoco.MjData(model)
         self.shapes = [(f, getattr(probe, f).shape) for f in STATE_FIELDS]
         self.size = 1 + sum(int(np.prod(s)) for _, s in self.shapes)
+        self._views: tuple[mujoco.MjData, list[np.ndarray]] | None = None  # (the data packed last, its fields' views)
 
     def pack(self, data: mujoco.MjData) -> np.ndarray:
-        out = np.empty(self.size)
-        out[0], at = data.time, 1
-        for f, shape in self.shapes:
-            n = int(np.prod(shape))
-            out[at : at + n] = getattr(data, f).ravel()
-            at += n
-        return out
+        """The state vector of ``data`` (the fields' flat views are kept for the next call with the same data: the
+        simulator packs its one ``MjData`` 20 times a simulated second)."""
+        if self._views is None or self._views[0] is not data:
+            fields = [getattr(data, f) for f, _ in self.shapes]
+            if not all(a.flags.c_contiguous for a in fields):  # (MuJoCo's are: a flat view is then the field itself)
+                return np.concatenate(([data.time], *(a.ravel() for a in fields)))
+            self._views = (data, [a.reshape(-1) for a in fields])
+        return np.concatenate(([data.time], *self._views[1]))
 
     def unpack(self, state: np.ndarray, data: mujoco.MjData) -> None:
         data.time, at = float(state[0]), 1

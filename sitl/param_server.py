@@ -42,6 +42,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from mavsim_core.mavlink_udp import Address, UdpEndpoint
 from mavsim_core.param_types import ParamType
+from mavsim_core.sim_api_codec import numeric_layout
 from mavsim_core.statustext import StatustextChunker
 from sitl.sim_params import SimParam, SimParamError, SimParameters
 
@@ -168,8 +169,12 @@ class SimParamServer:
             mav = self._others[compid] = mavlink.MAVLink(None, self.mav.srcSystem, compid)
         out = b""
         for m in msgs:
-            out += m.pack(mav)
-            mav.seq = (mav.seq + 1) % 256
+            layout = numeric_layout(type(m))  # (numbers only: the fast codec, pymavlink's bytes)
+            if layout is not None:
+                out += layout.encode(mav, layout.values_of(m))
+            else:
+                out += m.pack(mav)
+                mav.seq = (mav.seq + 1) % 256
         return out
 
     def send_message(self, msg: mavlink.MAVLink_message) -> None:

@@ -56,7 +56,9 @@ import numpy as np
 from autopilot.navigation.deck_heading import square
 
 if TYPE_CHECKING:
-    from filterpy.kalman import IMMEstimator, UnscentedKalmanFilter
+    from filterpy.kalman import IMMEstimator
+
+    from autopilot.navigation.fast_ukf import RowsUKF
 
 CHI2_GATE_2DOF = 13.8  # 99.9 % of a chi-square with 2 degrees of freedom
 REFIT_AFTER_REJECTS = 3  # refused fixes in a row before the filter is re-seated on the next one
@@ -121,6 +123,22 @@ def turn_step(x: np.ndarray, dt_s: float) -> np.ndarray:
     )  # fmt: skip
 
 
+def turn_step_rows(xs: np.ndarray, dt_s: float) -> np.ndarray:
+    """:func:`turn_step` of each row of ``xs`` (the sigma points of :class:`DeckTurnFilter`'s filters), in one call."""
+    xs = np.asarray(xs, dtype=float)
+    n, e, vn, ve, w = xs[:, 0], xs[:, 1], xs[:, 2], xs[:, 3], xs[:, 4]
+    straight = np.abs(w) < STRAIGHT_BELOW_RAD_S
+    w_div = np.where(straight, 1.0, w)
+    th = w * dt_s
+    s, c = np.sin(th), np.cos(th)
+    out = xs.copy()
+    out[:, 0] = np.where(straight, n + vn * dt_s, n + (vn * s - ve * (1.0 - c)) / w_div)
+    out[:, 1] = np.where(straight, e + ve * dt_s, e + (ve * s + vn * (1.0 - c)) / w_div)
+    out[:, 2] = np.where(straight, vn, vn * c - ve * s)
+    out[:, 3] = np.where(straight, ve, vn * s + ve * c)
+    return out
+
+
 def _measure(x: np.ndarray) -> np.ndarray:
     return np.asarray(x[:2], dtype=float)
 
@@ -152,7 +170,7 @@ class DeckTurnFilter:
             s = replace(s, lag_var_in_m2=s.lag_prior_var_m2)
         self.settings = s
         self._turn_vars = (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
-        self._ukfs: list[UnscentedKalmanFilter] = []  # built with the first fix (_build)
+        self._ukfs: list[RowsUKF] = []  # built with the first fix (_build)
         self._imm: IMMEstimator | None = None
         self._t_us: int | None = None  # time of the state (the latest accepted fix)
         self.rejected_count = 0
@@ -163,11 +181,13 @@ class DeckTurnFilter:
         scipy.stats, 0.7 s of CPU that every flight controller would pay at start-up (mavsim_core/butterworth.py)."""
         if self._imm is not None:
             return self._imm
-        from filterpy.kalman import IMMEstimator, MerweScaledSigmaPoints, UnscentedKalmanFilter
+        from filterpy.kalman import IMMEstimator
+
+        from autopilot.navigation.fast_ukf import RowsMerweSigmaPoints, RowsUKF
 
         s, n = self.settings, self._n
         self._ukfs = [
-            UnscentedKalmanFilter(n, 2, 0.05, _measure, turn_step, MerweScaledSigmaPoints(n, 0.3, 2.0, 0.0))
+            RowsUKF(n, 2, 0.05, _measure, turn_step_rows, RowsMerweSigmaPoints(n, 0.3, 2.0, 0.0))
             for _ in (s.turn_acc_var_rad2_s4, s.jump_turn_acc_var_rad2_s4)
         ]
         switch = np.array([[s.stay_prob, 1.0 - s.stay_prob], [1.0 - s.stay_prob, s.stay_prob]])
