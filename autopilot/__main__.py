@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import threading
 
 from mavsim_core import ports
 from mavsim_core.cli_args import EXIT_CODES_EPILOG, add_instance_option, add_version_option, port_number
@@ -155,9 +156,25 @@ def _keep_plans(fc, args: argparse.Namespace, vehicle_name: str) -> None:
     fc.commander.plans.save = save
 
 
+def _import_landing_filters() -> None:
+    """filterpy (and with it scipy.stats, 0.6 CPU s), imported on a thread of its own while the flight controller
+    starts and waits for the simulator (which takes longer to start), instead of on the lockstep's thread when the
+    first landing target arrives: a precision landing started from a plain ``python -m autopilot`` stopped half a
+    second there (issue 38).  A process forked from a server that has imported it (gcs/launcher/fork_server.py) finds
+    it imported.  Nothing computed depends on when it is imported."""
+    try:
+        import filterpy.kalman  # noqa: F401
+
+        import autopilot.navigation.fast_ukf  # noqa: F401
+    except Exception:  # noqa: BLE001 - imported again, where it is needed, with its error there
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     _resolve_ports(args)
+    if "filterpy" not in sys.modules:
+        threading.Thread(target=_import_landing_filters, name="import-landing-filters", daemon=True).start()
     parts: list = []  # what _start opened, closed on the way out whatever happens
     try:
         started = _start(args, parts)

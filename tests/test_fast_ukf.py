@@ -91,3 +91,15 @@ def test_the_imm_of_row_filters_tracks_as_filterpys_through_fixes_headings_and_a
         np.testing.assert_allclose(imm_o.P, imm_t.P, rtol=1e-7, atol=1e-10)
         np.testing.assert_allclose(imm_o.mu, imm_t.mu, rtol=1e-7, atol=1e-10)
     assert imm_o.mu[1] > 0.0 and abs(float(imm_o.x[4])) > 0.1  # (it did track a turn, through the reversal)
+
+
+def test_the_measurements_of_all_sigma_points_at_once_are_those_of_each():
+    rng = np.random.default_rng(9)
+    xs = rng.normal(0.0, 2.0, (13, N))
+    xs[:, 5] = rng.uniform(-0.5, 0.5, 13)
+    for yaw in (-3.0, -0.7, 0.0, 0.78, 2.9):
+        got = _heading_off_square.rows(xs, square_yaw_rad=yaw)
+        want = np.array([_heading_off_square(x, yaw) for x in xs])
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        assert np.all(np.abs(got) <= math.pi / 4 + 1e-12)
+    np.testing.assert_array_equal(_measure.rows(xs), np.array([_measure(x) for x in xs]))

@@ -53,7 +53,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from autopilot.navigation.deck_heading import square
+from autopilot.navigation.deck_heading import QUARTER, square
 
 if TYPE_CHECKING:
     from filterpy.kalman import IMMEstimator
@@ -150,6 +150,24 @@ def _heading_off_square(x: np.ndarray, square_yaw_rad: float) -> np.ndarray:
     vn, ve, w, lag = float(x[2]), float(x[3]), float(x[4]), float(x[5])
     heading = math.atan2(ve, vn) + math.atan2(lag * w, math.hypot(vn, ve))
     return np.array([square(heading - square_yaw_rad)])  # (the difference of two headings of a square)
+
+
+def _heading_off_square_rows(xs: np.ndarray, square_yaw_rad: float) -> np.ndarray:
+    """:func:`_heading_off_square` of each row of ``xs`` (the sigma points), as a column."""
+    vn, ve, w, lag = xs[:, 2], xs[:, 3], xs[:, 4], xs[:, 5]
+    heading = np.arctan2(ve, vn) + np.arctan2(lag * w, np.hypot(vn, ve))
+    off = heading - square_yaw_rad
+    return ((off + math.pi / 4) % QUARTER - math.pi / 4)[:, None]  # (square(): modulo 90 deg, as numpy's %)
+
+
+_heading_off_square.rows = _heading_off_square_rows  # type: ignore[attr-defined]  # (RowsUKF.update: all at once)
+
+
+def _measure_rows(xs: np.ndarray) -> np.ndarray:
+    return np.asarray(xs[:, :2], dtype=float)
+
+
+_measure.rows = _measure_rows  # type: ignore[attr-defined]
 
 
 class DeckTurnFilter:

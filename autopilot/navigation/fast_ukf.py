@@ -79,6 +79,38 @@ class RowsUKF(UnscentedKalmanFilter):
         else:  # (another model for this call: filterpy's way)
             self.sigmas_f = np.array([fx(s, dt, **fx_args) for s in sigmas])
 
+    def update(self, z, R=None, UT=None, hx=None, **hx_args) -> None:
+        """filterpy's update (the same posterior, innovation, its covariance and gain, kept under the same names) in a
+        few array operations, with plain means and residuals; ``hx`` may carry ``hx.rows(sigmas, **hx_args)``, the
+        measurement of all sigma points at once.  Anything else (no measurement, another unscented transform, custom
+        means or residuals) is filterpy's own update."""
+        plain = self.x_mean is None and self.z_mean is None and self.residual_z is np.subtract
+        if z is None or UT is not None or not plain or self.residual_x is not np.subtract:
+            super().update(z, R, UT, hx, **hx_args)
+            return
+        hx = self.hx if hx is None else hx
+        if R is None:
+            R = self.R
+        elif np.isscalar(R):
+            R = np.eye(self._dim_z) * R
+        sigmas = self.sigmas_f
+        rows = getattr(hx, "rows", None)
+        h = rows(sigmas, **hx_args) if rows is not None else np.array([hx(s, **hx_args) for s in sigmas])
+        self.sigmas_h = h = np.atleast_2d(h).reshape(len(sigmas), -1)
+        zp = self.Wm @ h
+        dz = h - zp
+        wdz = self.Wc[:, None] * dz
+        self.S = s_cov = dz.T @ wdz + R
+        self.SI = self.inv(s_cov)
+        pxz = (sigmas - self.x).T @ wdz
+        self.K = k = pxz @ self.SI
+        self.y = y = np.asarray(z, dtype=float).reshape(-1) - zp
+        self.x = self.x + k @ y
+        self.P = self.P - k @ (s_cov @ k.T)
+        self.z = np.array(z, dtype=float, copy=True)
+        self.x_post, self.P_post = self.x.copy(), self.P.copy()
+        self._log_likelihood = self._likelihood = self._mahalanobis = None
+
     def cross_variance(self, x, z, sigmas_f, sigmas_h) -> np.ndarray:
         """``sum_i Wc[i] (sigmas_f[i] - x) (sigmas_h[i] - z)^T`` (plain differences: this filter's residuals)."""
         return (self.Wc[:, None] * (sigmas_f - x)).T @ (sigmas_h - z)
