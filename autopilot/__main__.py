@@ -158,10 +158,11 @@ def _keep_plans(fc, args: argparse.Namespace, vehicle_name: str) -> None:
 
 def _import_landing_filters() -> None:
     """filterpy (and with it scipy.stats, 0.6 CPU s), imported on a thread of its own while the flight controller
-    starts and waits for the simulator (which takes longer to start), instead of on the lockstep's thread when the
-    first landing target arrives: a precision landing started from a plain ``python -m autopilot`` stopped half a
-    second there (issue 38).  A process forked from a server that has imported it (gcs/launcher/fork_server.py) finds
-    it imported.  Nothing computed depends on when it is imported."""
+    builds itself, and waited for before it connects to the simulator (which takes about as long to start), instead
+    of on the lockstep's thread when the first landing target arrives: a precision landing started from a plain
+    ``python -m autopilot`` stopped half a second there (issue 38); imported on a thread during the flight, it slowed
+    every step it shared the interpreter with.  A process forked from a server that has imported it
+    (gcs/launcher/fork_server.py) finds it imported.  Nothing computed depends on when it is imported."""
     try:
         import filterpy.kalman  # noqa: F401
 
@@ -173,8 +174,10 @@ def _import_landing_filters() -> None:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     _resolve_ports(args)
+    importing = None
     if "filterpy" not in sys.modules:
-        threading.Thread(target=_import_landing_filters, name="import-landing-filters", daemon=True).start()
+        importing = threading.Thread(target=_import_landing_filters, name="import-landing-filters", daemon=True)
+        importing.start()
     parts: list = []  # what _start opened, closed on the way out whatever happens
     try:
         started = _start(args, parts)
@@ -183,6 +186,8 @@ def main(argv: list[str] | None = None) -> int:
         return startup_failed("autopilot", exc, args.instance)
     from autopilot.lockstep_loop import run_lockstep
 
+    if importing is not None:  # done before the lockstep starts: its thread would hold the lock the loop waits for
+        importing.join()
     try:
         run_lockstep(*started)
     except KeyboardInterrupt:
