@@ -9,9 +9,8 @@ commander itself: they return what to say and what to do, and the commander does
 (:mod:`autopilot.commander.mission_flight`): start AUTO.MISSION (:func:`start_mission`), run it
 (:func:`advance`: the runner's requests for a return, a precision landing (flown inside AUTO.MISSION,
 as PX4 does) or a new home), pause it when another mode takes over, check the geofence every update
-(:func:`check_geofence`, GF_ACTION as in PX4: a :class:`FenceAction`) and choose where a direct return goes
-(:func:`return_destination`: the closest of home and the rally points, as PX4's RTL_TYPE 0; the
-other return types: :mod:`autopilot.commander.mission_landing`).
+(:func:`check_geofence`, GF_ACTION as in PX4: a :class:`FenceAction`) and give the rally points in NED
+(:func:`rally_points_ned`) that a return chooses among (:mod:`autopilot.navigation.rtl_mission`, RTL_TYPE).
 
 Frames: NED metres relative to the estimator origin; plans in MAVLink's units (degE7, m).
 """
@@ -279,9 +278,3 @@ def rally_points_ned(plans: Plans, home: HomePosition, est: VehicleEstimate) -> 
         pos = geodetic_to_ned(item.lat_deg, item.lon_deg, 0.0, est.origin_lat_deg, est.origin_lon_deg, 0.0)
         out.append(np.array([pos[0], pos[1], home.pos_ned_m[2]]))
     return out
-
-
-def return_destination(plans: Plans, home: HomePosition, est: VehicleEstimate) -> np.ndarray:
-    """Where a direct return goes (m NED): home or the closest rally point, whichever is closer (RTL_TYPE 0)."""
-    points = [home.pos_ned_m.astype(float).copy(), *rally_points_ned(plans, home, est)]
-    return min(points, key=lambda p: float(np.linalg.norm(p[:2] - est.pos_ned_m[:2])))
