@@ -235,8 +235,12 @@ class Ugv:
         left, right = self.drive.wheels(cmd, dt_s)
         self.data.ctrl[self._act[0]], self.data.ctrl[self._act[1]] = left, right
 
+    def command_for(self, target: PathTarget) -> UnicycleCommand:
+        """The command that tracks ``target`` (from :meth:`sitl.ugv_paths.UgvPath.target`) from the pose now."""
+        return unicycle_command(target, self.pose(), self.limits)
+
     def follow(self, target: PathTarget, dt_s: float = LOCKSTEP_DT_S) -> UnicycleCommand:
-        """Track ``target`` (from :meth:`sitl.ugv_paths.UgvPath.target`); return the command used."""
-        cmd = unicycle_command(target, self.pose(), self.limits)
+        """Track ``target``: :meth:`command_for`, applied; return the command used."""
+        cmd = self.command_for(target)
         self.command(cmd, dt_s)
         return cmd

@@ -41,7 +41,6 @@ from sitl.ugv_paths import (
     figure8,
     random_waypoints,
     straight_line,
-    unicycle_command,
 )
 
 MANUAL_TIMEOUT_S = 0.5  # no MANUAL_CONTROL for this long: brake to a stop
@@ -156,24 +155,23 @@ class UgvDriver:
             self._prepared = (time_s, keys, self._path_command(time_s))
 
     def _path_command(self, time_s: float) -> UnicycleCommand:
-        """The path follower's command at ``time_s`` from the UGV's pose now (:meth:`sitl.ugv.Ugv.follow`'s)."""
+        """The path follower's command at ``time_s`` from the UGV's pose now (:meth:`sitl.ugv.Ugv.command_for`)."""
         assert self._path is not None
         target = self._path.target(time_s - self._path_t0_s)
         pose = target.pose
         shifted = Pose2(pose.north_m + self.origin_xy_enu[1], pose.east_m + self.origin_xy_enu[0], pose.yaw_rad)
         moved = PathTarget(shifted, target.velocity_ne_m_s, target.speed_m_s, target.yaw_rate_rad_s, target.accel_m_s2)
-        return unicycle_command(moved, self.ugv.pose(), self.ugv.limits)
+        return self.ugv.command_for(moved)
 
     def step(self, time_s: float, dt_s: float) -> None:
         """Set the wheel commands for the period starting at ``time_s``."""
         prepared, self._prepared = self._prepared, None
         s = self.settings
-        start_key = (s.north_m, s.east_m, s.yaw_deg)
+        start_key, key = self._keys()
         if start_key != self._start_key:
             self._start_key = start_key
             self._teleport(s.start_pose())
             self._key = None
-        key = (s.path, s.speed_m_s, s.radius_m, s.accel_m_s2)
         if key != self._key:
             self._key = key
             self.ugv.limits = self.ugv.drive.limits = UgvLimits(accel_m_s2=s.accel_m_s2)

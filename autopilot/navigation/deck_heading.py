@@ -46,7 +46,7 @@ TURN_FF_MAX_RAD_S = 2.5  # the deck's turn rate fed forward at most (rad/s): a f
 
 
 def square(yaw_rad: float) -> float:
-    """A heading modulo 90 deg, in [-pi/4, pi/4)."""
+    """A heading modulo 90 deg, in [-pi/4, pi/4) (of each element, given an array)."""
     return (yaw_rad + math.pi / 4) % QUARTER - math.pi / 4
 
 

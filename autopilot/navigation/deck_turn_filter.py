@@ -53,7 +53,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from autopilot.navigation.deck_heading import QUARTER, square
+from autopilot.navigation.deck_heading import square
 
 if TYPE_CHECKING:
     from filterpy.kalman import IMMEstimator
@@ -156,8 +156,7 @@ def _heading_off_square_rows(xs: np.ndarray, square_yaw_rad: float) -> np.ndarra
     """:func:`_heading_off_square` of each row of ``xs`` (the sigma points), as a column."""
     vn, ve, w, lag = xs[:, 2], xs[:, 3], xs[:, 4], xs[:, 5]
     heading = np.arctan2(ve, vn) + np.arctan2(lag * w, np.hypot(vn, ve))
-    off = heading - square_yaw_rad
-    return ((off + math.pi / 4) % QUARTER - math.pi / 4)[:, None]  # (square(): modulo 90 deg, as numpy's %)
+    return square(heading - square_yaw_rad)[:, None]  # (square() on an array: numpy's % as Python's)
 
 
 _heading_off_square.rows = _heading_off_square_rows  # type: ignore[attr-defined]  # (RowsUKF.update: all at once)
