@@ -1,7 +1,8 @@
 """The nested landing pad (vision.pad, issue 34 item 4): layouts that cannot be printed or seen are refused naming
 the key; the detector's one pose from every marker seen, against the known pose, in synthesized frames of the pad
 (the whole pad, the four large markers alone from afar, only the small inner marker from close by), and a lone
-large marker's pose chosen by the expected up."""
+large marker's pose chosen by the expected up; the detector's dictionary of the pad's own markers finds them as all
+of DICT_ARUCO_ORIGINAL does, corner for corner, beside another deck's markers."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from vision.camera_model import pinhole
 from vision.detector import MarkerDetector, expected_normal_cam
 from vision.landing_target import CameraMount
 from vision.marker import MARKER_BITS, dictionary
-from vision.pad import NESTED_PAD, SINGLE_PAD, PadLayout, PadLayoutError, PadMarker, check_pad
+from vision.pad import NESTED_PAD, SINGLE_PAD, PadLayout, PadLayoutError, PadMarker, check_pad, vehicle_pad
 
 CAMERA = pinhole(480, 360, math.radians(90.0))  # the vehicles' camera
 TEXEL_M = 0.0005  # the synthesized pad's texture pixel: the markers' sizes and offsets whole pixels
@@ -101,6 +102,37 @@ def test_the_level_pad_picks_the_outer_marker_pose_alone_from_afar():
         assert det is not None and det.marker_ids == (76,)
         assert float(np.linalg.norm(det.position_cam_m - t)) < 0.05
         assert np.degrees(np.arccos(min(1.0, det.rotation_cam_marker[:, 2] @ rot[:, 2]))) < 5.0
+
+
+def _markers(corners, ids, id_of) -> dict[int, np.ndarray]:
+    """A detectMarkers result as id -> (4, 2) corners, ``id_of`` mapping the detector's index to the id."""
+    return {} if ids is None else {id_of(int(i)): np.asarray(c).reshape(4, 2) for c, i in zip(corners, ids.ravel())}
+
+
+def test_the_pad_dictionary_finds_the_pads_markers_as_the_whole_dictionary_does():
+    """Sixty noisy frames of the nested pad (0.25-4.5 m, tilted, off-centre) with a second deck's pad beside it
+    (vehicle 1's ids): the detector's dictionary of its own five markers (vision.detector.pad_dictionary) gives
+    the same markers with the same corners, to the bit, as DICT_ARUCO_ORIGINAL with the same parameters; the
+    other deck's markers are seen by the whole dictionary only."""
+    det = MarkerDetector(CAMERA, layout=NESTED_PAD, rendered=True)
+    whole = cv2.aruco.ArucoDetector(dictionary(), det._detector.getDetectorParameters())
+    own, other = {m.marker_id for m in NESTED_PAD.markers}, {m.marker_id for m in vehicle_pad(NESTED_PAD, 1).markers}
+    rng = np.random.default_rng(11)
+    seen_own = seen_other = 0
+    for _ in range(60):
+        d = rng.uniform(0.25, 4.5)
+        rot, t = _facing_down(rng.uniform(-20.0, 20.0)), np.array((*rng.uniform(-0.3, 0.3, 2) * d, d))
+        frame = _render(NESTED_PAD, rot, t)
+        beside = _render(vehicle_pad(NESTED_PAD, 1), rot, t + rot[:, 0] * 1.5)  # the next deck, 1.5 m along x
+        frame = np.where(beside != 128, beside, frame)
+        frame = cv2.add(frame, rng.normal(0.0, 3.0, frame.shape), dtype=cv2.CV_8U)
+        ours = _markers(*det._detector.detectMarkers(frame)[:2], lambda i: NESTED_PAD.markers[i].marker_id)
+        every = _markers(*whole.detectMarkers(frame)[:2], lambda i: i)
+        assert ours.keys() == every.keys() & own
+        assert all(np.array_equal(ours[i], every[i]) for i in ours)
+        seen_own += len(ours)
+        seen_other += len(every.keys() & other)
+    assert seen_own >= 150 and seen_other >= 80, (seen_own, seen_other)
 
 
 def test_expected_normal_is_up_in_the_camera_frame():

@@ -10,6 +10,14 @@ small (at least :data:`SAME_SIZE` of the largest one seen): the small inner mark
 smaller than the corner refinement's window, and its corners (worse still in a compressed video) pulled a 2.6 m
 pose 8 cm off; the four large markers of the default pad, equally small from 3-4 m, all join (one of them alone,
 0.47 m from the centre, turned IPPE's tilt ambiguity into 5-15 cm at the centre).
+
+The detector looks the candidates up in a dictionary of the pad's own markers (:func:`pad_dictionary`), not in
+all 1024 of ``DICT_ARUCO_ORIGINAL``: OpenCV compares every candidate that is no marker of its dictionary with
+each of the dictionary's codes under four rotations, which was three quarters of a frame's detection (2.4 ->
+0.55 ms on a landing's frames, benchmarks/README.md).  The pad's markers are found the same, corner for corner:
+the dictionary corrects no bit (``maxCorrectionBits`` 1 times ``errorCorrectionRate`` 0.6 rounds to 0), so a
+candidate is one of the pad's markers exactly when its bits are that marker's code, in either dictionary
+(tests/test_vision_detector.py compares the two on a landing's frames).
 """
 
 from __future__ import annotations
@@ -25,7 +33,7 @@ from vision.marker import MARKER_ID, MARKER_SIZE_M, dictionary
 from vision.pad import PadLayout, PadMarker
 from vision.pad_pose import expected_normal_cam, solve_pad_pose
 
-__all__ = ["MIN_JOINT_SIDE_PX", "MarkerDetection", "MarkerDetector", "expected_normal_cam"]
+__all__ = ["MIN_JOINT_SIDE_PX", "MarkerDetection", "MarkerDetector", "expected_normal_cam", "pad_dictionary"]
 
 MIN_JOINT_SIDE_PX = 28.0  # a marker's mean side in the image (px) below which it joins only markers as small
 SAME_SIZE = 0.8  # a marker whose image is at least this fraction of the largest one's is "as small"
@@ -87,7 +95,8 @@ class MarkerDetector:
         params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX  # sub-pixel corners: cm-level pose
         if rendered:
             params.adaptiveThreshWinSizeMin = params.adaptiveThreshWinSizeMax = RENDERED_THRESHOLD_WINDOW_PX
-        self._detector = cv2.aruco.ArucoDetector(dictionary(), params)
+        self._ids = np.array([m.marker_id for m in self.layout.markers])  # the pad dictionary's index -> id
+        self._detector = cv2.aruco.ArucoDetector(pad_dictionary(self.layout), params)
 
     def detect(self, frame: np.ndarray, up_cam: np.ndarray | None = None) -> MarkerDetection | None:
         """The pad's detection in ``frame`` (uint8 grey or BGR), or None if none of its markers is seen.
@@ -95,11 +104,11 @@ class MarkerDetector:
         ``up_cam``: the world's up in the camera frame at capture, when known (:func:`expected_normal_cam`):
         of IPPE's two poses the one with the pad level is taken (:mod:`vision.pad_pose`)."""
         grey = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-        corners, ids, _rejected = self._detector.detectMarkers(grey)
-        if ids is None:
+        corners, index, _rejected = self._detector.detectMarkers(grey)
+        if index is None:
             return None
         found = {}
-        for c, i in zip(corners, ids.ravel().tolist()):
+        for c, i in zip(corners, self._ids[index.ravel()].tolist()):
             if self.layout.marker(i) is not None and i not in found:  # the first of an id seen twice
                 found[i] = np.asarray(c, dtype=np.float64).reshape(4, 2)
         seen = [m for m in self.layout.markers if m.marker_id in found]
@@ -129,6 +138,14 @@ class MarkerDetector:
             size_m=max(m.size_m for m in seen),
             marker_ids=tuple(m.marker_id for m in seen),
         )
+
+
+def pad_dictionary(layout: PadLayout) -> cv2.aruco.Dictionary:
+    """The dictionary of ``layout``'s markers: their ``DICT_ARUCO_ORIGINAL`` codes in the layout's order (a
+    detection's index i is the id ``layout.markers[i].marker_id``), with that dictionary's bit correction."""
+    full = dictionary()
+    codes = full.bytesList[[m.marker_id for m in layout.markers]]
+    return cv2.aruco.Dictionary(codes, full.markerSize, full.maxCorrectionBits)
 
 
 def _mean_side_px(corners_px: np.ndarray) -> float:
