@@ -169,6 +169,8 @@ class LandingResult:
     square_off_deg: float = math.nan  # then: its heading off square to the deck's edges (0-45 deg)
     reason: str = ""
     phases: list[str] = field(default_factory=list)
+    # The flight's simulated and wall seconds, over one window: from the first simulated time the script knows (held
+    # at its start, when stepped) to its end, the wait to be ready to arm included (the real-time factor's).
     sim_s: float = math.nan
     wall_s: float = math.nan
 
@@ -196,11 +198,11 @@ def fly_landing(
     client.add_listener(lambda m: _phase_listener(m, result))
     if setup.stepped:
         return _fly_stepped(SimStepper(client, truth, timeout_s=min(timeout_s, 60.0)), setup, say, judge, result)
-    wall0 = time.monotonic()
+    client.wait_until(lambda: client.sim_time_s() is not None, timeout_s, "the vehicle's time")
+    wall0, sim0 = time.monotonic(), client.sim_time_s() or 0.0
     client.wait_until(client.prearm_ok, timeout_s, "the vehicle to be ready to arm")
     home = client.wait_home(timeout_s)
     judge.rest()
-    sim0 = client.sim_time_s() or 0.0
     configure(client, setup, say)
     client.arm(timeout_s=10).check()
     client.takeoff(home.alt_amsl_m + PREP_ALT_M, timeout_s=10).check()
@@ -249,14 +251,12 @@ def _fly_stepped(
 ) -> LandingResult:
     """:func:`fly_landing` driven through holds (reproducible; see the module docstring)."""
     client, truth = step.client, step.truth
-    wall0 = time.monotonic()
     step.start()
-    sim0_ms = step.time_ms
+    wall0, sim0_ms = time.monotonic(), step.time_ms
     try:
         ready = lambda: client.prearm_ok() and client.home() is not None  # noqa: E731
         step.run_until(ready, READY_SIM_S, "ready to arm", check_every_s=READY_CHECK_EVERY_S)
         home = client.home()
-        sim0_ms = step.time_ms
         judge.rest(step.time_ms)
         configure(client, setup, say)
         client.arm(timeout_s=10).check()

@@ -143,11 +143,10 @@ def fly_multi_landing(
         client.add_listener(lambda m, r=v.result: _phase_listener(m, r))
         fleet.append(v)
     step = WorldStepper([SimStepper(v.client, v.truth, timeout_s=timeout_s) for v in fleet])
-    wall0 = time.monotonic()
     step.start()
-    sim0_ms = step.time_ms
+    wall0, sim0_ms = time.monotonic(), step.time_ms  # (the real-time factor's window: LandingResult.sim_s)
     try:
-        sim0_ms = _to_the_meeting_points(step, fleet, setup, say)
+        _to_the_meeting_points(step, fleet, setup, say)
         _land_all(step, fleet, setup, say)
     finally:
         for v in fleet:
@@ -156,11 +155,10 @@ def fly_multi_landing(
     return [v.result for v in fleet]
 
 
-def _to_the_meeting_points(step: WorldStepper, fleet: list[_Vehicle], setup: LandingSetup, say) -> int:
-    """Every vehicle ready, armed, up at ``PREP_ALT_M`` and over its meeting point; the simulated ms it armed at."""
+def _to_the_meeting_points(step: WorldStepper, fleet: list[_Vehicle], setup: LandingSetup, say) -> None:
+    """Every vehicle ready, armed, up at ``PREP_ALT_M`` and over its meeting point."""
     ready = lambda: all(v.client.prearm_ok() and v.client.home() is not None for v in fleet)  # noqa: E731
     step.run_until(ready, READY_SIM_S, "every vehicle ready to arm", check_every_s=READY_CHECK_EVERY_S)
-    armed_ms = step.time_ms
     for v in fleet:
         v.judge.rest(step.time_ms)
         configure(v.client, setup, say)
@@ -173,7 +171,6 @@ def _to_the_meeting_points(step: WorldStepper, fleet: list[_Vehicle], setup: Lan
     say(f"{len(fleet)} vehicles flying to their meeting points N {meet_n:.2f} E {meet_e:.2f} (each from its start)")
     arrived = lambda: all(v.client.arrived(meet_n, meet_e, ARRIVAL_RADIUS_M, 0.3) for v in fleet)  # noqa: E731
     step.run_until(arrived, MEET_SIM_S, "every meeting point")
-    return armed_ms
 
 
 def _land_all(step: WorldStepper, fleet: list[_Vehicle], setup: LandingSetup, say) -> None:
