@@ -36,6 +36,7 @@ class FrameNoise:
         self._noise = [
             self._rng.standard_normal((spec.height_px, spec.width_px)).astype(np.float32) for _ in range(NOISE_BANK)
         ]
+        self._sum = np.empty((spec.height_px, spec.width_px), np.float32)  # a frame plus its noise, reused
 
     def add(self, grey: np.ndarray, noise_grey: float) -> np.ndarray:
         """``grey`` (uint8) with the next noise image times ``noise_grey`` added (as it is when that is 0)."""
@@ -43,8 +44,11 @@ class FrameNoise:
             return grey
         k = int(self._rng.integers(NOISE_BANK))
         shift = int(self._rng.integers(grey.shape[0]))
-        noise = np.roll(self._noise[k], shift, axis=0)
-        return cv2.convertScaleAbs(cv2.scaleAdd(noise, noise_grey, grey.astype(np.float32)))
+        # the noise image rolled down by ``shift`` rows, added in its two parts (no rolled copy made)
+        noise, base, out, h = self._noise[k], grey.astype(np.float32), self._sum, grey.shape[0]
+        cv2.scaleAdd(noise[h - shift :], noise_grey, base[:shift], out[:shift])
+        cv2.scaleAdd(noise[: h - shift], noise_grey, base[shift:], out[shift:])
+        return cv2.convertScaleAbs(out)
 
     def skip(self, noise_grey: float) -> None:
         """The draws :meth:`add` makes, without a frame."""

@@ -19,7 +19,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from autopilot.mavlink.landing_target import decode_landing_target
 from mavsim_core.frames import quat_enu_flu_to_ned_frd
 from params.vehicle import load_vehicle
-from sitl.camera import DownwardCamera
+from sitl.camera import NOISE_BANK, DownwardCamera, FrameNoise
 from sitl.marker_view import MarkerView
 from sitl.sim_settings import UgvSettings
 from sitl.simulation import Simulation
@@ -98,6 +98,25 @@ def test_same_seed_same_frames(world):
     with twin_cameras(sim) as (a, b):
         for _ in range(3):
             assert np.array_equal(a.capture(sim.data, 3.0), b.capture(sim.data, 3.0))
+
+
+def test_the_noise_is_a_bank_image_rolled_by_a_random_number_of_rows():
+    """FrameNoise adds, to each frame, one of its bank's images times the noise's grey levels, rolled down by a
+    random number of rows (the seed's draws in that order: the bank, then an image and a shift per frame), the sum's
+    absolute value rounded to uint8: 400 frames, over 200 different shifts."""
+    noise = FrameNoise(SPEC.camera, seed=5)
+    rng = np.random.default_rng(5 * 104729 + 5)  # FrameNoise's generator, drawn in the same order
+    h, w = SPEC.camera.height_px, SPEC.camera.width_px
+    bank = [rng.standard_normal((h, w)).astype(np.float32) for _ in range(NOISE_BANK)]
+    frame = np.random.default_rng(1).integers(0, 256, (h, w), dtype=np.uint8)
+    frame[:, :40] = 0  # black: the noise below zero comes back as its absolute value
+    shifts = set()
+    for _ in range(400):
+        k, shift = int(rng.integers(NOISE_BANK)), int(rng.integers(h))
+        want = np.abs(frame.astype(np.float32) + np.float32(2.5) * np.roll(bank[k], shift, axis=0))
+        assert np.array_equal(noise.add(frame, 2.5), np.clip(np.rint(want), 0, 255).astype(np.uint8)), shift
+        shifts.add(shift)
+    assert len(shifts) > 200
 
 
 def test_standalone_vision_on_a_recorded_video_sends_landing_target(world, tmp_path):
