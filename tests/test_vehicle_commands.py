@@ -172,6 +172,28 @@ def test_condition_yaw_turns_in_place_at_the_rate():
     assert b.texts()[-1] == "Yaw denied: only while holding or going to a point (AUTO.LOITER)"
 
 
+def test_a_speed_change_during_a_turn_keeps_the_turn_and_speeds_the_goto():
+    """CONDITION_YAW while going to a point, then DO_CHANGE_SPEED mid-turn: the heading goes on turning to its
+    target at its rate (it was dropped: the new go-to took the turn's place) and the go-to flies at the new speed."""
+    b = flying()
+    lat, lon, _ = ned_to_geodetic([150.0, 0.0, 0.0], *ORIGIN)
+    assert b.command(C.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, lat, lon, math.nan) == ACCEPTED
+    b.run(3.0)
+    assert b.command(C.MAV_CMD_CONDITION_YAW, 90, 30, 0, 0) == ACCEPTED  # absolute 90 deg at 30 deg/s: 3.5 s
+    b.run(1.0)
+    turning = math.degrees(b.cmd.setpoint.yaw_rad)
+    assert 5.0 < turning < 30.0
+    assert b.command(C.MAV_CMD_DO_CHANGE_SPEED, 1, 4.5, -1) == ACCEPTED
+    b.run(0.5)
+    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(turning + 15.0, abs=1.0)  # on at 30 deg/s
+    b.run(2.5)
+    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(90.0)
+    assert setpoint_speed(b) == pytest.approx(4.5)
+    b.run(40.0)
+    np.testing.assert_allclose(b.pos[:2], [150.0, 0.0], atol=1e-6)
+    assert math.degrees(b.cmd.setpoint.yaw_rad) == pytest.approx(90.0)  # the turn's heading held at the goal
+
+
 # --------------------------------------------------------------------------- DO_PAUSE_CONTINUE
 
 

@@ -120,7 +120,11 @@ class VehicleCommands(CommanderState):
         speed = speed_m_s if speed_m_s is not None else self.params.get("MPC_XY_CRUISE")
         inner = getattr(self.task, "inner", self.task)
         if isinstance(inner, GotoTask) and self.est is not None and not inner.finished(self.now_us):
-            self.task = self._goto_at_new_speed(inner, speed, self.est)
+            goto = self._goto_at_new_speed(inner, speed, self.est)
+            if inner is self.task:
+                self.task = goto
+            else:  # a turn in place (CONDITION_YAW) goes on, around the go-to at its new speed
+                self.task.inner = goto
         elif isinstance(inner, MissionTask):
             inner.cruise = speed
             self._mission_leg_at_new_speed(inner, speed)
