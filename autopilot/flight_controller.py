@@ -26,6 +26,7 @@ rest_detector`); moving while disarmed before that (a restart in the air: the ve
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from pymavlink.dialects.v20 import common as S
@@ -35,7 +36,7 @@ from autopilot.commander.external_inputs import ExternalInputs
 from autopilot.control.attitude_control import with_yaw_rate
 from autopilot.control.gains_from_params import GainsFromParams
 from autopilot.control.mixer import Mixer
-from autopilot.control.position_control import attitude_from_thrust
+from autopilot.control.position_control import PositionSetpoint, attitude_from_thrust
 from autopilot.estimation.estimator import Estimator
 from autopilot.estimation.rest_detector import RestDetector
 from autopilot.landing_target_input import LandingTargetInput
@@ -100,7 +101,7 @@ class FlightController:
         self.collective_n = 0.0  # collective thrust while flying body rates, N
         self._outputs: tuple[int, tuple[float, ...], float] = (0, (), 0.0)  # the latest step's, for `actuators`
         self._actuators: ActuatorStatus | None = NO_ACTUATORS
-        self.setpoint = None
+        self.setpoint: PositionSetpoint | AttitudeSetpoint | None = None
         self.last_outer_us: int | None = None
         self._gps_pending: GpsSample | None = None  # the latest fix, for the next outer loop
         self._outer_slot: int | None = None  # the 20 ms slot the outer loops last ran in
@@ -209,6 +210,7 @@ class FlightController:
         # per-call cost on 3-vectors would be most of the work; the published setpoints stay arrays).
         est = self.estimator
         w, x, y, z = q = est.q.tolist()  # FRD -> NED
+        sp: Sequence[float]  # the body-rate setpoint, rad/s FRD
         if self.rate_override is None:
             sp = self.attitude_control.update_floats(q, self.q_sp.tolist())
             if self.yaw_rate_ff != 0.0:  # the yaw setpoint's own rate, about NED down
@@ -295,8 +297,8 @@ class FlightController:
             self._fly_attitude(sp)
             return
         self.rate_override = None
-        if sp is None or not est.attitude_valid or not self.commander.status.armed:
-            self.setpoint = None
+        if sp is None or isinstance(sp, AttitudeSetpoint) or not est.attitude_valid or not self.commander.status.armed:
+            self.setpoint = None  # (an attitude setpoint is flown above when armed: here it is not)
             return
         self.setpoint = sp
         flying = self.commander.status.in_air and not self.commander.status.ground_contact

@@ -106,7 +106,7 @@ class FlightRecorder:
                         return  # the API endpoint's copy of what the ground stations just got
                     if ip[0] == STATUSTEXT_ID and self._ulog is not None:
                         self._ulog.statustext(now_us, ip[1])
-            if self._tlog is not None:
+            if self._tlog is not None and self._clock is not None:  # (both made together)
                 self._tlog.write(self._clock(now_us), packet)
             else:
                 pre = self._pre

@@ -80,6 +80,7 @@ class HeldService:
     def wait(self, sim: SimLink, now_us: int) -> bool:
         """Wait up to HELD_SLICE_S for the simulator or a ground station, answer the ground stations (time
         ``now_us``, the latest sensor time); True if the simulator link has something to read."""
+        assert sim.sock is not None  # (connected: it was held)
         socks = [sim.sock] + [ep.sock for ep in self.link.endpoints]
         readable, _, _ = select.select(socks, [], [], HELD_SLICE_S)
         self.link.serve_held(now_us)

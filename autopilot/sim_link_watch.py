@@ -60,7 +60,7 @@ class SimLinkWatch:
         Nothing is lost before the first HIL_SENSOR (the simulator was never there)."""
         if closed:
             self.held = False  # a new connection says for itself whether it holds
-        if self.lost or self.sensor_wall_s is None:
+        if self.lost or self.sensor_wall_s is None or self.alive_wall_s is None:  # (both set by the first sensor)
             return False
         if closed or wall_s - self.alive_wall_s >= self.loss_timeout_s:
             self.lost, self.held = True, False

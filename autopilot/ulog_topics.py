@@ -158,8 +158,9 @@ class FlightULog:
         w.add_info("sys_name", "PX4")
         w.add_info("ver_hw", "MAVSIM_SITL")
         w.add_info("ver_sw_release", DEFAULT_FLIGHT_SW_VERSION, "uint32_t")
-        if running_commit() is not None:  # the running code's git commit, as PX4 logs its own (none if installed)
-            w.add_info("ver_sw", running_commit())
+        commit = running_commit()  # the running code's git commit, as PX4 logs its own (none if installed)
+        if commit is not None:
+            w.add_info("ver_sw", commit)
         w.add_info("sys_os_name", "Linux")
         w.add_info("sys_toolchain", "CPython")
         w.add_info("sys_uuid", sys_uuid or f"{sysid:024x}")

@@ -163,6 +163,12 @@ def _vec(table: dict, key: str, n: int, where: str) -> tuple[float, ...]:
     return v
 
 
+def _vec3(table: dict, key: str, where: str) -> tuple[float, float, float]:
+    """``table[key]``: three numbers (as :func:`_vec` checks them)."""
+    x, y, z = _vec(table, key, 3, where)
+    return x, y, z
+
+
 def _num(table: dict, key: str, where: str, positive: bool = True) -> float:
     try:
         v = float(table[key])
@@ -220,7 +226,7 @@ def _camera(table: object, gimbal: object, where: str) -> CameraSpec:
         width_px=int(_num(table, "width_px", w)),
         height_px=int(_num(table, "height_px", w)),
         hfov_deg=_num(table, "hfov_deg", w),
-        position_frd_m=_vec(table, "position_frd_m", 3, w),
+        position_frd_m=_vec3(table, "position_frd_m", w),
         mount=mount,
         gimbal=_gimbal(gimbal, where),
     )
@@ -265,17 +271,17 @@ def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
     for i, (pos, spin) in enumerate(zip(positions, spins)):
         if spin not in ("ccw", "cw"):
             raise VehicleFileError(f"{where}: rotor {i + 1} spin must be 'ccw' or 'cw', is {spin!r}")
-        p = _vec({"p": pos}, "p", 3, f"{where} rotor {i + 1}")
+        p = _vec3({"p": pos}, "p", f"{where} rotor {i + 1}")
         rotors.append(Rotor(p, 1 if spin == "ccw" else -1))
-    leg_pos = tuple(_vec({"p": p}, "p", 3, f"{where} leg") for p in legs.get("positions_frd_m", []))
+    leg_pos = tuple(_vec3({"p": p}, "p", f"{where} leg") for p in legs.get("positions_frd_m", []))
     if len(leg_pos) < 3:
         raise VehicleFileError(f"{where}: [legs] needs at least 3 positions_frd_m")
     spec = VehicleSpec(
         name=str(data.get("name", path.stem)),
         mav_type=str(data.get("mav_type", "QUADROTOR")),
         body_mass_kg=_num(body, "mass_kg", where),
-        body_inertia_kg_m2=_vec(body, "inertia_kg_m2", 3, where),
-        body_size_m=_vec(body, "size_m", 3, where),
+        body_inertia_kg_m2=_vec3(body, "inertia_kg_m2", where),
+        body_size_m=_vec3(body, "size_m", where),
         rotors=tuple(rotors),
         rotor_mass_kg=_num(rot, "mass_kg", where, positive=False),
         rotor_radius_m=_num(rot, "radius_m", where),
@@ -285,10 +291,10 @@ def load_vehicle(name_or_path: str = "quad_x") -> VehicleSpec:
         time_constant_up_s=_num(rot, "time_constant_up_s", where),
         time_constant_down_s=_num(rot, "time_constant_down_s", where),
         leg_positions_frd_m=leg_pos,
-        leg_size_m=_vec(legs, "size_m", 3, where),
+        leg_size_m=_vec3(legs, "size_m", where),
         rotor_drag_k_d=_num(aero, "rotor_drag_k_d", where, positive=False),
         rolling_moment_k_r=_num(aero, "rolling_moment_k_r", where, positive=False),
-        body_drag_cd_area_m2=_vec(aero, "body_drag_cd_area_m2", 3, where),
+        body_drag_cd_area_m2=_vec3(aero, "body_drag_cd_area_m2", where),
         battery_cells=int(_num(batt, "cells", where)),
         battery_capacity_mah=_num(batt, "capacity_mah", where),
         battery_resistance_ohm=_num(batt, "internal_resistance_ohm", where),

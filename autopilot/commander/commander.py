@@ -17,6 +17,7 @@ clock.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
@@ -73,6 +74,7 @@ class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, Fails
     """Arming, modes and the active flight task; publishes :class:`CommanderStatus` as ``status``."""
 
     at_rest: bool = True  # the flight controller's rest detector (autopilot/estimation/rest_detector.py) sets it
+    autotune: Any = None  # the vehicle's Autotune (autopilot/tuning/autotune.py): the flight controller sets it
 
     def __init__(self, params: ParameterStore, mav_type_name: str) -> None:
         self.params = params
@@ -379,7 +381,7 @@ class Commander(FlightCommands, VehicleCommands, ModeEntry, MissionFlight, Fails
         if (
             self.mode is Mode.AUTO_LAND
             or getattr(self.task, "landing", False)
-            or (self.mode is Mode.AUTO_RTL and getattr(self.task, "phase", None) and self.task.phase.value == "land")
+            or (self.mode is Mode.AUTO_RTL and getattr(getattr(self.task, "phase", None), "value", None) == "land")
         ):
             return LandedState.LANDING
         return LandedState.IN_AIR

@@ -77,6 +77,9 @@ class ThrustLossCheck:
     """The thrust-loss timer, the likely motor, and the on-the-ground test after a loss (module docstring)."""
 
     def __init__(self) -> None:
+        self._clear()
+
+    def _clear(self) -> None:
         self.lost = False  # a thrust loss was found in this arming (cleared by :meth:`reset`)
         self.stuck = False  # ... found on the ground, stuck at full throttle (the module docstring)
         self.motor = 0  # the likely motor (1-based; 0 before any output was seen)
@@ -87,7 +90,7 @@ class ThrustLossCheck:
 
     def reset(self) -> None:
         """Disarmed: everything cleared."""
-        self.__init__()
+        self._clear()
 
     def update(
         self,

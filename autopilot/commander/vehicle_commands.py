@@ -300,7 +300,7 @@ class VehicleCommands(CommanderState):
         name = next((k for k, v in MAV_TYPES.items() if v == self.mav_type), "QUADROTOR")
         for attr in ("terminated", "motor_test_run", "cruise_override_m_s"):
             self.__dict__.pop(attr, None)  # back to the class defaults
-        type(self).__init__(self, self.params, name)  # type: ignore[misc]
+        type(self).__init__(self, self.params, name)  # type: ignore[call-arg]  # (the commander's own __init__)
         self.__dict__.update(kept)
         self.reboot_pending = True
         self.say(S.MAV_SEVERITY_INFO, "Rebooted: flight controller restarted, parameters kept")

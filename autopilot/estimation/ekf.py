@@ -74,6 +74,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -206,7 +207,9 @@ class ErrorStateEkf(LazyAttitudeMatrix):
         self.q = quat.mul(np.array([math.cos(half), 0.0, 0.0, math.sin(half)]), self.q)
 
     # -- prediction -------------------------------------------------------------------------
-    def predict(self, dtheta_frd: np.ndarray, dvel_frd: np.ndarray, t: float, time_us: int) -> None:
+    def predict(
+        self, dtheta_frd: np.ndarray | Sequence[float], dvel_frd: np.ndarray | Sequence[float], t: float, time_us: int
+    ) -> None:
         """Advance over ``t`` seconds of IMU data: ``dtheta_frd`` (rad) and ``dvel_frd`` (m/s) are the
         summed gyro and accelerometer increments of the interval (PX4's downsampled delta angle and
         delta velocity), biases not yet removed; 3-vectors (arrays or sequences of floats).

@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -117,7 +117,7 @@ class GimbalManager:
         self.vehicle_status, self._to_device, self._broadcast, self._say = status, to_device, broadcast, say
         self.command_source, self.own, self.publish_reach = command_source, own, publish_reach
         self.control = GimbalControl()
-        self.device_status = None  # the device's latest GIMBAL_DEVICE_ATTITUDE_STATUS
+        self.device_status: Any = None  # the device's latest GIMBAL_DEVICE_ATTITUDE_STATUS (pymavlink's message)
         self.device_information = None  # its latest GIMBAL_DEVICE_INFORMATION
         self.device_range: DeviceRange | None = None
         self.target: CameraAttitude | None = None  # what the device was told (None: neutral)
@@ -350,16 +350,21 @@ class GimbalManager:
         if est is None or not est.position_valid:
             return
         roi = self.roi
+        if roi is None:
+            return
         roi_ned = geodetic_to_ned(
             roi.lat_deg, roi.lon_deg, roi.alt_amsl_m, est.origin_lat_deg, est.origin_lon_deg, est.origin_alt_amsl_m
         )
         try:
-            att = look_along(tuple(float(r - p) for r, p in zip(roi_ned, est.pos_ned_m)))
+            n, e, d = (float(r - p) for r, p in zip(roi_ned, est.pos_ned_m))
+            att = look_along((n, e, d))
         except ValueError:  # at the ROI itself: keep the attitude
             return
         self._set_if_moved(self._limits().clamped(att, float(est.yaw_rad)))
 
     def _integrate_rates(self, dt_s: float) -> None:
+        if self.rates_rad_s is None or self.target is None:
+            return
         pitch_rate, yaw_rate = self.rates_rad_s
         t = self.target
         moved = CameraAttitude(t.roll_rad, t.pitch_rad + pitch_rate * dt_s, t.yaw_rad + yaw_rate * dt_s, t.yaw_earth)

@@ -88,7 +88,11 @@ class PayloadLink:
     def commands(self) -> dict[int, ServiceCommand]:
         """Camera commands addressed to the flight controller, or to all components while no camera is present
         (:meth:`route` keeps those for the camera otherwise): refused (:meth:`_no_camera`)."""
-        return {cmd: (lambda ep, p, f, cmd=cmd: self._no_camera(cmd)) for cmd in CAMERA_COMMANDS}
+        return {cmd: self._refusal(cmd) for cmd in CAMERA_COMMANDS}
+
+    def _refusal(self, command: int) -> ServiceCommand:
+        """The handler of ``command`` that refuses it (:meth:`_no_camera`)."""
+        return lambda _ep, _params, _frame: self._no_camera(command)
 
     def update(self, now_us: int) -> None:
         """What the payload link sent since the last call, forwarded to the ground stations."""

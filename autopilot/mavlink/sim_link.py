@@ -211,6 +211,7 @@ class SimLink:
         data = _ACTUATORS.encode(self.mav, (time_us, controls, _ARMED if armed else 0, 0))
         if self.outbox:
             data, self.outbox = b"".join(self.outbox) + data, []
+        assert self.sock is not None  # (connected before the first sensors)
         self.sock.sendall(data)
 
     def request(

@@ -156,7 +156,7 @@ def _heading_off_square_rows(xs: np.ndarray, square_yaw_rad: float) -> np.ndarra
     """:func:`_heading_off_square` of each row of ``xs`` (the sigma points), as a column."""
     vn, ve, w, lag = xs[:, 2], xs[:, 3], xs[:, 4], xs[:, 5]
     heading = np.arctan2(ve, vn) + np.arctan2(lag * w, np.hypot(vn, ve))
-    return square(heading - square_yaw_rad)[:, None]  # (square() on an array: numpy's % as Python's)
+    return np.asarray(square(heading - square_yaw_rad))[:, None]  # (square() on an array: numpy's % as Python's)
 
 
 _heading_off_square.rows = _heading_off_square_rows  # type: ignore[attr-defined]  # (RowsUKF.update: all at once)

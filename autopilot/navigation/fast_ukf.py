@@ -56,6 +56,10 @@ class RowsUKF(UnscentedKalmanFilter):
     ``(2n + 1, n)`` array); ``points`` must be :class:`RowsMerweSigmaPoints`'s kind (see the module docstring).
     ``hx`` is called per sigma point, as filterpy does."""
 
+    x: np.ndarray  # (filterpy's state and covariance, declared for the type checker)
+    P: np.ndarray
+    _log_likelihood: float | None
+
     def __init__(
         self,
         dim_x: int,
@@ -92,7 +96,7 @@ class RowsUKF(UnscentedKalmanFilter):
         if R is None:
             R = self.R
         elif np.isscalar(R):
-            R = np.eye(self._dim_z) * R
+            R = np.eye(self._dim_z) * float(R)  # type: ignore[arg-type]  # (a scalar: np.isscalar said so)
         sigmas = self.sigmas_f
         rows = getattr(hx, "rows", None)
         h = rows(sigmas, **hx_args) if rows is not None else np.array([hx(s, **hx_args) for s in sigmas])

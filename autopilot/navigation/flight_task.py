@@ -57,7 +57,13 @@ class FlightTask(Protocol):
         ...
 
 
-T = TypeVar("T", bound=FlightTask)
+class _Startable(Protocol):
+    """What :func:`started` needs of a task: every flight task, and those whose setpoints are attitudes."""
+
+    def activate(self, est: VehicleEstimate, now_us: int) -> None: ...
+
+
+T = TypeVar("T", bound=_Startable)
 
 
 def defined_in(params: tuple[ParamDef, ...], name: str) -> ParamDef:

@@ -96,6 +96,7 @@ class LandTask:
         step = self.params.get("MPC_ACC_DOWN_MAX") * dt
         self._speed += min(max(want - self._speed, -step), step)
         speed = self._speed
+        assert self.ne is not None and self.yaw_rad is not None  # (activate fixed both)
         if not est.position_valid:  # level: no horizontal acceleration asked, the velocity left alone
             return PositionSetpoint(_NO_POSITION, np.array([math.nan, math.nan, speed]), self.yaw_rad, _LEVEL)
         return PositionSetpoint(np.array([self.ne[0], self.ne[1], math.nan]), np.array([0.0, 0.0, speed]), self.yaw_rad)

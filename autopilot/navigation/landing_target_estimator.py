@@ -144,6 +144,7 @@ class LandingTargetEstimator:
             self._rejected_in_row += 1
             return False
         else:
+            assert self._axes is not None  # (not timed out: the filters exist)
             for kf, z in zip(self._axes, scaled):
                 kf.update(np.array([[z]]), R=np.array([[r_var]]))
         self._rejected_in_row = 0

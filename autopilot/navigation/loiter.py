@@ -35,6 +35,7 @@ class LoiterTask:
 
     def update(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
         """The held point with zero velocity and acceleration feed-forward."""
+        assert self.pos is not None and self.yaw_rad is not None  # (activate fixed both)
         return PositionSetpoint(self.pos.copy(), np.zeros(3), self.yaw_rad, np.zeros(3))
 
     @property

@@ -54,14 +54,15 @@ YAW_ACCEPT_RAD = math.radians(3.0)  # CONDITION_YAW is done within this
 TAKEOFF_ACCEL_M_S2 = 1.0
 
 
-def item_position(item: MissionItem, est: VehicleEstimate, home: HomePosition) -> np.ndarray:
-    """Where a position item is (m NED from the estimator origin); lat/lon 0/0 means here."""
+def item_position(item: MissionItem, est: VehicleEstimate, home: HomePosition | None) -> np.ndarray:
+    """Where a position item is (m NED from the estimator origin); lat/lon 0/0 means here.  A relative altitude is
+    above home (above the estimator's origin while there is none: a mission flies only with a home)."""
     if item.x == 0 and item.y == 0:
         pos = est.pos_ned_m.astype(float).copy()
     else:
         pos = geodetic_to_ned(item.lat_deg, item.lon_deg, 0.0, est.origin_lat_deg, est.origin_lon_deg, 0.0)
     if item.frame in mi.RELATIVE_FRAMES:
-        pos[2] = home.pos_ned_m[2] - item.z
+        pos[2] = (home.pos_ned_m[2] if home is not None else 0.0) - item.z
     else:
         pos[2] = est.origin_alt_amsl_m - item.z
     return pos

@@ -120,6 +120,7 @@ class OffboardTask:
         if sp is None:
             return PositionSetpoint(self.hold.copy(), np.zeros(3), self.yaw_rad, np.zeros(3))
         if sp.kind is OffboardKind.ATTITUDE:
+            assert sp.q_wxyz is not None  # (an attitude setpoint carries its quaternion)
             self.yaw_rad = quat.to_euler(sp.q_wxyz)[2]
             rate = sp.yaw_rate_rad_s if math.isfinite(sp.yaw_rate_rad_s) else 0.0
             return AttitudeSetpoint(np.array(sp.q_wxyz, dtype=float), None, self._thrust(sp), rate)

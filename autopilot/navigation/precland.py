@@ -370,6 +370,7 @@ class PrecLandTask:
     def _setpoint(self, est: VehicleEstimate, now_us: int, acc: np.ndarray) -> PositionSetpoint | AttitudeSetpoint:
         """The setpoint of the phase now; ``acc``: the target's acceleration fed forward (m/s^2 NED)."""
         ph, zero = self.phase, np.zeros(3)
+        assert self.yaw_rad is not None  # (activate fixed it)
         in_phase_s = (now_us - self._phase_us) * 1e-6
         if ph is PrecLandPhase.TOUCHDOWN and self._touchdown is not None:  # level on the legs, turning with the deck
             return self._touchdown.setpoint(est.yaw_rad, self._turn.rate(), self.hover_thrust_frac)

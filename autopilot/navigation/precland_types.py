@@ -7,8 +7,9 @@ acceleration over the ground (NED m/s, m/s^2), time in microseconds; the paramet
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from enum import Enum
+from typing import Any
 
 import numpy as np
 
@@ -77,6 +78,6 @@ class PrecLandConfig:
 
     @staticmethod
     def from_store(store: ParameterStore) -> PrecLandConfig:
-        names = [d.name for d in PARAMS]
-        vals = [store.get(n) for n in names]
-        return PrecLandConfig(*vals[:5], int(vals[5]), *vals[6:])
+        vals: dict[str, Any] = {f.name: store.get(d.name) for f, d in zip(fields(PrecLandConfig), PARAMS, strict=True)}
+        vals["max_srch"] = int(vals["max_srch"])
+        return PrecLandConfig(**vals)

@@ -89,6 +89,7 @@ class ReturnTask:
 
     def _start_phase(self, phase: RtlPhase, now_us: int, est: VehicleEstimate, pos: np.ndarray) -> None:
         self.phase = phase
+        self.task: GotoTask | LoiterTask | LandTask
         if phase is RtlPhase.CLIMB:
             self.task = self._move(pos, np.array([pos[0], pos[1], self.return_down]))
         elif phase is RtlPhase.RETURN:
@@ -108,10 +109,10 @@ class ReturnTask:
 
     def update(self, est: VehicleEstimate, now_us: int) -> PositionSetpoint:
         """Advance the phase when the current one has ended, then the phase's setpoint."""
-        t = self.task
-        if self.phase is RtlPhase.CLIMB and t.arrived(now_us, est):
+        t = self.task  # (a go-to while climbing and returning)
+        if self.phase is RtlPhase.CLIMB and isinstance(t, GotoTask) and t.arrived(now_us, est):
             self._start_phase(RtlPhase.RETURN, now_us, est, t.goal)
-        elif self.phase is RtlPhase.RETURN and t.arrived(now_us, est):
+        elif self.phase is RtlPhase.RETURN and isinstance(t, GotoTask) and t.arrived(now_us, est):
             self._start_phase(RtlPhase.LOITER, now_us, est, t.goal)
         elif (
             self.phase is RtlPhase.LOITER and now_us >= self.loiter_until_us and self.params.get("RTL_LAND_DELAY") >= 0

@@ -304,7 +304,7 @@ class Autotune:
 
     def _apply(self) -> bool:
         """Set the proposal through the parameter store, all or nothing; True if applied."""
-        values = {}
+        values: dict[str, float] = {}
         for p in self.proposals:
             a = AXES.index(p.axis)
             values.update(zip(gain_names(a), (p.gains_new.p, p.gains_new.i, p.gains_new.d)))
