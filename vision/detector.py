@@ -17,7 +17,7 @@ each of the dictionary's codes under four rotations, which was three quarters of
 0.55 ms on a landing's frames, benchmarks/README.md).  The pad's markers are found the same, corner for corner:
 the dictionary corrects no bit (``maxCorrectionBits`` 1 times ``errorCorrectionRate`` 0.6 rounds to 0), so a
 candidate is one of the pad's markers exactly when its bits are that marker's code, in either dictionary
-(tests/test_vision_detector.py compares the two on a landing's frames).
+(tests/test_vision_pad.py compares the two on noisy frames of the pad with another deck's beside it).
 """
 
 from __future__ import annotations
