@@ -14,7 +14,7 @@ Frames: NED metres from the multicopter's start point on the ground (the frame o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -31,17 +31,7 @@ from sitl.sim_settings import (
     UgvSettings,
 )
 from sitl.ugv import Ugv, UgvGeometry, ugv_part
-from sitl.ugv_paths import (
-    PathTarget,
-    Pose2,
-    UgvLimits,
-    UgvPath,
-    UnicycleCommand,
-    circle,
-    figure8,
-    random_waypoints,
-    straight_line,
-)
+from sitl.ugv_paths import Pose2, UgvLimits, UgvPath, UnicycleCommand, circle, figure8, random_waypoints, straight_line
 
 MANUAL_TIMEOUT_S = 0.5  # no MANUAL_CONTROL for this long: brake to a stop
 MANUAL_SPEED_MAX_M_S = 3.0  # full stick forward
@@ -160,8 +150,7 @@ class UgvDriver:
         target = self._path.target(time_s - self._path_t0_s)
         pose = target.pose
         shifted = Pose2(pose.north_m + self.origin_xy_enu[1], pose.east_m + self.origin_xy_enu[0], pose.yaw_rad)
-        moved = PathTarget(shifted, target.velocity_ne_m_s, target.speed_m_s, target.yaw_rate_rad_s, target.accel_m_s2)
-        return self.ugv.command_for(moved)
+        return self.ugv.command_for(replace(target, pose=shifted))
 
     def step(self, time_s: float, dt_s: float) -> None:
         """Set the wheel commands for the period starting at ``time_s``."""

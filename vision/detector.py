@@ -107,13 +107,11 @@ class MarkerDetector:
         corners, index, _rejected = self._detector.detectMarkers(grey)
         if index is None:
             return None
-        found = {}
+        found = {}  # every index is one of the pad's markers (pad_dictionary)
         for c, i in zip(corners, self._ids[index.ravel()].tolist()):
-            if self.layout.marker(i) is not None and i not in found:  # the first of an id seen twice
+            if i not in found:  # the first of an id seen twice
                 found[i] = np.asarray(c, dtype=np.float64).reshape(4, 2)
         seen = [m for m in self.layout.markers if m.marker_id in found]
-        if not seen:
-            return None
         if len(seen) > 1:  # the markers large enough in the image, or as large as the largest one seen
             sides = {m.marker_id: _mean_side_px(found[m.marker_id]) for m in seen}
             enough = min(MIN_JOINT_SIDE_PX, SAME_SIZE * max(sides.values()))
